@@ -1,0 +1,15 @@
+# CMake generated Testfile for 
+# Source directory: /work/main
+# Build directory: /work/main/build
+# 
+# This file includes the relevant testing commands required for 
+# testing this directory and lists subdirectories to be tested as well.
+subdirs("tests/support")
+subdirs("framework")
+subdirs("surrogates")
+subdirs("acquisitions")
+subdirs("samplers")
+subdirs("tasks")
+subdirs("plugins")
+subdirs("tests")
+subdirs("bench")

@@ -1,0 +1,45 @@
+#pragma once
+// An optimization algorithm in ask/tell form: it never calls the task itself, so trials can run anywhere.
+#include <optional>
+#include <string>
+#include <vector>
+#include "varbo/surrogate.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo {
+
+struct Suggestion {
+  Vec x;                  ///< unit cube
+  std::string phase;      ///< "initial", "ei", "random", ...
+  double fit_seconds = 0;
+  double acquisition_seconds = 0;
+};
+
+struct Observation {
+  Vec x;  ///< unit cube
+  double cost = 0;
+  bool ok = true;
+  Components components;
+};
+
+/// Per-iteration model information for logs and snapshots.
+struct ModelSnapshot {
+  Index iteration = 0;
+  Hyperparameters hyperparameters;
+  double objective = 0;
+  std::string note;
+};
+
+class Algorithm {
+ public:
+  virtual ~Algorithm();
+  virtual std::vector<Suggestion> ask(Index q = 1) = 0;
+  virtual void tell(const std::vector<Observation>& observations) = 0;
+  /// The recommended θ (unit cube), e.g. the evaluated point with the best posterior mean.
+  virtual std::optional<Vec> recommendation() const { return std::nullopt; }
+  /// The model after the latest fit, if the algorithm has one.
+  virtual const Surrogate* model() const { return nullptr; }
+  virtual std::optional<ModelSnapshot> snapshot() const { return std::nullopt; }
+};
+
+}  // namespace varbo

@@ -1,0 +1,52 @@
+#pragma once
+// A YAML node that remembers its file, line, column and key path, so every error can say exactly where.
+#include <yaml-cpp/yaml.h>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace varbo {
+
+class ConfigNode {
+ public:
+  ConfigNode() = default;
+  ConfigNode(YAML::Node node, std::shared_ptr<const std::string> file, std::string path);
+
+  /// Parses a YAML file; a syntax error becomes a ConfigError naming file:line:col.
+  static ConfigNode load_file(const std::string& filename);
+  /// Parses YAML text; `name` stands in for the file name in messages.
+  static ConfigNode parse(const std::string& text, const std::string& name = "<string>");
+
+  const YAML::Node& yaml() const { return node_; }
+  const std::string& file() const { return *file_; }
+  const std::string& path() const { return path_; }
+  /// "file:line:col" of this node (or of its parent's position when the node is absent).
+  std::string where() const;
+  bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
+  bool is_map() const { return node_.IsMap(); }
+  bool is_scalar() const { return node_.IsScalar(); }
+  bool is_sequence() const { return node_.IsSequence(); }
+  bool has(const std::string& key) const;
+  /// Child by key; an absent child keeps the parent's position for messages.
+  ConfigNode child(const std::string& key) const;
+  ConfigNode item(std::size_t i) const;
+  std::size_t size() const { return node_.size(); }
+  std::vector<std::string> keys() const;
+  std::string scalar() const;  ///< the raw text of a scalar
+
+  /// Throws ConfigError "file:line:col: key 'a.b.c': message".
+  [[noreturn]] void fail(const std::string& message) const;
+
+ private:
+  YAML::Node node_;
+  std::shared_ptr<const std::string> file_ = std::make_shared<const std::string>("<none>");
+  std::string path_;
+  YAML::Mark mark_{};
+  bool has_mark_ = false;
+};
+
+/// "did you mean ...?" helper: the closest candidate by edit distance, if reasonably close.
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
+std::string join(const std::vector<std::string>& items, const std::string& sep = ", ");
+
+}  // namespace varbo

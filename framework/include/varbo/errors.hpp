@@ -1,0 +1,25 @@
+#pragma once
+// The error hierarchy. Every error thrown on user input says where (file, key) and what was expected.
+#include <stdexcept>
+#include <string>
+
+namespace varbo {
+
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+/// A configuration value is missing, unknown, of the wrong type or out of range.
+class ConfigError : public Error { public: using Error::Error; };
+/// A plugin library could not be loaded or is not a varbo plugin.
+class PluginLoadError : public Error { public: using Error::Error; };
+/// A plugin library was built against an incompatible ABI or API.
+class PluginVersionError : public PluginLoadError { public: using PluginLoadError::PluginLoadError; };
+/// A component name that no loaded plugin provides.
+class UnknownComponentError : public ConfigError { public: using ConfigError::ConfigError; };
+/// Numerical trouble the caller may recover from (non-PD matrix, failed fit, NaN).
+class NumericalError : public Error { public: using Error::Error; };
+/// Bad data files or command-line input.
+class InputError : public Error { public: using Error::Error; };
+
+}  // namespace varbo

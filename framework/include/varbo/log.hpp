@@ -1,0 +1,29 @@
+#pragma once
+// Minimal leveled logging to stderr and optionally a run's log file. Thread-safe.
+#include <fmt/format.h>
+#include <string>
+#include <string_view>
+
+namespace varbo {
+
+enum class LogLevel { Debug = 0, Info = 1, Warn = 2, Error = 3, Quiet = 4 };
+void set_log_level(LogLevel level);
+LogLevel log_level();
+/// Also append every message (any level >= Info) to this file; empty closes it.
+void set_log_file(const std::string& path);
+void log_message(LogLevel level, std::string_view message);
+
+template <class... Args>
+void log_debug(fmt::format_string<Args...> f, Args&&... args) {
+  if (log_level() <= LogLevel::Debug) log_message(LogLevel::Debug, fmt::format(f, std::forward<Args>(args)...));
+}
+template <class... Args>
+void log_info(fmt::format_string<Args...> f, Args&&... args) {
+  log_message(LogLevel::Info, fmt::format(f, std::forward<Args>(args)...));
+}
+template <class... Args>
+void log_warn(fmt::format_string<Args...> f, Args&&... args) {
+  log_message(LogLevel::Warn, fmt::format(f, std::forward<Args>(args)...));
+}
+
+}  // namespace varbo

@@ -1,0 +1,127 @@
+#pragma once
+// The registry of components. Plugins add ComponentInfo entries; configs resolve and create them by name.
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+#include "varbo/acquisition.hpp"
+#include "varbo/algorithm.hpp"
+#include "varbo/optimizer.hpp"
+#include "varbo/options.hpp"
+#include "varbo/region.hpp"
+#include "varbo/sampler.hpp"
+#include "varbo/surrogate.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo {
+
+class Registry;
+
+/// What a factory knows besides its own options.
+struct BuildContext {
+  const Registry* registry = nullptr;
+  Index dim = 0;                    ///< problem dimension (0 for tasks, which define it)
+  std::uint64_t seed = 0;
+  Index budget = 0;                 ///< total evaluations (algorithms)
+  std::optional<Vec> initial_point; ///< θ0 in the unit cube, when the task or config gives one
+};
+
+template <class T>
+using Factory = std::function<std::unique_ptr<T>(const Options&, const BuildContext&)>;
+using AnyFactory = std::variant<Factory<Surrogate>, Factory<Acquisition>, Factory<RegionConstraint>,
+                                Factory<Sampler>, Factory<Optimizer>, Factory<Task>, Factory<Algorithm>>;
+
+template <class T> constexpr Kind kind_of();
+template <> constexpr Kind kind_of<Surrogate>() { return Kind::Surrogate; }
+template <> constexpr Kind kind_of<Acquisition>() { return Kind::Acquisition; }
+template <> constexpr Kind kind_of<RegionConstraint>() { return Kind::Region; }
+template <> constexpr Kind kind_of<Sampler>() { return Kind::Sampler; }
+template <> constexpr Kind kind_of<Optimizer>() { return Kind::Optimizer; }
+template <> constexpr Kind kind_of<Task>() { return Kind::Task; }
+template <> constexpr Kind kind_of<Algorithm>() { return Kind::Algorithm; }
+
+/// A component as declared by its plugin. `provides`/`needs` are capability tags (docs/plugins.md);
+/// the all-combinations suite skips only combinations whose tags do not match.
+struct ComponentInfo {
+  std::string name;         ///< short name, e.g. "ei"
+  Kind kind = Kind::Surrogate;
+  std::string description;
+  std::vector<OptionSpec> options;
+  std::vector<std::string> provides;
+  std::vector<std::string> needs;
+  AnyFactory factory;
+  std::string plugin;       ///< plugin name (filled by the registry)
+  std::string library;      ///< file it came from (filled by the registry)
+  std::string full_name() const { return plugin.empty() ? name : plugin + "/" + name; }
+};
+
+template <class T>
+ComponentInfo make_component(std::string name, std::string description, std::vector<OptionSpec> options,
+                             Factory<T> factory, std::vector<std::string> provides = {},
+                             std::vector<std::string> needs = {}) {
+  ComponentInfo info;
+  info.name = std::move(name);
+  info.kind = kind_of<T>();
+  info.description = std::move(description);
+  info.options = std::move(options);
+  info.provides = std::move(provides);
+  info.needs = std::move(needs);
+  info.factory = std::move(factory);
+  return info;
+}
+
+/// A component chosen by a config, with validated options.
+struct ResolvedComponent {
+  const ComponentInfo* info = nullptr;
+  Options options;
+  ConfigNode source;
+  YAML::Node resolved() const;  ///< {type: name, ...options with defaults}
+};
+
+class Registry {
+ public:
+  Registry() = default;
+  Registry(const Registry&) = delete;
+  Registry& operator=(const Registry&) = delete;
+
+  /// Adds a component (plugin and library fields are filled from the current loading context).
+  void add(ComponentInfo info);
+  /// Looks up by full name "plugin/name" or unique short name. Unknown names throw UnknownComponentError
+  /// listing the known ones; `where` gives the position for the message.
+  const ComponentInfo& find(Kind kind, const std::string& name, const ConfigNode* where = nullptr) const;
+  const ComponentInfo* try_find(Kind kind, const std::string& name) const;
+  std::vector<const ComponentInfo*> components(Kind kind) const;
+  std::vector<const ComponentInfo*> all() const;
+
+  /// Resolves `node` (a name, or a map with `type:` and options) into a validated component.
+  ResolvedComponent resolve(Kind kind, const ConfigNode& node) const;
+
+  template <class T>
+  std::unique_ptr<T> create(const ResolvedComponent& c, const BuildContext& ctx) const {
+    if (c.info == nullptr || c.info->kind != kind_of<T>())
+      throw std::logic_error("Registry::create: component kind mismatch");
+    BuildContext local = ctx;
+    local.registry = this;
+    return std::get<Factory<T>>(c.info->factory)(c.options, local);
+  }
+  /// Convenience: resolve YAML text such as "{type: ei, xi: 0.1}" and create.
+  template <class T>
+  std::unique_ptr<T> create(const std::string& yaml, const BuildContext& ctx) const {
+    return create<T>(resolve(kind_of<T>(), ConfigNode::parse(yaml, "<inline>")), ctx);
+  }
+
+  /// Set by the loader while a plugin registers.
+  void set_origin(std::string plugin, std::string library);
+
+ private:
+  std::vector<std::unique_ptr<ComponentInfo>> items_;
+  std::string current_plugin_, current_library_;
+};
+
+/// True when every `needs` tag of each component is in the union of the others' `provides`.
+/// On false, `why` (if non-null) names the first unmet requirement.
+bool compatible(const std::vector<const ComponentInfo*>& parts, std::string* why = nullptr);
+
+}  // namespace varbo

@@ -1,0 +1,53 @@
+#pragma once
+// A probabilistic model of the cost over the unit cube.
+#include <string>
+#include <utility>
+#include <vector>
+#include "varbo/prediction.hpp"
+#include "varbo/types.hpp"
+
+namespace varbo {
+
+/// A named hyperparameter in natural units (lengthscale, signal standard deviation, ...).
+struct Hyperparameter {
+  std::string name;
+  double value = 0;
+};
+using Hyperparameters = std::vector<Hyperparameter>;
+
+/// What a fit did, in the spirit of Ceres' Summary.
+struct FitReport {
+  bool ok = true;            ///< false: the fit failed and the previous model was kept
+  bool optimized = false;    ///< hyperparameters were optimized (not only conditioned)
+  double objective = 0;      ///< log marginal likelihood (or bound) + log hyperprior
+  double log_likelihood = 0; ///< without the hyperprior term
+  double log_prior = 0;
+  int restarts = 0;
+  int restarts_failed = 0;
+  double seconds = 0;
+  std::string message;
+  std::string report() const;
+};
+
+class Surrogate {
+ public:
+  virtual ~Surrogate();
+  /// Optimizes hyperparameters on `data` (restarts in parallel) and conditions on it. Never throws on
+  /// numerical trouble: a failed fit keeps the last good model and says so in the report.
+  virtual FitReport fit(const Dataset& data, Rng& rng) = 0;
+  /// Conditions on `data` with the current hyperparameters; reports the objective there.
+  virtual FitReport condition(const Dataset& data) = 0;
+  /// Predictive distribution at x (unit cube), in cost units. Thread-safe.
+  virtual Prediction predict(const Vec& x, bool with_gradient) const = 0;
+  /// σ_f², the prior variance of the latent cost in cost units (CRBO's confidence scale).
+  virtual double signal_variance() const = 0;
+  virtual Hyperparameters hyperparameters() const = 0;
+  /// Sets hyperparameters by name (as reported by hyperparameters()); unknown names throw ConfigError.
+  virtual void set_hyperparameters(const Hyperparameters& values) = 0;
+  /// Extra named state for inspection and snapshots (e.g. VHGP's log Λ). Empty by default.
+  virtual std::vector<std::pair<std::string, Vec>> state() const { return {}; }
+  virtual void set_state(const std::string& name, const Vec& value);
+  virtual bool ready() const = 0;  ///< conditioned on data at least once
+};
+
+}  // namespace varbo

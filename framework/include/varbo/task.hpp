@@ -1,0 +1,43 @@
+#pragma once
+// The thing being optimized: a cost of θ (user units), possibly noisy, possibly failing.
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+#include "varbo/types.hpp"
+
+namespace varbo {
+
+struct Domain {
+  Box box;                         ///< user units
+  std::vector<std::string> names;  ///< one per dimension
+};
+
+using Components = std::vector<std::pair<std::string, double>>;
+
+/// Result of one trial. A failed trial (ok = false) is recorded, never a crash.
+struct Evaluation {
+  double cost = 0;
+  Components components;  ///< named cost components (their weighted sum is the cost)
+  bool ok = true;
+  std::string error;
+};
+
+struct Optimum {
+  double cost = 0;
+  std::vector<Vec> thetas;  ///< user units
+};
+
+class Task {
+ public:
+  virtual ~Task();
+  virtual Domain domain() const = 0;
+  /// Evaluates θ (user units). `rng` is this trial's own stream (noise, random initial states).
+  virtual Evaluation evaluate(const Vec& theta, Rng& rng) = 0;
+  virtual std::optional<Optimum> optimum() const { return std::nullopt; }
+  /// An initial policy θ0 (user units), for cautious methods that start from a known policy.
+  virtual std::optional<Vec> initial_point() const { return std::nullopt; }
+  virtual std::vector<std::string> component_names() const { return {}; }
+};
+
+}  // namespace varbo

@@ -1,0 +1,118 @@
+#include "varbo/config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+#include "varbo/errors.hpp"
+
+namespace varbo {
+
+ConfigNode::ConfigNode(YAML::Node node, std::shared_ptr<const std::string> file, std::string path)
+    : node_(std::move(node)), file_(std::move(file)), path_(std::move(path)) {
+  if (node_.IsDefined()) {
+    mark_ = node_.Mark();
+    has_mark_ = mark_.line >= 0;
+  }
+}
+
+static ConfigNode parse_impl(const std::string& text, const std::string& name) {
+  auto file = std::make_shared<const std::string>(name);
+  try {
+    return ConfigNode(YAML::Load(text), file, "");
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(fmt::format("{}:{}:{}: YAML syntax error: {}", name, e.mark.line + 1, e.mark.column + 1,
+                                  e.msg));
+  }
+}
+
+ConfigNode ConfigNode::load_file(const std::string& filename) {
+  std::ifstream in(filename);
+  if (!in) throw ConfigError(fmt::format("{}: cannot open configuration file", filename));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  ConfigNode n = parse_impl(ss.str(), filename);
+  if (!n.is_map()) throw ConfigError(fmt::format("{}:1:1: expected a YAML map of settings at the top level", filename));
+  return n;
+}
+
+ConfigNode ConfigNode::parse(const std::string& text, const std::string& name) { return parse_impl(text, name); }
+
+std::string ConfigNode::where() const {
+  if (!has_mark_) return *file_;
+  return fmt::format("{}:{}:{}", *file_, mark_.line + 1, mark_.column + 1);
+}
+
+bool ConfigNode::has(const std::string& key) const {
+  return node_.IsMap() && node_[key].IsDefined();
+}
+
+ConfigNode ConfigNode::child(const std::string& key) const {
+  std::string p = path_.empty() ? key : path_ + "." + key;
+  YAML::Node c = node_.IsMap() ? node_[key] : YAML::Node(YAML::NodeType::Undefined);
+  ConfigNode out(c, file_, p);
+  if (!out.has_mark_) {
+    out.mark_ = mark_;
+    out.has_mark_ = has_mark_;
+  }
+  return out;
+}
+
+ConfigNode ConfigNode::item(std::size_t i) const {
+  ConfigNode out(node_[i], file_, fmt::format("{}[{}]", path_, i));
+  if (!out.has_mark_) {
+    out.mark_ = mark_;
+    out.has_mark_ = has_mark_;
+  }
+  return out;
+}
+
+std::vector<std::string> ConfigNode::keys() const {
+  std::vector<std::string> out;
+  if (!node_.IsMap()) return out;
+  for (const auto& kv : node_) out.push_back(kv.first.as<std::string>());
+  return out;
+}
+
+std::string ConfigNode::scalar() const { return node_.IsScalar() ? node_.Scalar() : std::string(); }
+
+void ConfigNode::fail(const std::string& message) const {
+  if (path_.empty()) throw ConfigError(fmt::format("{}: {}", where(), message));
+  throw ConfigError(fmt::format("{}: key '{}': {}", where(), path_, message));
+}
+
+static std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::string::npos;
+  for (const auto& c : candidates) {
+    const std::size_t d = edit_distance(word, c);
+    if (d < best_d) {
+      best_d = d;
+      best = c;
+    }
+  }
+  if (best_d <= std::max<std::size_t>(2, word.size() / 3)) return best;
+  return {};
+}
+
+std::string join(const std::vector<std::string>& items, const std::string& sep) {
+  std::string out;
+  for (std::size_t i = 0; i < items.size(); ++i) out += (i ? sep : "") + items[i];
+  return out;
+}
+
+}  // namespace varbo

@@ -1,0 +1,86 @@
+// Out-of-line destructors (vtables and typeinfo live in libvarbo_core) and small shared defaults.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <limits>
+
+#include "varbo/acquisition.hpp"
+#include "varbo/algorithm.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/function.hpp"
+#include "varbo/optimizer.hpp"
+#include "varbo/region.hpp"
+#include "varbo/sampler.hpp"
+#include "varbo/surrogate.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo {
+
+DifferentiableFunction::~DifferentiableFunction() = default;
+Surrogate::~Surrogate() = default;
+Acquisition::~Acquisition() = default;
+RegionConstraint::~RegionConstraint() = default;
+Sampler::~Sampler() = default;
+Optimizer::~Optimizer() = default;
+Task::~Task() = default;
+Algorithm::~Algorithm() = default;
+
+void Surrogate::set_state(const std::string& name, const Vec&) {
+  throw ConfigError("this surrogate has no state named '" + name + "'");
+}
+
+std::string FitReport::report() const {
+  return fmt::format("{} {} objective {:.6g} (log-likelihood {:.6g}, log-prior {:.6g}), restarts {} ({} failed), "
+                     "{:.3f} s{}{}",
+                     ok ? "ok" : "FAILED", optimized ? "fit" : "conditioned", objective, log_likelihood, log_prior,
+                     restarts, restarts_failed, seconds, message.empty() ? "" : ": ", message);
+}
+
+void RegionConstraint::update(const Surrogate*, const Dataset&, Rng&) {}
+
+double RegionConstraint::constraint(const Vec& x, Vec* grad) const {
+  if (grad) *grad = Vec::Zero(x.size());
+  return 1.0;
+}
+
+bool RegionConstraint::contains(const Vec& x, double tol) const {
+  if (!bounds().contains(x, tol)) return false;
+  return !has_constraint() || constraint(x, nullptr) >= -tol;
+}
+
+Incumbent find_incumbent(const Surrogate& model, const Dataset& data, double kappa) {
+  Incumbent best;
+  double best_value = std::numeric_limits<double>::infinity();
+  for (Index i = 0; i < data.size(); ++i) {
+    const Prediction p = model.predict(data.X.row(i).transpose(), false);
+    const double s = p.total_std();
+    const double v = p.mean + kappa * s;
+    if (v < best_value) {
+      best_value = v;
+      best = Incumbent{i, p.mean, s};
+    }
+  }
+  return best;
+}
+
+GradientCheck check_gradient(const DifferentiableFunction& f, const Vec& x, double h, double floor) {
+  GradientCheck r;
+  f.value(x, &r.analytic);
+  r.numeric.resize(x.size());
+  for (Index i = 0; i < x.size(); ++i) {
+    const double step = h * std::max(1.0, std::abs(x[i]));
+    Vec xp = x, xm = x;
+    xp[i] += step;
+    xm[i] -= step;
+    r.numeric[i] = (f.value(xp, nullptr) - f.value(xm, nullptr)) / (2 * step);
+  }
+  for (Index i = 0; i < x.size(); ++i) {
+    const double a = r.analytic[i], n = r.numeric[i];
+    const double abs_err = std::abs(a - n);
+    r.max_abs_error = std::max(r.max_abs_error, abs_err);
+    r.max_rel_error = std::max(r.max_rel_error, abs_err / std::max({std::abs(a), std::abs(n), floor}));
+  }
+  return r;
+}
+
+}  // namespace varbo

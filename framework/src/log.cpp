@@ -1,0 +1,49 @@
+#include "varbo/log.hpp"
+
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+
+namespace varbo {
+
+namespace {
+std::atomic<int> g_level{static_cast<int>(LogLevel::Info)};
+std::mutex g_mutex;
+std::ofstream& log_file() {
+  static std::ofstream f;
+  return f;
+}
+const char* tag(LogLevel l) {
+  switch (l) {
+    case LogLevel::Debug: return "debug";
+    case LogLevel::Info: return "info";
+    case LogLevel::Warn: return "warning";
+    case LogLevel::Error: return "error";
+    default: return "";
+  }
+}
+}  // namespace
+
+void set_log_level(LogLevel level) { g_level = static_cast<int>(level); }
+LogLevel log_level() { return static_cast<LogLevel>(g_level.load()); }
+
+void set_log_file(const std::string& path) {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  auto& f = log_file();
+  if (f.is_open()) f.close();
+  if (!path.empty()) f.open(path, std::ios::app);
+}
+
+void log_message(LogLevel level, std::string_view message) {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  auto& f = log_file();
+  if (f.is_open() && level >= LogLevel::Info) {
+    f << "[" << tag(level) << "] " << message << '\n';
+    f.flush();
+  }
+  if (static_cast<int>(level) < g_level.load()) return;
+  std::fprintf(stderr, "[varbo %s] %.*s\n", tag(level), static_cast<int>(message.size()), message.data());
+}
+
+}  // namespace varbo

@@ -1,0 +1,298 @@
+#include "varbo/options.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "varbo/errors.hpp"
+#include "varbo/registry.hpp"
+
+namespace varbo {
+
+std::string kind_name(Kind kind) {
+  switch (kind) {
+    case Kind::Surrogate: return "surrogate";
+    case Kind::Acquisition: return "acquisition";
+    case Kind::Region: return "region";
+    case Kind::Sampler: return "sampler";
+    case Kind::Optimizer: return "optimizer";
+    case Kind::Task: return "task";
+    case Kind::Algorithm: return "algorithm";
+  }
+  return "?";
+}
+
+Kind kind_from_name(const std::string& name) {
+  for (Kind k : {Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler, Kind::Optimizer, Kind::Task,
+                 Kind::Algorithm})
+    if (kind_name(k) == name) return k;
+  throw ConfigError("unknown component kind '" + name +
+                    "'; known: surrogate, acquisition, region, sampler, optimizer, task, algorithm");
+}
+
+std::string type_name(OptionType type) {
+  switch (type) {
+    case OptionType::Bool: return "bool";
+    case OptionType::Int: return "integer";
+    case OptionType::Real: return "real";
+    case OptionType::String: return "string";
+    case OptionType::Choice: return "choice";
+    case OptionType::RealList: return "list of reals";
+    case OptionType::Component: return "component";
+    case OptionType::Node: return "map";
+  }
+  return "?";
+}
+
+static std::string fmt_bound(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return fmt::format("{}", v);
+}
+
+std::string OptionSpec::expected() const {
+  auto range = [&]() -> std::string {
+    if (std::isinf(min) && std::isinf(max)) return "";
+    return fmt::format(" in {}{}, {}{}", min_open ? "(" : "[", fmt_bound(min), fmt_bound(max), max_open ? ")" : "]");
+  };
+  switch (type) {
+    case OptionType::Bool: return "true or false";
+    case OptionType::Int: return "an integer" + range();
+    case OptionType::Real: return "a real number" + range();
+    case OptionType::String: return "a string";
+    case OptionType::Choice: return "one of: " + join(choices, ", ");
+    case OptionType::RealList: return "a list of real numbers, e.g. [0.1, 0.2]";
+    case OptionType::Component:
+      return "a " + kind_name(component_kind) + " name or a map with 'type:' and its options";
+    case OptionType::Node: return "a YAML value";
+  }
+  return "?";
+}
+
+namespace opt {
+static OptionSpec make(std::string name, OptionType t, std::string def, std::string description) {
+  OptionSpec s;
+  s.name = std::move(name);
+  s.type = t;
+  s.default_yaml = std::move(def);
+  s.description = std::move(description);
+  return s;
+}
+OptionSpec boolean(std::string name, bool def, std::string d) {
+  return make(std::move(name), OptionType::Bool, def ? "true" : "false", std::move(d));
+}
+OptionSpec integer(std::string name, long def, std::string d) {
+  return make(std::move(name), OptionType::Int, std::to_string(def), std::move(d));
+}
+OptionSpec real(std::string name, double def, std::string d) {
+  return make(std::move(name), OptionType::Real, fmt::format("{}", def), std::move(d));
+}
+OptionSpec string(std::string name, std::string def, std::string d) {
+  return make(std::move(name), OptionType::String, def.empty() ? "" : "\"" + def + "\"", std::move(d));
+}
+OptionSpec choice(std::string name, std::string def, std::vector<std::string> choices, std::string d) {
+  OptionSpec s = make(std::move(name), OptionType::Choice, std::move(def), std::move(d));
+  s.choices = std::move(choices);
+  return s;
+}
+OptionSpec reals(std::string name, std::string def_yaml, std::string d) {
+  return make(std::move(name), OptionType::RealList, std::move(def_yaml), std::move(d));
+}
+OptionSpec component(std::string name, Kind kind, std::string def_yaml, std::string d) {
+  OptionSpec s = make(std::move(name), OptionType::Component, std::move(def_yaml), std::move(d));
+  s.component_kind = kind;
+  return s;
+}
+OptionSpec node(std::string name, std::string def_yaml, std::string d) {
+  return make(std::move(name), OptionType::Node, std::move(def_yaml), std::move(d));
+}
+}  // namespace opt
+
+static bool parse_real(const std::string& text, double& out) {
+  if (text.empty()) return false;
+  const char* s = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  out = std::strtod(s, &end);
+  if (end == s || *end != '\0' || errno == ERANGE) {
+    // YAML spellings of infinity.
+    if (text == ".inf" || text == ".Inf" || text == "+.inf") { out = INFINITY; return true; }
+    if (text == "-.inf" || text == "-.Inf") { out = -INFINITY; return true; }
+    return false;
+  }
+  return true;
+}
+
+static bool parse_int(const std::string& text, long& out) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  out = std::strtol(text.c_str(), &end, 10);
+  return *end == '\0' && errno == 0;
+}
+
+static bool in_range(const OptionSpec& s, double v) {
+  if (std::isnan(v)) return false;
+  if (s.min_open ? !(v > s.min) : !(v >= s.min)) return false;
+  if (s.max_open ? !(v < s.max) : !(v <= s.max)) return false;
+  return true;
+}
+
+static std::string shown(const ConfigNode& n) {
+  if (n.is_scalar()) return fmt::format("'{}'", n.scalar());
+  if (n.is_sequence()) return "a list";
+  if (n.is_map()) return "a map";
+  return "nothing";
+}
+
+// Checks one value; returns the normalized YAML value.
+static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
+  auto bad = [&]() { n.fail(fmt::format("expected {}, got {}", s.expected(), shown(n))); };
+  switch (s.type) {
+    case OptionType::Bool: {
+      if (!n.is_scalar()) bad();
+      bool b;
+      if (!YAML::convert<bool>::decode(n.yaml(), b)) bad();
+      return YAML::Node(b);
+    }
+    case OptionType::Int: {
+      long v;
+      if (!n.is_scalar() || !parse_int(n.scalar(), v)) bad();
+      if (!in_range(s, static_cast<double>(v))) bad();
+      return YAML::Node(v);
+    }
+    case OptionType::Real: {
+      double v;
+      if (!n.is_scalar() || !parse_real(n.scalar(), v) || !in_range(s, v)) bad();
+      return YAML::Node(v);
+    }
+    case OptionType::String: {
+      if (!n.is_scalar()) bad();
+      return YAML::Node(n.scalar());
+    }
+    case OptionType::Choice: {
+      if (!n.is_scalar()) bad();
+      const std::string v = n.scalar();
+      for (const auto& c : s.choices)
+        if (c == v) return YAML::Node(v);
+      const std::string near = closest_match(v, s.choices);
+      n.fail(fmt::format("expected {}, got '{}'{}", s.expected(), v, near.empty() ? "" : "; did you mean '" + near + "'?"));
+    }
+    case OptionType::RealList: {
+      if (!n.is_sequence()) bad();
+      YAML::Node out(YAML::NodeType::Sequence);
+      for (std::size_t i = 0; i < n.size(); ++i) {
+        ConfigNode it = n.item(i);
+        double v;
+        if (!it.is_scalar() || !parse_real(it.scalar(), v) || !std::isfinite(v))
+          it.fail(fmt::format("expected a finite real number, got {}", shown(it)));
+        if (!in_range(s, v)) it.fail(fmt::format("value {} out of range: expected {}", v, s.expected()));
+        out.push_back(v);
+      }
+      return out;
+    }
+    case OptionType::Component:
+    case OptionType::Node:
+      return n.yaml();
+  }
+  return {};
+}
+
+Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& specs, const std::string& owner,
+                         const Registry* registry, const std::vector<std::string>& ignored_keys) {
+  Options o;
+  o.source_ = node;
+  if (node.defined() && !node.is_map() && !node.is_scalar())
+    node.fail(fmt::format("expected a map of options for {}", owner));
+  std::vector<std::string> known;
+  for (const auto& s : specs) known.push_back(s.name);
+  if (node.is_map()) {
+    for (const auto& key : node.keys()) {
+      bool ignored = false;
+      for (const auto& k : ignored_keys) ignored = ignored || (k == key);
+      if (ignored) continue;
+      bool found = false;
+      for (const auto& s : specs) found = found || (s.name == key);
+      if (!found) {
+        const std::string near = closest_match(key, known);
+        node.child(key).fail(fmt::format("unknown key for {}; known keys: {}{}", owner,
+                                         known.empty() ? "(none)" : join(known),
+                                         near.empty() ? "" : "; did you mean '" + near + "'?"));
+      }
+    }
+  }
+  for (const auto& s : specs) {
+    o.order_.push_back(s.name);
+    ConfigNode given = node.is_map() ? node.child(s.name) : ConfigNode();
+    const bool is_given = given.defined();
+    o.given_[s.name] = is_given;
+    ConfigNode use;
+    if (is_given) {
+      use = given;
+    } else if (!s.default_yaml.empty()) {
+      use = ConfigNode(YAML::Load(s.default_yaml),
+                       std::make_shared<const std::string>("<default of " + owner + ">"),
+                       node.path().empty() ? s.name : node.path() + "." + s.name);
+    } else if (s.required) {
+      (node.is_map() ? node.child(s.name) : node)
+          .fail(fmt::format("missing required key for {}: expected {}", owner, s.expected()));
+    } else {
+      continue;
+    }
+    o.nodes_[s.name] = use;
+    o.values_[s.name] = check_value(s, use);
+    if (s.type == OptionType::Component) {
+      if (registry == nullptr) throw std::logic_error("validate_options: component option without registry");
+      o.components_[s.name] = std::make_shared<ResolvedComponent>(registry->resolve(s.component_kind, use));
+    }
+  }
+  return o;
+}
+
+const YAML::Node& Options::value(const std::string& name) const {
+  auto it = values_.find(name);
+  if (it == values_.end()) throw std::logic_error("option '" + name + "' was not declared or has no value");
+  return it->second;
+}
+
+bool Options::boolean(const std::string& name) const { return value(name).as<bool>(); }
+long Options::integer(const std::string& name) const { return value(name).as<long>(); }
+double Options::real(const std::string& name) const { return value(name).as<double>(); }
+std::string Options::str(const std::string& name) const { return value(name).as<std::string>(); }
+std::vector<double> Options::reals(const std::string& name) const { return value(name).as<std::vector<double>>(); }
+
+const ResolvedComponent& Options::component(const std::string& name) const {
+  auto it = components_.find(name);
+  if (it == components_.end()) throw std::logic_error("option '" + name + "' is not a component");
+  return *it->second;
+}
+
+ConfigNode Options::node(const std::string& name) const {
+  auto it = nodes_.find(name);
+  if (it != nodes_.end()) return it->second;
+  return source_.child(name);
+}
+
+bool Options::is_set(const std::string& name) const { return values_.count(name) > 0; }
+bool Options::given(const std::string& name) const {
+  auto it = given_.find(name);
+  return it != given_.end() && it->second;
+}
+
+YAML::Node Options::resolved() const {
+  YAML::Node out(YAML::NodeType::Map);
+  for (const auto& name : order_) {
+    auto c = components_.find(name);
+    if (c != components_.end()) {
+      out[name] = c->second->resolved();
+      continue;
+    }
+    auto v = values_.find(name);
+    if (v != values_.end()) out[name] = v->second;
+  }
+  return out;
+}
+
+}  // namespace varbo

@@ -1,0 +1,140 @@
+#include "varbo/registry.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <set>
+
+#include "varbo/errors.hpp"
+
+namespace varbo {
+
+YAML::Node ResolvedComponent::resolved() const {
+  YAML::Node out(YAML::NodeType::Map);
+  out["type"] = info ? info->name : std::string("?");
+  YAML::Node opts = options.resolved();
+  for (const auto& kv : opts) out[kv.first] = kv.second;
+  return out;
+}
+
+void Registry::set_origin(std::string plugin, std::string library) {
+  current_plugin_ = std::move(plugin);
+  current_library_ = std::move(library);
+}
+
+void Registry::add(ComponentInfo info) {
+  if (info.name.empty()) throw PluginLoadError("a component has an empty name");
+  if (info.plugin.empty()) info.plugin = current_plugin_;
+  if (info.library.empty()) info.library = current_library_;
+  if (static_cast<std::size_t>(info.factory.index()) != static_cast<std::size_t>(info.kind))
+    throw PluginLoadError(fmt::format("component '{}' declares kind {} but its factory makes another kind",
+                                      info.name, kind_name(info.kind)));
+  for (const auto& c : items_)
+    if (c->kind == info.kind && c->full_name() == info.full_name())
+      throw PluginLoadError(fmt::format("{} '{}' is registered twice (by {} and {})", kind_name(info.kind),
+                                        info.full_name(), c->library, info.library));
+  items_.push_back(std::make_unique<ComponentInfo>(std::move(info)));
+}
+
+const ComponentInfo* Registry::try_find(Kind kind, const std::string& name) const {
+  const ComponentInfo* found = nullptr;
+  int matches = 0;
+  for (const auto& c : items_) {
+    if (c->kind != kind) continue;
+    if (c->full_name() == name) return c.get();
+    if (c->name == name) {
+      found = c.get();
+      ++matches;
+    }
+  }
+  return matches == 1 ? found : nullptr;
+}
+
+const ComponentInfo& Registry::find(Kind kind, const std::string& name, const ConfigNode* where) const {
+  if (const ComponentInfo* c = try_find(kind, name)) return *c;
+  std::vector<std::string> known, ambiguous;
+  for (const auto& c : items_) {
+    if (c->kind != kind) continue;
+    known.push_back(c->name);
+    if (c->name == name) ambiguous.push_back(c->full_name());
+  }
+  std::string msg;
+  if (!ambiguous.empty()) {
+    msg = fmt::format("{} name '{}' is ambiguous; use one of: {}", kind_name(kind), name, join(ambiguous));
+  } else {
+    std::sort(known.begin(), known.end());
+    known.erase(std::unique(known.begin(), known.end()), known.end());
+    const std::string near = closest_match(name, known);
+    msg = fmt::format("unknown {} '{}'. Known: {}{}", kind_name(kind), name,
+                      known.empty() ? "(none loaded; check the plugin path)" : join(known),
+                      near.empty() ? "" : "; did you mean '" + near + "'?");
+  }
+  if (where) {
+    try {
+      where->fail(msg);
+    } catch (const ConfigError& e) {
+      throw UnknownComponentError(e.what());
+    }
+  }
+  throw UnknownComponentError(msg);
+}
+
+std::vector<const ComponentInfo*> Registry::components(Kind kind) const {
+  std::vector<const ComponentInfo*> out;
+  for (const auto& c : items_)
+    if (c->kind == kind) out.push_back(c.get());
+  std::sort(out.begin(), out.end(), [](auto* a, auto* b) { return a->full_name() < b->full_name(); });
+  return out;
+}
+
+std::vector<const ComponentInfo*> Registry::all() const {
+  std::vector<const ComponentInfo*> out;
+  for (const auto& c : items_) out.push_back(c.get());
+  std::sort(out.begin(), out.end(), [](auto* a, auto* b) {
+    return std::make_pair(static_cast<int>(a->kind), a->full_name()) <
+           std::make_pair(static_cast<int>(b->kind), b->full_name());
+  });
+  return out;
+}
+
+ResolvedComponent Registry::resolve(Kind kind, const ConfigNode& node) const {
+  std::string type;
+  ConfigNode type_node = node;
+  if (node.is_scalar()) {
+    type = node.scalar();
+  } else if (node.is_map()) {
+    if (!node.has("type"))
+      node.fail(fmt::format("missing 'type:' naming the {}", kind_name(kind)));
+    type_node = node.child("type");
+    if (!type_node.is_scalar()) type_node.fail(fmt::format("expected a {} name", kind_name(kind)));
+    type = type_node.scalar();
+  } else {
+    node.fail(fmt::format("expected a {} name or a map with 'type:' and its options", kind_name(kind)));
+  }
+  const ComponentInfo& info = find(kind, type, &type_node);
+  ResolvedComponent rc;
+  rc.info = &info;
+  rc.source = node;
+  rc.options = validate_options(node.is_map() ? node : ConfigNode(), info.options,
+                                fmt::format("{} '{}'", kind_name(kind), info.name), this);
+  return rc;
+}
+
+bool compatible(const std::vector<const ComponentInfo*>& parts, std::string* why) {
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    for (const auto& req : parts[i]->needs) {
+      bool met = false;
+      for (std::size_t j = 0; j < parts.size() && !met; ++j) {
+        if (j == i) continue;
+        met = std::find(parts[j]->provides.begin(), parts[j]->provides.end(), req) != parts[j]->provides.end();
+      }
+      if (!met) {
+        if (why) *why = fmt::format("{} '{}' needs '{}'", kind_name(parts[i]->kind), parts[i]->name, req);
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+}  // namespace varbo
