@@ -1,1 +1,46 @@
-int main() { return 0; }
+// varbo: risk-aware and cautious Bayesian optimization from YAML configurations.
+#include <cstdio>
+#include <map>
+
+#include "commands.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/version.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"varbo " VARBO_VERSION_STRING
+               ": sample-efficient, risk-aware and cautious Bayesian optimization\n"
+               "Compose an algorithm in YAML, run it, inspect models. See README.md."};
+  app.require_subcommand(1);
+  bool verbose = false, quiet = false;
+  app.add_flag("-v,--verbose", verbose, "debug logging");
+  app.add_flag("-q,--quiet", quiet, "warnings and errors only");
+  std::map<CLI::App*, varbo::cli::Runner> runners;
+  auto reg = [&](varbo::cli::Runner (*add)(CLI::App&)) {
+    const std::size_t before = app.get_subcommands({}).size();
+    varbo::cli::Runner r = add(app);
+    auto subs = app.get_subcommands({});
+    if (subs.size() > before) runners[subs.back()] = std::move(r);
+  };
+  reg(&varbo::cli::add_run);
+  reg(&varbo::cli::add_plugins);
+  reg(&varbo::cli::add_fit);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  if (verbose) varbo::set_log_level(varbo::LogLevel::Debug);
+  if (quiet) varbo::set_log_level(varbo::LogLevel::Warn);
+  try {
+    for (auto& [sub, run] : runners)
+      if (sub->parsed()) return run();
+  } catch (const varbo::Error& e) {
+    std::fprintf(stderr, "varbo: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "varbo: internal error: %s\n", e.what());
+    return 3;
+  }
+  return 0;
+}

@@ -96,6 +96,9 @@ static std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+  // A candidate that extends the word ("matern52" -> "matern52_ard") is the likeliest intent.
+  for (const auto& c : candidates)
+    if (word.size() >= 3 && c.rfind(word, 0) == 0) return c;
   std::string best;
   std::size_t best_d = std::string::npos;
   for (const auto& c : candidates) {

@@ -11,7 +11,7 @@ double normal_pdf(double u) { return 0.3989422804014327 * std::exp(-0.5 * u * u)
 double normal_cdf(double u) { return 0.5 * std::erfc(-u * M_SQRT1_2); }
 
 double normal_log_cdf(double u) {
-  if (u > -5.0) return std::log(normal_cdf(u));
+  if (u > -30.0) return std::log(normal_cdf(u));  // erfc is accurate down to here
   // Asymptotic series of the Mills ratio for the far lower tail.
   const double z = -u, z2 = z * z;
   const double series = 1.0 - 1.0 / z2 + 3.0 / (z2 * z2) - 15.0 / (z2 * z2 * z2);

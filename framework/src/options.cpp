@@ -209,7 +209,8 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
   std::vector<std::string> known;
   for (const auto& s : specs) known.push_back(s.name);
   if (node.is_map()) {
-    for (const auto& key : node.keys()) {
+    for (const auto& kv : node.yaml()) {
+      const std::string key = kv.first.as<std::string>();
       bool ignored = false;
       for (const auto& k : ignored_keys) ignored = ignored || (k == key);
       if (ignored) continue;
@@ -217,7 +218,10 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
       for (const auto& s : specs) found = found || (s.name == key);
       if (!found) {
         const std::string near = closest_match(key, known);
-        node.child(key).fail(fmt::format("unknown key for {}; known keys: {}{}", owner,
+        // Point at the key itself, not at its value.
+        ConfigNode key_node(kv.first, std::make_shared<const std::string>(node.file()),
+                            node.path().empty() ? key : node.path() + "." + key);
+        key_node.fail(fmt::format("unknown key for {}; known keys: {}{}", owner,
                                          known.empty() ? "(none)" : join(known),
                                          near.empty() ? "" : "; did you mean '" + near + "'?"));
       }

@@ -129,7 +129,7 @@ bool compatible(const std::vector<const ComponentInfo*>& parts, std::string* why
         met = std::find(parts[j]->provides.begin(), parts[j]->provides.end(), req) != parts[j]->provides.end();
       }
       if (!met) {
-        if (why) *why = fmt::format("{} '{}' needs '{}'", kind_name(parts[i]->kind), parts[i]->name, req);
+        if (why) *why = fmt::format("{} '{}' requires '{}'", kind_name(parts[i]->kind), parts[i]->name, req);
         return false;
       }
     }

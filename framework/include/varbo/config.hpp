@@ -11,6 +11,19 @@ class ConfigNode {
  public:
   ConfigNode() = default;
   ConfigNode(YAML::Node node, std::shared_ptr<const std::string> file, std::string path);
+  ConfigNode(const ConfigNode&) = default;
+  /// Rebinds (YAML::Node::reset): YAML::Node's own operator= writes through to the node it refers to,
+  /// which silently overwrote a parent map when a ConfigNode copy of it was assigned a child.
+  ConfigNode& operator=(const ConfigNode& other) {
+    if (this != &other) {
+      node_.reset(other.node_);
+      file_ = other.file_;
+      path_ = other.path_;
+      mark_ = other.mark_;
+      has_mark_ = other.has_mark_;
+    }
+    return *this;
+  }
 
   /// Parses a YAML file; a syntax error becomes a ConfigError naming file:line:col.
   static ConfigNode load_file(const std::string& filename);

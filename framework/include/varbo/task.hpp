@@ -1,5 +1,6 @@
 #pragma once
 // The thing being optimized: a cost of θ (user units), possibly noisy, possibly failing.
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -21,6 +22,9 @@ struct Evaluation {
   Components components;  ///< named cost components (their weighted sum is the cost)
   bool ok = true;
   std::string error;
+  /// The cost without observation noise, when the task knows it (synthetic benchmarks); NaN otherwise.
+  /// Used for simple regret only, never shown to the algorithm.
+  double noiseless_cost = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct Optimum {

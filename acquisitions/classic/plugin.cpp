@@ -1,0 +1,63 @@
+// libvarbo_acquisitions.so: EI, PI, CB and ERI (Kuindersma 2013, section 3).
+#include "classic_acquisitions.hpp"
+#include "varbo/plugin.hpp"
+
+namespace {
+varbo::OptionSpec xi_option(double def) {
+  return varbo::opt::real("xi", def,
+                          "exploration margin ξ, in units of σ_f = sqrt(signal variance): the target is "
+                          "μ_best + ξ·σ_f")
+      .at_least(0);
+}
+varbo::OptionSpec gh_option() {
+  return varbo::opt::integer("gh_nodes", 45,
+                             "Gauss–Hermite nodes for the integral over the log noise (eq. 9); unused when the "
+                             "model is homoscedastic (closed form)")
+      .at_least(1)
+      .at_most(200);
+}
+}  // namespace
+
+VARBO_PLUGIN("acquisitions", "0.1.0", "Expected improvement, probability of improvement, confidence bound and "
+                                      "expected risk improvement, for GP and heteroscedastic models") {
+  using varbo::Acquisition;
+  using varbo::BuildContext;
+  using varbo::Options;
+  namespace opt = varbo::opt;
+  const std::vector<std::string> gradient{"acquisition:gradient"};
+
+  registry.add(varbo::make_component<Acquisition>(
+      "ei", "expected improvement over the lowest posterior mean at the data (Kuindersma 2013, eq. 9)",
+      {xi_option(0.01), gh_option()},
+      varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
+        return std::make_unique<varbo::acq::ExpectedImprovement>(o.real("xi"), static_cast<int>(o.integer("gh_nodes")));
+      }),
+      gradient));
+
+  registry.add(varbo::make_component<Acquisition>(
+      "pi", "probability of improving on the lowest posterior mean at the data",
+      {xi_option(0.01), gh_option()},
+      varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
+        return std::make_unique<varbo::acq::ProbabilityOfImprovement>(o.real("xi"),
+                                                                      static_cast<int>(o.integer("gh_nodes")));
+      }),
+      gradient));
+
+  registry.add(varbo::make_component<Acquisition>(
+      "cb", "confidence bound: maximizes −(E[y] + κ·s), κ > 0 risk-averse (Kuindersma 2013, eq. 10)",
+      {opt::real("kappa", 2.0, "risk factor κ (ignored when randomize is true)"),
+       opt::boolean("randomize", false, "draw κ ~ N(0, 1) every iteration (randomized CB selection)")},
+      varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
+        return std::make_unique<varbo::acq::ConfidenceBound>(o.real("kappa"), o.boolean("randomize"));
+      }),
+      gradient));
+
+  registry.add(varbo::make_component<Acquisition>(
+      "eri", "expected risk improvement over the evaluated point minimizing E + κ·s (Kuindersma 2013, eq. 12)",
+      {opt::real("kappa", 1.0, "risk factor κ; ERI = EI at κ = 0"), xi_option(0.0), gh_option()},
+      varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
+        return std::make_unique<varbo::acq::ExpectedRiskImprovement>(o.real("kappa"), o.real("xi"),
+                                                                     static_cast<int>(o.integer("gh_nodes")));
+      }),
+      gradient));
+}

@@ -1,0 +1,100 @@
+// `varbo plugins [--describe NAME]`: what is installed, with every option and its default.
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "commands.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/study.hpp"
+
+namespace varbo::cli {
+
+static std::string default_text(const OptionSpec& s) {
+  if (s.required) return "(required)";
+  if (s.default_yaml.empty()) return "(unset)";
+  return s.default_yaml;
+}
+
+static void print_options(const std::vector<OptionSpec>& options, const std::string& indent) {
+  for (const auto& o : options)
+    std::printf("%s%-22s %-14s default %-18s %s; expects %s\n", indent.c_str(), o.name.c_str(),
+                type_name(o.type).c_str(), default_text(o).c_str(), o.description.c_str(), o.expected().c_str());
+}
+
+static void describe(const ComponentInfo& c) {
+  std::printf("%s %s  (plugin %s, %s)\n  %s\n", kind_name(c.kind).c_str(), c.full_name().c_str(), c.plugin.c_str(),
+              c.library.c_str(), c.description.c_str());
+  if (!c.provides.empty()) std::printf("  provides: %s\n", join(c.provides).c_str());
+  if (!c.needs.empty()) std::printf("  needs:    %s\n", join(c.needs).c_str());
+  if (c.options.empty()) {
+    std::printf("  options: none\n");
+  } else {
+    std::printf("  options:\n");
+    print_options(c.options, "    ");
+  }
+}
+
+Runner add_plugins(CLI::App& app) {
+  auto* cmd = app.add_subcommand("plugins", "List plugins and components with their options and defaults");
+  struct Args {
+    std::string describe;
+    std::vector<std::string> load;
+    bool brief = false;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("--describe", a->describe, "show one component (name or plugin/name), or 'study' for top-level keys");
+  cmd->add_option("--load", a->load, "also load these plugin files or folders (errors are fatal)");
+  cmd->add_flag("--brief", a->brief, "names only");
+  return [a]() {
+    Registry registry;
+    PluginLoader loader(registry);
+    for (const auto& p : a->load) {
+      if (std::filesystem::is_directory(p)) {
+        loader.load_directory(p);
+      } else {
+        loader.load_file(p);
+      }
+    }
+    loader.load_default();
+    if (a->describe == "study") {
+      std::printf("study file (top-level keys)\n");
+      print_options(study_options(), "  ");
+      return 0;
+    }
+    if (!a->describe.empty()) {
+      bool any = false;
+      for (const auto* c : registry.all())
+        if (c->name == a->describe || c->full_name() == a->describe) {
+          describe(*c);
+          any = true;
+        }
+      if (!any) {
+        std::vector<std::string> names;
+        for (const auto* c : registry.all()) names.push_back(c->name);
+        const std::string near = closest_match(a->describe, names);
+        throw UnknownComponentError(fmt::format("no component named '{}'. Known: {}{}", a->describe, join(names),
+                                                near.empty() ? "" : "; did you mean '" + near + "'?"));
+      }
+      return 0;
+    }
+    std::printf("plugin libraries (%zu loaded, %zu skipped)\n", loader.loaded().size(), loader.skipped().size());
+    for (const auto& l : loader.loaded())
+      std::printf("  %-22s %-8s %s\n", l.name.c_str(), l.version.c_str(), l.path.c_str());
+    for (const auto& s : loader.skipped()) std::printf("  SKIPPED %s\n", s.reason.c_str());
+    for (Kind k : {Kind::Task, Kind::Algorithm, Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler,
+                   Kind::Optimizer}) {
+      auto comps = registry.components(k);
+      std::printf("\n%ss (%zu)\n", kind_name(k).c_str(), comps.size());
+      for (const auto* c : comps) {
+        std::printf("  %-28s %s\n", c->full_name().c_str(), c->description.c_str());
+        if (!a->brief) print_options(c->options, "      ");
+      }
+    }
+    std::printf("\nTop-level study keys: varbo plugins --describe study\n");
+    return 0;
+  };
+}
+
+}  // namespace varbo::cli

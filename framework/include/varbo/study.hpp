@@ -1,0 +1,58 @@
+#pragma once
+// A study: the top-level configuration (task + algorithm + budget + seed + output), and running it.
+#include <optional>
+#include <string>
+#include <vector>
+#include "varbo/registry.hpp"
+
+namespace varbo {
+
+/// The validated top-level keys of a study file.
+struct StudyConfig {
+  ConfigNode source;
+  ResolvedComponent task;
+  ResolvedComponent algorithm;
+  Index budget = 30;
+  std::uint64_t seed = 1;
+  int threads = 0;
+  std::string output;
+  std::optional<Vec> initial_point;  ///< user units
+  YAML::Node resolved() const;       ///< every key with defaults, for config.resolved.yaml
+};
+
+/// Declared top-level keys (for validation and `varbo plugins --describe study`).
+const std::vector<OptionSpec>& study_options();
+
+/// Plugin paths named by the file's `plugin_path:` key (relative to the file), before validation.
+std::vector<std::string> plugin_paths_of(const ConfigNode& root);
+
+/// Validates `root` against the registry. Throws ConfigError with file:line:col on any problem.
+StudyConfig parse_study(const ConfigNode& root, const Registry& registry);
+
+struct RunOverrides {
+  std::optional<int> threads;
+  std::optional<std::uint64_t> seed;
+  std::optional<std::string> output;
+  std::optional<Index> budget;
+  bool progress = true;  ///< one line per trial on stderr
+};
+
+struct RunSummary {
+  std::string output;
+  Index evaluations = 0;
+  Index failed = 0;
+  std::optional<Vec> best_theta;        ///< user units, best observed cost
+  double best_cost = 0;
+  std::optional<Vec> recommended_theta; ///< user units, lowest posterior mean among evaluated points
+  std::optional<double> simple_regret;  ///< min noiseless cost − known optimum
+  double seconds = 0;
+  std::string report() const;
+};
+
+/// Builds task and algorithm, runs the ask/evaluate/tell loop, and writes the run folder.
+RunSummary run_study(const StudyConfig& study, const Registry& registry, const RunOverrides& overrides);
+
+/// Loads plugins (default path + the file's plugin_path), validates and runs a study file.
+RunSummary run_study_file(const std::string& config_file, const RunOverrides& overrides);
+
+}  // namespace varbo

@@ -1,0 +1,79 @@
+#include "varbo/csv.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "varbo/errors.hpp"
+
+namespace varbo {
+
+Index CsvTable::column(const std::string& name) const {
+  for (std::size_t i = 0; i < columns.size(); ++i)
+    if (columns[i] == name) return static_cast<Index>(i);
+  return -1;
+}
+
+static std::vector<std::string> split_line(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  for (auto& s : out) {
+    const auto b = s.find_first_not_of(" \t\"");
+    const auto e = s.find_last_not_of(" \t\"");
+    s = (b == std::string::npos) ? std::string() : s.substr(b, e - b + 1);
+  }
+  return out;
+}
+
+CsvTable read_csv(const std::string& filename) {
+  std::ifstream in(filename);
+  if (!in) throw InputError(fmt::format("{}: cannot open CSV file", filename));
+  CsvTable t;
+  std::string line;
+  int lineno = 0;
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
+    auto cells = split_line(line);
+    if (t.columns.empty()) {
+      t.columns = cells;
+      continue;
+    }
+    if (cells.size() != t.columns.size())
+      throw InputError(fmt::format("{}:{}: expected {} comma-separated values (as in the header), found {}", filename,
+                                   lineno, t.columns.size(), cells.size()));
+    std::vector<double> row;
+    for (std::size_t c = 0; c < cells.size(); ++c) {
+      char* end = nullptr;
+      errno = 0;
+      const double v = std::strtod(cells[c].c_str(), &end);
+      if (cells[c].empty() || *end != '\0' || errno == ERANGE)
+        throw InputError(fmt::format("{}:{}: column '{}': expected a number, got '{}'", filename, lineno,
+                                     t.columns[c], cells[c]));
+      row.push_back(v);
+    }
+    rows.push_back(std::move(row));
+  }
+  if (t.columns.empty()) throw InputError(fmt::format("{}: empty file (expected a header line)", filename));
+  t.values.resize(static_cast<Index>(rows.size()), static_cast<Index>(t.columns.size()));
+  for (std::size_t r = 0; r < rows.size(); ++r)
+    for (std::size_t c = 0; c < t.columns.size(); ++c) t.values(r, c) = rows[r][c];
+  return t;
+}
+
+std::string exact(double v) { return fmt::format("{}", v); }  // fmt prints the shortest round-trip form
+
+}  // namespace varbo

@@ -1,0 +1,111 @@
+#include "run_writer.hpp"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+
+namespace fs = std::filesystem;
+
+namespace varbo {
+
+static std::string csv_escape(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += (c == '"') ? std::string("\"\"") : (c == '\n' ? std::string(" ") : std::string(1, c));
+  return out + "\"";
+}
+
+RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
+                     std::vector<std::string> component_names)
+    : folder_(folder), components_(std::move(component_names)) {
+  std::error_code ec;
+  fs::create_directories(folder_, ec);
+  if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", folder_, ec.message()));
+  {
+    std::ofstream cfg(folder_ + "/config.resolved.yaml");
+    YAML::Emitter em;
+    em << study.resolved();
+    cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
+        << em.c_str() << "\n";
+  }
+  trials_.open(folder_ + "/trials.csv", std::ios::trunc);
+  if (!trials_) throw InputError(fmt::format("{}/trials.csv: cannot write", folder_));
+  trials_ << "index,phase";
+  for (const auto& n : domain.names) trials_ << "," << csv_escape(n);
+  trials_ << ",cost,ok";
+  for (const auto& c : components_) trials_ << "," << csv_escape(c);
+  trials_ << ",fit_seconds,acquisition_seconds,evaluation_seconds,error\n";
+  trials_.flush();
+  model_.open(folder_ + "/model.yaml", std::ios::trunc);
+  model_ << "# hyperparameters after each fit\n";
+  model_.flush();
+}
+
+void RunWriter::trial(const TrialRow& r) {
+  trials_ << r.index << "," << r.phase;
+  for (Index i = 0; i < r.theta.size(); ++i) trials_ << "," << exact(r.theta[i]);
+  trials_ << "," << (r.evaluation.ok ? exact(r.evaluation.cost) : std::string("nan")) << ","
+          << (r.evaluation.ok ? 1 : 0);
+  for (const auto& c : components_) {
+    std::string v = "nan";
+    for (const auto& kv : r.evaluation.components)
+      if (kv.first == c) v = exact(kv.second);
+    trials_ << "," << v;
+  }
+  if (!warned_extra_) {
+    for (const auto& kv : r.evaluation.components) {
+      bool known = false;
+      for (const auto& c : components_) known = known || c == kv.first;
+      if (!known) {
+        log_warn("task reported an undeclared cost component '{}'; it is not recorded in trials.csv", kv.first);
+        warned_extra_ = true;
+      }
+    }
+  }
+  trials_ << "," << fmt::format("{:.6f},{:.6f},{:.6f}", r.fit_seconds, r.acquisition_seconds, r.evaluation_seconds)
+          << "," << csv_escape(r.evaluation.error) << "\n";
+  trials_.flush();
+}
+
+void RunWriter::model(const ModelSnapshot& s) {
+  model_ << "- iteration: " << s.iteration << "\n  objective: " << exact(s.objective) << "\n";
+  if (!s.note.empty()) model_ << "  note: \"" << s.note << "\"\n";
+  model_ << "  hyperparameters:\n";
+  for (const auto& h : s.hyperparameters) model_ << "    \"" << h.name << "\": " << exact(h.value) << "\n";
+  model_.flush();
+}
+
+static nlohmann::json vec_json(const Vec& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Index i = 0; i < v.size(); ++i) a.push_back(v[i]);
+  return a;
+}
+
+void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::optional<Optimum>& optimum) {
+  nlohmann::json j;
+  j["evaluations"] = s.evaluations;
+  j["failed"] = s.failed;
+  j["parameter_names"] = domain.names;
+  if (s.best_theta) {
+    j["best_theta"] = vec_json(*s.best_theta);
+    j["best_cost"] = s.best_cost;
+  }
+  if (s.recommended_theta) j["recommended_theta"] = vec_json(*s.recommended_theta);
+  if (optimum) j["known_optimum"] = optimum->cost;
+  if (s.simple_regret) j["simple_regret"] = *s.simple_regret;
+  j["seconds"] = s.seconds;
+  const std::string tmp = folder_ + "/summary.json.tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << j.dump(2) << "\n";
+  }
+  std::error_code ec;
+  fs::rename(tmp, folder_ + "/summary.json", ec);
+}
+
+}  // namespace varbo

@@ -1,0 +1,82 @@
+// The top-level keys of a study file and their validation.
+#include <fmt/format.h>
+
+#include <filesystem>
+
+#include "varbo/errors.hpp"
+#include "varbo/study.hpp"
+
+namespace varbo {
+
+const std::vector<OptionSpec>& study_options() {
+  static const std::vector<OptionSpec> specs = {
+      opt::component("task", Kind::Task, "", "the task to optimize (its costs are minimized)").must(),
+      opt::component("algorithm", Kind::Algorithm, "{type: bo}",
+                     "the algorithm: bo (surrogate + acquisition + region + optimizers), random, ..."),
+      opt::integer("budget", 30, "total number of task evaluations, initial design included").at_least(1),
+      opt::integer("seed", 1, "random seed: fixes the whole run, whatever the thread count").at_least(0),
+      opt::integer("threads", 0, "TBB worker threads (0 = all cores)").at_least(0),
+      opt::string("output", "", "run folder (default: runs/<config file name>)"),
+      opt::node("plugin_path", "", "extra plugin files or folders, searched before the defaults"),
+      opt::reals("initial_point", "", "θ0 in user units, for algorithms that start from a known policy"),
+      opt::string("description", "", "free text, copied to the run folder"),
+  };
+  return specs;
+}
+
+std::vector<std::string> plugin_paths_of(const ConfigNode& root) {
+  std::vector<std::string> out;
+  if (!root.is_map() || !root.has("plugin_path")) return out;
+  ConfigNode p = root.child("plugin_path");
+  const std::filesystem::path base = std::filesystem::path(root.file()).parent_path();
+  auto add = [&](const ConfigNode& n) {
+    if (!n.is_scalar()) n.fail("expected a path (string) or a list of paths");
+    std::filesystem::path q(n.scalar());
+    out.push_back((q.is_absolute() ? q : base / q).string());
+  };
+  if (p.is_sequence()) {
+    for (std::size_t i = 0; i < p.size(); ++i) add(p.item(i));
+  } else if (p.defined()) {
+    add(p);
+  }
+  return out;
+}
+
+YAML::Node StudyConfig::resolved() const {
+  YAML::Node out(YAML::NodeType::Map);
+  out["task"] = task.resolved();
+  out["algorithm"] = algorithm.resolved();
+  out["budget"] = budget;
+  out["seed"] = seed;
+  out["threads"] = threads;
+  out["output"] = output;
+  if (initial_point) {
+    std::vector<double> v(initial_point->data(), initial_point->data() + initial_point->size());
+    out["initial_point"] = v;
+  }
+  return out;
+}
+
+StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
+  if (!root.is_map()) root.fail("expected a map of study settings (task:, algorithm:, budget:, ...)");
+  Options o = validate_options(root, study_options(), "the study", &registry, {});
+  StudyConfig s;
+  s.source = root;
+  s.task = o.component("task");
+  s.algorithm = o.component("algorithm");
+  s.budget = o.integer("budget");
+  s.seed = static_cast<std::uint64_t>(o.integer("seed"));
+  s.threads = static_cast<int>(o.integer("threads"));
+  s.output = o.str("output");
+  if (s.output.empty()) {
+    const std::string stem = std::filesystem::path(root.file()).stem().string();
+    s.output = "runs/" + (stem.empty() ? std::string("study") : stem);
+  }
+  if (o.is_set("initial_point")) {
+    auto v = o.reals("initial_point");
+    s.initial_point = Eigen::Map<const Vec>(v.data(), static_cast<Index>(v.size()));
+  }
+  return s;
+}
+
+}  // namespace varbo

@@ -1,0 +1,235 @@
+#include "bayesian_optimization.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+
+namespace varbo::bo {
+
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+// Purposes of the random streams derived from the run seed: one per (purpose, evaluation index), so a
+// suggestion depends only on the seed, the data and its index.
+enum Stream : std::uint64_t { kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6 };
+
+std::vector<OptionSpec> phase_options() {
+  return {
+      opt::integer("evaluations", 0, "trials in this phase (0 = until the budget is spent)").at_least(0),
+      opt::boolean("random", false, "choose points with the initial-design sampler instead of the acquisition"),
+      opt::component("acquisition", Kind::Acquisition, "", "acquisition of this phase (default: the algorithm's)"),
+      opt::real("epsilon", -1, "probability of a random point instead (default: the algorithm's epsilon)")
+          .at_least(-1)
+          .at_most(1),
+  };
+}
+}  // namespace
+
+std::vector<OptionSpec> options() {
+  return {
+      opt::component("initial_design", Kind::Sampler, "sobol", "sampler of the initial design and random points"),
+      opt::integer("initial_points", -1, "initial design size (-1 = 2·(d+1), capped by the budget)").at_least(-1),
+      opt::component("surrogate", Kind::Surrogate, "gp", "model of the cost"),
+      opt::component("acquisition", Kind::Acquisition, "ei", "selection criterion (maximized)"),
+      opt::component("region", Kind::Region, "box", "where the acquisition may search"),
+      opt::component("acquisition_optimizer", Kind::Optimizer, "multistart", "maximizer of the acquisition"),
+      opt::integer("refit_every", 1, "optimize hyperparameters every k model iterations (else only condition)")
+          .at_least(1),
+      opt::real("epsilon", 0.0, "probability of a random point instead of the acquisition's choice (ε-random)")
+          .at_least(0)
+          .at_most(1),
+      opt::node("phases", "",
+                "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
+                "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
+                "randomize: true}}]; the last phase continues until the budget is spent"),
+  };
+}
+
+BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext& ctx)
+    : dim_(ctx.dim), budget_(ctx.budget), rng_(ctx.seed) {
+  if (dim_ < 1) throw ConfigError("bo: the problem dimension must be at least 1");
+  const Registry& r = *ctx.registry;
+  design_sampler_ = r.create<Sampler>(o.component("initial_design"), ctx);
+  surrogate_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+  region_ = r.create<RegionConstraint>(o.component("region"), ctx);
+  optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
+  std::shared_ptr<Acquisition> default_acq = r.create<Acquisition>(o.component("acquisition"), ctx);
+  const double epsilon = o.real("epsilon");
+  refit_every_ = o.integer("refit_every");
+  const long ip = o.integer("initial_points");
+  initial_points_ = ip >= 0 ? ip : 2 * (dim_ + 1);
+  if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
+
+  if (o.is_set("phases")) {
+    ConfigNode list = o.node("phases");
+    if (!list.is_sequence() || list.size() == 0) list.fail("expected a non-empty list of phases");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      ConfigNode item = list.item(i);
+      if (!item.is_map()) item.fail("expected a map: {evaluations: n, random: bool, acquisition: ..., epsilon: p}");
+      Options po = validate_options(item, phase_options(), fmt::format("phase {}", i + 1), &r, {});
+      Phase p;
+      p.evaluations = po.integer("evaluations");
+      p.random = po.boolean("random");
+      p.epsilon = po.real("epsilon") < 0 ? epsilon : po.real("epsilon");
+      if (p.random && po.given("acquisition")) item.fail("a random phase takes no acquisition");
+      if (!p.random)
+        p.acquisition = po.given("acquisition") ? std::shared_ptr<Acquisition>(r.create<Acquisition>(po.component("acquisition"), ctx))
+                                                : default_acq;
+      p.name = p.random ? "random" : (po.given("acquisition") ? po.component("acquisition").info->name
+                                                              : o.component("acquisition").info->name);
+      if (p.evaluations == 0 && i + 1 < list.size())
+        item.child("evaluations").fail("only the last phase may run until the budget is spent (evaluations: 0)");
+      phases_.push_back(std::move(p));
+    }
+  } else {
+    Phase p;
+    p.acquisition = default_acq;
+    p.epsilon = epsilon;
+    p.name = o.component("acquisition").info->name;
+    phases_.push_back(std::move(p));
+  }
+
+  Rng drng = rng_.stream(kDesign);
+  design_ = initial_points_ > 0 ? design_sampler_->sample(BoxRegion(Box::unit(dim_)), initial_points_, drng)
+                                : Mat(0, dim_);
+  if (ctx.initial_point && design_.rows() > 0) design_.row(0) = ctx.initial_point->transpose();
+  data_ = Dataset::empty(dim_);
+}
+
+const Phase& BayesianOptimization::phase_at(Index evaluation) const {
+  Index start = initial_points_;
+  for (const Phase& p : phases_) {
+    if (p.evaluations == 0 || evaluation < start + p.evaluations) return p;
+    start += p.evaluations;
+  }
+  return phases_.back();
+}
+
+Vec BayesianOptimization::random_point(Rng& rng) const {
+  Mat m = design_sampler_->sample(*region_, 1, rng);
+  if (m.rows() == 0) m = design_sampler_->sample(BoxRegion(Box::unit(dim_)), 1, rng);
+  return m.row(0).transpose();
+}
+
+Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refit) {
+  Suggestion s;
+  if (k < design_.rows()) {
+    s.x = design_.row(k).transpose();
+    s.phase = "initial";
+    return s;
+  }
+  const Phase& phase = phase_at(k);
+  const auto uk = static_cast<std::uint64_t>(k);
+  if (phase.random) {
+    Rng rr = rng_.stream(kRandom, uk);
+    s.x = random_point(rr);
+    s.phase = "random";
+    return s;
+  }
+  if (data.size() < 2) {
+    Rng rr = rng_.stream(kRandom, uk);
+    s.x = random_point(rr);
+    s.phase = "random";
+    log_info("bo: fewer than 2 successful trials; choosing trial {} at random", k);
+    return s;
+  }
+  const auto t_fit = std::chrono::steady_clock::now();
+  FitReport rep;
+  if (refit) {
+    Rng frng = rng_.stream(kFit, uk);
+    rep = (fits_ % refit_every_ == 0 || !model_ready_) ? surrogate_->fit(data, frng) : surrogate_->condition(data);
+    ++fits_;
+    if (!rep.ok) log_warn("bo: surrogate fit at trial {}: {}", k, rep.report());
+    if (rep.ok || surrogate_->ready()) model_ready_ = surrogate_->ready();
+    snapshot_.iteration = k;
+    snapshot_.hyperparameters = surrogate_->hyperparameters();
+    snapshot_.objective = rep.objective;
+    snapshot_.note = rep.ok ? "" : rep.message;
+  } else {
+    rep = surrogate_->condition(data);  // batch: condition on fantasized data, keep hyperparameters
+  }
+  s.fit_seconds = seconds_since(t_fit);
+  if (!model_ready_) {
+    Rng rr = rng_.stream(kRandom, uk);
+    s.x = random_point(rr);
+    s.phase = "random";
+    log_warn("bo: no usable model at trial {}; choosing at random", k);
+    return s;
+  }
+  const auto t_acq = std::chrono::steady_clock::now();
+  Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
+  region_->update(surrogate_.get(), data, region_rng);
+  Rng erng = rng_.stream(kEpsilon, uk);
+  if (phase.epsilon > 0 && erng.uniform() < phase.epsilon) {
+    s.x = random_point(erng);
+    s.phase = "epsilon";
+    s.acquisition_seconds = seconds_since(t_acq);
+    return s;
+  }
+  Rng arng = rng_.stream(kAcquisition, uk);
+  AcquisitionContext actx{surrogate_.get(), &data, k, &arng};
+  phase.acquisition->prepare(actx);
+  AcquisitionFunction f(*phase.acquisition, dim_);
+  Rng orng = rng_.stream(kOptimize, uk * 2);
+  OptimizeResult res = optimizer_->maximize(f, *region_, region_->seeds(), orng);
+  s.acquisition_seconds = seconds_since(t_acq);
+  if (res.x.size() != dim_ || !res.x.allFinite()) {
+    log_warn("bo: acquisition optimization found no point at trial {} ({}); choosing at random", k, res.message);
+    s.x = random_point(orng);
+    s.phase = "random";
+    return s;
+  }
+  s.x = Box::unit(dim_).clamp(res.x);
+  s.phase = phase.name;
+  log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, phase.acquisition->state());
+  return s;
+}
+
+std::vector<Suggestion> BayesianOptimization::ask(Index q) {
+  std::vector<Suggestion> out;
+  // Batches: kriging believer — later points of a batch see the earlier ones as observed at their posterior
+  // mean, with the hyperparameters of the first fit.
+  Dataset fantasy = data_;
+  for (Index j = 0; j < q; ++j) {
+    Suggestion s = suggest(told_ + j, fantasy, j == 0);
+    if (j + 1 < q) {
+      const double believed = model_ready_ ? surrogate_->predict(s.x, false).mean
+                                           : (fantasy.size() ? fantasy.y.mean() : 0.0);
+      fantasy.add(s.x, believed);
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+void BayesianOptimization::tell(const std::vector<Observation>& observations) {
+  for (const Observation& o : observations) {
+    ++told_;
+    if (!o.ok || !std::isfinite(o.cost)) continue;  // failed trials inform no model
+    if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));
+    data_.add(o.x, o.cost);
+  }
+}
+
+std::optional<Vec> BayesianOptimization::recommendation() const {
+  if (data_.size() == 0) return std::nullopt;
+  if (!model_ready_) {
+    Index best;
+    data_.y.minCoeff(&best);
+    return Vec(data_.X.row(best).transpose());
+  }
+  const Incumbent inc = find_incumbent(*surrogate_, data_, 0.0);
+  return Vec(data_.X.row(inc.index).transpose());
+}
+
+std::optional<ModelSnapshot> BayesianOptimization::snapshot() const {
+  if (!model_ready_) return std::nullopt;
+  return snapshot_;
+}
+
+}  // namespace varbo::bo

@@ -1,0 +1,58 @@
+#pragma once
+// Model-based optimization composed from plugins: initial design, surrogate, acquisition, region and
+// acquisition optimizer, with optional phases (random / acquisition with ε-random exploration), as in the
+// experiments of Kuindersma 2013 (section 5) and standard GP-BO (section 2).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "varbo/registry.hpp"
+
+namespace varbo::bo {
+
+/// A stretch of the run: `evaluations` trials chosen at random or by an acquisition (with probability ε at
+/// random instead, Kuindersma 2013, section 3.4.2).
+struct Phase {
+  std::string name;
+  Index evaluations = 0;  ///< 0 = until the budget is spent
+  bool random = false;
+  std::shared_ptr<Acquisition> acquisition;
+  double epsilon = 0;
+};
+
+std::vector<OptionSpec> options();
+
+class BayesianOptimization final : public Algorithm {
+ public:
+  BayesianOptimization(const Options& options, const BuildContext& ctx);
+  std::vector<Suggestion> ask(Index q) override;
+  void tell(const std::vector<Observation>& observations) override;
+  std::optional<Vec> recommendation() const override;
+  const Surrogate* model() const override { return model_ready_ ? surrogate_.get() : nullptr; }
+  std::optional<ModelSnapshot> snapshot() const override;
+  const Dataset& data() const { return data_; }
+
+ private:
+  const Phase& phase_at(Index evaluation) const;
+  Vec random_point(Rng& rng) const;
+  Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
+
+  Index dim_;
+  Index budget_;
+  Rng rng_;
+  std::unique_ptr<Sampler> design_sampler_;
+  std::unique_ptr<Surrogate> surrogate_;
+  std::unique_ptr<RegionConstraint> region_;
+  std::unique_ptr<Optimizer> optimizer_;
+  std::vector<Phase> phases_;
+  Index initial_points_ = 0;
+  Index refit_every_ = 1;
+  Mat design_;
+  Dataset data_;             ///< successful observations
+  Index told_ = 0;           ///< all observations, failed included
+  Index fits_ = 0;
+  bool model_ready_ = false;
+  ModelSnapshot snapshot_;
+};
+
+}  // namespace varbo::bo

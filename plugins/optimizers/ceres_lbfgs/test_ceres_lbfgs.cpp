@@ -1,0 +1,110 @@
+// ceres_lbfgs on functions with known optima.
+#include <cmath>
+#include <limits>
+
+#include "ceres_lbfgs.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+using varbo::ceres_lbfgs::CeresLbfgs;
+
+namespace {
+/// −Rosenbrock in 2-D: maximum 0 at (1, 1).
+double neg_rosenbrock(const Vec& x, Vec* g) {
+  const double a = 1 - x(0), b = x(1) - x(0) * x(0);
+  if (g) {
+    g->resize(2);
+    (*g)(0) = -(-2 * a - 400 * x(0) * b);
+    (*g)(1) = -(200 * b);
+  }
+  return -(a * a + 100 * b * b);
+}
+}  // namespace
+
+TEST_CASE("ceres_lbfgs finds the maximum of −Rosenbrock from the classic start") {
+  FunctionRef f(2, neg_rosenbrock);
+  BoxRegion box(Box::unit(2));
+  Rng rng(1);
+  Mat start(1, 2);
+  start << -1.2, 1.0;
+  const OptimizeResult r = CeresLbfgs().maximize(f, box, start, rng);
+  REQUIRE(r.success);
+  CHECK(r.x(0) == doctest::Approx(1.0).epsilon(1e-4));
+  CHECK(r.x(1) == doctest::Approx(1.0).epsilon(1e-4));
+  CHECK(r.value > -1e-8);
+  CHECK(r.evaluations > 0);
+}
+
+TEST_CASE("ceres_lbfgs: concave quadratic, known optimum, several starts keep the best") {
+  // f(x) = −Σ w_i (x_i − c_i)², maximum 0 at c (outside the unit box: the box is ignored by design).
+  const Vec c = (Vec(3) << 0.3, -2.0, 1.7).finished();
+  const Vec w = (Vec(3) << 1.0, 10.0, 0.1).finished();
+  FunctionRef f(3, [&](const Vec& x, Vec* g) {
+    if (g) *g = -2.0 * (w.array() * (x - c).array()).matrix();
+    return -(w.array() * (x - c).array().square()).sum();
+  });
+  BoxRegion box(Box::unit(3));
+  Rng rng(2);
+  Mat starts = Mat::Zero(2, 3);
+  starts.row(1) << 5, 5, 5;
+  const OptimizeResult r = CeresLbfgs().maximize(f, box, starts, rng);
+  REQUIRE(r.success);
+  CHECK((r.x - c).cwiseAbs().maxCoeff() < 1e-5);
+}
+
+TEST_CASE("ceres_lbfgs without analytic gradient falls back to finite differences") {
+  FunctionRef f(2, [](const Vec& x, Vec*) { return -(x(0) - 0.5) * (x(0) - 0.5) - 3 * (x(1) + 0.25) * (x(1) + 0.25); },
+                /*has_gradient=*/false);
+  BoxRegion box(Box::unit(2));
+  Rng rng(3);
+  const OptimizeResult r = CeresLbfgs().maximize(f, box, Mat(0, 2), rng);  // no start: picks one in the box
+  REQUIRE(r.success);
+  CHECK(r.x(0) == doctest::Approx(0.5).epsilon(1e-4));
+  CHECK(r.x(1) == doctest::Approx(-0.25).epsilon(1e-4));
+}
+
+TEST_CASE("ceres_lbfgs survives non-finite values") {
+  SUBCASE("NaN everywhere: failure reported, no crash") {
+    FunctionRef f(2, [](const Vec&, Vec* g) {
+      if (g) *g = Vec::Zero(2);
+      return std::numeric_limits<double>::quiet_NaN();
+    });
+    BoxRegion box(Box::unit(2));
+    Rng rng(4);
+    const OptimizeResult r = CeresLbfgs().maximize(f, box, Mat::Zero(1, 2), rng);
+    CHECK_FALSE(r.success);
+    CHECK(r.x.size() == 2);
+  }
+  SUBCASE("−inf outside a disc: the line search backs off and still converges") {
+    // f = −|x − (0.2, 0.1)|² inside |x| < 1, −inf outside; start near the edge with a long first step.
+    FunctionRef f(2, [](const Vec& x, Vec* g) {
+      if (x.norm() >= 1.0) return -std::numeric_limits<double>::infinity();
+      const Vec c = (Vec(2) << 0.2, 0.1).finished();
+      if (g) *g = -2.0 * (x - c);
+      return -(x - c).squaredNorm();
+    });
+    BoxRegion box(Box::unit(2));
+    Rng rng(5);
+    Mat start(1, 2);
+    start << -0.9, 0.0;
+    const OptimizeResult r = CeresLbfgs().maximize(f, box, start, rng);
+    REQUIRE(r.success);
+    CHECK(r.x(0) == doctest::Approx(0.2).epsilon(1e-4));
+    CHECK(r.x(1) == doctest::Approx(0.1).epsilon(1e-4));
+  }
+}
+
+TEST_CASE("ceres_lbfgs is registered with its options") {
+  auto& reg = test::registry();
+  const ComponentInfo& info = reg.find(Kind::Optimizer, "ceres_lbfgs");
+  CHECK(info.description.find("IGNORES") != std::string::npos);
+  auto opt = reg.create<Optimizer>("{type: ceres_lbfgs, max_iterations: 50}", BuildContext{});
+  FunctionRef f(2, neg_rosenbrock);
+  BoxRegion box(Box::unit(2));
+  Rng rng(6);
+  Mat start(1, 2);
+  start << 0.0, 0.0;
+  const OptimizeResult r = opt->maximize(f, box, start, rng);
+  CHECK(r.success);
+  CHECK(r.value > neg_rosenbrock(start.row(0).transpose(), nullptr));
+}

@@ -1,0 +1,76 @@
+#include "gp_likelihood.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace varbo::gp {
+
+LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_params, const Mat& X, const Vec& r,
+                                    bool with_gradient) {
+  const Index n = X.rows(), d = X.cols();
+  LogMarginal out;
+  kernels::ArdKernel kernel(type, d);
+  kernel.set_log_params(log_params.head(d + 1));
+  const double noise_var = std::exp(2.0 * log_params(d + 1));
+  Mat K = kernel.matrix(X);
+  K.diagonal().array() += noise_var;
+  RobustCholesky chol = robust_cholesky(K);
+  if (!chol.ok) {
+    out.value = std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
+  out.jitter = chol.jitter;
+  const Vec alpha = chol.llt.solve(r);
+  // R&W eq. (5.8): −½ r'K⁻¹r − ½ log|K| − n/2 log 2π, with ½ log|K| = Σ log L_ii.
+  out.value = -0.5 * r.dot(alpha) - chol.llt.matrixLLT().diagonal().array().log().sum() -
+              0.5 * static_cast<double>(n) * std::log(2.0 * M_PI);
+  out.ok = std::isfinite(out.value);
+  if (!with_gradient || !out.ok) return out;
+  // R&W eq. (5.9): W = αα' − K⁻¹, ∂/∂p_j = ½ tr(W ∂K/∂p_j).
+  Mat W = chol.llt.solve(Mat::Identity(n, n));
+  W = alpha * alpha.transpose() - W;
+  out.gradient.resize(d + 2);
+  out.gradient.head(d + 1) = kernel.contract_gradient(X, W);
+  // ∂K/∂log σ_n = 2σ_n² I (the jitter does not depend on σ_n).
+  out.gradient(d + 1) = noise_var * W.trace();
+  out.ok = out.gradient.allFinite();
+  return out;
+}
+
+double HyperPriors::log_density(const Vec& log_params, Vec* grad) const {
+  const Index d = log_params.size() - 2;
+  if (grad) grad->setZero(log_params.size());
+  if (!enabled) return 0.0;
+  // Kuindersma 2013, eq. (13): Σ_k log N(log ψ_k | μ_k, σ_k²).
+  double total = 0.0;
+  for (Index j = 0; j < d + 2; ++j) {
+    const LogNormalPrior& prior = j < d ? lengthscale : (j == d ? signal_std : noise_std);
+    double dj = 0.0;
+    total += prior.log_density(log_params(j), grad ? &dj : nullptr);
+    if (grad) (*grad)(j) = dj;
+  }
+  return total;
+}
+
+LogPosterior::LogPosterior(kernels::KernelType type, Mat X, Vec r, HyperPriors priors, Box box)
+    : type_(type), X_(std::move(X)), r_(std::move(r)), priors_(priors), box_(std::move(box)) {}
+
+double LogPosterior::value(const Vec& p, Vec* grad) const {
+  if (!p.allFinite()) return std::numeric_limits<double>::quiet_NaN();
+  const LogMarginal lml = log_marginal_likelihood(type_, p, X_, r_, grad != nullptr);
+  if (!lml.ok) return std::numeric_limits<double>::quiet_NaN();
+  Vec prior_grad;
+  double v = lml.value + priors_.log_density(p, grad ? &prior_grad : nullptr);
+  if (grad) *grad = lml.gradient + prior_grad;
+  // Outside the box: −½ c · excess², c large enough to dominate the likelihood's slope there.
+  constexpr double c = 1e3;
+  for (Index j = 0; j < p.size(); ++j) {
+    const double excess = p(j) < box_.lower(j) ? p(j) - box_.lower(j) : (p(j) > box_.upper(j) ? p(j) - box_.upper(j) : 0.0);
+    if (excess == 0.0) continue;
+    v -= 0.5 * c * excess * excess;
+    if (grad) (*grad)(j) -= c * excess;
+  }
+  return v;
+}
+
+}  // namespace varbo::gp

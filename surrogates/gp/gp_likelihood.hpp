@@ -1,0 +1,49 @@
+#pragma once
+// The exact-GP log marginal likelihood over log-hyperparameters, its gradient, and the log-normal
+// hyperprior of Kuindersma 2013, eq. (13). Parameter vector (standardized cost units, unit cube):
+//   p = [log ℓ_1, ..., log ℓ_D, log σ_f, log σ_n]
+#include "kernel.hpp"
+#include "varbo/function.hpp"
+#include "varbo/math.hpp"
+
+namespace varbo::gp {
+
+struct LogMarginal {
+  bool ok = false;
+  double value = 0;   ///< log N(r | 0, K + σ_n² I)
+  Vec gradient;       ///< d value / d p (filled when asked)
+  double jitter = 0;  ///< added to the diagonal by robust_cholesky
+};
+
+/// log p(r | X, p) for centred targets r = y − m (Rasmussen & Williams eq. (5.8)), and its gradient
+/// ∂/∂p_j = ½ tr((αα' − K⁻¹) ∂K/∂p_j) (R&W eq. (5.9)) computed once through kernel.contract_gradient.
+LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_params, const Mat& X, const Vec& r,
+                                    bool with_gradient);
+
+/// Independent log-normal priors on ℓ_d, σ_f, σ_n (Kuindersma 2013, eq. (13)), in standardized units.
+struct HyperPriors {
+  bool enabled = true;
+  LogNormalPrior lengthscale{std::log(0.5), 1.0};
+  LogNormalPrior signal_std{0.0, 1.0};
+  LogNormalPrior noise_std{std::log(1e-2), 1.5};
+  /// Σ_k log N(log ψ_k | μ_k, s_k²); 0 with zero gradient when disabled.
+  double log_density(const Vec& log_params, Vec* grad) const;
+};
+
+/// The fit objective: log marginal likelihood + log hyperprior − a quadratic penalty outside `box`
+/// (so that optimizers that ignore the box, like ceres_lbfgs, are still pulled back to it). Thread-safe.
+class LogPosterior final : public DifferentiableFunction {
+ public:
+  LogPosterior(kernels::KernelType type, Mat X, Vec r, HyperPriors priors, Box box);
+  Index dim() const override { return X_.cols() + 2; }
+  double value(const Vec& p, Vec* grad) const override;
+
+ private:
+  kernels::KernelType type_;
+  Mat X_;
+  Vec r_;
+  HyperPriors priors_;
+  Box box_;
+};
+
+}  // namespace varbo::gp

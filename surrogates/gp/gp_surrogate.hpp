@@ -1,0 +1,80 @@
+#pragma once
+// Homoscedastic GP surrogate: constant mean, standardized costs, ARD kernel, Gaussian noise;
+// hyperparameters by maximum a posteriori (log marginal likelihood + log-normal hyperpriors,
+// Kuindersma 2013 eq. (13)) with parallel random restarts of a pluggable Optimizer.
+#include <memory>
+#include <optional>
+
+#include "gp_likelihood.hpp"
+#include "kernel.hpp"
+#include "varbo/optimizer.hpp"
+#include "varbo/surrogate.hpp"
+
+namespace varbo::gp {
+
+struct GpSettings {
+  kernels::KernelType kernel = kernels::KernelType::Matern52;
+  int restarts = 4;            ///< optimizer runs per fit, the first warm-started from the previous fit
+  HyperPriors priors;          ///< on ℓ (unit cube) and σ_f, σ_n relative to the standard deviation of y
+  // Box of the fit in natural units; σ bounds are relative to the standard deviation of y.
+  double min_lengthscale = 0.01, max_lengthscale = 50.0;
+  double min_signal_std = 0.05, max_signal_std = 20.0;
+  double min_noise_std = 1e-4, max_noise_std = 2.0;
+};
+
+class GpSurrogate final : public Surrogate {
+ public:
+  GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const Optimizer> fit_optimizer);
+
+  FitReport fit(const Dataset& data, Rng& rng) override;
+  FitReport condition(const Dataset& data) override;
+  Prediction predict(const Vec& x, bool with_gradient) const override;
+  double signal_variance() const override;
+  Hyperparameters hyperparameters() const override;
+  void set_hyperparameters(const Hyperparameters& values) override;
+  bool ready() const override { return posterior_.has_value(); }
+
+  const GpSettings& settings() const { return settings_; }
+  /// Fit box in standardized log space: [log ℓ_1..D, log σ_f, log σ_n].
+  Box log_box(Index dim) const;
+  /// Current log-parameters in standardized units for data with standard deviation `y_scale`.
+  Vec log_params(double y_scale) const;
+
+ private:
+  struct Standardization {
+    double shift = 0;  ///< cost = shift + scale · standardized
+    double scale = 1;
+  };
+  /// The conditioned model, all in standardized units.
+  struct Posterior {
+    kernels::ArdKernel kernel;
+    double noise_var = 0;
+    double mean = 0;             ///< constant prior mean (standardized)
+    Mat X;
+    Vec alpha;                   ///< (K + σ_n² I)⁻¹ (y − m)
+    Eigen::LLT<Mat> llt;
+    double log_likelihood = 0;   ///< log N(y_std | m, K + σ_n² I)
+    double jitter = 0;
+    Standardization stdz;
+  };
+
+  static Standardization standardization(const Vec& y);
+  double mean_standardized(const Standardization& s) const;
+  /// Builds the posterior for log-params p; nullopt when the Cholesky fails even with jitter.
+  std::optional<Posterior> build(const Dataset& data, const Standardization& s, const Vec& p) const;
+  void store_natural(const Vec& p, const Standardization& s);
+  FitReport report_for(const Posterior& post, const Vec& p) const;
+  void ensure_dim(Index d);
+
+  Index dim_;
+  GpSettings settings_;
+  std::shared_ptr<const Optimizer> optimizer_;
+  // Hyperparameters in natural units (unit cube, cost units): the state that survives between fits.
+  Vec log_lengthscale_;
+  double log_signal_std_ = 0, log_noise_std_ = 0, mean_ = 0;
+  bool signal_known_ = false, noise_known_ = false, mean_fixed_ = false;
+  std::optional<Posterior> posterior_;
+  std::optional<Dataset> data_;
+};
+
+}  // namespace varbo::gp

@@ -1,0 +1,378 @@
+// GP surrogate: likelihood, gradients, hand-computed predictions, fitting behaviour.
+#include <Eigen/Cholesky>
+#include <Eigen/LU>
+#include <cmath>
+
+#include "ceres_lbfgs.hpp"
+#include "gp_component.hpp"
+#include "gp_likelihood.hpp"
+#include "gp_surrogate.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/parallel.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+using namespace varbo::gp;
+using kernels::KernelType;
+
+namespace {
+
+Mat random_points(Index n, Index d, Rng& rng) {
+  Mat X(n, d);
+  for (Index i = 0; i < n; ++i) X.row(i) = rng.uniform_vec(d).transpose();
+  return X;
+}
+
+Dataset branin_like(Index n, std::uint64_t seed) {
+  Rng rng(seed);
+  Dataset data{random_points(n, 2, rng), Vec(n)};
+  for (Index i = 0; i < n; ++i) {
+    const double a = 15 * data.X(i, 0) - 5, b = 15 * data.X(i, 1);
+    data.y(i) = std::pow(b - 5.1 / (4 * M_PI * M_PI) * a * a + 5 / M_PI * a - 6, 2) +
+                10 * (1 - 1 / (8 * M_PI)) * std::cos(a) + 10;
+  }
+  return data;
+}
+
+std::shared_ptr<const Optimizer> lbfgs() { return std::make_shared<ceres_lbfgs::CeresLbfgs>(); }
+
+GpSettings settings_for(KernelType type, int restarts = 4) {
+  GpSettings s;
+  s.kernel = type;
+  s.restarts = restarts;
+  return s;
+}
+
+double hp(const Surrogate& s, const std::string& name) {
+  for (const auto& h : s.hyperparameters())
+    if (h.name == name) return h.value;
+  FAIL("no hyperparameter " << name);
+  return 0;
+}
+
+/// An optimizer that always fails (to test the failure path).
+class FailingOptimizer final : public Optimizer {
+ public:
+  OptimizeResult maximize(const DifferentiableFunction&, const RegionConstraint&, const Mat& starts,
+                          Rng&) const override {
+    OptimizeResult r;
+    r.x = starts.row(0).transpose();
+    r.success = false;
+    return r;
+  }
+};
+
+const KernelType kTypes[] = {KernelType::SquaredExponential, KernelType::Matern52};
+
+}  // namespace
+
+TEST_CASE("log marginal likelihood equals log N(y | 0, K + σ²I) computed directly") {
+  // Direct route: the SE kernel written out entry by entry, log-determinant from a full-pivot LU,
+  // quadratic form from an explicit inverse. Tolerance 1e-10 relative.
+  Rng rng(1);
+  const Index n = 9, d = 2;
+  const Mat X = random_points(n, d, rng);
+  const Vec r = rng.normal_vec(n);
+  const double l0 = 0.3, l1 = 0.7, sf = 1.4, sn = 0.2;
+  Mat S(n, n);
+  for (Index i = 0; i < n; ++i)
+    for (Index j = 0; j < n; ++j) {
+      const double q = std::pow((X(i, 0) - X(j, 0)) / l0, 2) + std::pow((X(i, 1) - X(j, 1)) / l1, 2);
+      S(i, j) = sf * sf * std::exp(-0.5 * q) + (i == j ? sn * sn : 0.0);
+    }
+  const Eigen::FullPivLU<Mat> lu(S);
+  const double direct = -0.5 * r.dot(lu.inverse() * r) - 0.5 * std::log(lu.determinant()) -
+                        0.5 * static_cast<double>(n) * std::log(2 * M_PI);
+  Vec p(4);
+  p << std::log(l0), std::log(l1), std::log(sf), std::log(sn);
+  const LogMarginal lml = log_marginal_likelihood(KernelType::SquaredExponential, p, X, r, false);
+  REQUIRE(lml.ok);
+  CHECK(lml.jitter == 0.0);
+  CHECK(lml.value == doctest::Approx(direct).epsilon(1e-10));
+}
+
+TEST_CASE("log marginal likelihood gradient w.r.t. every log-hyperparameter matches finite differences") {
+  // check_gradient: central differences h = 1e-6; tolerance 1e-6 relative (floor 1e-8).
+  for (KernelType type : kTypes) {
+    CAPTURE(kernels::kernel_type_name(type));
+    Rng rng(2);
+    const Index n = 20, d = 3;
+    const Mat X = random_points(n, d, rng);
+    const Vec r = rng.normal_vec(n);
+    FunctionRef f(d + 2, [&](const Vec& p, Vec* g) {
+      const LogMarginal l = log_marginal_likelihood(type, p, X, r, g != nullptr);
+      if (g) *g = l.gradient;
+      return l.value;
+    });
+    Vec p(d + 2);
+    p << std::log(0.3), std::log(0.5), std::log(1.2), std::log(0.9), std::log(0.1);
+    const GradientCheck c = check_gradient(f, p);
+    MESSAGE(kernels::kernel_type_name(type) << " LML gradient max relative error " << c.max_rel_error);
+    CAPTURE(c.analytic.transpose());
+    CAPTURE(c.numeric.transpose());
+    CHECK(c.max_rel_error < 1e-6);
+  }
+}
+
+TEST_CASE("hyperprior: value is Σ log N(log ψ | μ, s²) and its gradient matches finite differences") {
+  HyperPriors pr;
+  pr.lengthscale = {std::log(0.5), 1.0};
+  pr.signal_std = {0.0, 0.8};
+  pr.noise_std = {std::log(0.01), 1.5};
+  Vec p(4);
+  p << -1.0, 0.2, 0.3, -3.0;
+  auto lnn = [](double x, double m, double s) {
+    return -0.5 * std::pow((x - m) / s, 2) - std::log(s) - 0.5 * std::log(2 * M_PI);
+  };
+  const double expected = lnn(-1.0, std::log(0.5), 1.0) + lnn(0.2, std::log(0.5), 1.0) + lnn(0.3, 0.0, 0.8) +
+                          lnn(-3.0, std::log(0.01), 1.5);
+  CHECK(pr.log_density(p, nullptr) == doctest::Approx(expected).epsilon(1e-14));
+  FunctionRef f(4, [&](const Vec& x, Vec* g) { return pr.log_density(x, g); });
+  CHECK(check_gradient(f, p).max_rel_error < 1e-6);
+  pr.enabled = false;
+  Vec g;
+  CHECK(pr.log_density(p, &g) == 0.0);
+  CHECK(g.cwiseAbs().maxCoeff() == 0.0);
+}
+
+TEST_CASE("fit objective (likelihood + prior − box penalty) gradient matches finite differences") {
+  Rng rng(3);
+  const Index n = 15, d = 2;
+  const Mat X = random_points(n, d, rng);
+  const Vec r = rng.normal_vec(n);
+  GpSurrogate gp(d, settings_for(KernelType::Matern52), lbfgs());
+  const Box box = gp.log_box(d);
+  const LogPosterior f(KernelType::Matern52, X, r, gp.settings().priors, box);
+  Vec inside(4), outside(4);
+  inside << std::log(0.2), std::log(0.6), 0.1, std::log(0.05);
+  outside << std::log(0.2), std::log(80.0), 0.1, std::log(1e-5);  // two coordinates beyond the box
+  for (const Vec& p : {inside, outside}) {
+    const GradientCheck c = check_gradient(f, p);
+    CAPTURE(p.transpose());
+    CHECK(c.max_rel_error < 1e-6);
+  }
+  CHECK(f.value(outside, nullptr) < f.value(box.upper.cwiseMin(box.lower.cwiseMax(outside)), nullptr));
+}
+
+TEST_CASE("hand-computed 3-point posterior") {
+  // 1-D SE kernel, natural hyperparameters ℓ = 0.4, σ_f = 1.3, σ_n = 0.1, fixed mean m = 0.5.
+  // Posterior (R&W eq. 2.25–2.26): μ(x) = m + k'S⁻¹(y − m), c²(x) = σ_f² − k'S⁻¹k, S = K + σ_n² I,
+  // with S⁻¹ written out by cofactors below — independent of the implementation's Cholesky and standardization.
+  const double ell = 0.4, sf = 1.3, sn = 0.1, m = 0.5;
+  const double xs[3] = {0.0, 0.5, 1.0}, ys[3] = {1.0, 2.0, 0.0};
+  auto k = [&](double a, double b) { return sf * sf * std::exp(-0.5 * (a - b) * (a - b) / (ell * ell)); };
+  double S[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) S[i][j] = k(xs[i], xs[j]) + (i == j ? sn * sn : 0.0);
+  // Cofactor inverse of a symmetric 3×3 matrix.
+  double C[3][3];
+  C[0][0] = S[1][1] * S[2][2] - S[1][2] * S[2][1];
+  C[0][1] = -(S[1][0] * S[2][2] - S[1][2] * S[2][0]);
+  C[0][2] = S[1][0] * S[2][1] - S[1][1] * S[2][0];
+  C[1][1] = S[0][0] * S[2][2] - S[0][2] * S[2][0];
+  C[1][2] = -(S[0][0] * S[2][1] - S[0][1] * S[2][0]);
+  C[2][2] = S[0][0] * S[1][1] - S[0][1] * S[1][0];
+  C[1][0] = C[0][1];
+  C[2][0] = C[0][2];
+  C[2][1] = C[1][2];
+  const double det = S[0][0] * C[0][0] + S[0][1] * C[0][1] + S[0][2] * C[0][2];
+  double Sinv[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) Sinv[i][j] = C[i][j] / det;
+  const double x = 0.3;
+  double kx[3], a[3] = {0, 0, 0}, b[3] = {0, 0, 0};
+  for (int i = 0; i < 3; ++i) kx[i] = k(x, xs[i]);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      a[i] += Sinv[i][j] * (ys[j] - m);
+      b[i] += Sinv[i][j] * kx[j];
+    }
+  double mean = m, var = sf * sf, quad = 0;
+  for (int i = 0; i < 3; ++i) {
+    mean += kx[i] * a[i];
+    var -= kx[i] * b[i];
+    quad += (ys[i] - m) * a[i];
+  }
+  const double lml = -0.5 * quad - 0.5 * std::log(det) - 1.5 * std::log(2 * M_PI);
+
+  GpSurrogate gp(1, settings_for(KernelType::SquaredExponential), lbfgs());
+  gp.set_hyperparameters({{"lengthscale[0]", ell}, {"signal_std", sf}, {"noise_std", sn}, {"mean", m}});
+  Dataset data{Mat(3, 1), Vec(3)};
+  for (int i = 0; i < 3; ++i) {
+    data.X(i, 0) = xs[i];
+    data.y(i) = ys[i];
+  }
+  const FitReport rep = gp.condition(data);
+  REQUIRE(rep.ok);
+  CHECK_FALSE(rep.optimized);
+  CHECK(rep.log_likelihood == doctest::Approx(lml).epsilon(1e-10));
+  const Prediction pr = gp.predict(Vec::Constant(1, x), true);
+  CHECK(pr.mean == doctest::Approx(mean).epsilon(1e-10));
+  CHECK(pr.latent_var == doctest::Approx(var).epsilon(1e-9));
+  CHECK(pr.noise_var() == doctest::Approx(sn * sn).epsilon(1e-12));
+  CHECK(pr.log_noise_var == 0.0);
+  CHECK(gp.signal_variance() == doctest::Approx(sf * sf).epsilon(1e-12));
+  CHECK(hp(gp, "lengthscale[0]") == doctest::Approx(ell).epsilon(1e-12));
+  CHECK(hp(gp, "noise_std") == doctest::Approx(sn).epsilon(1e-12));
+  CHECK(hp(gp, "mean") == doctest::Approx(m).epsilon(1e-12));
+  MESSAGE("3-point case: mean " << pr.mean << " (hand " << mean << "), latent var " << pr.latent_var << " (hand "
+                                << var << ")");
+}
+
+TEST_CASE("predictive mean and latent variance gradients w.r.t. x match finite differences") {
+  // Tolerance 1e-6 relative with floor 1e-8 (check_gradient, h = 1e-6).
+  for (KernelType type : kTypes) {
+    CAPTURE(kernels::kernel_type_name(type));
+    const Dataset data = branin_like(25, 4);
+    GpSurrogate gp(2, settings_for(type), lbfgs());
+    Rng rng(5);
+    REQUIRE(gp.fit(data, rng).ok);
+    Rng pts(6);
+    for (int t = 0; t < 5; ++t) {
+      const Vec x = pts.uniform_vec(2);
+      FunctionRef mean(2, [&](const Vec& z, Vec* g) {
+        const Prediction p = gp.predict(z, g != nullptr);
+        if (g) *g = p.d_mean;
+        return p.mean;
+      });
+      FunctionRef var(2, [&](const Vec& z, Vec* g) {
+        const Prediction p = gp.predict(z, g != nullptr);
+        if (g) *g = p.d_latent_var;
+        return p.latent_var;
+      });
+      const GradientCheck cm = check_gradient(mean, x), cv = check_gradient(var, x);
+      CAPTURE(x.transpose());
+      CHECK(cm.max_rel_error < 1e-6);
+      CHECK(cv.max_rel_error < 1e-5);
+      const Prediction p = gp.predict(x, true);
+      CHECK(p.d_log_noise_mean.size() == 2);
+      CHECK(p.d_log_noise_var.cwiseAbs().maxCoeff() == 0.0);
+    }
+  }
+}
+
+TEST_CASE("fit recovers the lengthscales of data drawn from the prior") {
+  // y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, 0.05²) at 150 uniform points, shifted by 10.
+  Rng rng(7);
+  const Index n = 150;
+  const Mat X = random_points(n, 2, rng);
+  kernels::ArdKernel k(KernelType::SquaredExponential, 2);
+  k.set_log_params((Vec(3) << std::log(0.15), std::log(0.6), std::log(2.0)).finished());
+  Mat K = k.matrix(X);
+  K.diagonal().array() += 1e-10;
+  const Vec f = K.llt().matrixL() * rng.normal_vec(n);
+  const Dataset data{X, (f + 0.05 * rng.normal_vec(n)).array() + 10.0};
+  GpSurrogate gp(2, settings_for(KernelType::SquaredExponential), lbfgs());
+  Rng fit_rng(8);
+  const FitReport rep = gp.fit(data, fit_rng);
+  REQUIRE(rep.ok);
+  CHECK(rep.optimized);
+  const double l0 = hp(gp, "lengthscale[0]"), l1 = hp(gp, "lengthscale[1]");
+  MESSAGE("fitted ℓ = (" << l0 << ", " << l1 << "), σ_f = " << hp(gp, "signal_std") << ", σ_n = "
+                         << hp(gp, "noise_std") << "; true (0.15, 0.6), 2, 0.05");
+  CHECK(l0 == doctest::Approx(0.15).epsilon(0.3));
+  CHECK(l1 == doctest::Approx(0.6).epsilon(0.5));
+  CHECK(hp(gp, "noise_std") == doctest::Approx(0.05).epsilon(0.5));
+  CHECK(std::isfinite(rep.objective));
+  CHECK(rep.objective == doctest::Approx(rep.log_likelihood + rep.log_prior));
+}
+
+TEST_CASE("fit is identical with 1 and 2 threads") {
+  const Dataset data = branin_like(40, 9);
+  Hyperparameters h[2];
+  double objective[2];
+  for (int t = 0; t < 2; ++t) {
+    ThreadLimit limit(t + 1);
+    GpSurrogate gp(2, settings_for(KernelType::Matern52, 6), lbfgs());
+    Rng rng(10);
+    objective[t] = gp.fit(data, rng).objective;
+    h[t] = gp.hyperparameters();
+  }
+  CHECK(objective[0] == objective[1]);
+  REQUIRE(h[0].size() == h[1].size());
+  for (std::size_t i = 0; i < h[0].size(); ++i) {
+    CAPTURE(h[0][i].name);
+    CHECK(h[0][i].value == h[1][i].value);
+  }
+}
+
+TEST_CASE("degenerate data: duplicated points and constant costs survive") {
+  for (KernelType type : kTypes) {
+    CAPTURE(kernels::kernel_type_name(type));
+    Dataset data{Mat(6, 2), Vec::Constant(6, 3.5)};
+    for (Index i = 0; i < 6; ++i) data.X.row(i) << 0.25, 0.75;  // all the same point
+    GpSurrogate gp(2, settings_for(type), lbfgs());
+    Rng rng(11);
+    const FitReport rep = gp.fit(data, rng);
+    CHECK(gp.ready());
+    CHECK(std::isfinite(rep.objective));
+    const Prediction p = gp.predict(Vec::Constant(2, 0.25), true);
+    CHECK(p.mean == doctest::Approx(3.5).epsilon(1e-6));
+    CHECK(std::isfinite(p.latent_var));
+    CHECK(p.latent_var >= 0.0);
+    CHECK(p.d_mean.allFinite());
+    CHECK(p.d_latent_var.allFinite());
+    // Duplicates with different costs as well.
+    data.y << 1, 2, 3, 1, 2, 3;
+    CHECK(std::isfinite(gp.fit(data, rng).objective));
+    CHECK(std::isfinite(gp.predict(Vec::Constant(2, 0.9), false).mean));
+  }
+  SUBCASE("no data and a single point") {
+    GpSurrogate gp(2, settings_for(KernelType::Matern52), lbfgs());
+    Rng rng(12);
+    gp.fit(Dataset::empty(2), rng);
+    CHECK(std::isfinite(gp.predict(Vec::Constant(2, 0.5), true).latent_var));
+    Dataset one = Dataset::empty(2);
+    one.add(Vec::Constant(2, 0.5), 7.0);
+    CHECK(gp.fit(one, rng).ok);
+    CHECK(gp.predict(Vec::Constant(2, 0.5), false).mean == doctest::Approx(7.0).epsilon(1e-3));
+  }
+}
+
+TEST_CASE("all restarts failing keeps the previous hyperparameters and reports ok = false") {
+  const Dataset data = branin_like(20, 13);
+  GpSurrogate gp(2, settings_for(KernelType::Matern52, 3), std::make_shared<FailingOptimizer>());
+  gp.set_hyperparameters({{"lengthscale[0]", 0.3}, {"lengthscale[1]", 0.4}, {"signal_std", 50.0}});
+  Rng rng(14);
+  const FitReport rep = gp.fit(data, rng);
+  CHECK_FALSE(rep.ok);
+  CHECK(rep.restarts_failed == 3);
+  CHECK(gp.ready());  // conditioned with the kept hyperparameters
+  CHECK(hp(gp, "lengthscale[0]") == doctest::Approx(0.3));
+  CHECK(hp(gp, "signal_std") == doctest::Approx(50.0));
+}
+
+TEST_CASE("set_hyperparameters rejects unknown names and non-positive scales") {
+  GpSurrogate gp(2, settings_for(KernelType::Matern52), lbfgs());
+  CHECK_THROWS_AS(gp.set_hyperparameters({{"lengthscale[2]", 0.3}}), ConfigError);
+  CHECK_THROWS_AS(gp.set_hyperparameters({{"noise_std", -1.0}}), ConfigError);
+  CHECK_NOTHROW(gp.set_hyperparameters({{"mean", -4.0}}));
+}
+
+TEST_CASE("gp component: options, hyperparameters map, errors with positions") {
+  auto& reg = test::registry();
+  BuildContext ctx;
+  ctx.dim = 2;
+  auto gp = reg.create<Surrogate>(
+      "{type: gp, kernel: se_ard, restarts: 2, hyperparameters: {lengthscale: [0.2, 0.3], noise_std: 0.05}}", ctx);
+  CHECK(hp(*gp, "lengthscale[1]") == doctest::Approx(0.3));
+  CHECK(hp(*gp, "noise_std") == doctest::Approx(0.05));
+  const Dataset data = branin_like(15, 15);
+  Rng rng(16);
+  const FitReport rep = gp->fit(data, rng);
+  CHECK(rep.ok);
+  CHECK(rep.restarts == 2);
+  const auto& info = reg.find(Kind::Surrogate, "gp");
+  CHECK(info.provides == std::vector<std::string>{"surrogate:latent_variance"});
+  CHECK_THROWS_AS(reg.create<Surrogate>("{type: gp, hyperparameters: {lengthscale: -1}}", ctx), ConfigError);
+  CHECK_THROWS_AS(reg.create<Surrogate>("{type: gp, hyperparameters: {lenghtscale: 1}}", ctx), ConfigError);
+  CHECK_THROWS_AS(reg.create<Surrogate>("{type: gp, min_noise_std: 0.5, max_noise_std: 0.1}", ctx), ConfigError);
+  CHECK_THROWS_AS(reg.create<Surrogate>("{type: gp, kernel: rbf}", ctx), ConfigError);
+  try {
+    reg.create<Surrogate>("{type: gp, hyperparameters: {lengthscale: [1, 2, 3]}}", ctx);
+    FAIL("expected a ConfigError");
+  } catch (const ConfigError& e) {
+    CHECK(std::string(e.what()).find("expected 2 lengthscales") != std::string::npos);
+    CHECK(std::string(e.what()).find(":1:") != std::string::npos);  // file:line:col
+  }
+}

@@ -1,0 +1,25 @@
+#pragma once
+// A quick homoscedastic GP fit used to initialize the VHGP: the authors' driver first fits
+// y ~ GP(0, k_f + σ_n² δ) and starts the VHGP from its k_f hyperparameters and noise level (vhgp.md, section 8).
+#include "varbo/optimizer.hpp"
+#include "vhgp_objective.hpp"
+
+namespace varbo::vhgp {
+
+struct HomoscedasticFit {
+  bool ok = false;
+  Vec theta_f;               ///< [log ℓ ; log σ_f]
+  double log_noise_var = 0;  ///< log σ_n²
+  double log_likelihood = 0;
+};
+
+/// log N(y | 0, K_f + σ_n² I) and its gradient over [θ_f ; log σ_n] (Rasmussen & Williams eq. 5.8–5.9).
+double homoscedastic_log_likelihood(const Mat& X, const Vec& y, KernelType type, double jitter, const Vec& x,
+                                    Vec* grad);
+
+/// Maximizes the homoscedastic likelihood (+ the f and μ0 hyperpriors when enabled) from the authors' start:
+/// ℓ = ½ (half the unit range), σ_f² = var(y), σ_n² = var(y)/4.
+HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, double jitter,
+                                   const VhgpHyperprior& prior, const Optimizer& optimizer, Rng& rng);
+
+}  // namespace varbo::vhgp

@@ -1,0 +1,118 @@
+// The `vhgp` plugin: registers the variational heteroscedastic GP surrogate (Kuindersma 2013, section 2.2).
+#include <cmath>
+#include <string>
+
+#include "kernel.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/plugin.hpp"
+#include "vhgp_surrogate.hpp"
+
+namespace {
+
+using varbo::ConfigNode;
+using varbo::Options;
+
+double number(const ConfigNode& n) {
+  if (!n.is_scalar()) n.fail("expected a number");
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(n.scalar(), &used);
+    if (used != n.scalar().size() || !std::isfinite(v)) throw std::invalid_argument("x");
+    return v;
+  } catch (const std::exception&) {
+    n.fail("expected a finite number, got '" + n.scalar() + "'");
+  }
+}
+
+/// `hyperparameters: {lengthscale_f: [0.2, 0.3] | 0.2, signal_std_f: 1.5, lengthscale_g: ..., mu0: -4}`
+varbo::Hyperparameters parse_hyperparameters(const ConfigNode& node) {
+  if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
+  varbo::Hyperparameters h;
+  for (const auto& key : node.keys()) {
+    const ConfigNode v = node.child(key);
+    if (v.is_sequence()) {
+      for (std::size_t i = 0; i < v.size(); ++i) h.push_back({key + "[" + std::to_string(i) + "]", number(v.item(i))});
+    } else {
+      h.push_back({key, number(v)});
+    }
+  }
+  return h;
+}
+
+varbo::LogNormalPrior prior_from(const Options& o, const std::string& name, bool median_is_positive) {
+  const std::vector<double> v = o.reals(name);
+  if (v.size() != 2 || !(v[1] > 0) || (median_is_positive && !(v[0] > 0)))
+    o.node(name).fail(median_is_positive ? "expected [median, sd of its log] with both > 0"
+                                         : "expected [mean, sd] with sd > 0");
+  return varbo::LogNormalPrior{median_is_positive ? std::log(v[0]) : v[0], v[1]};
+}
+
+std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::BuildContext& ctx) {
+  using namespace varbo::vhgp;
+  VhgpConfig c;
+  c.kernels.f = varbo::kernels::parse_kernel_type(o.str("kernel_f"));
+  c.kernels.g = varbo::kernels::parse_kernel_type(o.str("kernel_g"));
+  c.kernels.jitter = o.real("jitter");
+  c.restarts = static_cast<int>(o.integer("restarts"));
+  c.standardize = o.boolean("standardize");
+  c.warm_start = o.boolean("warm_start");
+  c.lambda_warmup = o.boolean("lambda_warmup");
+  c.prior.enabled = o.boolean("hyperpriors");
+  c.prior.lengthscale_f = prior_from(o, "prior_lengthscale_f", true);
+  c.prior.lengthscale_g = prior_from(o, "prior_lengthscale_g", true);
+  c.prior.signal_f = prior_from(o, "prior_signal_std_f", true);
+  c.prior.signal_g = prior_from(o, "prior_signal_std_g", true);
+  c.prior.mu0 = prior_from(o, "prior_mu0", false);
+  if (ctx.registry == nullptr) throw varbo::ConfigError("vhgp: no registry to create the fit optimizer");
+  std::shared_ptr<const varbo::Optimizer> optimizer =
+      ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);
+  auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer));
+  if (o.is_set("hyperparameters")) {
+    const ConfigNode node = o.node("hyperparameters");
+    try {
+      model->set_hyperparameters(parse_hyperparameters(node));
+    } catch (const varbo::ConfigError& e) {
+      node.fail(e.what());
+    }
+  }
+  if (o.is_set("log_lambda")) {
+    const std::vector<double> v = o.reals("log_lambda");
+    model->set_state("log_lambda", Eigen::Map<const varbo::Vec>(v.data(), static_cast<varbo::Index>(v.size())));
+  }
+  return model;
+}
+
+}  // namespace
+
+VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-Gredilla & Titsias 2011)") {
+  using varbo::Kind;
+  namespace opt = varbo::opt;
+  registry.add(varbo::make_component<varbo::Surrogate>(
+      "vhgp",
+      "Variational heteroscedastic GP: cost GP f and log-noise GP g, marginal variational bound maximized jointly "
+      "over log Lambda and hyperparameters with restarts (Kuindersma 2013, eq. 6-7, 13)",
+      {
+          opt::choice("kernel_f", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the cost GP f"),
+          opt::choice("kernel_g", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the log-noise GP g"),
+          opt::real("jitter", 1e-6, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
+                                    "(as GPML covSEisoj); 0 for none")
+              .at_least(0)
+              .at_most(1),
+          opt::integer("restarts", 8, "optimizer starts per fit (warm start, GP initialization, random)").at_least(1),
+          opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
+          opt::boolean("hyperpriors", true, "add independent log-normal hyperpriors to the bound (eq. 13)"),
+          opt::reals("prior_lengthscale_f", "[1.0, 1.6]", "[median, sd of log] of the f lengthscales (unit cube)"),
+          opt::reals("prior_lengthscale_g", "[1.0, 1.6]", "[median, sd of log] of the g lengthscales (unit cube)"),
+          opt::reals("prior_signal_std_f", "[1.0, 1.0]", "[median, sd of log] of sigma_f (standardized costs)"),
+          opt::reals("prior_signal_std_g", "[1.0, 1.0]", "[median, sd of log] of sigma_g"),
+          opt::reals("prior_mu0", "[-2.302585, 2.0]", "[mean, sd] of mu0, the log noise variance (standardized)"),
+          opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
+          opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
+          opt::boolean("lambda_warmup", true, "optimize log Lambda alone before each joint optimization"),
+          opt::node("hyperparameters", "",
+                    "initial hyperparameters in cost units: {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
+                    "signal_std_g, mu0}"),
+          opt::reals("log_lambda", "", "initial variational parameters log Lambda, one per data point"),
+      },
+      varbo::Factory<varbo::Surrogate>(make_vhgp), {"surrogate:latent_variance"}));
+}

@@ -1,0 +1,32 @@
+#include "vhgp_params.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace varbo::vhgp {
+
+Vec VhgpParams::pack() const {
+  Vec v(size());
+  v << log_lambda, theta_f, theta_g, mu0;
+  return v;
+}
+
+VhgpParams VhgpParams::unpack(const Vec& v, Index n, Index dim) {
+  if (v.size() != n + 2 * (dim + 1) + 1)
+    throw std::invalid_argument("VhgpParams::unpack: expected " + std::to_string(n + 2 * (dim + 1) + 1) +
+                                " values, got " + std::to_string(v.size()));
+  VhgpParams p;
+  p.log_lambda = v.head(n);
+  p.theta_f = v.segment(n, dim + 1);
+  p.theta_g = v.segment(n + dim + 1, dim + 1);
+  p.mu0 = v(v.size() - 1);
+  return p;
+}
+
+Vec VhgpGradient::pack() const {
+  Vec v(log_lambda.size() + theta_f.size() + theta_g.size() + 1);
+  v << log_lambda, theta_f, theta_g, mu0;
+  return v;
+}
+
+}  // namespace varbo::vhgp

@@ -1,0 +1,30 @@
+#pragma once
+// A Task wrapping one benchmark function: a box domain, optional additive Gaussian noise, known optimum.
+#include "benchmark_functions.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo::tasks {
+
+class BenchmarkTask : public Task {
+ public:
+  /// `box` must have `dim` dimensions; `noise_std` >= 0 is the std of the additive N(0, σ²) noise.
+  BenchmarkTask(const BenchmarkSpec& spec, Index dim, Box box, double noise_std);
+
+  Domain domain() const override;
+  /// cost = f(θ) + noise_std·ε, ε ~ N(0, 1) drawn from the trial's stream. No components.
+  Evaluation evaluate(const Vec& theta, Rng& rng) override;
+  /// The known minimum; minimizers outside a user-given box are dropped, and when none is left the
+  /// optimum is unknown (nullopt), because f* would no longer be the minimum over the domain.
+  std::optional<Optimum> optimum() const override;
+
+  /// The noiseless value.
+  double value(const Vec& theta) const { return spec_.f(theta); }
+
+ private:
+  const BenchmarkSpec& spec_;
+  Index dim_;
+  Box box_;
+  double noise_std_;
+};
+
+}  // namespace varbo::tasks

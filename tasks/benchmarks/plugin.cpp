@@ -1,0 +1,15 @@
+// libvarbo_tasks_benchmarks: the standard test functions as tasks (Surjanovic & Bingham's VLSE).
+#include "benchmark_factory.hpp"
+#include "varbo/plugin.hpp"
+
+VARBO_PLUGIN("tasks_benchmarks", "0.1.0",
+             "Benchmark tasks: Branin, Hartmann-3/6, and d-dimensional Ackley, Rosenbrock, Levy, Styblinski-Tang") {
+  for (const auto& spec : varbo::tasks::benchmark_specs()) {
+    const varbo::tasks::BenchmarkSpec* s = &spec;  // static storage: outlives the registry
+    registry.add(varbo::make_component<varbo::Task>(
+        spec.name, spec.description, varbo::tasks::benchmark_options(spec),
+        varbo::Factory<varbo::Task>([s](const varbo::Options& o, const varbo::BuildContext&) {
+          return varbo::tasks::make_benchmark_task(*s, o);
+        })));
+  }
+}

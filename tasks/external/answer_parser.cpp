@@ -1,0 +1,121 @@
+#include "answer_parser.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <nlohmann/json.hpp>
+
+namespace varbo::tasks {
+
+namespace {
+
+std::string trim(const std::string& s) {
+  const char* ws = " \t\r\n\f\v";
+  const auto b = s.find_first_not_of(ws);
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(ws) - b + 1);
+}
+
+// Strict: the whole text must be one number (strtod also accepts "nan"/"inf", rejected by the caller).
+bool parse_number(const std::string& text, double& out) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  errno = 0;
+  out = std::strtod(text.c_str(), &end);
+  return end != text.c_str() && *end == '\0' && errno != ERANGE;
+}
+
+std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
+  if (!j.is_object()) {
+    why = "the JSON answer is not an object";
+    return std::nullopt;
+  }
+  if (j.contains("error")) {
+    why = "the command reported an error: " + (j["error"].is_string() ? j["error"].get<std::string>() : j["error"].dump());
+    return std::nullopt;
+  }
+  if (!j.contains("cost")) {
+    why = "the JSON answer has no \"cost\"";
+    return std::nullopt;
+  }
+  if (!j["cost"].is_number()) {
+    why = "\"cost\" is not a number: " + j["cost"].dump();
+    return std::nullopt;
+  }
+  Answer a;
+  a.cost = j["cost"].get<double>();
+  if (!std::isfinite(a.cost)) {
+    why = "\"cost\" is not finite";
+    return std::nullopt;
+  }
+  if (j.contains("components")) {
+    const auto& c = j["components"];
+    if (!c.is_object()) {
+      why = "\"components\" is not an object of numbers";
+      return std::nullopt;
+    }
+    for (auto it = c.begin(); it != c.end(); ++it) {
+      if (!it.value().is_number() || !std::isfinite(it.value().get<double>())) {
+        why = fmt::format("component \"{}\" is not a finite number: {}", it.key(), it.value().dump());
+        return std::nullopt;
+      }
+      a.components.emplace_back(it.key(), it.value().get<double>());
+    }
+  }
+  return a;
+}
+
+}  // namespace
+
+std::string last_nonempty_line(const std::string& text) {
+  std::size_t end = text.size();
+  while (end > 0) {
+    const std::size_t start = text.rfind('\n', end - 1);
+    const std::size_t b = start == std::string::npos ? 0 : start + 1;
+    std::string line = trim(text.substr(b, end - b));
+    if (!line.empty()) return line;
+    if (start == std::string::npos) break;
+    end = start;
+  }
+  return "";
+}
+
+std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& why) {
+  const std::string last = last_nonempty_line(stdout_text);
+  if (last.empty()) {
+    why = "no output on stdout";
+    return std::nullopt;
+  }
+  double v = 0;
+  if (parse_number(last, v)) {
+    if (!std::isfinite(v)) {
+      why = fmt::format("the cost '{}' is not a finite number", last);
+      return std::nullopt;
+    }
+    return Answer{v, {}};
+  }
+  // A JSON object: on the last line, or spread over the last lines; try the suffixes that start at a
+  // line beginning with '{', nearest the end first (a few, so log-heavy output stays cheap).
+  if (last.back() == '}') {
+    std::size_t pos = stdout_text.size();
+    for (int tries = 0; tries < 64 && pos > 0; ++tries) {
+      const std::size_t brace = stdout_text.rfind('{', pos - 1);
+      if (brace == std::string::npos) break;
+      pos = brace;
+      const std::size_t nl = brace == 0 ? std::string::npos : stdout_text.rfind('\n', brace - 1);
+      const std::size_t line_start = nl == std::string::npos ? 0 : nl + 1;
+      const std::string before = trim(stdout_text.substr(line_start, brace - line_start));
+      if (!before.empty()) continue;  // not at the start of a line: an inner object
+      const auto j = nlohmann::json::parse(stdout_text.substr(brace), nullptr, /*allow_exceptions=*/false);
+      if (!j.is_discarded()) return from_json(j, why);
+    }
+    why = fmt::format("the answer '{}' is neither a number nor a valid JSON object", last);
+    return std::nullopt;
+  }
+  why = fmt::format("the last line '{}' is not a number", last);
+  return std::nullopt;
+}
+
+}  // namespace varbo::tasks

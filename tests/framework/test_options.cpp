@@ -1,0 +1,90 @@
+// Declared options: types, ranges, defaults, unknown keys — every message names file:line:col and key.
+#include <string>
+
+#include "varbo/errors.hpp"
+#include "varbo/options.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+std::vector<OptionSpec> specs() {
+  return {opt::real("xi", 0.01, "exploration").at_least(0),
+          opt::integer("restarts", 4, "restarts").at_least(1).at_most(64),
+          opt::boolean("warm", true, "warm start"),
+          opt::choice("kernel", "se_ard", {"se_ard", "matern52_ard"}, "kernel"),
+          opt::reals("bounds", "[0, 1]", "bounds"),
+          opt::string("name", "x", "a name")};
+}
+std::string error_of(const std::string& yaml) {
+  try {
+    validate_options(ConfigNode::parse(yaml, "c.yaml"), specs(), "acquisition 'ei'", nullptr);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("defaults fill unset options and resolve back to YAML") {
+  Options o = validate_options(ConfigNode::parse("{xi: 0.5}", "c.yaml"), specs(), "acquisition 'ei'", nullptr);
+  CHECK(o.real("xi") == 0.5);
+  CHECK(o.integer("restarts") == 4);
+  CHECK(o.boolean("warm"));
+  CHECK(o.str("kernel") == "se_ard");
+  CHECK(o.reals("bounds") == std::vector<double>{0, 1});
+  CHECK(o.given("xi"));
+  CHECK_FALSE(o.given("restarts"));
+  YAML::Node r = o.resolved();
+  CHECK(r["restarts"].as<int>() == 4);
+  CHECK(r["xi"].as<double>() == 0.5);
+}
+
+TEST_CASE("an unknown key lists the known ones and suggests the nearest") {
+  const std::string m = error_of("xii: 0.1\n");
+  CHECK(m.find("c.yaml:1:1: key 'xii': unknown key for acquisition 'ei'") == 0);
+  CHECK(m.find("known keys: xi, restarts, warm, kernel, bounds, name") != std::string::npos);
+  CHECK(m.find("did you mean 'xi'?") != std::string::npos);
+}
+
+TEST_CASE("a wrong type names the expected form") {
+  CHECK(error_of("xi: abc\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got 'abc'");
+  CHECK(error_of("restarts: 2.5\n") ==
+        "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '2.5'");
+  CHECK(error_of("warm: maybe\n") == "c.yaml:1:7: key 'warm': expected true or false, got 'maybe'");
+  CHECK(error_of("bounds: 3\n") ==
+        "c.yaml:1:9: key 'bounds': expected a list of real numbers, e.g. [0.1, 0.2], got '3'");
+  CHECK(error_of("xi: [1]\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got a list");
+}
+
+TEST_CASE("an out-of-range value is an error") {
+  CHECK(error_of("xi: -1\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got '-1'");
+  CHECK(error_of("restarts: 0\n") == "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '0'");
+  CHECK(error_of("xi: .nan\n").find("expected a real number") != std::string::npos);
+}
+
+TEST_CASE("a bad choice suggests the nearest") {
+  CHECK(error_of("kernel: matern52\n") ==
+        "c.yaml:1:9: key 'kernel': expected one of: se_ard, matern52_ard, got 'matern52'; did you mean "
+        "'matern52_ard'?");
+}
+
+TEST_CASE("a list element out of range names its index") {
+  std::vector<OptionSpec> s = {opt::reals("w", "[1]", "weights").at_least(0)};
+  try {
+    validate_options(ConfigNode::parse("w: [1, -2]\n", "c.yaml"), s, "x", nullptr);
+    FAIL("expected ConfigError");
+  } catch (const ConfigError& e) {
+    CHECK(std::string(e.what()).find("key 'w[1]': value -2 out of range") != std::string::npos);
+  }
+}
+
+TEST_CASE("a required option that is missing is an error") {
+  std::vector<OptionSpec> s = {opt::string("command", "", "command").must()};
+  try {
+    validate_options(ConfigNode::parse("{other: 1}", "c.yaml"), s, "task 'external'", nullptr, {"other"});
+    FAIL("expected ConfigError");
+  } catch (const ConfigError& e) {
+    CHECK(std::string(e.what()).find("key 'command': missing required key for task 'external'") != std::string::npos);
+  }
+}

@@ -1,0 +1,85 @@
+// Registry: lookup by short and full name, unknown and ambiguous names, capability matching.
+#include "varbo/errors.hpp"
+#include "varbo/registry.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+class ConstantAcquisition final : public Acquisition {
+ public:
+  explicit ConstantAcquisition(double v) : v_(v) {}
+  void prepare(const AcquisitionContext&) override {}
+  double evaluate(const Vec& x, Vec* g) const override {
+    if (g) *g = Vec::Zero(x.size());
+    return v_;
+  }
+
+ private:
+  double v_;
+};
+
+ComponentInfo constant(const std::string& name) {
+  return make_component<Acquisition>(name, "a constant", {opt::real("value", 1.0, "the value")},
+                                     Factory<Acquisition>([](const Options& o, const BuildContext&) {
+                                       return std::make_unique<ConstantAcquisition>(o.real("value"));
+                                     }));
+}
+}  // namespace
+
+TEST_CASE("components resolve by short name and by plugin/name; options are validated") {
+  Registry r;
+  r.set_origin("p1", "libp1.so");
+  r.add(constant("const"));
+  r.set_origin("", "");
+  auto a = r.create<Acquisition>("{type: const, value: 3}", BuildContext{});
+  CHECK(a->evaluate(Vec::Zero(1), nullptr) == 3.0);
+  auto b = r.create<Acquisition>("p1/const", BuildContext{});
+  CHECK(b->evaluate(Vec::Zero(1), nullptr) == 1.0);
+  CHECK_THROWS_AS(r.create<Acquisition>("{type: const, valeu: 3}", BuildContext{}), ConfigError);
+}
+
+TEST_CASE("an unknown name lists the known ones and suggests the nearest") {
+  Registry r;
+  r.add(constant("const"));
+  r.add(constant("other"));
+  try {
+    r.resolve(Kind::Acquisition, ConfigNode::parse("{type: konst}", "a.yaml"));
+    FAIL("expected UnknownComponentError");
+  } catch (const UnknownComponentError& e) {
+    CHECK(std::string(e.what()) ==
+          "a.yaml:1:8: key 'type': unknown acquisition 'konst'. Known: const, other; did you mean 'const'?");
+  }
+  CHECK_THROWS_AS(r.find(Kind::Surrogate, "const"), UnknownComponentError);
+}
+
+TEST_CASE("a short name shared by two plugins is ambiguous; full names still work") {
+  Registry r;
+  r.set_origin("a", "liba.so");
+  r.add(constant("c"));
+  r.set_origin("b", "libb.so");
+  r.add(constant("c"));
+  CHECK_THROWS_WITH_AS(r.find(Kind::Acquisition, "c"), "acquisition name 'c' is ambiguous; use one of: a/c, b/c",
+                       UnknownComponentError);
+  CHECK(r.find(Kind::Acquisition, "b/c").plugin == "b");
+  CHECK_THROWS_AS(r.add(constant("c")), PluginLoadError);  // duplicate b/c
+}
+
+TEST_CASE("a factory of the wrong kind is refused at registration") {
+  Registry r;
+  ComponentInfo info = constant("x");
+  info.kind = Kind::Surrogate;
+  CHECK_THROWS_AS(r.add(info), PluginLoadError);
+}
+
+TEST_CASE("capability tags decide compatibility") {
+  ComponentInfo region = constant("r");
+  region.needs = {"optimizer:constraints"};
+  ComponentInfo good = constant("g");
+  good.provides = {"optimizer:constraints"};
+  ComponentInfo plain = constant("p");
+  std::string why;
+  CHECK(compatible({&region, &good}, &why));
+  CHECK_FALSE(compatible({&region, &plain}, &why));
+  CHECK(why == "acquisition 'r' requires 'optimizer:constraints'");
+}
