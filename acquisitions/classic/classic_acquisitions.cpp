@@ -19,6 +19,20 @@ const Surrogate& prepared(const Surrogate* model) {
   if (model == nullptr) throw std::logic_error("acquisition evaluate() called before prepare()");
   return *model;
 }
+// Surrogates may leave gradient fields they do not model empty (a GP has no log-noise gradient): zeros.
+Prediction predict(const Surrogate* model, const Vec& x, bool with_gradient) {
+  Prediction p = prepared(model).predict(x, with_gradient);
+  if (with_gradient) {
+    for (Vec* d : {&p.d_mean, &p.d_latent_var, &p.d_log_noise_mean, &p.d_log_noise_var})
+      if (d->size() != x.size()) {
+        if (d->size() != 0)
+          throw std::logic_error("surrogate returned a gradient of the wrong size (" + std::to_string(d->size()) +
+                                 " for dimension " + std::to_string(x.size()) + ")");
+        *d = Vec::Zero(x.size());
+      }
+  }
+  return p;
+}
 // s* = sqrt(V[y*]) and its gradient ds* = dV/(2 s*) (zero where V = 0, where s* is not differentiable).
 double predictive_std(const Prediction& p, Vec* d_std) {
   const double s = p.total_std();
@@ -58,11 +72,11 @@ void ExpectedImprovement::prepare(const AcquisitionContext& context) {
 }
 
 double ExpectedImprovement::evaluate(const Vec& x, Vec* grad) const {
-  const Prediction p = prepared(model_).predict(x, grad != nullptr);
+  const Prediction p = predict(model_, x, grad != nullptr);
   // Kuindersma 2013, eq. (9): u = (μ_best − a* + ξ)/v*.
   const double delta = margin_ - p.mean;
   const Vec d_delta = grad ? Vec(-p.d_mean) : Vec();
-  return expect_over_log_noise(p, delta, &d_delta, gh_nodes_, improvement_integrand, grad);
+  return expect_over_log_noise(p, delta, &d_delta, rule_, improvement_integrand, grad);
 }
 
 std::string ExpectedImprovement::state() const {
@@ -77,10 +91,10 @@ void ProbabilityOfImprovement::prepare(const AcquisitionContext& context) {
 }
 
 double ProbabilityOfImprovement::evaluate(const Vec& x, Vec* grad) const {
-  const Prediction p = prepared(model_).predict(x, grad != nullptr);
+  const Prediction p = predict(model_, x, grad != nullptr);
   const double delta = margin_ - p.mean;
   const Vec d_delta = grad ? Vec(-p.d_mean) : Vec();
-  return expect_over_log_noise(p, delta, &d_delta, gh_nodes_, probability_integrand, grad);
+  return expect_over_log_noise(p, delta, &d_delta, rule_, probability_integrand, grad);
 }
 
 std::string ProbabilityOfImprovement::state() const {
@@ -103,7 +117,7 @@ void ConfidenceBound::prepare(const AcquisitionContext& context) {
 }
 
 double ConfidenceBound::evaluate(const Vec& x, Vec* grad) const {
-  const Prediction p = prepared(model_).predict(x, grad != nullptr);
+  const Prediction p = predict(model_, x, grad != nullptr);
   Vec d_std;
   const double s = predictive_std(p, grad ? &d_std : nullptr);
   // Kuindersma 2013, eq. (10) with b(V, κ) = κ·s*; utility = −CB.
@@ -123,13 +137,13 @@ void ExpectedRiskImprovement::prepare(const AcquisitionContext& context) {
 }
 
 double ExpectedRiskImprovement::evaluate(const Vec& x, Vec* grad) const {
-  const Prediction p = prepared(model_).predict(x, grad != nullptr);
+  const Prediction p = predict(model_, x, grad != nullptr);
   Vec d_std;
   const double s = predictive_std(p, grad ? &d_std : nullptr);
   // Kuindersma 2013, eq. (12): u* = (μ_best − a* + κ(s_best − s*))/v*; s* is not integrated over g*.
   const double delta = margin_ - p.mean - kappa_ * s;
   const Vec d_delta = grad ? Vec(-p.d_mean - kappa_ * d_std) : Vec();
-  return expect_over_log_noise(p, delta, &d_delta, gh_nodes_, improvement_integrand, grad);
+  return expect_over_log_noise(p, delta, &d_delta, rule_, improvement_integrand, grad);
 }
 
 std::string ExpectedRiskImprovement::state() const {

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "varbo/acquisition.hpp"
+#include "varbo/math.hpp"
 
 namespace varbo::acq {
 
@@ -18,14 +19,14 @@ struct Target {
 /// ξ is scaled by σ_f = sqrt(signal_variance()) so that it is in cost units whatever the cost scale.
 class ExpectedImprovement final : public Acquisition {
  public:
-  ExpectedImprovement(double xi, int gh_nodes) : xi_(xi), gh_nodes_(gh_nodes) {}
+  ExpectedImprovement(double xi, int gh_nodes) : xi_(xi), rule_(gauss_hermite(gh_nodes)) {}
   void prepare(const AcquisitionContext& context) override;
   double evaluate(const Vec& x, Vec* grad) const override;
   std::string state() const override;
 
  private:
   double xi_;
-  int gh_nodes_;
+  const GaussHermite& rule_;  ///< cached: gauss_hermite() takes a lock
   const Surrogate* model_ = nullptr;
   Target target_;
   double margin_ = 0;  ///< μ_best + ξσ_f
@@ -34,14 +35,14 @@ class ExpectedImprovement final : public Acquisition {
 /// Probability of improvement P(y* < μ_best + ξσ_f) = Φ(u), integrated over g* for a heteroscedastic model.
 class ProbabilityOfImprovement final : public Acquisition {
  public:
-  ProbabilityOfImprovement(double xi, int gh_nodes) : xi_(xi), gh_nodes_(gh_nodes) {}
+  ProbabilityOfImprovement(double xi, int gh_nodes) : xi_(xi), rule_(gauss_hermite(gh_nodes)) {}
   void prepare(const AcquisitionContext& context) override;
   double evaluate(const Vec& x, Vec* grad) const override;
   std::string state() const override;
 
  private:
   double xi_;
-  int gh_nodes_;
+  const GaussHermite& rule_;  ///< cached: gauss_hermite() takes a lock
   const Surrogate* model_ = nullptr;
   Target target_;
   double margin_ = 0;
@@ -68,7 +69,7 @@ class ConfidenceBound final : public Acquisition {
 /// where (μ_best, s_best) is the evaluated point minimizing E + κ·s. ERI(κ = 0) = EI.
 class ExpectedRiskImprovement final : public Acquisition {
  public:
-  ExpectedRiskImprovement(double kappa, double xi, int gh_nodes) : kappa_(kappa), xi_(xi), gh_nodes_(gh_nodes) {}
+  ExpectedRiskImprovement(double kappa, double xi, int gh_nodes) : kappa_(kappa), xi_(xi), rule_(gauss_hermite(gh_nodes)) {}
   void prepare(const AcquisitionContext& context) override;
   double evaluate(const Vec& x, Vec* grad) const override;
   std::string state() const override;
@@ -76,7 +77,7 @@ class ExpectedRiskImprovement final : public Acquisition {
  private:
   double kappa_;
   double xi_;
-  int gh_nodes_;
+  const GaussHermite& rule_;  ///< cached: gauss_hermite() takes a lock
   const Surrogate* model_ = nullptr;
   Target target_;
   double margin_ = 0;  ///< μ_best + κ s_best + ξσ_f

@@ -43,7 +43,7 @@ IntegrandValue probability_integrand(double delta, double v) {
   return r;
 }
 
-double expect_over_log_noise(const Prediction& pred, double delta, const Vec* d_delta, int gh_nodes,
+double expect_over_log_noise(const Prediction& pred, double delta, const Vec* d_delta, const GaussHermite& gh,
                              Integrand integrand, Vec* grad) {
   const double c2 = std::max(pred.latent_var, 0.0);
   if (!(pred.log_noise_var > 0)) {
@@ -58,7 +58,6 @@ double expect_over_log_noise(const Prediction& pred, double delta, const Vec* d_
     return F.value;
   }
   // Kuindersma 2013, eq. (9): g_k = μ* + √(2σ*²) t_k with weights w_k/√π for the weight e^{−t²}.
-  const GaussHermite& gh = gauss_hermite(gh_nodes);
   const double scale = std::sqrt(2.0 * pred.log_noise_var);
   const double inv_sqrt_pi = 1.0 / std::sqrt(M_PI);
   double value = 0, sum_d_delta = 0;

@@ -3,6 +3,7 @@
 //   ∫ F(δ, v(g)) N(g | μ*, σ*²) dg,   v(g)² = c*² + e^g     (Kuindersma 2013, eq. 9 and 12)
 // by Gauss–Hermite quadrature, or in closed form when σ*² = 0 (homoscedastic: v² = c*² + e^μ*).
 // δ (the "improvement margin", e.g. μ_best − a* + ξ) does not depend on g; its gradient is passed in.
+#include "varbo/math.hpp"
 #include "varbo/prediction.hpp"
 
 namespace varbo::acq {
@@ -24,7 +25,8 @@ using Integrand = IntegrandValue (*)(double delta, double v);
 /// E_g[F(δ, v(g))]. With grad non-null, fills d/dθ* from pred's d_* fields (which must be present) and
 /// d_delta: the derivative under the integral, dF = F_δ dδ + F_v dv, with dv_k = (dc*² + e^{g_k} dg_k)/(2 v_k)
 /// and g_k = μ* + √(2σ*²)·t_k, so dg_k = dμ* + t_k dσ*²/√(2σ*²) (the paper's z(ρ) after eq. 9).
-double expect_over_log_noise(const Prediction& pred, double delta, const Vec* d_delta, int gh_nodes,
+/// `rule` is the Gauss–Hermite rule (weight e^{−t²}), e.g. gauss_hermite(45); unused when σ*² = 0.
+double expect_over_log_noise(const Prediction& pred, double delta, const Vec* d_delta, const GaussHermite& rule,
                              Integrand integrand, Vec* grad);
 
 }  // namespace varbo::acq

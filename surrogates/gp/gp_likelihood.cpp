@@ -5,6 +5,31 @@
 
 namespace varbo::gp {
 
+namespace {
+/// In-place inverse of a lower-triangular matrix (zeros above the diagonal) by 2×2 block recursion:
+/// [A 0; B C]⁻¹ = [A⁻¹ 0; −C⁻¹BA⁻¹ C⁻¹]. About N³/3 flops, against N³ for a solve against the identity.
+void invert_lower_in_place(Eigen::Ref<Mat> L) {
+  const Index n = L.rows();
+  if (n <= 48) {
+    const Mat inv = L.triangularView<Eigen::Lower>().solve(Mat::Identity(n, n));  // not in place: aliasing
+    L = inv;
+    return;
+  }
+  const Index h = n / 2;
+  invert_lower_in_place(L.topLeftCorner(h, h));
+  invert_lower_in_place(L.bottomRightCorner(n - h, n - h));
+  const Mat BA = L.bottomLeftCorner(n - h, h) * L.topLeftCorner(h, h).triangularView<Eigen::Lower>();
+  L.bottomLeftCorner(n - h, h).noalias() = -(L.bottomRightCorner(n - h, n - h).triangularView<Eigen::Lower>() * BA);
+}
+}  // namespace
+
+Mat inverse_from_cholesky(const Eigen::LLT<Mat>& llt) {
+  Mat Li = llt.matrixL();
+  invert_lower_in_place(Li);
+  // K⁻¹ = L⁻ᵀ L⁻¹ (triangular × dense product).
+  return Li.transpose().triangularView<Eigen::Upper>() * Li;
+}
+
 LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_params, const Mat& X, const Vec& r,
                                     bool with_gradient) {
   const Index n = X.rows(), d = X.cols();
@@ -27,7 +52,7 @@ LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_par
   out.ok = std::isfinite(out.value);
   if (!with_gradient || !out.ok) return out;
   // R&W eq. (5.9): W = αα' − K⁻¹, ∂/∂p_j = ½ tr(W ∂K/∂p_j).
-  Mat W = chol.llt.solve(Mat::Identity(n, n));
+  Mat W = inverse_from_cholesky(chol.llt);
   W = alpha * alpha.transpose() - W;
   out.gradient.resize(d + 2);
   out.gradient.head(d + 1) = kernel.contract_gradient(X, W);

@@ -15,6 +15,9 @@ struct LogMarginal {
   double jitter = 0;  ///< added to the diagonal by robust_cholesky
 };
 
+/// (LLᵀ)⁻¹ from a Cholesky factor, using the triangular structure (≈ 0.8 N³ flops instead of 2 N³).
+Mat inverse_from_cholesky(const Eigen::LLT<Mat>& llt);
+
 /// log p(r | X, p) for centred targets r = y − m (Rasmussen & Williams eq. (5.8)), and its gradient
 /// ∂/∂p_j = ½ tr((αα' − K⁻¹) ∂K/∂p_j) (R&W eq. (5.9)) computed once through kernel.contract_gradient.
 LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_params, const Mat& X, const Vec& r,

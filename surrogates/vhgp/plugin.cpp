@@ -108,7 +108,7 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::reals("prior_mu0", "[-2.302585, 2.0]", "[mean, sd] of mu0, the log noise variance (standardized)"),
           opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
           opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
-          opt::boolean("lambda_warmup", true, "optimize log Lambda alone before each joint optimization"),
+          opt::boolean("lambda_warmup", false, "optimize log Lambda alone before each joint optimization (about twice the time)"),
           opt::node("hyperparameters", "",
                     "initial hyperparameters in cost units: {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
                     "signal_std_g, mu0}"),

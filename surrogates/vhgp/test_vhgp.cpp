@@ -8,6 +8,7 @@
 #include "homoscedastic_init.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/function.hpp"
+#include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 #include "varbo_test.hpp"
 #include "vhgp_surrogate.hpp"
@@ -20,7 +21,7 @@ namespace {
 
 // The best bound on data_a (raw costs, SE kernels, jitter 1e-6, no hyperpriors) found while developing this test
 // with 16 restarts; the reference README gives no number for the authors' own fits.
-constexpr double kDataABestBound = -1e9;
+constexpr double kDataABestBound = -13.58064;
 
 json load_json(const std::string& name) {
   std::ifstream in(std::string(VHGP_TESTDATA) + "/" + name);
@@ -80,7 +81,7 @@ std::shared_ptr<const Optimizer> fit_optimizer(const std::string& yaml = "ceres_
 }
 
 /// Random inputs in the unit cube and a heteroscedastic cost.
-Dataset random_data(Index n, Index dim, std::uint64_t seed) {
+Dataset heteroscedastic_data(Index n, Index dim, std::uint64_t seed) {
   Rng rng(seed);
   Dataset d = Dataset::empty(dim);
   for (Index i = 0; i < n; ++i) {
@@ -172,13 +173,14 @@ TEST_CASE("predictive at the 5 reference points matches (a*, c*2, mu*, sigma*2, 
 }
 
 TEST_CASE("every gradient of the objective against finite differences at random parameters") {
-  // Central differences with h = 1e-6 (relative) on F + log prior; tolerance 1e-6 relative (floor 1e-6).
+  // Central differences with h = 1e-5 (relative to max(1, |x_i|)) on F + log prior. Tolerance 1e-6 relative to
+  // max(|analytic|, |numeric|, 1e-3): below 1e-3 the round-off of the differences (~1e-16·|F|/h) dominates.
   for (const auto kf : {KernelType::SquaredExponential, KernelType::Matern52}) {
     for (const auto kg : {KernelType::SquaredExponential, KernelType::Matern52}) {
       for (const double jitter : {0.0, 1e-6}) {
         for (std::uint64_t seed = 1; seed <= 3; ++seed) {
           const Index dim = 2, n = 14;
-          const Dataset d = random_data(n, dim, 100 + seed);
+          const Dataset d = heteroscedastic_data(n, dim, 100 + seed);
           const VhgpBound bound(d.X, d.y, VhgpKernels{kf, kg, jitter});
           VhgpHyperprior prior;  // enabled: its gradient is checked too
           const VhgpObjective obj(bound, prior);
@@ -194,7 +196,7 @@ TEST_CASE("every gradient of the objective against finite differences at random 
           p.theta_f(dim) = std::log(rng.uniform(0.5, 2.0));
           p.theta_g(dim) = std::log(rng.uniform(0.3, 1.5));
           p.mu0 = rng.uniform(-4.0, 0.0);
-          const GradientCheck c = check_gradient(obj, p.pack(), 1e-6, 1e-6);
+          const GradientCheck c = check_gradient(obj, p.pack(), 1e-5, 1e-3);
           CAPTURE(kernels::kernel_type_name(kf));
           CAPTURE(kernels::kernel_type_name(kg));
           CAPTURE(jitter);
@@ -208,7 +210,7 @@ TEST_CASE("every gradient of the objective against finite differences at random 
 }
 
 TEST_CASE("lambda-only objective gives the log-Lambda part of the gradient") {
-  const Dataset d = random_data(10, 1, 7);
+  const Dataset d = heteroscedastic_data(10, 1, 7);
   const VhgpBound bound(d.X, d.y, VhgpKernels{});
   VhgpHyperprior prior;
   VhgpParams p;
@@ -227,7 +229,7 @@ TEST_CASE("lambda-only objective gives the log-Lambda part of the gradient") {
 TEST_CASE("predictive gradients with respect to x against finite differences (cost units)") {
   for (const auto kf : {KernelType::SquaredExponential, KernelType::Matern52}) {
     const Index dim = 2;
-    const Dataset d = random_data(15, dim, 42);
+    const Dataset d = heteroscedastic_data(15, dim, 42);
     VhgpConfig cfg;
     cfg.kernels.f = kf;
     cfg.kernels.g = kf == KernelType::Matern52 ? KernelType::SquaredExponential : KernelType::Matern52;
@@ -265,10 +267,15 @@ TEST_CASE("fitting data_a from scratch (no hyperpriors, SE, jitter 1e-6, 16 rest
   cfg.restarts = 16;
   cfg.prior.enabled = false;
   cfg.standardize = false;  // the bound on the raw data, comparable with the authors' numbers
-  VhgpSurrogate s(1, cfg, fit_optimizer());
+  // Tight tolerances so that every restart runs to a stationary point.
+  VhgpSurrogate s(1, cfg,
+                  fit_optimizer("{type: ceres_lbfgs, max_iterations: 2000, function_tolerance: 1e-13, "
+                                "gradient_tolerance: 1e-9, parameter_tolerance: 1e-12}"));
   Rng rng(2024);
+  if (std::getenv("VHGP_DEBUG")) set_log_level(LogLevel::Debug);
   const FitReport rep = s.fit(data, rng);
-  MESSAGE("data_a fit: ", rep.report());
+  set_log_level(LogLevel::Info);
+  MESSAGE("data_a fit: ", rep.report(), "; F = ", fmt::format("{:.10f}", rep.log_likelihood));
   std::string hp;
   for (const auto& h : s.hyperparameters()) hp += h.name + "=" + std::to_string(h.value) + " ";
   MESSAGE("hyperparameters: ", hp);
@@ -295,5 +302,141 @@ TEST_CASE("fitting data_a from scratch (no hyperpriors, SE, jitter 1e-6, 16 rest
   REQUIRE(b.ok);
   CHECK(std::abs(b.F - rep.log_likelihood) < 1e-9 * std::abs(b.F));
   MESSAGE("gradient norm at the optimum: ", b.gradient.pack().norm());
-  CHECK(b.gradient.pack().norm() < 1e-2);
+  CHECK(b.gradient.pack().norm() < 1e-3);  // L-BFGS converges slowly along log Λ; F is flat to 1e-7 there
+}
+
+TEST_CASE("on constant-noise data the VHGP predictive approaches the homoscedastic GP's") {
+  const Index n = 80;
+  Rng rng(11);
+  Dataset d = Dataset::empty(1);
+  const double noise_sd = 0.2;
+  for (Index i = 0; i < n; ++i) {
+    const double x = rng.uniform();
+    d.add(Vec::Constant(1, x), std::sin(6.0 * x) + noise_sd * rng.normal());
+  }
+  VhgpConfig cfg;  // defaults: hyperpriors on, standardized costs
+  VhgpSurrogate s(1, cfg, fit_optimizer());
+  Rng fit_rng(5);
+  const FitReport rep = s.fit(d, fit_rng);
+  REQUIRE(rep.ok);
+
+  // Closed-form homoscedastic GP in the test (Eigen), at maximum-likelihood hyperparameters of k_f + σ_n² δ.
+  const double m = d.y.mean();
+  const double sd = std::sqrt((d.y.array() - m).square().sum() / (n - 1));
+  const Vec ys = (d.y.array() - m) / sd;
+  VhgpHyperprior no_prior;
+  no_prior.enabled = false;
+  Rng gp_rng(1);
+  const HomoscedasticFit h =
+      fit_homoscedastic(d.X, ys, KernelType::SquaredExponential, 0.0, no_prior, *fit_optimizer(), gp_rng);
+  REQUIRE(h.ok);
+  const double ell = std::exp(h.theta_f(0)), sf2 = std::exp(2 * h.theta_f(1)), sn2 = std::exp(h.log_noise_var);
+  auto k = [&](double a, double b) { return sf2 * std::exp(-0.5 * (a - b) * (a - b) / (ell * ell)); };
+  Mat K(n, n);
+  for (Index i = 0; i < n; ++i)
+    for (Index j = 0; j < n; ++j) K(i, j) = k(d.X(i, 0), d.X(j, 0)) + (i == j ? sn2 : 0.0);
+  const Eigen::LLT<Mat> llt(K);
+  const Vec alpha = llt.solve(ys);
+  double worst_mean = 0, worst_var = 0;
+  for (int t = 0; t <= 20; ++t) {
+    const double x = 0.05 + 0.9 * t / 20.0;
+    Vec ks(n);
+    for (Index i = 0; i < n; ++i) ks(i) = k(x, d.X(i, 0));
+    const double gp_mean = m + sd * ks.dot(alpha);
+    const double gp_var = sd * sd * (sf2 - ks.dot(llt.solve(ks)) + sn2);  // predictive variance of y*
+    const Prediction p = s.predict(Vec::Constant(1, x), false);
+    worst_mean = std::max(worst_mean, std::abs(p.mean - gp_mean) / noise_sd);
+    worst_var = std::max(worst_var, std::abs(p.total_var() / gp_var - 1.0));
+  }
+  MESSAGE("constant noise: max |mean_VHGP - mean_GP| / noise sd = ", worst_mean,
+          ", max |V_VHGP / V_GP - 1| = ", worst_var, "; GP noise sd ", sd * std::sqrt(sn2), " (true ", noise_sd, ")");
+  CHECK(worst_mean < 0.1);
+  CHECK(worst_var < 0.15);
+}
+
+TEST_CASE("fits are identical with 1 and 2 threads") {
+  const Dataset d = heteroscedastic_data(30, 2, 9);
+  auto run = [&](int threads) {
+    ThreadLimit limit(threads);
+    VhgpConfig cfg;
+    cfg.restarts = 6;
+    VhgpSurrogate s(2, cfg, fit_optimizer());
+    Rng rng(77);
+    const FitReport rep = s.fit(d, rng);
+    REQUIRE(rep.ok);
+    Vec out(7 + 30);
+    const auto h = s.hyperparameters();
+    for (int i = 0; i < 7; ++i) out(i) = h[static_cast<std::size_t>(i)].value;
+    out.tail(30) = s.state()[0].second;
+    return std::make_pair(out, rep.objective);
+  };
+  const auto one = run(1), two = run(2);
+  CHECK(one.second == two.second);
+  CHECK((one.first - two.first).cwiseAbs().maxCoeff() == 0.0);
+}
+
+TEST_CASE("warm start and a failed fit that keeps the last good model") {
+  Dataset d = heteroscedastic_data(20, 1, 3);
+  VhgpConfig cfg;
+  cfg.restarts = 4;
+  VhgpSurrogate s(1, cfg, fit_optimizer());
+  Rng rng(1);
+  const FitReport first = s.fit(d, rng);
+  REQUIRE(first.ok);
+  CHECK(s.ready());
+  // A new point: the warm start pads log Λ with log ½ and the fit stays good.
+  d.add(Vec::Constant(1, 0.37), 0.2);
+  const FitReport second = s.fit(d, rng);
+  REQUIRE(second.ok);
+  CHECK(s.state()[0].second.size() == 21);
+  const Prediction before = s.predict(Vec::Constant(1, 0.5), false);
+  // A NaN cost makes every restart fail: the report says so and the model is unchanged.
+  Dataset bad = d;
+  bad.add(Vec::Constant(1, 0.9), std::nan(""));
+  const FitReport failed = s.fit(bad, rng);
+  CHECK_FALSE(failed.ok);
+  CHECK(failed.message.find("kept the previous model") != std::string::npos);
+  CHECK(s.ready());
+  const Prediction after = s.predict(Vec::Constant(1, 0.5), false);
+  CHECK(after.mean == before.mean);
+  CHECK(after.total_var() == before.total_var());
+  // Conditioning on bad data fails the same way.
+  CHECK_FALSE(s.condition(bad).ok);
+  CHECK(s.predict(Vec::Constant(1, 0.5), false).mean == before.mean);
+}
+
+TEST_CASE("the plugin component: options, given hyperparameters and log Lambda, errors") {
+  BuildContext ctx;
+  ctx.dim = 2;
+  auto s = test::registry().create<Surrogate>(
+      "{type: vhgp, kernel_f: matern52_ard, restarts: 2, hyperparameters: {lengthscale_f: [0.2, 0.4], "
+      "signal_std_f: 2.0, mu0: -3.5}, log_lambda: [0.1, -0.2, 0.3]}",
+      ctx);
+  const auto h = s->hyperparameters();
+  REQUIRE(h.size() == 7);
+  CHECK(h[0].name == "lengthscale_f[0]");
+  CHECK(h[0].value == doctest::Approx(0.2));
+  CHECK(h[1].value == doctest::Approx(0.4));
+  CHECK(h[2].name == "signal_std_f");
+  CHECK(h[2].value == doctest::Approx(2.0));
+  CHECK(h[6].name == "mu0");
+  CHECK(h[6].value == doctest::Approx(-3.5));
+  CHECK(s->signal_variance() == doctest::Approx(4.0));
+  REQUIRE(s->state().size() == 1);
+  CHECK(s->state()[0].first == "log_lambda");
+  CHECK(s->state()[0].second.size() == 3);
+  CHECK_THROWS_AS(s->set_hyperparameters({{"lengthscale_f[2]", 1.0}}), ConfigError);
+  CHECK_THROWS_AS(s->set_hyperparameters({{"signal_std_g", -1.0}}), ConfigError);
+  CHECK_THROWS_AS(s->set_state("nonsense", Vec::Zero(3)), ConfigError);
+  CHECK_THROWS_AS(test::registry().create<Surrogate>("{type: vhgp, hyperparameters: {bogus: 1}}", ctx), ConfigError);
+  CHECK_THROWS_AS(test::registry().create<Surrogate>("{type: vhgp, kernel_g: rbf}", ctx), ConfigError);
+  CHECK_THROWS_AS(test::registry().create<Surrogate>("{type: vhgp, prior_mu0: [0, -1]}", ctx), ConfigError);
+  // It fits and predicts with gradients through the interface.
+  const Dataset d = heteroscedastic_data(12, 2, 4);
+  Rng rng(3);
+  REQUIRE(s->fit(d, rng).ok);
+  const Prediction p = s->predict(Vec::Constant(2, 0.5), true);
+  CHECK(p.has_gradient());
+  CHECK(p.log_noise_var > 0);
+  CHECK(std::isfinite(p.total_var()));
 }

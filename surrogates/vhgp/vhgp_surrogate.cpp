@@ -201,6 +201,8 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
       if (res.x.size() == objective.dim() && res.x.allFinite()) {
         // Re-evaluate: the reported value must be the objective at the returned point.
         const double v = objective.value(res.x, nullptr);
+        log_debug("vhgp: restart {}: objective {:.10g} after {} iterations ({} evaluations): {}", k, v,
+                  res.iterations, res.evaluations, res.message);
         if (std::isfinite(v)) {
           out.ok = true;
           out.objective = v;

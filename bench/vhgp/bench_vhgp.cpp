@@ -1,0 +1,93 @@
+// VHGP fit time (issue 3, benchmarks): N ∈ {25, 50, 100, 200}, 8 restarts, restarts in parallel (2 threads)
+// vs one thread; from scratch and warm-started from the fit on N − 1 points (what a BO iteration does).
+// Targets on 2 cores: under 1 s at N = 100 and under 3 s at N = 200.
+#include <benchmark/benchmark.h>
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "varbo/loader.hpp"
+#include "varbo/parallel.hpp"
+#include "vhgp_surrogate.hpp"
+
+namespace {
+
+using namespace varbo;
+
+/// 2-D cost with input-dependent noise, as in the variable-risk setting.
+Dataset make_data(Index n, std::uint64_t seed) {
+  Rng rng(seed);
+  Dataset d = Dataset::empty(2);
+  for (Index i = 0; i < n; ++i) {
+    const Vec x = rng.uniform_vec(2);
+    d.add(x, std::sin(4.0 * x(0)) * std::cos(3.0 * x(1)) + (0.05 + 0.4 * x(0) * x(1)) * rng.normal());
+  }
+  return d;
+}
+
+std::unique_ptr<vhgp::VhgpSurrogate> make_model() {
+  BuildContext ctx;
+  ctx.dim = 2;
+  std::shared_ptr<const Optimizer> opt(default_registry().create<Optimizer>("ceres_lbfgs", ctx));
+  vhgp::VhgpConfig cfg;
+  cfg.restarts = 8;
+  return std::make_unique<vhgp::VhgpSurrogate>(2, cfg, opt);
+}
+
+void BM_VhgpFit(benchmark::State& state) {
+  const Index n = state.range(0);
+  ThreadLimit limit(static_cast<int>(state.range(1)));
+  const Dataset d = make_data(n, 1);
+  double objective = 0;
+  std::string report;
+  for (auto _ : state) {
+    auto model = make_model();
+    Rng rng(7);
+    const FitReport r = model->fit(d, rng);
+    objective = r.objective;
+    report = r.report();
+    benchmark::DoNotOptimize(objective);
+  }
+  state.SetLabel(fmt::format("objective {:.4f}", objective));
+  if (std::getenv("VHGP_BENCH_VERBOSE")) std::fprintf(stderr, "%s\n", report.c_str());
+}
+
+void BM_VhgpWarmFit(benchmark::State& state) {
+  const Index n = state.range(0);
+  ThreadLimit limit(static_cast<int>(state.range(1)));
+  const Dataset d = make_data(n, 1);
+  Dataset previous = d;
+  previous.X.conservativeResize(n - 1, 2);
+  previous.y.conservativeResize(n - 1);
+  double objective = 0;
+  std::string report;
+  for (auto _ : state) {
+    state.PauseTiming();
+    auto model = make_model();
+    Rng rng(7);
+    model->fit(previous, rng);
+    state.ResumeTiming();
+    const FitReport r = model->fit(d, rng);
+    objective = r.objective;
+    report = r.report();
+    benchmark::DoNotOptimize(objective);
+  }
+  state.SetLabel(fmt::format("objective {:.4f}", objective));
+  if (std::getenv("VHGP_BENCH_VERBOSE")) std::fprintf(stderr, "%s\n", report.c_str());
+}
+
+void fit_args(benchmark::internal::Benchmark* b) {
+  for (int n : {25, 50, 100, 200})
+    for (int threads : {2, 1}) b->Args({n, threads});
+  b->ArgNames({"N", "threads"})->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Repetitions(3);
+}
+
+}  // namespace
+
+BENCHMARK(BM_VhgpFit)->Apply(fit_args);
+BENCHMARK(BM_VhgpWarmFit)->Apply(fit_args);
+BENCHMARK_MAIN();

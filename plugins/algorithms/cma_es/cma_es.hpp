@@ -1,0 +1,73 @@
+#pragma once
+// CMA-ES (Hansen, "The CMA Evolution Strategy: A Tutorial", 2016) as an ask/tell Algorithm in the unit cube,
+// with the tutorial's default parameters (Table 1).
+//
+// Bounds: candidates are drawn unclipped from N(m, σ²C); the point handed out (and evaluated) is the candidate
+// clipped to [0, 1]^d, and its ranking cost is cost + penalty·range·‖x − clip(x)‖², range = the spread of the
+// generation's finite costs (so the penalty is in cost units whatever the task's scale). The update uses the
+// unclipped candidates, so the distribution is pushed back inside smoothly (Hansen's tutorial, section B.3).
+#include <optional>
+#include <vector>
+
+#include "varbo/algorithm.hpp"
+
+namespace varbo {
+
+struct CmaEsOptions {
+  double sigma0 = 0.3;
+  std::optional<Vec> x0;    ///< unit cube; default: the centre
+  Index population = 0;     ///< λ; 0 = 4 + floor(3 ln d)
+  double penalty = 10.0;    ///< boundary penalty factor (× the generation's cost range per unit distance²)
+  std::uint64_t seed = 0;
+};
+
+class CmaEs final : public Algorithm {
+ public:
+  CmaEs(Index dim, CmaEsOptions options);
+  /// The next q candidates of the current generation; when all λ have been handed out and their results are
+  /// still pending, further candidates of the same distribution are drawn (they are used if told first).
+  std::vector<Suggestion> ask(Index q = 1) override;
+  /// Matches observations to pending candidates by x; the distribution is updated as soon as λ results of the
+  /// current generation have arrived. Failed observations (ok = false) get the worst cost seen so far.
+  void tell(const std::vector<Observation>& observations) override;
+  std::optional<Vec> recommendation() const override;
+
+  Index lambda() const { return lambda_; }
+  Index generation() const { return generation_; }
+  double sigma() const { return sigma_; }
+  const Vec& mean() const { return m_; }
+
+ private:
+  struct Candidate {
+    Vec z;        ///< unclipped
+    Vec x;        ///< clipped, handed out
+    bool asked = false;
+    bool told = false;
+    double cost = 0;
+  };
+  void new_generation();
+  void draw_candidate();
+  void update();
+
+  Index d_;
+  CmaEsOptions o_;
+  Rng rng_;
+  // Strategy parameters (Hansen 2016, Table 1).
+  Index lambda_, mu_;
+  Vec w_;
+  double mueff_, cc_, cs_, c1_, cmu_, damps_, chi_n_;
+  // State.
+  Vec m_, pc_, ps_;
+  Mat C_, B_;
+  Vec D_;
+  double sigma_;
+  Index generation_ = 0;
+  Index draws_ = 0;
+  std::vector<Candidate> pop_;
+  Index told_count_ = 0;
+  double worst_ = -std::numeric_limits<double>::infinity();
+  double best_cost_ = std::numeric_limits<double>::infinity();
+  Vec best_x_;
+};
+
+}  // namespace varbo

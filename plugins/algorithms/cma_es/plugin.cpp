@@ -1,0 +1,34 @@
+// Plugin `cma_es`: CMA-ES as an ask/tell algorithm (Hansen 2016 defaults), a baseline for CRBO.
+#include "cma_es.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/plugin.hpp"
+
+VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's default parameters") {
+  using namespace varbo;
+  registry.add(make_component<Algorithm>(
+      "cma_es",
+      "CMA-ES (Hansen 2016 defaults) in the unit cube; out-of-box candidates are clipped and penalized",
+      {opt::real("sigma0", 0.3, "initial step size (unit cube)").above(0),
+       opt::reals("x0", "", "initial mean in the unit cube (default: the task's initial point, else the centre)"),
+       opt::integer("population", 0, "lambda; 0 = 4 + floor(3 ln d)").at_least(0),
+       opt::real("penalty", 10.0, "boundary penalty factor, times the generation's cost range per unit distance^2")
+           .at_least(0)},
+      [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Algorithm> {
+        if (ctx.dim <= 0) throw ConfigError("algorithm 'cma_es' needs the problem dimension (got 0)");
+        CmaEsOptions c;
+        c.sigma0 = o.real("sigma0");
+        c.population = o.integer("population");
+        c.penalty = o.real("penalty");
+        c.seed = ctx.seed;
+        if (o.is_set("x0")) {
+          const std::vector<double> v = o.reals("x0");
+          if (static_cast<Index>(v.size()) != ctx.dim)
+            o.node("x0").fail("expected " + std::to_string(ctx.dim) + " values (one per dimension, unit cube)");
+          c.x0 = Eigen::Map<const Vec>(v.data(), ctx.dim);
+          if (!Box::unit(ctx.dim).contains(*c.x0)) o.node("x0").fail("expected values in [0, 1] (unit cube)");
+        } else if (ctx.initial_point) {
+          c.x0 = *ctx.initial_point;
+        }
+        return std::make_unique<CmaEs>(ctx.dim, c);
+      }));
+}

@@ -1,0 +1,74 @@
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <numeric>
+#include <vector>
+
+#include "optimizers.hpp"
+#include "search_support.hpp"
+#include "unit_designs.hpp"
+#include "varbo/log.hpp"
+#include "varbo/parallel.hpp"
+
+namespace varbo::nlopt_plugin {
+
+OptimizeResult MultistartOptimizer::maximize(const DifferentiableFunction& f, const RegionConstraint& region,
+                                             const Mat& starts, Rng& rng) const {
+  const Box& box = region.bounds();
+  const Index d = box.dim();
+  // One draw from the caller's stream names this call; every random part derives its own stream from it.
+  const std::uint64_t call = rng.next();
+
+  // 1. Candidates: scrambled Sobol points in the box, then the region's seeds and the caller's starts.
+  Rng sobol_rng = rng.stream(call, 0);
+  sampling::SobolSequence sobol(d, /*scramble=*/true, sobol_rng);
+  const Mat unit = sobol.next(settings_.candidates);
+  Mat in_box(unit.rows(), d);
+  for (Index i = 0; i < unit.rows(); ++i)
+    in_box.row(i) = (box.lower.array() + unit.row(i).transpose().array() * box.width().array()).transpose();
+  const Mat sobol_points = feasible_rows(region, in_box);
+  const Mat seeds = feasible_rows(region, region.seeds());
+  const Mat given = feasible_rows(region, starts);
+  const Mat candidates = stack_rows({&sobol_points, &seeds, &given}, d);
+
+  // 2. Values without gradients, in parallel chunks.
+  const Vec values = evaluate_rows(f, candidates);
+  OptimizeResult best;
+  best.evaluations = candidates.rows();
+  const Index top = best_index(values);
+  if (top >= 0) {
+    best.x = candidates.row(top).transpose();
+    best.value = values[top];
+  }
+
+  // 3. Polish the best few, ordered by value (index order on ties).
+  std::vector<Index> order(static_cast<std::size_t>(candidates.rows()));
+  std::iota(order.begin(), order.end(), Index{0});
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return values[a] > values[b]; });
+  std::vector<Index> chosen;
+  for (Index i : order) {
+    if (static_cast<Index>(chosen.size()) >= settings_.polish || !std::isfinite(values[i])) break;
+    chosen.push_back(i);
+  }
+  std::vector<OptimizeResult> polished(chosen.size());
+  parallel_for(static_cast<Index>(chosen.size()), [&](Index k) {
+    // Restart k has its own stream (unused by the deterministic local methods, kept for stochastic ones).
+    Rng local_rng = rng.stream(call, static_cast<std::uint64_t>(k) + 1);
+    (void)local_rng;
+    polished[static_cast<std::size_t>(k)] =
+        local_maximize(f, region, candidates.row(chosen[static_cast<std::size_t>(k)]).transpose(), settings_.local);
+  });
+  for (auto& r : polished) keep_better(best, std::move(r));
+
+  best.iterations = static_cast<Index>(chosen.size());
+  best.success = std::isfinite(best.value);
+  best.message = best.success ? fmt::format("{} candidates ({} feasible Sobol), {} polished", candidates.rows(),
+                                            sobol_points.rows(), chosen.size())
+                              : "no finite, feasible value among the candidates";
+  if (best.x.size() == 0) best.x = 0.5 * (box.lower + box.upper);
+  if (sobol_points.rows() == 0 && region.has_constraint())
+    log_warn("multistart: none of {} Sobol candidates lies inside the region's constraint", settings_.candidates);
+  return best;
+}
+
+}  // namespace varbo::nlopt_plugin

@@ -1,0 +1,96 @@
+#include "trust_region.hpp"
+#include "varbo/errors.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+// Appends a point with the given cost and updates the region, as the bo algorithm does after each fit.
+void observe(TrustRegion& tr, Dataset& data, const Vec& x, double cost) {
+  data.add(x, cost);
+  Rng rng(0);
+  tr.update(nullptr, data, rng);
+}
+}  // namespace
+
+TEST_CASE("trust_region: defaults follow Eriksson et al. 2019") {
+  TrustRegion tr(10, {});
+  CHECK(tr.length() == 0.8);
+  CHECK(tr.failure_tolerance() == 10);  // ceil(max(4, 10))
+  TrustRegion small(2, {});
+  CHECK(small.failure_tolerance() == 4);  // ceil(max(4, 2))
+  CHECK_FALSE(tr.has_constraint());
+  CHECK(tr.bounds().lower.isApprox(Vec::Zero(10)));  // before data: the unit cube
+}
+
+TEST_CASE("trust_region: scripted successes double L, failures halve it, collapse restarts") {
+  TrustRegion tr(2, {});
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 10.0);  // initial design: reference only
+  CHECK(tr.length() == 0.8);
+  // The box is centred on the incumbent and clipped to the unit cube.
+  CHECK(tr.bounds().lower.isApprox(Vec::Constant(2, 0.1)));
+  CHECK(tr.bounds().upper.isApprox(Vec::Constant(2, 0.9)));
+  // Three successes (each improves by more than 1e-3·|best|) double L.
+  observe(tr, data, (Vec(2) << 0.6, 0.5).finished(), 9.0);
+  observe(tr, data, (Vec(2) << 0.7, 0.5).finished(), 8.0);
+  CHECK(tr.successes() == 2);
+  observe(tr, data, (Vec(2) << 0.8, 0.5).finished(), 7.0);
+  CHECK(tr.length() == doctest::Approx(1.6));
+  CHECK(tr.successes() == 0);
+  CHECK(tr.center().isApprox((Vec(2) << 0.8, 0.5).finished()));
+  CHECK(tr.bounds().upper[0] == 1.0);  // clipped
+  CHECK(tr.bounds().lower[0] == doctest::Approx(0.0));
+  // A tiny improvement (< 1e-3 relative) is a failure; 4 failures halve L.
+  observe(tr, data, (Vec(2) << 0.1, 0.1).finished(), 6.9999);
+  observe(tr, data, (Vec(2) << 0.2, 0.1).finished(), 50.0);
+  observe(tr, data, (Vec(2) << 0.3, 0.1).finished(), 50.0);
+  CHECK(tr.failures() == 3);
+  observe(tr, data, (Vec(2) << 0.4, 0.1).finished(), 50.0);
+  CHECK(tr.length() == doctest::Approx(0.8));
+  CHECK(tr.failures() == 0);
+  // The incumbent moved to the (slightly) better point.
+  CHECK(tr.center().isApprox((Vec(2) << 0.1, 0.1).finished()));
+  // A success resets the failure counter.
+  observe(tr, data, (Vec(2) << 0.5, 0.1).finished(), 50.0);
+  observe(tr, data, (Vec(2) << 0.15, 0.1).finished(), 1.0);
+  CHECK(tr.failures() == 0);
+  CHECK(tr.successes() == 1);
+  // Halving 0.8 seven times gives 0.00625 < 0.5^7: the 7th halving restarts.
+  int halvings = 0;
+  while (tr.restarts() == 0 && halvings < 20) {
+    for (int k = 0; k < 4; ++k) observe(tr, data, (Vec(2) << 0.9, 0.9).finished(), 100.0);
+    ++halvings;
+  }
+  CHECK(halvings == 7);
+  CHECK(tr.restarts() == 1);
+  CHECK(tr.length() == 0.8);
+  CHECK(data.size() == 10 + 28);  // data kept
+  CHECK(tr.center().isApprox((Vec(2) << 0.15, 0.1).finished()));
+}
+
+TEST_CASE("trust_region: an update without new data changes nothing; bad lengths are a ConfigError") {
+  TrustRegion tr(2, {});
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 1.0);
+  observe(tr, data, (Vec(2) << 0.6, 0.5).finished(), 2.0);
+  CHECK(tr.failures() == 1);
+  Rng rng(0);
+  tr.update(nullptr, data, rng);  // a refit without new observations
+  CHECK(tr.failures() == 1);
+  TrustRegionOptions bad;
+  bad.length_min = 1.0;
+  CHECK_THROWS_AS(TrustRegion(2, bad), ConfigError);
+}
+
+TEST_CASE("trust_region: registered as a box region") {
+  BuildContext ctx;
+  ctx.dim = 3;
+  auto r = test::registry().create<RegionConstraint>("{type: trust_region, length_init: 0.4}", ctx);
+  CHECK_FALSE(r->has_constraint());
+  Dataset data = Dataset::empty(3);
+  data.add(Vec::Constant(3, 0.5), 1.0);
+  Rng rng(0);
+  r->update(nullptr, data, rng);
+  CHECK((r->bounds().upper - r->bounds().lower).isApprox(Vec::Constant(3, 0.4)));
+}

@@ -1,0 +1,75 @@
+#include "trust_region.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+
+namespace varbo {
+
+TrustRegion::TrustRegion(Index dim, TrustRegionOptions o)
+    : options_(o), box_(Box::unit(dim)), center_(Vec::Constant(dim, 0.5)), length_(o.length_init) {
+  if (!(o.length_min > 0 && o.length_min <= o.length_init && o.length_init <= o.length_max))
+    throw ConfigError(fmt::format("trust_region: need 0 < length_min <= length_init <= length_max, got {}, {}, {}",
+                                  o.length_min, o.length_init, o.length_max));
+  // Eriksson et al. 2019, section 2: τ_fail = ceil(max(4/q, d/q)).
+  failure_tolerance_ = o.failure_tolerance > 0
+                           ? o.failure_tolerance
+                           : static_cast<int>(std::ceil(std::max(4.0 / o.batch_size,
+                                                                 static_cast<double>(dim) / o.batch_size)));
+}
+
+void TrustRegion::set_box() {
+  // The box of side L around the centre, clipped to the unit cube (as TuRBO clips to [0, 1]^d).
+  box_.lower = (center_.array() - 0.5 * length_).max(0.0).matrix();
+  box_.upper = (center_.array() + 0.5 * length_).min(1.0).matrix();
+}
+
+void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
+  if (data.size() == 0) return;
+  if (data.dim() != box_.dim())
+    throw InputError(fmt::format("trust_region: data have dimension {}, the region {}", data.dim(), box_.dim()));
+  Index arg = 0;
+  const double best = data.y.minCoeff(&arg);
+  if (seen_ == 0) {
+    best_ = best;  // the first update (initial design) sets the reference; no success or failure yet
+  } else if (data.size() > seen_) {
+    if (best < best_ - options_.improvement * std::abs(best_)) {
+      ++successes_;
+      failures_ = 0;
+    } else {
+      ++failures_;
+      successes_ = 0;
+    }
+    best_ = std::min(best_, best);
+    if (successes_ >= options_.success_tolerance) {
+      length_ = std::min(2.0 * length_, options_.length_max);
+      successes_ = 0;
+    } else if (failures_ >= failure_tolerance_) {
+      length_ /= 2.0;
+      failures_ = 0;
+    }
+    if (length_ < options_.length_min) {
+      ++restarts_;
+      log_info("trust_region: side length {:.3g} < {:.3g}: restart {} (L reset to {}, data kept)", length_,
+               options_.length_min, restarts_, options_.length_init);
+      length_ = options_.length_init;
+      successes_ = failures_ = 0;
+    }
+  }
+  seen_ = data.size();
+  center_ = data.X.row(arg).transpose();
+  set_box();
+}
+
+Mat TrustRegion::seeds() const { return center_.transpose(); }
+
+std::string TrustRegion::state() const {
+  return fmt::format("L {:.4g}, successes {}/{}, failures {}/{}, restarts {}", length_, successes_,
+                     options_.success_tolerance, failures_, failure_tolerance_, restarts_);
+}
+
+}  // namespace varbo

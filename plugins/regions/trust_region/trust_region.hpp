@@ -1,0 +1,53 @@
+#pragma once
+// TuRBO-1's trust region (Eriksson et al. 2019, section 2): a box of side L around the incumbent, doubled
+// after τ_succ consecutive successes, halved after τ_fail consecutive failures, and restarted when L < L_min.
+// It is a plain box region (no constraint), so every optimizer can search it.
+#include <string>
+
+#include "varbo/region.hpp"
+
+namespace varbo {
+
+struct TrustRegionOptions {
+  double length_init = 0.8;                 ///< Eriksson 2019: L_init = 0.8
+  double length_min = 0.0078125;            ///< 0.5^7
+  double length_max = 1.6;
+  int success_tolerance = 3;                ///< τ_succ
+  int failure_tolerance = 0;                ///< τ_fail; 0 = ceil(max(4/q, d/q))
+  int batch_size = 1;                       ///< q, only used for the default τ_fail
+  double improvement = 1e-3;                ///< success: new best < old best − improvement·|old best|
+};
+
+class TrustRegion final : public RegionConstraint {
+ public:
+  TrustRegion(Index dim, TrustRegionOptions options);
+  /// Compares the best cost in `data` with the best at the previous update (only when new points arrived),
+  /// updates the counters and L, and re-centres the box on the best observed point. A restart (L < L_min)
+  /// resets L and the counters; unlike TuRBO, whose restart discards the data and draws a new design, the
+  /// data are kept (the algorithm owns them) and the box re-centres on the incumbent of all the data.
+  void update(const Surrogate* model, const Dataset& data, Rng& rng) override;
+  const Box& bounds() const override { return box_; }
+  Mat seeds() const override;
+  std::string state() const override;
+
+  double length() const { return length_; }
+  int successes() const { return successes_; }
+  int failures() const { return failures_; }
+  int restarts() const { return restarts_; }
+  int failure_tolerance() const { return failure_tolerance_; }
+  const Vec& center() const { return center_; }
+
+ private:
+  void set_box();
+
+  TrustRegionOptions options_;
+  int failure_tolerance_;
+  Box box_;
+  Vec center_;
+  double length_;
+  double best_ = 0;
+  Index seen_ = 0;  ///< data size at the previous update
+  int successes_ = 0, failures_ = 0, restarts_ = 0;
+};
+
+}  // namespace varbo

@@ -1,0 +1,95 @@
+#include "external_factory.hpp"
+
+#include <fmt/format.h>
+
+#include <set>
+
+#include "external_task.hpp"
+
+namespace varbo::tasks {
+
+std::vector<OptionSpec> external_options() {
+  return {
+      opt::string("command", "", "shell command evaluating one θ (run with /bin/sh -c)").must(),
+      opt::integer("dim", 0, "number of parameters (0: taken from lower/upper or names)").at_least(0).at_most(10000),
+      opt::reals("bounds", "", "[lo, hi] for every dimension (default [0, 1] unless lower/upper are given)"),
+      opt::reals("lower", "", "lower bound per dimension (with upper)"),
+      opt::reals("upper", "", "upper bound per dimension (with lower)"),
+      opt::node("names", "", "list of parameter names (default x1, x2, ...)"),
+      opt::choice("input", "json", {"json", "args"},
+                  "json: {\"theta\": [...], \"names\": [...], \"trial\": k} on stdin; args: θ appended as arguments"),
+      opt::real("timeout", 600, "seconds before the command's process group is killed (a failed trial)").above(0),
+      opt::string("workdir", "", "working directory of the command (default: inherited)"),
+  };
+}
+
+std::unique_ptr<Task> make_external_task(const Options& o) {
+  ExternalTaskSettings s;
+  s.command = o.str("command");
+  if (s.command.find_first_not_of(" \t\n") == std::string::npos) o.node("command").fail("expected a non-empty command");
+
+  // Every source of the dimension must agree.
+  Index dim = static_cast<Index>(o.integer("dim"));
+  std::string dim_from = dim > 0 ? "dim" : "";
+  auto agree = [&](Index d, const std::string& key) {
+    if (dim > 0 && d != dim)
+      o.node(key).fail(fmt::format("has {} entries but {} says the dimension is {}", d, dim_from, dim));
+    if (dim == 0) {
+      dim = d;
+      dim_from = key;
+    }
+  };
+
+  const bool has_lower = o.is_set("lower"), has_upper = o.is_set("upper");
+  if (has_lower != has_upper)
+    o.node(has_lower ? "lower" : "upper").fail("lower and upper must be given together");
+  if (has_lower && o.is_set("bounds")) o.node("bounds").fail("give either bounds or lower/upper, not both");
+  std::vector<double> lower, upper;
+  if (has_lower) {
+    lower = o.reals("lower");
+    upper = o.reals("upper");
+    if (lower.empty()) o.node("lower").fail("expected at least one value");
+    if (lower.size() != upper.size())
+      o.node("upper").fail(fmt::format("has {} entries but lower has {}", upper.size(), lower.size()));
+    for (std::size_t i = 0; i < lower.size(); ++i)
+      if (!(lower[i] < upper[i])) o.node("upper").fail(fmt::format("entry {} is not above lower[{}]", i, i));
+    agree(static_cast<Index>(lower.size()), "lower");
+  }
+
+  std::vector<std::string> names;
+  if (o.is_set("names")) {
+    const ConfigNode n = o.node("names");
+    if (!n.is_sequence() || n.size() == 0) n.fail("expected a non-empty list of parameter names");
+    std::set<std::string> seen;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const ConfigNode item = n.item(i);
+      if (!item.is_scalar() || item.scalar().empty()) item.fail("expected a parameter name");
+      if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
+      names.push_back(item.scalar());
+    }
+    agree(static_cast<Index>(names.size()), "names");
+  }
+  if (dim == 0) o.source().fail("cannot tell the number of parameters: give dim, lower/upper or names");
+
+  if (has_lower) {
+    s.box = Box{Eigen::Map<const Vec>(lower.data(), dim), Eigen::Map<const Vec>(upper.data(), dim)};
+  } else {
+    double lo = 0, hi = 1;
+    if (o.is_set("bounds")) {
+      const auto b = o.reals("bounds");
+      if (b.size() != 2 || !(b[0] < b[1])) o.node("bounds").fail("expected [lo, hi] with lo < hi");
+      lo = b[0];
+      hi = b[1];
+    }
+    s.box = Box{Vec::Constant(dim, lo), Vec::Constant(dim, hi)};
+  }
+  if (names.empty())
+    for (Index i = 0; i < dim; ++i) names.push_back(fmt::format("x{}", i + 1));
+  s.names = std::move(names);
+  s.input = o.str("input") == "args" ? InputMode::Args : InputMode::Json;
+  s.process.timeout_seconds = o.real("timeout");
+  if (o.is_set("workdir")) s.process.working_directory = o.str("workdir");
+  return std::make_unique<ExternalTask>(std::move(s));
+}
+
+}  // namespace varbo::tasks

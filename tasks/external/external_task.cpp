@@ -1,0 +1,76 @@
+#include "external_task.hpp"
+
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "answer_parser.hpp"
+
+namespace varbo::tasks {
+
+namespace {
+// The end of stderr, on one line, for messages.
+std::string tail(const std::string& text, std::size_t n) {
+  std::string t = text.size() > n ? "..." + text.substr(text.size() - n) : text;
+  for (char& c : t)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!t.empty() && t.back() == ' ') t.pop_back();
+  return t;
+}
+}  // namespace
+
+ExternalTask::ExternalTask(ExternalTaskSettings settings) : s_(std::move(settings)) {
+  if (s_.command.empty()) throw std::invalid_argument("external task: empty command");
+  if (static_cast<Index>(s_.names.size()) != s_.box.dim())
+    throw std::invalid_argument("external task: one name per dimension is needed");
+}
+
+Domain ExternalTask::domain() const { return Domain{s_.box, s_.names}; }
+
+std::string ExternalTask::json_input(const Vec& theta, long trial) const {
+  nlohmann::json j;
+  j["theta"] = std::vector<double>(theta.data(), theta.data() + theta.size());
+  j["names"] = s_.names;
+  j["trial"] = trial;
+  return j.dump() + "\n";
+}
+
+std::string ExternalTask::command_with_args(const Vec& theta) const {
+  std::string c = s_.command;
+  for (Index i = 0; i < theta.size(); ++i) c += fmt::format(" {:.17g}", theta[i]);
+  return c;
+}
+
+Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns its randomness*/) {
+  Evaluation e;
+  if (theta.size() != s_.box.dim()) {
+    e.ok = false;
+    e.error = fmt::format("external task: expected {} parameters, got {}", s_.box.dim(), theta.size());
+    return e;
+  }
+  const long trial = next_trial_++;
+  const bool json = s_.input == InputMode::Json;
+  const ProcessResult r =
+      run_shell(json ? s_.command : command_with_args(theta), json ? json_input(theta, trial) : "", s_.process);
+
+  auto fail = [&](const std::string& what) {
+    e.ok = false;
+    e.error = fmt::format("external command failed ({}): {}; last stdout line: '{}'; stderr: '{}'",
+                          r.status_text(), what, tail(last_nonempty_line(r.out), 200), tail(r.err, 400));
+    return e;
+  };
+  if (!r.started) return fail("the process could not be started");
+  if (r.timed_out) return fail(fmt::format("no answer within the timeout of {} s", s_.process.timeout_seconds));
+  if (!r.exited) return fail("terminated by a signal");
+  if (r.exit_status != 0)
+    return fail(r.exit_status == 127 ? "non-zero exit (127: command not found?)" : "non-zero exit");
+  std::string why;
+  const auto answer = parse_answer(r.out, why);
+  if (!answer) return fail(why);
+  e.cost = answer->cost;
+  e.components = answer->components;
+  return e;
+}
+
+}  // namespace varbo::tasks

@@ -1,0 +1,49 @@
+// libvarbo_tasks_paper: the synthetic tasks of Kuindersma et al. 2013, sections 5.1 and 5.2.
+#include "swingup.hpp"
+#include "two_minima.hpp"
+#include "varbo/plugin.hpp"
+
+using namespace varbo;
+
+VARBO_PLUGIN("tasks_paper", "0.1.0",
+             "Tasks of the variable-risk paper: 1-D two-minima cost (sec. 5.1), noisy pendulum swing-up (sec. 5.2)") {
+  registry.add(make_component<Task>(
+      "two_minima_1d",
+      "1-D cost on [0,1], mean 0.5+0.4cos(4 pi t) (equal minima 0.1 at t=0.25 and 0.75), noise std "
+      "0.02+0.2t^2 (low at 0.25, high at 0.75)",
+      {opt::real("noise_scale", 1.0, "multiplies the noise std (0: noiseless)").at_least(0)},
+      Factory<Task>([](const Options& o, const BuildContext&) {
+        return std::make_unique<tasks::TwoMinimaTask>(o.real("noise_scale"));
+      })));
+
+  registry.add(make_component<Task>(
+      "pendulum_swingup",
+      "bang-bang pendulum swing-up, theta = switching times [t1, t2], cost = int 0.01 alpha + 0.0001 u^2 dt "
+      "until within goal_tolerance of upright or T; tau_max ~ N(tau_mean, tau_std^2) per episode",
+      {opt::real("tau_mean", 4.0, "mean of the per-episode maximum torque, Nm").above(0),
+       opt::real("tau_std", 0.3, "std of the per-episode maximum torque, Nm").at_least(0),
+       opt::real("horizon", 3.5, "episode length T, s").above(0),
+       opt::real("t_max", 1.5, "upper bound of both switching times, s").above(0),
+       opt::real("dt", 1e-3, "RK4 step, s (cost converged to ~1e-7 relative at 1e-3)").above(0).at_most(0.05),
+       opt::real("goal_tolerance", 0.1, "episode ends within this angle of upright, rad").above(0),
+       opt::real("mass", 1.0, "pendulum mass, kg").above(0),
+       opt::real("length", 1.0, "pendulum length, m").above(0),
+       opt::real("gravity", 9.81, "gravitational acceleration, m/s^2").above(0),
+       opt::real("angle_weight", 0.01, "weight of the angle-from-upright integral").at_least(0),
+       opt::real("effort_weight", 1e-4, "weight of the squared-torque integral").at_least(0)},
+      Factory<Task>([](const Options& o, const BuildContext&) {
+        tasks::SwingupSettings s;
+        s.tau_mean = o.real("tau_mean");
+        s.tau_std = o.real("tau_std");
+        s.horizon = o.real("horizon");
+        s.t_max = o.real("t_max");
+        s.dt = o.real("dt");
+        s.goal_tolerance = o.real("goal_tolerance");
+        s.pendulum.mass = o.real("mass");
+        s.pendulum.length = o.real("length");
+        s.pendulum.gravity = o.real("gravity");
+        s.angle_weight = o.real("angle_weight");
+        s.effort_weight = o.real("effort_weight");
+        return std::make_unique<tasks::SwingupTask>(s);
+      })));
+}

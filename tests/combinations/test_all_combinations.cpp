@@ -1,0 +1,119 @@
+// Runs a short seeded study on Branin for EVERY compatible combination of the loaded components:
+// surrogate × acquisition × region × acquisition optimizer × initial-design sampler, and separately
+// surrogate × fit optimizer. The lists come from the registry at run time, so a new plugin adds its
+// combinations with no edit here; only combinations whose capability tags don't match are skipped.
+#include <cmath>
+#include <fmt/format.h>
+
+#include "study_helpers.hpp"
+#include "varbo/log.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+bool has_option(const ComponentInfo& c, const std::string& name) {
+  for (const auto& o : c.options)
+    if (o.name == name) return true;
+  return false;
+}
+
+// Cheaper settings where a component offers them, so hundreds of studies stay within the test budget.
+std::string surrogate_yaml(const ComponentInfo& s, const std::string& fit_optimizer = "") {
+  std::string y = fmt::format("{{type: {}", s.full_name());
+  if (has_option(s, "restarts")) y += ", restarts: 2";
+  if (!fit_optimizer.empty() && has_option(s, "fit_optimizer")) y += ", fit_optimizer: " + fit_optimizer;
+  return y + "}";
+}
+
+struct Outcome {
+  bool finite = true;
+  double best_initial = INFINITY;
+  double best_after = INFINITY;
+  int rows = 0;
+};
+
+Outcome run_combination(const std::string& algorithm_yaml, const std::string& out, Index budget) {
+  const std::string yaml = fmt::format(
+      "task: {{type: branin}}\nbudget: {}\nseed: 11\noutput: {}\nalgorithm: {}\n", budget, out, algorithm_yaml);
+  test::run_yaml(yaml, test::registry());
+  auto rows = test::read_rows(out + "/trials.csv");
+  Outcome o;
+  const int phase = test::column_of(rows[0], "phase"), cost = test::column_of(rows[0], "cost");
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const double c = std::stod(rows[i][static_cast<std::size_t>(cost)]);
+    o.finite = o.finite && std::isfinite(c);
+    double& best = rows[i][static_cast<std::size_t>(phase)] == "initial" ? o.best_initial : o.best_after;
+    best = std::min(best, c);
+    ++o.rows;
+  }
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("every compatible surrogate x acquisition x region x optimizer x sampler combination improves on Branin") {
+  set_log_level(LogLevel::Error);
+  Registry& r = test::registry();
+  const auto surrogates = r.components(Kind::Surrogate);
+  const auto acquisitions = r.components(Kind::Acquisition);
+  const auto regions = r.components(Kind::Region);
+  const auto optimizers = r.components(Kind::Optimizer);
+  const auto samplers = r.components(Kind::Sampler);
+  REQUIRE(!surrogates.empty());
+  REQUIRE(!acquisitions.empty());
+  REQUIRE(!regions.empty());
+  REQUIRE(!optimizers.empty());
+  REQUIRE(!samplers.empty());
+  const std::string out = test::temp_folder("combinations");
+  int ran = 0, skipped = 0;
+  const Index budget = 12, initial = 5;
+  for (const auto* s : surrogates)
+    for (const auto* a : acquisitions)
+      for (const auto* g : regions)
+        for (const auto* o : optimizers)
+          for (const auto* m : samplers) {
+            std::string why;
+            if (!compatible({s, a, g, o, m}, &why)) {
+              ++skipped;
+              continue;
+            }
+            const std::string name = fmt::format("{} + {} + {} + {} + {}", s->name, a->name, g->name, o->name, m->name);
+            INFO(name);
+            const std::string algo = fmt::format(
+                "{{type: bo, initial_points: {}, initial_design: {}, surrogate: {}, acquisition: {}, region: {}, "
+                "acquisition_optimizer: {}}}",
+                initial, m->full_name(), surrogate_yaml(*s), a->full_name(), g->full_name(), o->full_name());
+            Outcome res;
+            CHECK_NOTHROW(res = run_combination(algo, out, budget));
+            CHECK(res.rows == budget);
+            CHECK(res.finite);
+            CHECK(res.best_after < res.best_initial);
+            ++ran;
+          }
+  MESSAGE(fmt::format("ran {} combinations, skipped {} with unmet capability tags", ran, skipped));
+  CHECK(ran > 0);
+}
+
+TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitter") {
+  set_log_level(LogLevel::Error);
+  Registry& r = test::registry();
+  const std::string out = test::temp_folder("fit_combinations");
+  int ran = 0;
+  for (const auto* s : r.components(Kind::Surrogate)) {
+    if (!has_option(*s, "fit_optimizer")) continue;
+    for (const auto* o : r.components(Kind::Optimizer)) {
+      if (!o->needs.empty()) continue;  // e.g. optimizers that need a constrained region to be meaningful
+      INFO(s->name << " fitted by " << o->name);
+      const std::string algo = fmt::format("{{type: bo, initial_points: 5, surrogate: {}}}",
+                                           surrogate_yaml(*s, o->full_name()));
+      Outcome res;
+      CHECK_NOTHROW(res = run_combination(algo, out, 12));
+      CHECK(res.finite);
+      CHECK(res.best_after < res.best_initial);
+      ++ran;
+    }
+  }
+  CHECK(ran > 0);
+}

@@ -1,0 +1,139 @@
+// Running studies: the run folder, failed trials, and determinism across thread counts.
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "study_helpers.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/log.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+// A task that fails in the ways real hardware does: an exception, a NaN cost, a reported failure.
+class FlakyQuadratic final : public Task {
+ public:
+  Domain domain() const override { return Domain{Box{Vec::Constant(2, -1.0), Vec::Constant(2, 1.0)}, {"a", "b"}}; }
+  Evaluation evaluate(const Vec& theta, Rng&) override {
+    const int k = calls_++;
+    if (k == 6) throw std::runtime_error("robot fell over");
+    Evaluation e;
+    if (k == 7) {
+      e.cost = NAN;
+      return e;
+    }
+    if (k == 8) {
+      e.ok = false;
+      e.error = "emergency stop";
+      return e;
+    }
+    e.cost = (theta.array() - 0.3).square().sum();
+    e.components = {{"energy", 0.5 * e.cost}, {"tracking", 0.5 * e.cost}};
+    return e;
+  }
+  std::vector<std::string> component_names() const override { return {"energy", "tracking"}; }
+
+ private:
+  int calls_ = 0;
+};
+
+Registry& registry_with_flaky() {
+  static Registry* r = [] {
+    auto* reg = new Registry();
+    PluginLoader(*reg).load_default();
+    reg->add(make_component<Task>("flaky_quadratic", "test task", {},
+                                  Factory<Task>([](const Options&, const BuildContext&) {
+                                    return std::make_unique<FlakyQuadratic>();
+                                  })));
+    return reg;
+  }();
+  return *r;
+}
+
+std::vector<std::vector<std::string>> without_timings(std::vector<std::vector<std::string>> rows) {
+  const auto& h = rows[0];
+  std::vector<int> drop = {test::column_of(h, "fit_seconds"), test::column_of(h, "acquisition_seconds"),
+                           test::column_of(h, "evaluation_seconds")};
+  for (auto& r : rows)
+    for (int i = static_cast<int>(r.size()) - 1; i >= 0; --i)
+      if (std::find(drop.begin(), drop.end(), i) != drop.end()) r.erase(r.begin() + i);
+  return rows;
+}
+
+}  // namespace
+
+TEST_CASE("a run writes the resolved config, trials, model snapshots and a summary") {
+  set_log_level(LogLevel::Error);
+  const std::string out = test::temp_folder("run_outputs");
+  RunSummary s = test::run_yaml("task: branin\nbudget: 10\nseed: 3\noutput: " + out +
+                                    "\nalgorithm: {type: bo, initial_points: 5}\n",
+                                test::registry());
+  CHECK(s.evaluations == 10);
+  CHECK(s.failed == 0);
+  REQUIRE(s.simple_regret.has_value());
+  CHECK(*s.simple_regret >= 0);
+  CHECK(*s.simple_regret == doctest::Approx(s.best_cost - 0.39788735772973816).epsilon(1e-12));
+  auto rows = test::read_rows(out + "/trials.csv");
+  REQUIRE(rows.size() == 11);
+  CHECK(rows[0][0] == "index");
+  CHECK(rows[0][1] == "phase");
+  CHECK(rows[0][2] == "x1");
+  CHECK(rows[1][1] == "initial");
+  CHECK(rows[10][1] == "ei");
+  // Resolved config parses back into the same study.
+  StudyConfig again = parse_study(ConfigNode::load_file(out + "/config.resolved.yaml"), test::registry());
+  CHECK(again.budget == 10);
+  CHECK(again.algorithm.info->name == "bo");
+  std::ifstream js(out + "/summary.json");
+  nlohmann::json j = nlohmann::json::parse(js);
+  CHECK(j["evaluations"] == 10);
+  CHECK(j["best_cost"].get<double>() == doctest::Approx(s.best_cost));
+  CHECK(j["best_theta"].size() == 2);
+  std::ifstream model(out + "/model.yaml");
+  YAML::Node m = YAML::Load(model);
+  CHECK(m.size() == 5);  // one snapshot per model-based trial
+  CHECK(m[0]["hyperparameters"].size() > 0);
+}
+
+TEST_CASE("failed trials are recorded, not fatal, and never reach the model") {
+  set_log_level(LogLevel::Error);
+  const std::string out = test::temp_folder("flaky");
+  RunSummary s = test::run_yaml("task: flaky_quadratic\nbudget: 14\nseed: 2\noutput: " + out +
+                                    "\nalgorithm: {type: bo, initial_points: 4}\n",
+                                registry_with_flaky());
+  CHECK(s.evaluations == 14);
+  CHECK(s.failed == 3);
+  auto rows = test::read_rows(out + "/trials.csv");
+  const int ok = test::column_of(rows[0], "ok"), err = test::column_of(rows[0], "error"),
+            energy = test::column_of(rows[0], "energy");
+  REQUIRE(ok > 0);
+  REQUIRE(energy > 0);
+  CHECK(rows[7][static_cast<std::size_t>(ok)] == "0");
+  CHECK(rows[7][static_cast<std::size_t>(err)] == "robot fell over");
+  CHECK(rows[8][static_cast<std::size_t>(err)] == "non-finite cost nan");
+  CHECK(rows[9][static_cast<std::size_t>(err)] == "emergency stop");
+  CHECK(rows[10][static_cast<std::size_t>(ok)] == "1");
+  CHECK(std::stod(rows[10][static_cast<std::size_t>(energy)]) >= 0);
+  CHECK(s.best_cost < 0.05);
+}
+
+TEST_CASE("the same seed gives the same trials with 1 and 2 threads") {
+  set_log_level(LogLevel::Error);
+  const std::string yaml_base =
+      "task: {type: hartmann3, noise_std: 0.01}\nbudget: 16\nseed: 5\nalgorithm: {type: bo, initial_points: 6, "
+      "surrogate: {type: gp, restarts: 4}}\n";
+  const std::string a = test::temp_folder("det1"), b = test::temp_folder("det2");
+  RunOverrides o1, o2;
+  o1.threads = 1;
+  o1.output = a;
+  o2.threads = 2;
+  o2.output = b;
+  test::run_yaml(yaml_base, test::registry(), o1);
+  test::run_yaml(yaml_base, test::registry(), o2);
+  auto ra = without_timings(test::read_rows(a + "/trials.csv"));
+  auto rb = without_timings(test::read_rows(b + "/trials.csv"));
+  REQUIRE(ra.size() == 17);
+  CHECK(ra == rb);
+}

@@ -1,0 +1,49 @@
+#pragma once
+// Helpers for tests that run whole studies in-process.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "varbo/study.hpp"
+
+namespace varbo::test {
+
+/// A fresh, empty folder under the system temp dir.
+inline std::string temp_folder(const std::string& name) {
+  const auto p = std::filesystem::temp_directory_path() / ("varbo_test_" + name);
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p.string();
+}
+
+/// trials.csv as rows of strings (header first).
+inline std::vector<std::vector<std::string>> read_rows(const std::string& file) {
+  std::ifstream in(file);
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
+inline int column_of(const std::vector<std::string>& header, const std::string& name) {
+  for (std::size_t i = 0; i < header.size(); ++i)
+    if (header[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+/// Runs a study given as YAML text against `registry`.
+inline RunSummary run_yaml(const std::string& yaml, const Registry& registry, RunOverrides ov = {}) {
+  ov.progress = false;
+  StudyConfig s = parse_study(ConfigNode::parse(yaml, "<test study>"), registry);
+  return run_study(s, registry, ov);
+}
+
+}  // namespace varbo::test
