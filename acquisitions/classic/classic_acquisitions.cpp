@@ -87,7 +87,9 @@ std::string ExpectedImprovement::state() const {
 void ProbabilityOfImprovement::prepare(const AcquisitionContext& context) {
   model_ = &require_model(context);
   target_ = find_target(context, 0.0);
-  margin_ = target_.mu_best + xi_ * signal_std(*model_);
+  // Kushner's convention: improve on μ_best by at least ξ·σ_f. (With Kuindersma's EI sign, μ_best + ξ, PI
+  // would be 1 at the incumbent for any ξ > 0 and never explore.)
+  margin_ = target_.mu_best - xi_ * signal_std(*model_);
 }
 
 double ProbabilityOfImprovement::evaluate(const Vec& x, Vec* grad) const {

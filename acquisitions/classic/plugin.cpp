@@ -35,8 +35,11 @@ VARBO_PLUGIN("acquisitions", "0.1.0", "Expected improvement, probability of impr
       gradient));
 
   registry.add(varbo::make_component<Acquisition>(
-      "pi", "probability of improving on the lowest posterior mean at the data",
-      {xi_option(0.01), gh_option()},
+      "pi", "probability of improving on the lowest posterior mean at the data by at least ξ·σ_f",
+      {varbo::opt::real("xi", 0.01,
+                        "required improvement ξ in units of σ_f: PI = P(y < μ_best − ξ·σ_f) (Kushner's convention)")
+           .at_least(0),
+       gh_option()},
       varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
         return std::make_unique<varbo::acq::ProbabilityOfImprovement>(o.real("xi"),
                                                                       static_cast<int>(o.integer("gh_nodes")));
@@ -45,7 +48,9 @@ VARBO_PLUGIN("acquisitions", "0.1.0", "Expected improvement, probability of impr
 
   registry.add(varbo::make_component<Acquisition>(
       "cb", "confidence bound: maximizes −(E[y] + κ·s), κ > 0 risk-averse (Kuindersma 2013, eq. 10)",
-      {opt::real("kappa", 2.0, "risk factor κ (ignored when randomize is true)"),
+      {opt::real("kappa", -2.0,
+                 "risk factor κ: > 0 risk-averse, < 0 risk-seeking/optimistic; the default −2 is the exploring "
+                 "lower confidence bound of standard BO (ignored when randomize is true)"),
        opt::boolean("randomize", false, "draw κ ~ N(0, 1) every iteration (randomized CB selection)")},
       varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
         return std::make_unique<varbo::acq::ConfidenceBound>(o.real("kappa"), o.boolean("randomize"));

@@ -146,11 +146,13 @@ TEST_CASE("EI and PI closed forms for a homoscedastic prediction") {
     ei.prepare(ctx);
     pi.prepare(ctx);
     const double v = 0.4;
-    const double target = mu_best + xi * 2.0;  // ξ scaled by σ_f = sqrt(4)
+    const double target = mu_best + xi * 2.0;  // ξ scaled by σ_f = sqrt(4); EI follows Kuindersma's sign
     const double u = (target - a) / v;
     const double hand_ei = (target - a) * normal_cdf(u) + v * normal_pdf(u);
     CHECK(rel_err(ei.evaluate(x, nullptr), hand_ei) < 1e-13);
-    CHECK(rel_err(pi.evaluate(x, nullptr), normal_cdf(u)) < 1e-13);
+    // PI asks for an improvement of at least ξ·σ_f (Kushner's convention): P(y < μ_best − ξ·σ_f).
+    const double u_pi = (mu_best - xi * 2.0 - a) / v;
+    CHECK(rel_err(pi.evaluate(x, nullptr), normal_cdf(u_pi)) < 1e-13);
   }
   // CB = E + κ s with s = 0.4; utility −CB.
   ConfidenceBound cb(1.5, false);

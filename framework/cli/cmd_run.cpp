@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "commands.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo::cli {
@@ -14,10 +15,17 @@ Runner add_run(CLI::App& app) {
     long long seed = -1;
     long long budget = -1;
     std::string output;
+    std::string study;
+    std::string resume;
     bool no_progress = false;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("config", a->config, "study configuration (YAML)")->required()->check(CLI::ExistingFile);
+  auto* config = cmd->add_option("config", a->config, "study configuration (YAML)")->check(CLI::ExistingFile);
+  auto* resume = cmd->add_option("--resume", a->resume,
+                                 "continue an interrupted run: its folder (holding study.db) or its study file");
+  config->excludes(resume);
+  cmd->add_option("--study", a->study,
+                  "study file of the run (default: <output>/study.db); an existing one is continued");
   cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file");
   cmd->add_option("--seed", a->seed, "random seed; overrides the file");
   cmd->add_option("--budget", a->budget, "number of evaluations; overrides the file");
@@ -30,7 +38,10 @@ Runner add_run(CLI::App& app) {
     if (a->budget > 0) ov.budget = a->budget;
     if (!a->output.empty()) ov.output = a->output;
     ov.progress = !a->no_progress;
-    RunSummary s = run_study_file(a->config, ov);
+    if (!a->study.empty()) ov.store = a->study;
+    if (a->config.empty() && a->resume.empty())
+      throw InputError("varbo run: give a study configuration (CONFIG.yaml) or --resume RUN_DIR");
+    RunSummary s = a->resume.empty() ? run_study_file(a->config, ov) : resume_study(a->resume, ov);
     std::printf("%s", s.report().c_str());
     return 0;
   };

@@ -9,4 +9,15 @@ using Runner = std::function<int()>;
 Runner add_run(CLI::App& app);
 Runner add_plugins(CLI::App& app);
 Runner add_fit(CLI::App& app);
+Runner add_rescore(CLI::App& app);
+// Durable studies (cmd_study.cpp, cmd_status.cpp).
+Runner add_study(CLI::App& app);
+Runner add_suggest(CLI::App& app);
+Runner add_observe(CLI::App& app);
+Runner add_fail(CLI::App& app);
+Runner add_abandon(CLI::App& app);
+Runner add_status(CLI::App& app);
+Runner add_export(CLI::App& app);
+Runner add_select(CLI::App& app);
+Runner add_plot(CLI::App& app);
 }  // namespace varbo::cli

@@ -25,6 +25,16 @@ int main(int argc, char** argv) {
   reg(&varbo::cli::add_run);
   reg(&varbo::cli::add_plugins);
   reg(&varbo::cli::add_fit);
+  reg(&varbo::cli::add_rescore);
+  reg(&varbo::cli::add_study);
+  reg(&varbo::cli::add_suggest);
+  reg(&varbo::cli::add_observe);
+  reg(&varbo::cli::add_fail);
+  reg(&varbo::cli::add_abandon);
+  reg(&varbo::cli::add_status);
+  reg(&varbo::cli::add_export);
+  reg(&varbo::cli::add_select);
+  reg(&varbo::cli::add_plot);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

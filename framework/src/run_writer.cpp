@@ -75,6 +75,12 @@ void RunWriter::trial(const TrialRow& r) {
 void RunWriter::model(const ModelSnapshot& s) {
   model_ << "- iteration: " << s.iteration << "\n  objective: " << exact(s.objective) << "\n";
   if (!s.note.empty()) model_ << "  note: \"" << s.note << "\"\n";
+  if (!s.region_state.empty()) {
+    std::string r = s.region_state;  // YAML double-quoted scalar: escape backslashes and quotes
+    for (std::size_t i = 0; i < r.size(); ++i)
+      if (r[i] == '\\' || r[i] == '"') r.insert(i++, 1, '\\');
+    model_ << "  region: \"" << r << "\"\n";
+  }
   model_ << "  hyperparameters:\n";
   for (const auto& h : s.hyperparameters) model_ << "    \"" << h.name << "\": " << exact(h.value) << "\n";
   model_.flush();

@@ -67,7 +67,7 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   s.budget = o.integer("budget");
   s.seed = static_cast<std::uint64_t>(o.integer("seed"));
   s.threads = static_cast<int>(o.integer("threads"));
-  s.output = o.str("output");
+  s.output = o.is_set("output") ? o.str("output") : std::string();
   if (s.output.empty()) {
     const std::string stem = std::filesystem::path(root.file()).stem().string();
     s.output = "runs/" + (stem.empty() ? std::string("study") : stem);

@@ -2,10 +2,13 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <sstream>
 
 #include "run_writer.hpp"
 #include "varbo/errors.hpp"
@@ -13,7 +16,9 @@
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/store.hpp"
 #include "varbo/study.hpp"
+#include "varbo/study_api.hpp"
 
 namespace varbo {
 
@@ -38,6 +43,31 @@ std::string RunSummary::report() const {
   return s;
 }
 
+namespace {
+
+TrialRow row_of(const TrialRecord& t, Index index) {
+  TrialRow row;
+  row.index = index;
+  row.phase = t.phase;
+  row.theta = t.theta;
+  row.evaluation.ok = t.state == TrialState::Complete;
+  row.evaluation.cost = t.cost;
+  row.evaluation.components = t.components;
+  row.evaluation.error = t.error;
+  row.evaluation.noiseless_cost = t.noiseless_cost;
+  row.fit_seconds = t.fit_seconds;
+  row.acquisition_seconds = t.acquisition_seconds;
+  row.evaluation_seconds = t.evaluation_seconds;
+  return row;
+}
+
+void remove_store_files(const std::string& path) {
+  std::error_code ec;
+  for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(path + suffix, ec);
+}
+
+}  // namespace
+
 RunSummary run_study(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov) {
   StudyConfig study = study_in;
   if (ov.threads) study.threads = *ov.threads;
@@ -47,122 +77,138 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   ThreadLimit limit(study.threads);
   const auto t_start = std::chrono::steady_clock::now();
 
-  BuildContext tctx;
-  tctx.seed = study.seed;
-  std::unique_ptr<Task> task = registry.create<Task>(study.task, tctx);
-  const Domain domain = task->domain();
-  const Index d = domain.box.dim();
-  if (d < 1) throw ConfigError(fmt::format("{}: task '{}' has no parameters", study.task.source.where(),
-                                           study.task.info->name));
-  if (!(domain.box.upper.array() > domain.box.lower.array()).all())
-    throw ConfigError(fmt::format("{}: task '{}' has an empty domain (every upper bound must exceed its lower bound)",
-                                  study.task.source.where(), study.task.info->name));
-
-  BuildContext actx;
-  actx.dim = d;
-  actx.seed = study.seed;
-  actx.budget = study.budget;
-  std::optional<Vec> theta0 = study.initial_point ? study.initial_point : task->initial_point();
-  if (theta0) {
-    if (theta0->size() != d)
-      study.source.child("initial_point")
-          .fail(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
-    if (!domain.box.contains(*theta0))
-      study.source.child("initial_point").fail("the initial point lies outside the task's domain");
-    actx.initial_point = to_unit(*theta0, domain.box);
+  // The study store: every trial is committed there before it appears in trials.csv, so a killed run can be
+  // continued with --resume (docs/studies.md).
+  {
+    std::error_code ec;
+    std::filesystem::create_directories(study.output, ec);
+    if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", study.output, ec.message()));
   }
-  std::unique_ptr<Algorithm> algorithm = registry.create<Algorithm>(study.algorithm, actx);
+  const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
+  if (!ov.store && !ov.resume) remove_store_files(store_path);  // a fresh run replaces the folder's old study
+  if (ov.resume && !std::filesystem::exists(store_path))
+    throw InputError(fmt::format("{}: no study store to resume", store_path));
+  Study st = Study::attach(store_path, study, registry);
+  st.store().set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
+  Task& task = st.task();
+  const Domain& shown = st.domain();
+  const Domain domain = shown;
+  // Trials a killed session left pending: their results will never come; the replay suggests them again.
+  const auto interrupted = st.abandon(0, "interrupted: the run stopped before the result was recorded");
 
-  std::vector<std::string> names = domain.names;
-  for (Index i = static_cast<Index>(names.size()); i < d; ++i) names.push_back(fmt::format("x{}", i + 1));
-  Domain shown = domain;
-  shown.names = names;
-  RunWriter writer(study.output, study, shown, task->component_names());
+  RunWriter writer(study.output, study, shown, task.component_names());
   set_log_file(study.output + "/log.txt");
   log_info("run {}: task {}, algorithm {}, budget {}, seed {}, threads {}", study.output, study.task.info->name,
            study.algorithm.info->name, study.budget, study.seed,
            study.threads > 0 ? study.threads : hardware_threads());
 
-  const std::optional<Optimum> optimum = task->optimum();
+  const std::optional<Optimum> optimum = task.optimum();
   RunSummary summary;
   summary.output = study.output;
   double best_noiseless = std::numeric_limits<double>::infinity();
   const Rng task_rng = Rng(study.seed).stream(0x7a5c);  // task noise: one stream per trial index
   Index last_snapshot = -1;
 
+  auto account = [&](const TrialRow& row) {
+    if (!row.evaluation.ok) {
+      ++summary.failed;
+    } else {
+      if (!summary.best_theta || row.evaluation.cost < summary.best_cost) {
+        summary.best_cost = row.evaluation.cost;
+        summary.best_theta = row.theta;
+      }
+      const double nl = std::isnan(row.evaluation.noiseless_cost) ? row.evaluation.cost : row.evaluation.noiseless_cost;
+      best_noiseless = std::min(best_noiseless, nl);
+    }
+    ++summary.evaluations;
+    if (optimum && std::isfinite(best_noiseless)) summary.simple_regret = best_noiseless - optimum->cost;
+  };
+
+  // Resume: rewrite the run folder from the store (it may lag behind the store by the trial being written).
+  {
+    std::vector<TrialRecord> done;
+    for (const auto& t : st.trials())
+      if (t.finished()) done.push_back(t);
+    std::sort(done.begin(), done.end(),
+              [](const TrialRecord& a, const TrialRecord& b) { return a.finish_seq < b.finish_seq; });
+    for (const auto& t : done) {
+      const TrialRow row = row_of(t, summary.evaluations);
+      writer.trial(row);
+      account(row);
+    }
+    for (const auto& s : st.store().snapshots()) {
+      writer.model(s.snapshot);
+      last_snapshot = s.snapshot.iteration;
+    }
+    if (!done.empty())
+      log_info("resuming {}: {} finished trials replayed from {}{}", study.output, done.size(), store_path,
+               interrupted.empty() ? std::string() : fmt::format(", {} interrupted trial(s) suggested again",
+                                                                 interrupted.size()));
+  }
+
   while (summary.evaluations < study.budget) {
-    std::vector<Suggestion> sugg = algorithm->ask(1);
-    if (sugg.empty()) {
+    std::vector<TrialRecord> asked = st.ask(1);
+    if (asked.empty()) {
       log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
       break;
     }
-    std::vector<Observation> obs;
-    for (const Suggestion& s : sugg) {
-      TrialRow row;
-      row.index = summary.evaluations;
-      row.phase = s.phase;
-      Vec x = s.x;
-      if (!Box::unit(d).contains(x, 1e-9)) {
-        log_warn("algorithm suggested a point outside the unit cube; clamping it");
-      }
-      x = Box::unit(d).clamp(x);
-      row.theta = from_unit(x, domain.box);
-      row.fit_seconds = s.fit_seconds;
-      row.acquisition_seconds = s.acquisition_seconds;
-      Rng trng = task_rng.stream(static_cast<std::uint64_t>(row.index));
-      const auto t0 = std::chrono::steady_clock::now();
-      try {
-        row.evaluation = task->evaluate(row.theta, trng);
-      } catch (const std::exception& e) {
-        row.evaluation = Evaluation{};
-        row.evaluation.ok = false;
-        row.evaluation.error = e.what();
-      }
-      row.evaluation_seconds = seconds_since(t0);
-      if (row.evaluation.ok && !std::isfinite(row.evaluation.cost)) {
-        row.evaluation.ok = false;
-        row.evaluation.error = fmt::format("non-finite cost {}", row.evaluation.cost);
-      }
-      if (!row.evaluation.ok) {
-        ++summary.failed;
-        log_warn("trial {} failed: {}", row.index, row.evaluation.error);
-      } else {
-        if (!summary.best_theta || row.evaluation.cost < summary.best_cost) {
-          summary.best_cost = row.evaluation.cost;
-          summary.best_theta = row.theta;
-        }
-        const double nl =
-            std::isnan(row.evaluation.noiseless_cost) ? row.evaluation.cost : row.evaluation.noiseless_cost;
-        best_noiseless = std::min(best_noiseless, nl);
-      }
-      writer.trial(row);
-      ++summary.evaluations;
-      if (optimum && std::isfinite(best_noiseless)) summary.simple_regret = best_noiseless - optimum->cost;
-      if (ov.progress) {
-        std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
-                                       study.budget, s.phase, row.evaluation.ok ? row.evaluation.cost : NAN,
-                                       summary.best_theta ? summary.best_cost : NAN);
-        if (summary.simple_regret) line += fmt::format("  regret {:.2e}", *summary.simple_regret);
-        line += fmt::format("  fit {:.3f}s acq {:.3f}s eval {:.3f}s", s.fit_seconds, s.acquisition_seconds,
-                            row.evaluation_seconds);
-        std::fprintf(stderr, "%s\n", line.c_str());
-      }
-      Observation o;
-      o.x = x;
-      o.cost = row.evaluation.cost;
-      o.ok = row.evaluation.ok;
-      o.components = row.evaluation.components;
-      obs.push_back(std::move(o));
+    const TrialRecord& t = asked.front();
+    TrialRow row;
+    row.index = summary.evaluations;
+    row.phase = t.phase;
+    row.theta = t.theta;
+    row.fit_seconds = t.fit_seconds;
+    row.acquisition_seconds = t.acquisition_seconds;
+    Rng trng = task_rng.stream(static_cast<std::uint64_t>(row.index));
+    const auto t0 = std::chrono::steady_clock::now();
+    try {
+      row.evaluation = task.evaluate(row.theta, trng);
+    } catch (const std::exception& e) {
+      row.evaluation = Evaluation{};
+      row.evaluation.ok = false;
+      row.evaluation.error = e.what();
     }
-    algorithm->tell(obs);
-    if (auto snap = algorithm->snapshot(); snap && snap->iteration != last_snapshot) {
+    row.evaluation_seconds = seconds_since(t0);
+    if (row.evaluation.ok && !std::isfinite(row.evaluation.cost)) {
+      row.evaluation.ok = false;
+      row.evaluation.error = fmt::format("non-finite cost {}", row.evaluation.cost);
+    }
+    if (!row.evaluation.ok) log_warn("trial {} failed: {}", row.index, row.evaluation.error);
+    // The result and the model snapshot of this iteration are committed together.
+    std::optional<ModelSnapshot> snap;
+    if (const Algorithm* a = st.algorithm()) snap = a->snapshot();
+    const bool new_snapshot = snap && snap->iteration != last_snapshot;
+    st.store().transaction([&] {
+      st.record(t.id, row.evaluation, row.evaluation_seconds);
+      if (new_snapshot) st.store().add_snapshot(StoredSnapshot{row.index + 1, *snap});
+    });
+    writer.trial(row);
+    account(row);
+    if (ov.progress) {
+      std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
+                                     study.budget, t.phase, row.evaluation.ok ? row.evaluation.cost : NAN,
+                                     summary.best_theta ? summary.best_cost : NAN);
+      if (summary.simple_regret) line += fmt::format("  regret {:.2e}", *summary.simple_regret);
+      line += fmt::format("  fit {:.3f}s acq {:.3f}s eval {:.3f}s", t.fit_seconds, t.acquisition_seconds,
+                          row.evaluation_seconds);
+      std::fprintf(stderr, "%s\n", line.c_str());
+    }
+    if (new_snapshot) {
       writer.model(*snap);
       last_snapshot = snap->iteration;
     }
     summary.seconds = seconds_since(t_start);
-    if (auto r = algorithm->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
+    if (const Algorithm* a = st.algorithm())
+      if (auto r = a->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
     writer.summary(summary, shown, optimum);
   }
+  if (!summary.recommended_theta)
+    if (const Algorithm* a = st.algorithm())
+      if (auto r = a->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
+  if (st.replay_mismatches() > 0)
+    log_warn("{} replayed trial(s) did not reproduce their stored point: this run is not bit-for-bit the run that "
+             "would not have stopped",
+             st.replay_mismatches());
   summary.seconds = seconds_since(t_start);
   writer.summary(summary, shown, optimum);
   set_log_file("");
@@ -176,6 +222,41 @@ RunSummary run_study_file(const std::string& config_file, const RunOverrides& ov
   loader.load_default(plugin_paths_of(root));
   StudyConfig study = parse_study(root, registry);
   return run_study(study, registry, overrides);
+}
+
+}  // namespace varbo
+
+namespace varbo {
+
+RunSummary resume_study(const std::string& target, const RunOverrides& overrides) {
+  std::string store_path = target;
+  if (std::filesystem::is_directory(target)) store_path = (std::filesystem::path(target) / "study.db").string();
+  if (!std::filesystem::exists(store_path))
+    throw InputError(fmt::format("{}: nothing to resume (expected a run folder holding study.db, or a study file)",
+                                 target));
+  std::unique_ptr<StudyStore> store = open_sqlite_store(store_path);
+  const auto text = store->meta(store_key::kConfig);
+  if (!text) throw InputError(fmt::format("{}: the study store holds no configuration", store_path));
+  std::vector<std::string> paths;
+  {
+    std::stringstream ss(store->meta(store_key::kPluginPaths).value_or(""));
+    for (std::string l; std::getline(ss, l);)
+      if (!l.empty()) paths.push_back(l);
+  }
+  RunOverrides ov = overrides;
+  if (!ov.output) {
+    if (auto out = store->meta(store_key::kOutput)) ov.output = *out;
+    else if (std::filesystem::is_directory(target)) ov.output = target;
+  }
+  store.reset();
+  ov.store = store_path;
+  ov.resume = true;
+  ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
+  Registry registry;
+  PluginLoader loader(registry);
+  loader.load_default(paths);
+  StudyConfig study = parse_study(root, registry);
+  return run_study(study, registry, ov);
 }
 
 }  // namespace varbo

@@ -33,13 +33,13 @@ TEST_CASE("a missing task is an error") {
 
 TEST_CASE("an unknown component name lists the known ones") {
   const std::string m = study_error("task: {type: brannin}\n");
-  CHECK(has(m, "s.yaml:1:15: key 'task.type': unknown task 'brannin'. Known: "));
+  CHECK(has(m, "s.yaml:1:14: key 'task.type': unknown task 'brannin'. Known: "));
   CHECK(has(m, "did you mean 'branin'?"));
 }
 
 TEST_CASE("a nested unknown key names the full key path") {
   const std::string m = study_error("task: branin\nalgorithm:\n  type: bo\n  surrogate: {type: gp, kernal: se_ard}\n");
-  CHECK(has(m, "s.yaml:4:26: key 'algorithm.surrogate.kernal': unknown key for surrogate 'gp'"));
+  CHECK(has(m, "s.yaml:4:25: key 'algorithm.surrogate.kernal': unknown key for surrogate 'gp'"));
   CHECK(has(m, "did you mean 'kernel'?"));
 }
 
@@ -69,7 +69,7 @@ TEST_CASE("phases are validated with their own key paths") {
     test::registry().create<Algorithm>(s.algorithm, ctx);
     FAIL("expected ConfigError");
   } catch (const ConfigError& e) {
-    CHECK(has(e.what(), "s.yaml:6:51: key 'algorithm.phases[1].acquisition.xii': unknown key for acquisition 'ei'"));
+    CHECK(has(e.what(), "s.yaml:6:48: key 'algorithm.phases[1].acquisition.xii': unknown key for acquisition 'ei'"));
   }
 }
 

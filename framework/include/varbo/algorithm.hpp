@@ -28,6 +28,8 @@ struct ModelSnapshot {
   Hyperparameters hyperparameters;
   double objective = 0;
   std::string note;
+  /// The search region's state() after its latest update (e.g. CRBO's cautiousness report); empty if none.
+  std::string region_state;
 };
 
 class Algorithm {
@@ -35,6 +37,10 @@ class Algorithm {
   virtual ~Algorithm();
   virtual std::vector<Suggestion> ask(Index q = 1) = 0;
   virtual void tell(const std::vector<Observation>& observations) = 0;
+  /// Points (unit cube) being evaluated elsewhere whose results are not known yet (other workers of a
+  /// study). They hold for every later ask() until replaced; an algorithm that can, avoids suggesting them
+  /// again (BO: adds them to its batch fantasies). Default: ignored.
+  virtual void set_pending(const std::vector<Vec>& pending) { (void)pending; }
   /// The recommended θ (unit cube), e.g. the evaluated point with the best posterior mean.
   virtual std::optional<Vec> recommendation() const { return std::nullopt; }
   /// The model after the latest fit, if the algorithm has one.

@@ -35,6 +35,12 @@ struct RunOverrides {
   std::optional<std::string> output;
   std::optional<Index> budget;
   bool progress = true;  ///< one line per trial on stderr
+  /// Study store of the run (default: <output>/study.db). An existing store is continued (its configuration
+  /// must match); a new one is created.
+  std::optional<std::string> store;
+  /// Continue the run in `store` (or <output>/study.db) instead of starting afresh. Without it, a stale
+  /// <output>/study.db is replaced.
+  bool resume = false;
 };
 
 struct RunSummary {
@@ -54,5 +60,9 @@ RunSummary run_study(const StudyConfig& study, const Registry& registry, const R
 
 /// Loads plugins (default path + the file's plugin_path), validates and runs a study file.
 RunSummary run_study_file(const std::string& config_file, const RunOverrides& overrides);
+
+/// Continues an interrupted `varbo run`: `run_dir_or_store` is a run folder (holding study.db) or a study
+/// file. The configuration comes from the store; trials already finished are replayed, not re-evaluated.
+RunSummary resume_study(const std::string& run_dir_or_store, const RunOverrides& overrides);
 
 }  // namespace varbo

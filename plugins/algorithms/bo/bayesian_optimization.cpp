@@ -43,6 +43,9 @@ std::vector<OptionSpec> options() {
       opt::real("epsilon", 0.0, "probability of a random point instead of the acquisition's choice (ε-random)")
           .at_least(0)
           .at_most(1),
+      opt::choice("batch_strategy", "kriging_believer", {"kriging_believer", "constant_liar_min", "constant_liar_mean"},
+                  "how points of a batch and points pending elsewhere enter the model before they are observed "
+                  "(Ginsbourger 2010): at the posterior mean, or at the min / mean of the observed costs"),
       opt::node("phases", "",
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
@@ -61,6 +64,10 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   std::shared_ptr<Acquisition> default_acq = r.create<Acquisition>(o.component("acquisition"), ctx);
   const double epsilon = o.real("epsilon");
   refit_every_ = o.integer("refit_every");
+  const std::string strategy = o.str("batch_strategy");
+  batch_strategy_ = strategy == "constant_liar_min"    ? BatchStrategy::ConstantLiarMin
+                    : strategy == "constant_liar_mean" ? BatchStrategy::ConstantLiarMean
+                                                       : BatchStrategy::KrigingBeliever;
   const long ip = o.integer("initial_points");
   initial_points_ = ip >= 0 ? ip : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
@@ -116,6 +123,37 @@ Vec BayesianOptimization::random_point(Rng& rng) const {
   return m.row(0).transpose();
 }
 
+void BayesianOptimization::fit_model(Index k, const Dataset& data) {
+  Rng frng = rng_.stream(kFit, static_cast<std::uint64_t>(k));
+  const FitReport rep =
+      (fits_ % refit_every_ == 0 || !model_ready_) ? surrogate_->fit(data, frng) : surrogate_->condition(data);
+  ++fits_;
+  if (!rep.ok) log_warn("bo: surrogate fit at trial {}: {}", k, rep.report());
+  if (rep.ok || surrogate_->ready()) model_ready_ = surrogate_->ready();
+  snapshot_.iteration = k;
+  snapshot_.hyperparameters = surrogate_->hyperparameters();
+  snapshot_.objective = rep.objective;
+  snapshot_.note = rep.ok ? "" : rep.message;
+}
+
+double BayesianOptimization::lie(const Vec& x) const {
+  // Ginsbourger, Le Riche & Carraro 2010, "Kriging is well-suited to parallelize optimization", section 3:
+  // kriging believer = the posterior mean; constant liar = one constant (min or mean of the observed costs).
+  const double fallback = data_.size() ? data_.y.mean() : 0.0;
+  switch (batch_strategy_) {
+    case BatchStrategy::KrigingBeliever: return model_ready_ ? surrogate_->predict(x, false).mean : fallback;
+    case BatchStrategy::ConstantLiarMin: return data_.size() ? data_.y.minCoeff() : 0.0;
+    case BatchStrategy::ConstantLiarMean: return fallback;
+  }
+  return fallback;
+}
+
+void BayesianOptimization::set_pending(const std::vector<Vec>& pending) {
+  for (const Vec& p : pending)
+    if (p.size() != dim_) throw InputError(fmt::format("bo: pending point of dimension {}, expected {}", p.size(), dim_));
+  pending_ = pending;
+}
+
 Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refit) {
   Suggestion s;
   if (k < design_.rows()) {
@@ -140,16 +178,8 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   const auto t_fit = std::chrono::steady_clock::now();
   FitReport rep;
-  if (refit) {
-    Rng frng = rng_.stream(kFit, uk);
-    rep = (fits_ % refit_every_ == 0 || !model_ready_) ? surrogate_->fit(data, frng) : surrogate_->condition(data);
-    ++fits_;
-    if (!rep.ok) log_warn("bo: surrogate fit at trial {}: {}", k, rep.report());
-    if (rep.ok || surrogate_->ready()) model_ready_ = surrogate_->ready();
-    snapshot_.iteration = k;
-    snapshot_.hyperparameters = surrogate_->hyperparameters();
-    snapshot_.objective = rep.objective;
-    snapshot_.note = rep.ok ? "" : rep.message;
+  if ((refit || !model_ready_) && !prefitted_) {  // a batch that started in the initial design fits here
+    fit_model(k, data);
   } else {
     rep = surrogate_->condition(data);  // batch: condition on fantasized data, keep hyperparameters
   }
@@ -164,6 +194,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const auto t_acq = std::chrono::steady_clock::now();
   Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
   region_->update(surrogate_.get(), data, region_rng);
+  if (refit) {
+    // The region's state (e.g. CRBO's cautiousness report, Fröhlich 2021 section 4.1) goes to the log and,
+    // via the snapshot, to model.yaml of the run.
+    snapshot_.region_state = region_->state();
+    if (!snapshot_.region_state.empty()) log_info("bo: trial {} region: {}", k, snapshot_.region_state);
+  }
   Rng erng = rng_.stream(kEpsilon, uk);
   if (phase.epsilon > 0 && erng.uniform() < phase.epsilon) {
     s.x = random_point(erng);
@@ -192,18 +228,38 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
 
 std::vector<Suggestion> BayesianOptimization::ask(Index q) {
   std::vector<Suggestion> out;
-  // Batches: kriging believer — later points of a batch see the earlier ones as observed at their posterior
-  // mean, with the hyperparameters of the first fit.
+  // Batches: later points of a batch see the earlier ones as observed at a lie (batch_strategy: kriging
+  // believer = their posterior mean, or a constant liar), with the hyperparameters of the first fit. Points
+  // pending elsewhere (set_pending) are fantasies too, and they take their trial indices: a pending point of
+  // the initial design is not handed out twice.
+  const Index offset = static_cast<Index>(pending_.size());
   Dataset fantasy = data_;
+  double prefit_seconds = 0;
+  prefitted_ = false;
+  if (offset > 0) {
+    const Index k0 = told_ + offset;
+    if (k0 >= design_.rows() && !phase_at(k0).random && data_.size() >= 2) {
+      // Fit on the real observations only; the pending points then enter at their lies.
+      const auto t0 = std::chrono::steady_clock::now();
+      fit_model(k0, data_);
+      prefitted_ = true;
+      prefit_seconds = seconds_since(t0);
+    }
+    for (const Vec& p : pending_) fantasy.add(p, lie(p));
+  }
   for (Index j = 0; j < q; ++j) {
-    Suggestion s = suggest(told_ + j, fantasy, j == 0);
+    Suggestion s = suggest(told_ + offset + j, fantasy, j == 0);
+    if (j == 0) s.fit_seconds += prefit_seconds;
     if (j + 1 < q) {
-      const double believed = model_ready_ ? surrogate_->predict(s.x, false).mean
-                                           : (fantasy.size() ? fantasy.y.mean() : 0.0);
+      const double believed = batch_strategy_ == BatchStrategy::KrigingBeliever
+                                  ? (model_ready_ ? surrogate_->predict(s.x, false).mean
+                                                  : (fantasy.size() ? fantasy.y.mean() : 0.0))
+                                  : lie(s.x);
       fantasy.add(s.x, believed);
     }
     out.push_back(std::move(s));
   }
+  prefitted_ = false;
   return out;
 }
 

@@ -27,6 +27,8 @@ class BayesianOptimization final : public Algorithm {
   BayesianOptimization(const Options& options, const BuildContext& ctx);
   std::vector<Suggestion> ask(Index q) override;
   void tell(const std::vector<Observation>& observations) override;
+  /// Pending points enter the next batches as fantasies (batch_strategy) and shift the trial index.
+  void set_pending(const std::vector<Vec>& pending) override;
   std::optional<Vec> recommendation() const override;
   const Surrogate* model() const override { return model_ready_ ? surrogate_.get() : nullptr; }
   std::optional<ModelSnapshot> snapshot() const override;
@@ -36,6 +38,13 @@ class BayesianOptimization final : public Algorithm {
   const Phase& phase_at(Index evaluation) const;
   Vec random_point(Rng& rng) const;
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
+  void fit_model(Index evaluation, const Dataset& data);
+  double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have
+
+  enum class BatchStrategy { KrigingBeliever, ConstantLiarMin, ConstantLiarMean };
+  BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
+  std::vector<Vec> pending_;
+  bool prefitted_ = false;  ///< ask() already fitted on the real data (pending points present)
 
   Index dim_;
   Index budget_;

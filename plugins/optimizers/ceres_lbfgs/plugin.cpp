@@ -23,5 +23,8 @@ VARBO_PLUGIN("ceres_lbfgs", "0.1.0", "L-BFGS line search from Ceres' GradientPro
         s.parameter_tolerance = o.real("parameter_tolerance");
         s.lbfgs_rank = static_cast<int>(o.integer("lbfgs_rank"));
         return std::make_unique<ceres_lbfgs::CeresLbfgs>(s);
-      })));
+      }),
+      {},
+      // Only for problems without bounds (hyperparameter fits); never an acquisition search in a box.
+      {"problem:unbounded"}));
 }

@@ -55,6 +55,7 @@ void ConfidenceRegion::update(const Surrogate* model, const Dataset& data, Rng& 
   data_ = data;
   scale_ = 1.0;
   widenings_ = 0;
+  report_.clear();
   if (model_ == nullptr || data_.size() == 0) return;
   if (data_.dim() != box_.dim())
     throw InputError(fmt::format("confidence region: data have dimension {}, the region {}", data_.dim(),
@@ -80,6 +81,11 @@ void ConfidenceRegion::update(const Surrogate* model, const Dataset& data, Rng& 
     if (!probes_feasible(probe_rng))
       log_warn("confidence region: still empty after {} widenings; samplers fall back to the data points",
                widenings_);
+  }
+  if (options_.report) {
+    // Fröhlich 2021, section 4.1: r0, L ≈ max‖∇μ‖ and the worst-case cost of the next trial, for state().
+    Rng report_rng = rng.stream(0xca07, static_cast<std::uint64_t>(data_.size()));
+    report_ = cautiousness_report(*model_, data_, effective_gamma(), options_.report_kernel, report_rng).text();
   }
 }
 

@@ -6,6 +6,7 @@
 // does not shrink the region. s ≥ 1 is the widening scale (see update()).
 #include <string>
 
+#include "cautiousness.hpp"
 #include "varbo/region.hpp"
 
 namespace varbo {
@@ -16,6 +17,8 @@ struct ConfidenceRegionOptions {
   int probes_per_point = 4;    ///< random probes per data point for the emptiness test
   int max_widenings = 50;      ///< crbo.md: at most 50 widenings
   double widening_factor = 1.2;///< crbo.md: the variance scale is multiplied by 1.2 each time
+  bool report = true;          ///< compute the cautiousness report (section 4.1) in update()
+  ReportKernel report_kernel = ReportKernel::Matern52;  ///< kernel assumed by the report's r0
 };
 
 class ConfidenceRegion final : public RegionConstraint {

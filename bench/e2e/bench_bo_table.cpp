@@ -1,0 +1,146 @@
+// Standard GP-BO on four benchmarks over many seeds: median and quartiles of simple regret after 30/60/100
+// evaluations, and the median wall time of one iteration (fit + acquisition optimization) at N = 50/100/200.
+//
+//   build/bin/bench_bo_table [--seeds 10] [--threads 2] [--algorithm '{type: bo, ...}'] [--skip-timing]
+//
+// Prints Markdown tables (the README's benchmark section is produced by this program).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "varbo/loader.hpp"
+#include "varbo/log.hpp"
+#include "varbo/study.hpp"
+
+using namespace varbo;
+
+namespace {
+
+struct Problem {
+  std::string name, task;
+};
+
+std::vector<std::vector<std::string>> read_rows(const std::string& file) {
+  std::ifstream in(file);
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    rows.push_back(cells);
+  }
+  return rows;
+}
+
+int col(const std::vector<std::string>& h, const std::string& n) {
+  for (std::size_t i = 0; i < h.size(); ++i)
+    if (h[i] == n) return static_cast<int>(i);
+  return -1;
+}
+
+double quantile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  if (v.empty()) return NAN;
+  const double pos = q * static_cast<double>(v.size() - 1);
+  const std::size_t lo = static_cast<std::size_t>(pos);
+  const std::size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
+}
+
+RunSummary run(const std::string& yaml, const Registry& reg, const std::string& out, int threads) {
+  RunOverrides ov;
+  ov.progress = false;
+  ov.output = out;
+  ov.threads = threads;
+  StudyConfig s = parse_study(ConfigNode::parse(yaml, "<bench>"), reg);
+  return run_study(s, reg, ov);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 10, threads = 0;
+  bool timing = true;
+  std::string algorithm =
+      "{type: bo, initial_points: 10, surrogate: {type: gp}, acquisition: {type: ei}, acquisition_optimizer: "
+      "{type: multistart}}";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--seeds" && i + 1 < argc) seeds = std::atoi(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else if (a == "--algorithm" && i + 1 < argc) algorithm = argv[++i];
+    else if (a == "--skip-timing") timing = false;
+    else {
+      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--algorithm YAML] [--skip-timing]\n", argv[0]);
+      return 2;
+    }
+  }
+  set_log_level(LogLevel::Error);
+  Registry& reg = default_registry();
+  const std::string tmp = (std::filesystem::temp_directory_path() / "varbo_bench_bo").string();
+  const std::vector<Problem> problems = {{"Branin", "{type: branin}"},
+                                         {"Hartmann-3", "{type: hartmann3}"},
+                                         {"Hartmann-6", "{type: hartmann6}"},
+                                         {"Ackley-5 [-5,10]^5", "{type: ackley, dim: 5, bounds: [-5, 10]}"}};
+  const std::vector<int> checkpoints = {30, 60, 100};
+  std::printf("algorithm: %s\nseeds: %d, threads: %d\n\n", algorithm.c_str(), seeds, threads);
+  std::printf("| problem | regret @30: median [q1, q3] | regret @60 | regret @100 | s/run (median) |\n");
+  std::printf("|---|---|---|---|---|\n");
+  for (const Problem& p : problems) {
+    std::vector<std::vector<double>> regret(checkpoints.size());
+    std::vector<double> times;
+    for (int seed = 1; seed <= seeds; ++seed) {
+      const std::string out = fmt::format("{}/{}_{}", tmp, p.name.substr(0, 5), seed);
+      const std::string yaml =
+          fmt::format("task: {}\nbudget: 100\nseed: {}\nalgorithm: {}\n", p.task, seed, algorithm);
+      RunSummary s = run(yaml, reg, out, threads);
+      times.push_back(s.seconds);
+      // Known optimum from summary.json is the same for all seeds; recompute regret per checkpoint.
+      auto rows = read_rows(out + "/trials.csv");
+      const int c = col(rows[0], "cost");
+      std::ifstream js(out + "/summary.json");
+      std::string text((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
+      const auto k = text.find("\"known_optimum\":");
+      const double fstar = std::stod(text.substr(k + 16));
+      double best = INFINITY;
+      std::size_t next = 0;
+      for (std::size_t r = 1; r < rows.size(); ++r) {
+        best = std::min(best, std::stod(rows[r][static_cast<std::size_t>(c)]));
+        while (next < checkpoints.size() && static_cast<int>(r) == checkpoints[next]) regret[next++].push_back(best - fstar);
+      }
+    }
+    std::printf("| %s |", p.name.c_str());
+    for (auto& r : regret) std::printf(" %.2g [%.2g, %.2g] |", quantile(r, 0.5), quantile(r, 0.25), quantile(r, 0.75));
+    std::printf(" %.1f |\n", quantile(times, 0.5));
+    std::fflush(stdout);
+  }
+  if (timing) {
+    // One long run on Hartmann-6 (d = 6); the iteration time at N is fit + acquisition of the trial with
+    // N previous points, as recorded in trials.csv. Median over a window of 9 trials around N.
+    const std::string out = tmp + "/timing";
+    const std::string yaml = fmt::format("task: {{type: hartmann6}}\nbudget: 205\nseed: 1\nalgorithm: {}\n", algorithm);
+    run(yaml, reg, out, threads);
+    auto rows = read_rows(out + "/trials.csv");
+    const int f = col(rows[0], "fit_seconds"), a = col(rows[0], "acquisition_seconds");
+    std::printf("\n| N (d = 6) | median iteration wall time (fit + acquisition) |\n|---|---|\n");
+    for (int n : {50, 100, 200}) {
+      std::vector<double> t;
+      for (int r = n - 4; r <= n + 4; ++r)
+        if (r + 1 < static_cast<int>(rows.size()))
+          t.push_back(std::stod(rows[static_cast<std::size_t>(r + 1)][static_cast<std::size_t>(f)]) +
+                      std::stod(rows[static_cast<std::size_t>(r + 1)][static_cast<std::size_t>(a)]));
+      std::printf("| %d | %.1f ms |\n", n, 1e3 * quantile(t, 0.5));
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,44 @@
+#include "cli_parse.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdlib>
+
+#include "varbo/errors.hpp"
+
+namespace varbo::cli {
+
+double parse_number(const std::string& text, const std::string& what) {
+  const char* s = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s, &end);
+  if (text.empty() || end == s || *end != '\0' || errno == ERANGE)
+    throw InputError(fmt::format("{}: malformed number '{}' (expected a decimal number such as 0.25 or -1.5e-3); "
+                                 "nothing written",
+                                 what, text));
+  return v;
+}
+
+std::int64_t parse_id(const std::string& text) {
+  const char* s = text.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const long long v = std::strtoll(s, &end, 10);
+  if (text.empty() || end == s || *end != '\0' || errno == ERANGE || v < 0)
+    throw InputError(fmt::format("ID: malformed trial id '{}' (expected a non-negative integer as printed by "
+                                 "`varbo suggest`); nothing written",
+                                 text));
+  return v;
+}
+
+std::pair<std::string, double> parse_component(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError(fmt::format("--component: expected name=value, got '{}'; nothing written", text));
+  const std::string name = text.substr(0, eq);
+  return {name, parse_number(text.substr(eq + 1), fmt::format("--component {}", name))};
+}
+
+}  // namespace varbo::cli

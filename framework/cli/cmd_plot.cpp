@@ -1,0 +1,207 @@
+// `varbo plot RUN_DIR [-o out.svg]`: SVG pictures of a run's learned cost model (Kuindersma 2013, Fig. 2-3).
+// 1-D tasks: data, mean and ±2 s bands of a GP and a VHGP fit, and the κ-selected policies (CB, eq. 20).
+// 2-D tasks: heat maps of the learned mean and standard deviation with the data and selections overlaid.
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "commands.hpp"
+#include "component_arg.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/log.hpp"
+#include "varbo/math.hpp"
+#include "varbo/parallel.hpp"
+#include "varbo/run_folder.hpp"
+#include "varbo/select.hpp"
+#include "varbo/svg_plot.hpp"
+
+namespace varbo::cli {
+
+namespace {
+
+struct PlotArgs {
+  std::string run, output, gp = "gp", vhgp = "vhgp", surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
+  std::vector<double> kappas;
+  long long seed = 1;
+  int threads = 0, grid = 0;
+};
+
+// κ colours: blue risk-averse, red risk-seeking, black neutral (Fig. 2(d) uses dotted verticals).
+std::string kappa_color(double k) { return k > 0 ? "#1f5fbf" : (k < 0 ? "#c0392b" : "#222222"); }
+std::string kappa_label(double k) {
+  if (k == 0) return "CB κ = 0 (risk-neutral)";
+  return fmt::format("CB κ = {:+g} ({})", k, k > 0 ? "risk-averse" : "risk-seeking");
+}
+
+struct Fitted {
+  std::string name;
+  std::unique_ptr<Surrogate> model;
+};
+
+Fitted fit(const RunFolder& run, const Registry& registry, const ResolvedComponent& spec, std::uint64_t seed) {
+  Fitted f{spec.info->name, make_run_surrogate(run, spec, registry, seed, true)};
+  fit_run_surrogate(*f.model, run, seed);
+  return f;
+}
+
+// The run's own spec when it is of this type (its options), else the command-line one.
+ResolvedComponent spec_for(const RunFolder& run, const Registry& registry, const std::string& text,
+                           const std::string& flag, bool given) {
+  const ResolvedComponent* own = run_surrogate_spec(run);
+  ResolvedComponent spec = registry.resolve(Kind::Surrogate, component_arg(text, "surrogate", flag));
+  if (!given && own != nullptr && own->info == spec.info) return *own;
+  return spec;
+}
+
+std::vector<RiskSelection> selections(const Surrogate& model, const RunFolder& run, const Registry& registry,
+                                      const PlotArgs& a) {
+  BuildContext octx;
+  octx.dim = run.domain.box.dim();
+  octx.seed = static_cast<std::uint64_t>(a.seed);
+  auto opt = registry.create<Optimizer>(
+      registry.resolve(Kind::Optimizer, component_arg(a.optimizer, "acquisition_optimizer", "--optimizer")), octx);
+  std::vector<RiskSelection> sel = select_policies(model, run.domain, a.kappas, *opt,
+                                                   Rng(static_cast<std::uint64_t>(a.seed)).stream(0x5e1), run.data.X);
+  for (const auto& s : sel)
+    if (!s.ok) log_warn("plot: no selection for kappa {}: {}", s.kappa, s.message);
+  return sel;
+}
+
+svg::Figure plot_1d(const RunFolder& run, const Registry& registry, const PlotArgs& a, bool gp_given, bool vhgp_given) {
+  const auto seed = static_cast<std::uint64_t>(a.seed);
+  const Fitted gp = fit(run, registry, spec_for(run, registry, a.gp, "--gp", gp_given), seed);
+  const Fitted vh = fit(run, registry, spec_for(run, registry, a.vhgp, "--vhgp", vhgp_given), seed);
+  const int n = a.grid > 0 ? a.grid : 400;
+  const double lo = run.domain.box.lower[0], hi = run.domain.box.upper[0];
+  std::vector<double> xs(static_cast<std::size_t>(n));
+  struct Curve {
+    std::vector<double> mean, lo, hi;
+  };
+  auto curve = [&](const Surrogate& m) {
+    Curve c;
+    for (int i = 0; i < n; ++i) {
+      const double u = static_cast<double>(i) / (n - 1);
+      xs[static_cast<std::size_t>(i)] = lo + u * (hi - lo);
+      const Prediction p = m.predict(Vec::Constant(1, u), false);
+      const double s = p.total_std();  // s of the cost: latent and noise variance (section 2.2)
+      c.mean.push_back(p.mean);
+      c.lo.push_back(p.mean - 2 * s);
+      c.hi.push_back(p.mean + 2 * s);
+    }
+    return c;
+  };
+  const Curve cg = curve(*gp.model), cv = curve(*vh.model);
+  const std::vector<RiskSelection> sel = selections(*vh.model, run, registry, a);
+
+  // y range: the data and both bands, padded.
+  double ylo = run.cost.size() ? run.cost.minCoeff() : 0.0, yhi = run.cost.size() ? run.cost.maxCoeff() : 1.0;
+  for (const Curve* c : {&cg, &cv})
+    for (int i = 0; i < n; ++i) {
+      ylo = std::min(ylo, c->lo[static_cast<std::size_t>(i)]);
+      yhi = std::max(yhi, c->hi[static_cast<std::size_t>(i)]);
+    }
+  svg::Figure fig(1000, 520, fmt::format("{}: {} trials ({} successful), GP vs VHGP fit", run.study.task.info->name,
+                                        run.trials, run.data.size()));
+  svg::Panel& p = fig.panel(80, 50, 560, 400, {lo, hi}, svg::padded(ylo, yhi, 0.04));
+  p.labels(run.names[0], "cost", "");
+  p.legend_place(svg::Panel::LegendPlace::Right);
+  p.band(xs, cg.lo, cg.hi, "#8c8c8c", 0.25, "GP ±2 s");
+  p.band(xs, cv.lo, cv.hi, "#e69f00", 0.30, "VHGP ±2 s");
+  p.line(xs, cg.mean, "#555555", 1.8, "6 4", "GP mean");
+  p.line(xs, cv.mean, "#b35900", 2.2, "", "VHGP mean");
+  std::vector<double> dx(run.theta.col(0).data(), run.theta.col(0).data() + run.theta.rows());
+  std::vector<double> dy(run.cost.data(), run.cost.data() + run.cost.size());
+  p.markers(dx, dy, svg::Marker::Circle, "#0b3d91", 3.6, "data", "data (trials)");
+  for (const auto& s : sel) {
+    if (!s.ok) continue;
+    p.vline(s.theta[0], kappa_color(s.kappa), s.kappa == 0 ? "2 3" : "5 4", "");
+    p.markers({s.theta[0]}, {s.mean}, svg::Marker::Diamond, kappa_color(s.kappa), 6.5, "selected",
+              fmt::format("{}: θ = {:.3f}", kappa_label(s.kappa), s.theta[0]));
+  }
+  return fig;
+}
+
+svg::Figure plot_2d(const RunFolder& run, const Registry& registry, const PlotArgs& a) {
+  const auto seed = static_cast<std::uint64_t>(a.seed);
+  ResolvedComponent spec;
+  if (!a.surrogate.empty()) {
+    spec = registry.resolve(Kind::Surrogate, component_arg(a.surrogate, "surrogate", "--surrogate"));
+  } else if (const ResolvedComponent* own = run_surrogate_spec(run)) {
+    spec = *own;
+  } else {
+    spec = registry.resolve(Kind::Surrogate, component_arg(a.vhgp, "surrogate", "--vhgp"));
+  }
+  const Fitted m = fit(run, registry, spec, seed);
+  const int n = a.grid > 0 ? a.grid : 40;
+  const Box& box = run.domain.box;
+  Mat mean(n, n), sd(n, n);
+  // Cell centres of an n × n grid; row i along the second parameter, column j along the first.
+  parallel_for(n, [&](Index i) {
+    for (Index j = 0; j < n; ++j) {
+      Vec u(2);
+      u << (static_cast<double>(j) + 0.5) / n, (static_cast<double>(i) + 0.5) / n;
+      const Prediction p = m.model->predict(u, false);
+      mean(i, j) = p.mean;
+      sd(i, j) = p.total_std();
+    }
+  });
+  const std::vector<RiskSelection> sel = selections(*m.model, run, registry, a);
+  svg::Figure fig(1240, 600, fmt::format("{}: learned cost model ({}, {} trials, {} successful)",
+                                         run.study.task.info->name, m.name, run.trials, run.data.size()));
+  std::vector<double> dx(run.theta.col(0).data(), run.theta.col(0).data() + run.theta.rows());
+  std::vector<double> dy(run.theta.col(1).data(), run.theta.col(1).data() + run.theta.rows());
+  const svg::Range xr{box.lower[0], box.upper[0]}, yr{box.lower[1], box.upper[1]};
+  const char* titles[2] = {"mean E[J]", "standard deviation s"};
+  const Mat* grids[2] = {&mean, &sd};
+  for (int k = 0; k < 2; ++k) {
+    svg::Panel& p = fig.panel(80 + 620.0 * k, 60, 400, 400, xr, yr);
+    p.labels(run.names[0], run.names[1], titles[k]);
+    p.legend_place(svg::Panel::LegendPlace::Below);
+    p.heatmap(*grids[k], k == 0 ? "E[J]" : "s");
+    p.markers(dx, dy, svg::Marker::Circle, "#ffffff", 3.4, "data", k == 0 ? "data (trials)" : "");
+    for (const auto& s : sel)
+      if (s.ok)
+        p.markers({s.theta[0]}, {s.theta[1]}, s.kappa > 0 ? svg::Marker::Diamond : svg::Marker::Triangle,
+                  kappa_color(s.kappa), 7, "selected",
+                  k == 0 ? fmt::format("{}: [{:.2f}, {:.2f}]", kappa_label(s.kappa), s.theta[0], s.theta[1]) : "");
+  }
+  return fig;
+}
+
+}  // namespace
+
+Runner add_plot(CLI::App& app) {
+  auto* cmd = app.add_subcommand("plot", "Draw a run's learned cost model as SVG (1-D: GP and VHGP fits; 2-D: heat maps)");
+  auto a = std::make_shared<PlotArgs>();
+  auto* gp_opt = cmd->add_option("--gp", a->gp, "1-D: the homoscedastic surrogate (inline YAML or file)");
+  auto* vh_opt = cmd->add_option("--vhgp", a->vhgp, "1-D: the heteroscedastic surrogate (inline YAML or file)");
+  cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
+  cmd->add_option("-o,--output", a->output, "SVG file (default: RUN_DIR/model.svg)");
+  cmd->add_option("--kappa", a->kappas, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
+      ->delimiter(',');
+  cmd->add_option("--surrogate", a->surrogate, "2-D: model to draw (default: the run's surrogate)");
+  cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
+  cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));
+  cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")->capture_default_str();
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)");
+  return [a, gp_opt, vh_opt]() {
+    ThreadLimit limit(a->threads);
+    if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
+    if (a->kappas.empty()) a->kappas = {-1.5, 0.0, 1.5};
+    Registry& registry = default_registry();
+    const RunFolder run = load_run_folder(a->run, registry);
+    const Index d = run.domain.box.dim();
+    if (d != 1 && d != 2)
+      throw InputError(fmt::format("{}: the task has {} parameters; plot draws 1-D and 2-D tasks only", a->run, d));
+    const svg::Figure fig = d == 1 ? plot_1d(run, registry, *a, gp_opt->count() > 0, vh_opt->count() > 0)
+                                   : plot_2d(run, registry, *a);
+    const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
+    fig.save(out);
+    std::printf("%s\n", out.c_str());
+    return 0;
+  };
+}
+
+}  // namespace varbo::cli

@@ -1,0 +1,137 @@
+// `varbo rescore RUN_DIR --weights energy=0.1 --kappa 0,2 [--continue N] [--rollouts M]`: re-weight a run's
+// cost components, select policies offline by minimizing J̃ + κ r̃ in the local ε-ball around the learned
+// policy (Kuindersma 2013, section 5.4.2), optionally continue with N risk-sensitive RSSGD steps.
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "commands.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/math.hpp"
+#include "varbo/parallel.hpp"
+#include "varbo/rescore.hpp"
+
+namespace varbo::cli {
+
+namespace {
+std::string vec_text(const Vec& v) {
+  std::string s = "[";
+  for (Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.5g}", i ? ", " : "", v[i]);
+  return s + "]";
+}
+}  // namespace
+
+Runner add_rescore(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "rescore", "Re-weight a run's cost components and select policies offline for risk factors κ (J̃ + κ r̃)");
+  struct Args {
+    std::string run, weights, critic;
+    std::vector<double> kappa{0.0, 2.0};
+    double epsilon = -1;
+    long long continue_steps = 0, rollouts = 0, seed = -1;
+    int threads = 0;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("run", a->run, "run folder (config.resolved.yaml, trials.csv with component columns)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  cmd->add_option("--weights", a->weights, "new weights, e.g. energy=0.1,tracking=1 (unlisted: the run's)");
+  cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")->delimiter(',');
+  cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)");
+  cmd->add_option("--critic", a->critic, "local model as YAML, e.g. '{type: vhgp, restarts: 8}' (default: the run's)");
+  cmd->add_option("--continue", a->continue_steps,
+                  "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)");
+  cmd->add_option("--rollouts", a->rollouts,
+                  "evaluate the initial, learned and selected policies (and the continued one) with M fresh "
+                  "rollouts under the new weights (new trials: not offline)");
+  cmd->add_option("--seed", a->seed, "seed of the fit, the continuation and the rollouts (default: the run's)");
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)");
+  return [a]() {
+    ThreadLimit limit(a->threads);
+    Registry& registry = default_registry();
+    const ComponentRun run = load_component_run(a->run, registry);
+    const Weights weights = merge_weights(run.weights, parse_weight_list(a->weights, run.components));
+    const Vec original = rescore_costs(run, run.weights);
+    const double mismatch = (original - run.cost).cwiseAbs().maxCoeff();
+    if (mismatch > 1e-9 * (1 + run.cost.cwiseAbs().maxCoeff()))
+      std::fprintf(stderr,
+                   "varbo: warning: the recorded costs are not the weighted sums of the components (max difference "
+                   "%.3g); the task does not follow the weights convention and re-scored costs may not compare\n",
+                   mismatch);
+    const Vec costs = rescore_costs(run, weights);
+    OfflineSelectionSettings settings = offline_settings_from(run, registry);
+    if (a->epsilon > 0) settings.radius = a->epsilon;
+    if (!a->critic.empty()) settings.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse(a->critic, "--critic"));
+    if (a->seed >= 0) settings.seed = static_cast<std::uint64_t>(a->seed);
+    const Vec learned = run.recommended ? *run.recommended : (run.best ? *run.best : Vec(run.theta.row(0).transpose()));
+    const Vec centre = to_unit(learned, run.domain.box);
+
+    std::printf("run %s: %ld successful trials, components %s\n", a->run.c_str(), static_cast<long>(costs.size()),
+                fmt::format("{}", fmt::join(run.components, ", ")).c_str());
+    std::string wtext;
+    for (const auto& c : run.components)
+      wtext += fmt::format("{}{}={} (was {})", wtext.empty() ? "" : ", ", c, weights.at(c), run.weights.at(c));
+    std::printf("weights: %s\n", wtext.c_str());
+    std::printf("re-scored costs: min %.6g mean %.6g max %.6g (recorded: min %.6g mean %.6g)\n", costs.minCoeff(),
+                costs.mean(), costs.maxCoeff(), run.cost.minCoeff(), run.cost.mean());
+    std::printf("learned policy (%s): %s\n", run.recommended ? "recommended" : "best", vec_text(learned).c_str());
+
+    LocalModel model;
+    const std::vector<OfflineSelection> sel =
+        select_offline(run, costs, centre, a->kappa, settings, registry, &model);
+    const Prediction at = model.critic->predict(centre, false);
+    std::printf("local model: %s on %ld trials within eps = %.4g; at the learned policy J~ %.6g r~ %.6g\n",
+                settings.critic.info->name.c_str(), static_cast<long>(model.data.size()), settings.radius, at.mean,
+                at.total_std());
+    for (const auto& s : sel)
+      std::printf("kappa %-6g J~ %-10.6g r~ %-10.6g J~+kappa*r~ %-10.6g theta %s\n", s.kappa, s.mean, s.std,
+                  s.mean + s.kappa * s.std, vec_text(s.theta).c_str());
+
+    std::optional<Vec> continued;
+    if (a->continue_steps > 0) {
+      if (sel.empty()) throw InputError("--continue needs at least one --kappa");
+      int k = 1;
+      while (std::filesystem::exists(fmt::format("{}/continue_{}", a->run, k))) ++k;
+      const std::string folder = fmt::format("{}/continue_{}", a->run, k);
+      const std::uint64_t seed = a->seed >= 0 ? static_cast<std::uint64_t>(a->seed) : run.study.seed + 1000 * k;
+      const RunSummary s = continue_with_rssgd(run, weights, costs, sel.back().theta, sel.back().kappa,
+                                               a->continue_steps, folder, seed, registry);
+      continued = s.recommended_theta;
+      std::printf("continued %lld RSSGD steps at kappa %g in %s: theta %s\n", a->continue_steps, sel.back().kappa,
+                  folder.c_str(), continued ? vec_text(*continued).c_str() : "(none)");
+    }
+
+    if (a->rollouts > 0) {
+      // Fresh episodes under the NEW weights: the task built from the run's config with `weights` replaced.
+      YAML::Node tnode = run.study.task.resolved();
+      YAML::Node w(YAML::NodeType::Map);
+      for (const auto& c : run.components) w[c] = weights.at(c);
+      bool has_weights = false;
+      for (const auto& o : run.study.task.info->options) has_weights = has_weights || o.name == "weights";
+      if (has_weights) tnode["weights"] = w;
+      YAML::Emitter em;
+      em << YAML::Flow << tnode;
+      BuildContext ctx;
+      ctx.seed = run.study.seed;
+      auto task = registry.create<Task>(std::string(em.c_str()), ctx);
+      const std::uint64_t seed = (a->seed >= 0 ? static_cast<std::uint64_t>(a->seed) : run.study.seed) + 7919;
+      std::printf("\n%lld fresh rollouts per policy under the new weights%s\n\n", a->rollouts,
+                  has_weights ? "" : " (task has no weights option: its own cost)");
+      std::printf("| policy | mean cost | std of cost |\n|---|---|---|\n");
+      auto row = [&](const std::string& name, const Vec& th) {
+        const PolicyStats p = evaluate_policy(*task, th, a->rollouts, seed);
+        std::printf("| %s | %.4f | %.4f |%s\n", name.c_str(), p.mean, p.std,
+                    p.failed ? fmt::format(" {} failed", p.failed).c_str() : "");
+      };
+      if (run.initial_point) row("initial policy", *run.initial_point);
+      row("learned policy", learned);
+      for (const auto& s : sel) row(fmt::format("offline kappa = {}", s.kappa), s.theta);
+      if (continued) row(fmt::format("after {} RSSGD steps at kappa = {}", a->continue_steps, sel.back().kappa), *continued);
+    }
+    return 0;
+  };
+}
+
+}  // namespace varbo::cli

@@ -1,0 +1,132 @@
+// `varbo select RUN_DIR --kappa 2 --kappa -2`: variable risk after learning (Kuindersma 2013, section 3.2).
+// Refits the run's surrogate on its successful trials and prints, for each κ, the θ minimizing E + κ·s,
+// with the predicted mean and standard deviation. The task is never evaluated.
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "component_arg.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/parallel.hpp"
+#include "varbo/run_folder.hpp"
+#include "varbo/select.hpp"
+
+namespace varbo::cli {
+
+namespace {
+nlohmann::json theta_json(const std::vector<std::string>& names, const Vec& theta) {
+  nlohmann::json j = nlohmann::json::object();
+  for (Index i = 0; i < theta.size(); ++i) j[names[static_cast<std::size_t>(i)]] = theta[i];
+  return j;
+}
+std::string theta_text(const Vec& theta) {
+  std::string s = "[";
+  for (Index i = 0; i < theta.size(); ++i) s += fmt::format("{}{:.4f}", i ? ", " : "", theta[i]);
+  return s + "]";
+}
+}  // namespace
+
+Runner add_select(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "select", "Pick risk-sensitive policies from a finished run: for each kappa, argmin E + kappa*s (no new trials)");
+  struct Args {
+    std::string run, surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
+    std::vector<double> kappas;
+    bool from_config = false, json = false;
+    long long seed = 1;
+    int threads = 0;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
+  cmd->add_option("--kappa", a->kappas,
+                  "risk factor(s): > 0 risk-averse, < 0 risk-seeking, 0 neutral; repeat or comma-separate "
+                  "(default: 2, 0, -2)")
+      ->delimiter(',');
+  cmd->add_flag("--surrogate-from-config", a->from_config,
+                "fit the surrogate of config.resolved.yaml from its defaults only (default: start the fit from "
+                "the last hyperparameters in model.yaml)");
+  cmd->add_option("--surrogate", a->surrogate,
+                  "a different surrogate: inline YAML ('gp', '{type: vhgp, restarts: 16}') or a YAML file");
+  cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s): inline YAML or a YAML file")
+      ->capture_default_str();
+  cmd->add_option("--seed", a->seed, "random seed of the fit and the optimizer (same seed, same answer)")
+      ->capture_default_str();
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all); the result does not depend on it");
+  cmd->add_flag("--json", a->json, "print JSON instead of a table");
+  return [a]() {
+    ThreadLimit limit(a->threads);
+    if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
+    const auto seed = static_cast<std::uint64_t>(a->seed);
+    std::vector<double> kappas = a->kappas.empty() ? std::vector<double>{2.0, 0.0, -2.0} : a->kappas;
+    Registry& registry = default_registry();
+    const RunFolder run = load_run_folder(a->run, registry);
+
+    ResolvedComponent spec;
+    if (!a->surrogate.empty()) {
+      spec = registry.resolve(Kind::Surrogate, component_arg(a->surrogate, "surrogate", "--surrogate"));
+    } else if (const ResolvedComponent* own = run_surrogate_spec(run)) {
+      spec = *own;
+    } else {
+      throw InputError(fmt::format("{}: the run's algorithm '{}' has no surrogate; name one with --surrogate",
+                                   a->run, run.study.algorithm.info->name));
+    }
+    std::unique_ptr<Surrogate> model = make_run_surrogate(run, spec, registry, seed, !a->from_config);
+    const FitReport rep = fit_run_surrogate(*model, run, seed);
+
+    BuildContext octx;
+    octx.dim = run.domain.box.dim();
+    octx.seed = seed;
+    const ResolvedComponent ospec =
+        registry.resolve(Kind::Optimizer, component_arg(a->optimizer, "acquisition_optimizer", "--optimizer"));
+    const std::unique_ptr<Optimizer> optimizer = registry.create<Optimizer>(ospec, octx);
+    // The evaluated points are starts too, so a minimum at a data point is never missed.
+    const std::vector<RiskSelection> sel =
+        select_policies(*model, run.domain, kappas, *optimizer, Rng(seed).stream(0x5e1), run.data.X);
+
+    if (a->json) {
+      nlohmann::json j;
+      j["run"] = a->run;
+      j["surrogate"] = spec.info->full_name();
+      j["trials"] = run.trials;
+      j["n"] = run.data.size();
+      j["seed"] = seed;
+      j["fit"] = {{"ok", rep.ok}, {"objective", rep.objective}, {"log_likelihood", rep.log_likelihood},
+                  {"message", rep.message}};
+      for (const auto& h : model->hyperparameters()) j["hyperparameters"][h.name] = h.value;
+      j["selections"] = nlohmann::json::array();
+      for (const auto& s : sel) {
+        nlohmann::json e = {{"kappa", s.kappa}, {"ok", s.ok}, {"message", s.message}};
+        if (s.ok) {
+          e["theta"] = theta_json(run.names, s.theta);
+          e["mean"] = s.mean;
+          e["std"] = s.std;
+          e["criterion"] = s.criterion;
+        }
+        j["selections"].push_back(e);
+      }
+      std::printf("%s\n", j.dump(2).c_str());
+    } else {
+      std::printf("varbo select %s: %s fitted on %lld of %lld trials (objective %.6g%s)\n", a->run.c_str(),
+                  spec.info->full_name().c_str(), static_cast<long long>(run.data.size()),
+                  static_cast<long long>(run.trials), rep.objective, rep.ok ? "" : ", FIT FAILED: previous model");
+      std::printf("  parameters: %s\n", join(run.names).c_str());
+      std::printf("  %8s  %-28s %12s %12s %14s\n", "kappa", "theta", "mean E", "std s", "E + kappa*s");
+      for (const auto& s : sel) {
+        if (!s.ok) {
+          std::printf("  %8.3g  no selection: %s\n", s.kappa, s.message.c_str());
+          continue;
+        }
+        std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g\n", s.kappa, theta_text(s.theta).c_str(), s.mean, s.std,
+                    s.criterion);
+      }
+    }
+    for (const auto& s : sel)
+      if (!s.ok) return 1;
+    return 0;
+  };
+}
+
+}  // namespace varbo::cli

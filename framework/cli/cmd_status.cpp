@@ -1,0 +1,122 @@
+// `varbo status STUDY.db` (a table of the study) and `varbo export STUDY.db --csv`.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+
+#include "commands.hpp"
+#include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/study_api.hpp"
+
+namespace varbo::cli {
+
+namespace {
+
+std::string theta_text(const Vec& theta, const std::vector<std::string>& names) {
+  std::string s;
+  for (Index i = 0; i < theta.size(); ++i)
+    s += fmt::format("{}{}={:.6g}", i ? " " : "", names[static_cast<std::size_t>(i)], theta[i]);
+  return s;
+}
+
+std::string csv_cell(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return out + "\"";
+}
+
+}  // namespace
+
+Runner add_status(CLI::App& app) {
+  auto* cmd = app.add_subcommand("status", "Show a study: trials by state, best so far, pending trials");
+  auto store = std::make_shared<std::string>();
+  cmd->add_option("store", *store, "study file")->required();
+  return [store]() {
+    Study s = Study::open(*store);
+    const auto trials = s.trials();
+    const auto& names = s.domain().names;
+    Index n[4] = {0, 0, 0, 0};
+    for (const auto& t : trials) ++n[static_cast<int>(t.state)];
+    const Index finished = n[1] + n[2];
+    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", store->c_str(), s.config().task.info->name.c_str(),
+                s.config().algorithm.info->name.c_str(), static_cast<unsigned long long>(s.config().seed));
+    std::printf("  trials     %zu: %ld complete, %ld failed, %ld pending, %ld abandoned (budget %ld, %ld left)\n",
+                trials.size(), static_cast<long>(n[1]), static_cast<long>(n[2]), static_cast<long>(n[0]),
+                static_cast<long>(n[3]), static_cast<long>(s.config().budget),
+                static_cast<long>(std::max<Index>(0, s.config().budget - finished - n[0])));
+    if (auto b = s.best())
+      std::printf("  best       trial %lld: cost %.8g at %s\n", static_cast<long long>(b->id), b->cost,
+                  theta_text(b->theta, names).c_str());
+    else
+      std::printf("  best       (no complete trial yet)\n");
+    const double now = unix_time();
+    if (n[0] > 0) {
+      std::printf("  pending:\n    %-6s %-24s %10s  %s\n", "id", "worker", "age [s]", "theta");
+      for (const auto& t : trials)
+        if (t.state == TrialState::Pending)
+          std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), t.worker.c_str(),
+                      now - t.created_at, theta_text(t.theta, names).c_str());
+    }
+    std::printf("  recent:\n    %-6s %-10s %-10s %14s  %s\n", "id", "state", "phase", "cost", "theta");
+    const std::size_t first = trials.size() > 10 ? trials.size() - 10 : 0;
+    for (std::size_t i = first; i < trials.size(); ++i) {
+      const auto& t = trials[i];
+      std::printf("    %-6lld %-10s %-10s %14.8g  %s%s\n", static_cast<long long>(t.id), state_name(t.state).c_str(),
+                  t.phase.c_str(), t.cost, theta_text(t.theta, names).c_str(),
+                  t.error.empty() ? "" : ("  (" + t.error + ")").c_str());
+    }
+    return 0;
+  };
+}
+
+Runner add_export(CLI::App& app) {
+  auto* cmd = app.add_subcommand("export", "Export every trial of a study");
+  struct Args {
+    std::string store, output;
+    bool csv = false;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_flag("--csv", a->csv, "CSV with a header row (the only format so far)")->required();
+  cmd->add_option("-o,--output", a->output, "file to write (default: standard output)");
+  return [a]() {
+    Study s = Study::open(a->store);
+    const auto trials = s.trials();
+    std::vector<std::string> comps;
+    for (const auto& t : trials)
+      for (const auto& [name, v] : t.components)
+        if (std::find(comps.begin(), comps.end(), name) == comps.end()) comps.push_back(name);
+    std::string out = "id,state,phase";
+    for (const auto& n : s.domain().names) out.append(",").append(csv_cell(n));
+    out += ",cost";
+    for (const auto& c : comps) out.append(",").append(csv_cell(c));
+    out += ",error,worker,created_at,finished_at,finish_seq\n";
+    for (const auto& t : trials) {
+      out += fmt::format("{},{},{}", t.id, state_name(t.state), csv_cell(t.phase));
+      for (Index i = 0; i < t.theta.size(); ++i) out.append(",").append(exact(t.theta[i]));
+      out.append(",").append(std::isnan(t.cost) ? std::string("nan") : exact(t.cost));
+      for (const auto& c : comps) {
+        std::string v = "nan";
+        for (const auto& [name, value] : t.components)
+          if (name == c) v = exact(value);
+        out.append(",").append(v);
+      }
+      out += fmt::format(",{},{},{:.3f},{:.3f},{}\n", csv_cell(t.error), csv_cell(t.worker), t.created_at,
+                         t.finished_at, t.finish_seq);
+    }
+    if (a->output.empty()) {
+      std::fwrite(out.data(), 1, out.size(), stdout);
+    } else {
+      std::ofstream f(a->output, std::ios::trunc);
+      if (!f) throw InputError(fmt::format("{}: cannot write", a->output));
+      f << out;
+    }
+    return 0;
+  };
+}
+
+}  // namespace varbo::cli

@@ -1,0 +1,166 @@
+// External evaluation of a study: `varbo study create`, `suggest`, `observe`, `fail`, `abandon`.
+// Every command opens the study file, does one transaction and exits, so several workers may share a study.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "cli_parse.hpp"
+#include "commands.hpp"
+#include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/study_api.hpp"
+
+namespace varbo::cli {
+
+Runner add_study(CLI::App& app) {
+  auto* cmd = app.add_subcommand("study", "Manage study files (durable ask/tell studies)");
+  auto* create = cmd->add_subcommand("create", "Create STUDY.db from a study configuration (task: gives the domain)");
+  cmd->require_subcommand(1);
+  struct Args {
+    std::string store, config;
+  };
+  auto a = std::make_shared<Args>();
+  create->add_option("store", a->store, "the study file to create (SQLite)")->required();
+  create->add_option("config", a->config, "study configuration (YAML)")->required()->check(CLI::ExistingFile);
+  return [a]() {
+    Study s = Study::create(a->store, a->config);
+    std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", a->store.c_str(),
+                s.config().task.info->name.c_str(), s.config().algorithm.info->name.c_str(),
+                static_cast<long>(s.config().budget), static_cast<long>(s.domain().box.dim()),
+                join(s.domain().names).c_str());
+    return 0;
+  };
+}
+
+Runner add_suggest(CLI::App& app) {
+  auto* cmd = app.add_subcommand("suggest", "Suggest trials (marked pending) and print their ids and θ in user units");
+  struct Args {
+    std::string store, worker;
+    long long batch = 1;
+    bool json = false;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("--batch", a->batch, "number of distinct trials to suggest (they account for pending ones)")
+      ->check(CLI::Range(1LL, 100000LL));
+  cmd->add_flag("--json", a->json, "print JSON: [{\"id\": 3, \"theta\": [...], \"names\": [...], \"phase\": ...}]");
+  cmd->add_option("--worker", a->worker, "name recorded for these trials (default host:pid)");
+  return [a]() {
+    Study s = Study::open(a->store);
+    if (!a->worker.empty()) s.set_worker(a->worker);
+    const auto trials = s.ask(a->batch);
+    if (trials.empty()) {
+      Index finished = 0, pending = 0;
+      for (const auto& t : s.trials()) {
+        finished += t.finished() ? 1 : 0;
+        pending += t.state == TrialState::Pending ? 1 : 0;
+      }
+      throw InputError(fmt::format("{}: nothing to suggest: the budget of {} trials is used ({} finished, {} pending) "
+                                   "or the algorithm is done",
+                                   a->store, s.config().budget, finished, pending));
+    }
+    const auto& names = s.domain().names;
+    if (a->json) {
+      nlohmann::json out = nlohmann::json::array();
+      for (const auto& t : trials)
+        out.push_back({{"id", t.id},
+                       {"theta", std::vector<double>(t.theta.data(), t.theta.data() + t.theta.size())},
+                       {"names", names},
+                       {"phase", t.phase}});
+      std::printf("%s\n", out.dump().c_str());
+    } else {
+      for (const auto& t : trials) {
+        std::string line = fmt::format("trial {}", t.id);
+        for (Index i = 0; i < t.theta.size(); ++i)
+          line += fmt::format(" {}={}", names[static_cast<std::size_t>(i)], exact(t.theta[i]));
+        std::printf("%s  (%s)\n", line.c_str(), t.phase.c_str());
+      }
+    }
+    return 0;
+  };
+}
+
+Runner add_observe(CLI::App& app) {
+  auto* cmd = app.add_subcommand("observe", "Record the cost of a pending trial");
+  struct Args {
+    std::string store, id, cost;
+    std::vector<std::string> components;
+    std::string theta;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("id", a->id, "trial id printed by `varbo suggest`, or 'new' with --theta")->required();
+  cmd->add_option("cost", a->cost, "the observed cost (a finite number)")->required();
+  cmd->add_option("--component", a->components, "a named cost component, name=value (repeatable)");
+  cmd->add_option("--theta", a->theta, "with ID 'new': the θ evaluated, user units, comma-separated (e.g. 0.5,2)");
+  return [a]() {
+    if (a->id == "new") {
+      if (a->theta.empty()) throw InputError("observe new: give the evaluated point with --theta v1,v2,...");
+      std::vector<double> v;
+      std::size_t start = 0;
+      while (start <= a->theta.size()) {
+        const std::size_t comma = std::min(a->theta.find(',', start), a->theta.size());
+        v.push_back(parse_number(a->theta.substr(start, comma - start), "--theta"));
+        start = comma + 1;
+      }
+      const double cost = parse_number(a->cost, "COST");
+      Components comps;
+      for (const auto& c : a->components) comps.push_back(parse_component(c));
+      Study s = Study::open(a->store);
+      const auto id = s.tell_point(Eigen::Map<const Vec>(v.data(), static_cast<Index>(v.size())), cost, comps);
+      std::printf("trial %lld: cost %s recorded at the given θ\n", static_cast<long long>(id), exact(cost).c_str());
+      return 0;
+    }
+    if (!a->theta.empty()) throw InputError("observe: --theta goes with ID 'new' (a point no suggestion produced)");
+    const std::int64_t id = parse_id(a->id);
+    const double cost = parse_number(a->cost, "COST");
+    Components comps;
+    for (const auto& c : a->components) comps.push_back(parse_component(c));
+    Study s = Study::open(a->store);
+    s.tell(id, cost, comps);
+    std::printf("trial %lld: cost %s recorded\n", static_cast<long long>(id), exact(cost).c_str());
+    return 0;
+  };
+}
+
+Runner add_fail(CLI::App& app) {
+  auto* cmd = app.add_subcommand("fail", "Record that a pending trial failed (it counts against the budget)");
+  struct Args {
+    std::string store, id, reason = "failed";
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("id", a->id, "trial id")->required();
+  cmd->add_option("--reason", a->reason, "why it failed (stored with the trial)");
+  return [a]() {
+    const std::int64_t id = parse_id(a->id);
+    Study s = Study::open(a->store);
+    s.fail(id, a->reason);
+    std::printf("trial %lld: failed (%s)\n", static_cast<long long>(id), a->reason.c_str());
+    return 0;
+  };
+}
+
+Runner add_abandon(CLI::App& app) {
+  auto* cmd = app.add_subcommand("abandon", "Abandon pending trials whose worker died (their points may be suggested again)");
+  struct Args {
+    std::string store;
+    double older_than = 0;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("--older-than", a->older_than, "only trials suggested more than this many seconds ago (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  return [a]() {
+    Study s = Study::open(a->store);
+    const auto ids = s.abandon(a->older_than, fmt::format("abandoned (pending longer than {} s)", a->older_than));
+    std::vector<std::string> t;
+    for (auto id : ids) t.push_back(std::to_string(id));
+    std::printf("abandoned %zu trial(s)%s%s\n", ids.size(), ids.empty() ? "" : ": ", join(t).c_str());
+    return 0;
+  };
+}
+
+}  // namespace varbo::cli

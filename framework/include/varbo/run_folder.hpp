@@ -1,0 +1,42 @@
+#pragma once
+// Reading a finished run folder back (config.resolved.yaml, trials.csv, model.yaml) to inspect or re-use its
+// model without evaluating the task again: `varbo select`, `varbo plot` and the C++ API.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "varbo/registry.hpp"
+#include "varbo/study.hpp"
+
+namespace varbo {
+
+struct RunFolder {
+  std::string folder;
+  StudyConfig study;                ///< parsed from config.resolved.yaml
+  Domain domain;                    ///< from the task built from the resolved config (user units)
+  std::vector<std::string> names;   ///< parameter names (domain.names, x1.. when the task gives none)
+  Index trials = 0;                 ///< rows of trials.csv, failed ones included
+  Mat theta;                        ///< successful trials, user units (rows)
+  Vec cost;                         ///< their costs
+  std::vector<std::string> phases;  ///< their phases ("initial", "ei", ...)
+  Dataset data;                     ///< the same trials in the unit cube, as the algorithm saw them
+  std::vector<Hyperparameters> fits;  ///< model.yaml: hyperparameters after each fit (may be empty)
+};
+
+/// Reads `folder`; components are resolved against `registry`. Throws InputError/ConfigError naming the file.
+RunFolder load_run_folder(const std::string& folder, const Registry& registry);
+
+/// The surrogate the run's algorithm used (its `surrogate:` option, as resolved), or nullptr when the
+/// algorithm has none (e.g. random search).
+const ResolvedComponent* run_surrogate_spec(const RunFolder& run);
+
+/// Builds a surrogate from `spec` for the run's dimension. With `warm_start`, the last hyperparameters in
+/// model.yaml are set first when the surrogate is the run's own type (a fit then starts from them).
+std::unique_ptr<Surrogate> make_run_surrogate(const RunFolder& run, const ResolvedComponent& spec,
+                                              const Registry& registry, std::uint64_t seed, bool warm_start);
+
+/// Fits `model` on the run's successful trials (unit cube). Throws NumericalError when the fit leaves no
+/// usable model.
+FitReport fit_run_surrogate(Surrogate& model, const RunFolder& run, std::uint64_t seed);
+
+}  // namespace varbo

@@ -1,0 +1,47 @@
+#pragma once
+// Variable risk after learning (Kuindersma 2013, section 3.2, eq. 10 and 20): for each risk factor κ, the θ
+// minimizing CB(θ, κ) = E[y] + κ·s under an already fitted model, chosen without evaluating the task.
+// κ > 0 is risk-averse (prefers low cost variance), κ < 0 risk-seeking, κ = 0 risk-neutral.
+#include <string>
+#include <vector>
+
+#include "varbo/optimizer.hpp"
+#include "varbo/surrogate.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo {
+
+/// The policy chosen for one κ.
+struct RiskSelection {
+  double kappa = 0;
+  Vec x;            ///< unit cube
+  Vec theta;        ///< user units (the task's domain)
+  double mean = 0;  ///< E[y] at θ, cost units
+  double std = 0;   ///< s = sqrt(V[y]) at θ: latent and noise variance (Kuindersma 2013, section 2.2)
+  double criterion = 0;  ///< E[y] + κ·s, the minimized value
+  bool ok = false;
+  std::string message;
+};
+
+/// The utility −(E[y] + κ·s) to maximize (eq. 20), with its analytic gradient (unit-cube coordinates).
+class NegativeConfidenceBound final : public DifferentiableFunction {
+ public:
+  NegativeConfidenceBound(const Surrogate& model, Index dim, double kappa) : model_(model), dim_(dim), kappa_(kappa) {}
+  Index dim() const override { return dim_; }
+  double value(const Vec& x, Vec* grad) const override;
+
+ private:
+  const Surrogate& model_;
+  Index dim_;
+  double kappa_;
+};
+
+/// For each κ, maximizes −(E + κ·s) over the unit cube with `optimizer`, started from the rows of `starts`
+/// (e.g. the evaluated points; may be empty) and the optimizer's own candidates. `model` must be ready.
+/// Each κ draws from its own stream of `rng` (derived from κ's value), so one κ's answer does not depend on
+/// the others in the list. The result is in the order of `kappas`; θ is mapped to `domain.box`.
+std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
+                                           const std::vector<double>& kappas, const Optimizer& optimizer,
+                                           const Rng& rng, const Mat& starts = Mat());
+
+}  // namespace varbo

@@ -1,0 +1,109 @@
+#pragma once
+// Durable storage of a study: its configuration, every trial and the model snapshots. The StudyStore
+// interface is all the rest of varbo sees, so another backend (a server database, ...) can be added
+// without touching algorithms; the default is one SQLite file (store_sqlite.cpp).
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "varbo/algorithm.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo {
+
+/// pending: handed out, no result yet; complete: cost observed; failed: the trial ran and failed (it counts
+/// against the budget and the algorithm is told ok = false); abandoned: its worker died, the result will never
+/// come (the trial is ignored, its point may be suggested again).
+enum class TrialState { Pending, Complete, Failed, Abandoned };
+std::string state_name(TrialState state);
+TrialState state_from_name(const std::string& name);  ///< throws InputError
+
+struct TrialRecord {
+  std::int64_t id = -1;           ///< assigned by the store: 0, 1, 2, ... in order of suggestion
+  TrialState state = TrialState::Pending;
+  std::string phase;              ///< the algorithm's label ("initial", "ei", ...)
+  Vec x;                          ///< unit cube, exactly as the algorithm suggested it
+  Vec theta;                      ///< user units
+  double cost = std::numeric_limits<double>::quiet_NaN();
+  Components components;
+  double noiseless_cost = std::numeric_limits<double>::quiet_NaN();
+  std::string error;              ///< reason of a failed or abandoned trial
+  std::string worker;             ///< who asked ("host:pid" or a name given by the caller)
+  double created_at = 0;          ///< unix seconds
+  double finished_at = 0;         ///< unix seconds, 0 while pending
+  /// Order in which trials finished (complete or failed): 0, 1, 2, ...; -1 while pending or abandoned.
+  /// The algorithm is re-told results in this order when a study is rebuilt (study_replay.hpp).
+  std::int64_t finish_seq = -1;
+  // How the trial was suggested, to know whether a replay must reproduce its point exactly.
+  std::int64_t finished_before = 0;  ///< finished trials when it was suggested
+  std::int64_t pending_before = 0;   ///< other pending trials when it was suggested
+  std::int64_t batch_size = 1;
+  std::int64_t batch_index = 0;
+  double fit_seconds = 0, acquisition_seconds = 0, evaluation_seconds = 0;
+
+  bool finished() const { return state == TrialState::Complete || state == TrialState::Failed; }
+};
+
+struct StoredSnapshot {
+  std::int64_t after_trials = 0;  ///< finished trials when the snapshot was taken
+  ModelSnapshot snapshot;
+};
+
+class StudyStore {
+ public:
+  /// Schema version written into the `meta` table; opening a store with a newer version is an error.
+  static constexpr int kSchemaVersion = 1;
+
+  virtual ~StudyStore();
+  /// The file (or URL) of the store, for messages.
+  virtual const std::string& location() const = 0;
+
+  /// Runs `body` as one atomic, exclusive transaction (SQLite: BEGIN IMMEDIATE ... COMMIT, retried when the
+  /// store is busy). An exception inside `body` rolls everything back and is rethrown. Nested calls join the
+  /// outer transaction. Reads outside a transaction see a consistent snapshot too.
+  virtual void transaction(const std::function<void()>& body) = 0;
+
+  virtual std::optional<std::string> meta(const std::string& key) const = 0;
+  virtual void set_meta(const std::string& key, const std::string& value) = 0;
+
+  /// Every trial, by id.
+  virtual std::vector<TrialRecord> trials() const = 0;
+  virtual std::optional<TrialRecord> trial(std::int64_t id) const = 0;
+  /// Inserts a trial (its id is ignored) and returns the id assigned.
+  virtual std::int64_t add_trial(const TrialRecord& trial) = 0;
+  /// Replaces every field of the trial with this id.
+  virtual void update_trial(const TrialRecord& trial) = 0;
+  /// 1 + the largest finish_seq (0 when nothing finished).
+  virtual std::int64_t next_finish_seq() const = 0;
+
+  virtual void add_snapshot(const StoredSnapshot& snapshot) = 0;
+  virtual std::vector<StoredSnapshot> snapshots() const = 0;
+};
+
+/// Creates a new SQLite store at `path` holding the `meta` entries; an existing file is an InputError. The
+/// file appears complete or not at all.
+std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
+                                                const std::vector<std::pair<std::string, std::string>>& meta = {});
+/// Opens an existing SQLite store; a missing file, a file that is not a varbo store, or a store written by a
+/// newer varbo (schema version) is an InputError naming the file.
+std::unique_ptr<StudyStore> open_sqlite_store(const std::string& path);
+
+/// Meta keys every store holds.
+namespace store_key {
+inline constexpr const char* kConfig = "config";          ///< resolved YAML of the study
+inline constexpr const char* kIdentity = "identity";      ///< what must match to continue the study
+inline constexpr const char* kPluginPaths = "plugin_paths";///< extra plugin paths, one per line
+inline constexpr const char* kOutput = "output";          ///< run folder of `varbo run`, if any
+}  // namespace store_key
+
+/// "host:pid" of this process.
+std::string default_worker_name();
+/// Seconds since the epoch.
+double unix_time();
+
+}  // namespace varbo

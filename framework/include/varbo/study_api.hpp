@@ -1,0 +1,102 @@
+#pragma once
+// varbo::Study — a durable ask/tell study for programs that evaluate trials themselves (a ROS node, a lab
+// script). Every call goes through the study store (store.hpp), so several processes may share one study
+// and a crash loses nothing that was told.
+//
+//   auto study = varbo::Study::create("gait.db", "gait.yaml");   // or Study::open("gait.db")
+//   for (int i = 0; i < 10; ++i) {
+//     auto trial = study.ask().at(0);            // trial.theta in user units, trial.id
+//     study.tell(trial.id, run_robot(trial.theta));
+//   }
+//   auto best = study.best();
+//
+// How the algorithm is rebuilt: algorithms are deterministic functions of the seed and of the sequence of
+// ask/tell calls, so the store keeps no algorithm state. Study re-creates the algorithm from the stored
+// configuration and replays "ask(1), tell(result)" for every finished trial in the order the results arrived
+// (docs/studies.md). A process that keeps its Study open only replays what other processes added.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "varbo/store.hpp"
+#include "varbo/study.hpp"
+
+namespace varbo {
+
+/// The point chosen by Study::select.
+struct Selection {
+  std::int64_t trial_id = -1;
+  Vec theta;          ///< user units
+  double mean = 0;    ///< E[y] of the refitted surrogate
+  double std = 0;     ///< sqrt(V[y]), latent + noise
+  double value = 0;   ///< mean + κ·std
+};
+
+class Study {
+ public:
+  /// Creates a new study file from a YAML study configuration (the same file `varbo run` takes).
+  static Study create(const std::string& store_path, const std::string& config_file);
+  /// Creates a new study from YAML text; `name` stands for the file name in messages.
+  static Study create_from_yaml(const std::string& store_path, const std::string& yaml,
+                                const std::string& name = "<embedded config>");
+  /// Opens an existing study file (plugins: the default search path plus the paths stored at creation).
+  static Study open(const std::string& store_path);
+  /// Opens or creates a study with components from `registry` (which must outlive the Study). An existing
+  /// store must hold the same task, algorithm, seed and initial point, else InputError.
+  static Study attach(const std::string& store_path, const StudyConfig& config, const Registry& registry);
+
+  Study(Study&&) noexcept;
+  Study& operator=(Study&&) noexcept;
+  ~Study();
+
+  /// Up to q new trials (pending until told), distinct from each other and from the pending trials of other
+  /// workers. Fewer (possibly none) when the budget is spent or the algorithm has nothing more to suggest.
+  std::vector<TrialRecord> ask(Index q = 1);
+  /// Records the result of a pending trial. Throws InputError (nothing written) for an unknown or finished id,
+  /// a NaN or infinite cost, or a non-finite component.
+  void tell(std::int64_t id, double cost, const Components& components = {});
+  /// Records the cost of a θ (user units) that no suggestion produced, e.g. a hand-tuned policy, as a new
+  /// complete trial (phase "manual"). θ must have the study's dimension and lie in its domain, else InputError
+  /// with nothing written. Returns its id.
+  std::int64_t tell_point(const Vec& theta, double cost, const Components& components = {});
+  /// Records a result with everything `varbo run` knows (noiseless cost, timings, failure).
+  void record(std::int64_t id, const Evaluation& evaluation, double evaluation_seconds);
+  /// Marks a pending trial failed (it counts against the budget; the algorithm is told ok = false).
+  void fail(std::int64_t id, const std::string& reason);
+  /// Marks pending trials abandoned: all of them (older_than_seconds = 0) or those created longer ago.
+  /// Their points may be suggested again. Returns the ids abandoned.
+  std::vector<std::int64_t> abandon(double older_than_seconds = 0, const std::string& reason = "abandoned");
+
+  /// The complete trial with the lowest observed cost.
+  std::optional<TrialRecord> best() const;
+  /// Among complete trials, the one minimizing E[y] + κ·sqrt(V[y]) under the study's surrogate (the
+  /// algorithm's `surrogate:` option, else a default gp) refitted on every complete trial (Kuindersma 2013,
+  /// section 3.4: κ > 0 is risk-averse). Evaluated points only: those are the θ that were actually tried.
+  std::optional<Selection> select(double kappa = 0.0) const;
+
+  std::vector<TrialRecord> trials() const;
+  const StudyConfig& config() const;
+  const Domain& domain() const;  ///< names filled in (x1, x2, ... when the task gives none)
+  StudyStore& store();
+  /// The live algorithm, in step with the store after the latest ask(); for snapshots and recommendations.
+  const Algorithm* algorithm() const;
+  /// The task of the study (used by `varbo run`; external studies never evaluate it).
+  Task& task();
+  /// Name recorded as the worker of trials asked by this object (default "host:pid").
+  void set_worker(const std::string& name);
+  /// Number of finished trials whose replayed suggestion differed from the stored one (should be 0 for a
+  /// serial study: a non-zero count means something is not deterministic).
+  Index replay_mismatches() const;
+
+  struct Impl;
+
+ private:
+  explicit Study(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+/// The part of a study configuration that must match to continue a stored study.
+std::string study_identity(const StudyConfig& config);
+
+}  // namespace varbo

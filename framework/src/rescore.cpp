@@ -1,0 +1,389 @@
+// Offline re-weighting and risk re-selection of a finished run (Kuindersma 2013, section 5.4.2).
+#include "varbo/rescore.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/math.hpp"
+
+namespace fs = std::filesystem;
+
+namespace varbo {
+
+namespace {
+
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        cur += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        cur += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      out.push_back(cur);
+      cur.clear();
+    } else if (c != '\r') {
+      cur += c;
+    }
+  }
+  out.push_back(cur);
+  return out;
+}
+
+double to_number(const std::string& s, const std::string& where) {
+  if (s == "nan" || s.empty()) return std::nan("");
+  try {
+    std::size_t used = 0;
+    const double v = std::stod(s, &used);
+    if (used != s.size()) throw std::invalid_argument(s);
+    return v;
+  } catch (const std::exception&) {
+    throw InputError(fmt::format("{}: expected a number, got '{}'", where, s));
+  }
+}
+
+std::optional<Vec> json_vec(const nlohmann::json& j, const char* key) {
+  if (!j.contains(key) || !j[key].is_array()) return std::nullopt;
+  Vec v(static_cast<Index>(j[key].size()));
+  for (std::size_t i = 0; i < j[key].size(); ++i) v[static_cast<Index>(i)] = j[key][i].get<double>();
+  return v;
+}
+
+bool declares_option(const ComponentInfo& info, const std::string& name) {
+  for (const auto& o : info.options)
+    if (o.name == name) return true;
+  return false;
+}
+
+Weights run_weights(const StudyConfig& study, const std::vector<std::string>& components) {
+  Weights w;
+  for (const auto& c : components) w[c] = 1.0;
+  if (!declares_option(*study.task.info, "weights") || !study.task.options.is_set("weights")) return w;
+  const ConfigNode node = study.task.options.node("weights");
+  if (!node.is_map()) node.fail("expected a map of component names to weights");
+  for (const auto& key : node.keys()) {
+    const ConfigNode v = node.child(key);
+    if (!v.is_scalar()) v.fail("expected a number");
+    w[key] = to_number(v.scalar(), v.where());
+  }
+  return w;
+}
+
+}  // namespace
+
+ComponentRun load_component_run(const std::string& folder, const Registry& registry) {
+  ComponentRun run;
+  run.folder = folder;
+  const std::string cfg = folder + "/config.resolved.yaml";
+  if (!fs::exists(cfg)) throw InputError(fmt::format("{}: not a run folder (no config.resolved.yaml)", folder));
+  run.study = parse_study(ConfigNode::load_file(cfg), registry);
+  BuildContext tctx;
+  tctx.seed = run.study.seed;
+  std::unique_ptr<Task> task = registry.create<Task>(run.study.task, tctx);
+  run.domain = task->domain();
+  const Index d = run.domain.box.dim();
+  run.initial_point = run.study.initial_point ? run.study.initial_point : task->initial_point();
+
+  const std::string trials = folder + "/trials.csv";
+  std::ifstream in(trials);
+  if (!in) throw InputError(fmt::format("{}: cannot open", trials));
+  std::string line;
+  if (!std::getline(in, line)) throw InputError(fmt::format("{}: empty file", trials));
+  const std::vector<std::string> header = split_csv_line(line);
+  auto col = [&](const std::string& name) -> Index {
+    for (std::size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return static_cast<Index>(i);
+    return -1;
+  };
+  const Index cost_col = col("cost"), ok_col = col("ok"), phase_col = col("phase");
+  if (cost_col < 0 || ok_col < 0 || phase_col < 0)
+    throw InputError(fmt::format("{}: expected the columns phase, cost and ok", trials));
+  // θ columns sit between `phase` and `cost`; component columns between `ok` and `fit_seconds`.
+  if (cost_col - phase_col - 1 != d)
+    throw InputError(fmt::format("{}: {} parameter columns, but the task has {} parameters", trials,
+                                 cost_col - phase_col - 1, d));
+  const Index fit_col = col("fit_seconds");
+  const Index comp_end = fit_col >= 0 ? fit_col : static_cast<Index>(header.size());
+  for (Index c = ok_col + 1; c < comp_end; ++c) run.components.push_back(header[static_cast<std::size_t>(c)]);
+  if (run.components.empty()) throw InputError(fmt::format("{}: the run recorded no cost components", trials));
+
+  std::vector<Vec> th, vals;
+  std::vector<double> costs;
+  int lineno = 1;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const auto cells = split_csv_line(line);
+    const std::string where = fmt::format("{}:{}", trials, lineno);
+    if (cells.size() < header.size())
+      throw InputError(fmt::format("{}: expected {} values, found {}", where, header.size(), cells.size()));
+    if (cells[static_cast<std::size_t>(ok_col)] != "1") continue;  // failed trials have no cost
+    Vec t(d), v(static_cast<Index>(run.components.size()));
+    for (Index i = 0; i < d; ++i) t[i] = to_number(cells[static_cast<std::size_t>(phase_col + 1 + i)], where);
+    for (Index i = 0; i < v.size(); ++i) v[i] = to_number(cells[static_cast<std::size_t>(ok_col + 1 + i)], where);
+    const double c = to_number(cells[static_cast<std::size_t>(cost_col)], where);
+    if (!t.allFinite() || !v.allFinite() || !std::isfinite(c)) continue;
+    th.push_back(t);
+    vals.push_back(v);
+    costs.push_back(c);
+  }
+  const auto n = static_cast<Index>(th.size());
+  if (n == 0) throw InputError(fmt::format("{}: no successful trials with all components", trials));
+  run.theta.resize(n, d);
+  run.unit.resize(n, d);
+  run.values.resize(n, static_cast<Index>(run.components.size()));
+  run.cost.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    run.theta.row(i) = th[static_cast<std::size_t>(i)].transpose();
+    run.unit.row(i) = to_unit(th[static_cast<std::size_t>(i)], run.domain.box).transpose();
+    run.values.row(i) = vals[static_cast<std::size_t>(i)].transpose();
+    run.cost[i] = costs[static_cast<std::size_t>(i)];
+  }
+  run.weights = run_weights(run.study, run.components);
+
+  const std::string summary = folder + "/summary.json";
+  if (fs::exists(summary)) {
+    try {
+      std::ifstream s(summary);
+      const nlohmann::json j = nlohmann::json::parse(s);
+      run.recommended = json_vec(j, "recommended_theta");
+      run.best = json_vec(j, "best_theta");
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(fmt::format("{}: {}", summary, e.what()));
+    }
+  }
+  return run;
+}
+
+Weights parse_weight_list(const std::string& text, const std::vector<std::string>& components) {
+  Weights w;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, end - start);
+    start = end + 1;
+    if (item.empty()) {
+      if (end >= text.size()) break;
+      continue;
+    }
+    const std::size_t eq = item.find('=');
+    if (eq == std::string::npos)
+      throw InputError(fmt::format("--weights: expected name=value, got '{}'", item));
+    const std::string name = item.substr(0, eq);
+    bool known = false;
+    for (const auto& c : components) known = known || c == name;
+    if (!known)
+      throw InputError(fmt::format("--weights: unknown component '{}' (the run recorded: {})", name,
+                                   fmt::join(components, ", ")));
+    const double v = to_number(item.substr(eq + 1), "--weights " + name);
+    if (!std::isfinite(v) || v < 0) throw InputError(fmt::format("--weights: weight of '{}' must be finite and >= 0", name));
+    w[name] = v;
+    if (end >= text.size()) break;
+  }
+  return w;
+}
+
+Weights merge_weights(const Weights& base, const Weights& changes) {
+  Weights w = base;
+  for (const auto& [k, v] : changes) w[k] = v;
+  return w;
+}
+
+Vec rescore_costs(const ComponentRun& run, const Weights& weights) {
+  Vec out = Vec::Zero(run.values.rows());
+  for (Index i = 0; i < run.values.rows(); ++i) {
+    double c = 0;
+    for (std::size_t k = 0; k < run.components.size(); ++k) {
+      const auto it = weights.find(run.components[k]);
+      c += (it == weights.end() ? 1.0 : it->second) * run.values(i, static_cast<Index>(k));  // eq. (23)
+    }
+    out[i] = c;
+  }
+  return out;
+}
+
+BallRegion::BallRegion(Vec centre, double radius) : centre_(std::move(centre)), radius_(radius) {
+  const Index d = centre_.size();
+  box_.lower = (centre_.array() - radius_).max(0.0).matrix();
+  box_.upper = (centre_.array() + radius_).min(1.0).matrix();
+  (void)d;
+}
+
+double BallRegion::constraint(const Vec& x, Vec* grad) const {
+  if (grad) *grad = -2.0 * (x - centre_);
+  return radius_ * radius_ - (x - centre_).squaredNorm();
+}
+
+Mat BallRegion::seeds() const { return centre_.transpose(); }
+
+double RiskObjective::value(const Vec& x, Vec* grad) const {
+  const Prediction p = critic_.predict(x, grad != nullptr);
+  const double s = p.total_std();
+  if (grad) {
+    if (p.has_gradient()) {
+      // d r̃ = d V / (2 r̃)
+      *grad = -(p.d_mean + kappa_ * p.d_total_var() / (2 * std::max(s, 1e-300)));
+    } else {
+      grad->setZero(dim_);
+    }
+  }
+  return -(p.mean + kappa_ * s);
+}
+
+OfflineSelectionSettings offline_settings_from(const ComponentRun& run, const Registry& registry) {
+  OfflineSelectionSettings s;
+  s.seed = run.study.seed;
+  const ResolvedComponent& alg = run.study.algorithm;
+  if (alg.info->name == "rssgd" && declares_option(*alg.info, "critic")) {
+    s.critic = alg.options.component("critic");
+    const double eps = alg.options.real("epsilon");
+    double sigma = alg.options.real("sigma");
+    if (alg.options.is_set("sigma_diag"))
+      for (double v : alg.options.reals("sigma_diag")) sigma = std::max(sigma, v);
+    s.radius = eps > 0 ? eps : 3.5 * sigma;
+    s.min_points = alg.options.integer("min_local_points");
+  } else {
+    s.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse("{type: vhgp}", "<rescore default critic>"));
+  }
+  // SLSQP polish (paper: SQP) of quasi-random candidates inside the ball.
+  s.optimizer =
+      registry.resolve(Kind::Optimizer, ConfigNode::parse("{type: multistart, candidates: 500, polish: 5}",
+                                                          "<rescore default optimizer>"));
+  return s;
+}
+
+std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec& costs, const Vec& centre,
+                                             const std::vector<double>& kappas,
+                                             const OfflineSelectionSettings& settings, const Registry& registry,
+                                             LocalModel* model_out) {
+  const Index d = run.unit.cols();
+  Dataset all = Dataset::empty(d);
+  for (Index i = 0; i < run.unit.rows(); ++i) all.add(run.unit.row(i).transpose(), costs[i]);
+  // Local data: the ε-ball around the learned policy (at least min_points nearest).
+  std::vector<std::pair<double, Index>> by_distance;
+  for (Index i = 0; i < all.size(); ++i) by_distance.push_back({(all.X.row(i).transpose() - centre).norm(), i});
+  std::sort(by_distance.begin(), by_distance.end());
+  Dataset local = Dataset::empty(d);
+  for (std::size_t k = 0; k < by_distance.size(); ++k)
+    if (by_distance[k].first <= settings.radius || static_cast<Index>(k) < settings.min_points)
+      local.add(all.X.row(by_distance[k].second).transpose(), all.y[by_distance[k].second]);
+  BuildContext ctx;
+  ctx.dim = d;
+  ctx.seed = settings.seed;
+  LocalModel m;
+  m.critic = registry.create<Surrogate>(settings.critic, ctx);
+  Rng rng = Rng(settings.seed).stream(0x5e1ec7);
+  m.fit = m.critic->fit(local, rng);
+  m.data = local;
+  if (!m.critic->ready())
+    throw NumericalError(fmt::format("rescore: the local model could not be fitted on {} trials: {}", local.size(),
+                                     m.fit.message));
+  auto optimizer = registry.create<Optimizer>(settings.optimizer, ctx);
+  const BallRegion ball(centre, settings.radius);
+  std::vector<OfflineSelection> out;
+  for (std::size_t k = 0; k < kappas.size(); ++k) {
+    const RiskObjective f(*m.critic, kappas[k], d);
+    Rng orng = rng.stream(1, k);
+    OptimizeResult r = optimizer->maximize(f, ball, ball.seeds(), orng);
+    Vec x = centre;
+    if (r.x.size() == d && r.x.allFinite() && ball.contains(r.x, 1e-6)) {
+      x = Box::unit(d).clamp(r.x);
+    } else {
+      log_warn("rescore: the search for kappa {} found no point in the ball ({}); keeping the learned policy",
+               kappas[k], r.message);
+    }
+    // Never worse than the centre itself under the criterion (a local search can only improve on it).
+    if (f.value(centre, nullptr) > f.value(x, nullptr)) x = centre;
+    const Prediction p = m.critic->predict(x, false);
+    out.push_back({kappas[k], x, from_unit(x, run.domain.box), p.mean, p.total_std()});
+  }
+  if (model_out) *model_out = std::move(m);
+  return out;
+}
+
+PolicyStats evaluate_policy(Task& task, const Vec& theta, Index rollouts, std::uint64_t seed) {
+  PolicyStats s;
+  std::vector<double> v;
+  const Rng base = Rng(seed).stream(0xe7a1);
+  for (Index i = 0; i < rollouts; ++i) {
+    Rng r = base.stream(static_cast<std::uint64_t>(i));
+    const Evaluation e = task.evaluate(theta, r);
+    if (!e.ok || !std::isfinite(e.cost)) {
+      ++s.failed;
+      continue;
+    }
+    v.push_back(e.cost);
+  }
+  if (v.empty()) return s;
+  const Eigen::Map<const Vec> m(v.data(), static_cast<Index>(v.size()));
+  s.mean = m.mean();
+  s.std = v.size() > 1 ? std::sqrt((m.array() - s.mean).square().sum() / static_cast<double>(v.size() - 1)) : 0.0;
+  return s;
+}
+
+RunSummary continue_with_rssgd(const ComponentRun& run, const Weights& weights, const Vec& costs, const Vec& start,
+                               double kappa, Index steps, const std::string& folder, std::uint64_t seed,
+                               const Registry& registry) {
+  if (!declares_option(*run.study.task.info, "weights"))
+    throw ConfigError(fmt::format("task '{}' has no `weights:` option, so a continued run cannot use new weights",
+                                  run.study.task.info->name));
+  fs::create_directories(folder);
+  const std::string history = fs::absolute(folder + "/history.csv").string();
+  {
+    // The re-scored trials of the parent run, as the new run's critic data (θ in the unit cube).
+    std::ofstream h(history);
+    for (Index i = 0; i < run.unit.cols(); ++i) h << (i ? "," : "") << "x" << (i + 1);
+    h << ",cost\n";
+    for (Index r = 0; r < run.unit.rows(); ++r) {
+      for (Index i = 0; i < run.unit.cols(); ++i) h << (i ? "," : "") << exact(run.unit(r, i));
+      h << "," << exact(costs[r]) << "\n";
+    }
+  }
+  YAML::Node cfg = run.study.resolved();
+  YAML::Node w(YAML::NodeType::Map);
+  for (const auto& c : run.components) w[c] = weights.count(c) ? weights.at(c) : 1.0;
+  cfg["task"]["weights"] = w;
+  cfg["initial_point"] = std::vector<double>(start.data(), start.data() + start.size());
+  cfg["budget"] = steps;
+  cfg["seed"] = seed;
+  cfg["output"] = fs::absolute(folder).string();
+  YAML::Node alg = run.study.algorithm.info->name == "rssgd" ? YAML::Node(cfg["algorithm"]) : YAML::Node(YAML::NodeType::Map);
+  if (run.study.algorithm.info->name != "rssgd") alg["type"] = "rssgd";
+  alg.remove("phases");
+  alg.remove("start");
+  alg["kappa"] = kappa;
+  alg["history"] = history;
+  alg["evaluate_initial"] = false;  // the history already holds the neighbourhood; every trial is a step
+  cfg["algorithm"] = alg;
+  cfg["description"] = fmt::format("continuation of {} with new weights, kappa {}", run.folder, kappa);
+  const std::string file = folder + "/study.yaml";
+  {
+    std::ofstream out(file);
+    YAML::Emitter em;
+    em << cfg;
+    out << "# written by varbo rescore --continue\n" << em.c_str() << "\n";
+  }
+  const StudyConfig study = parse_study(ConfigNode::load_file(file), registry);
+  RunOverrides ov;
+  ov.progress = false;
+  return run_study(study, registry, ov);
+}
+
+}  // namespace varbo

@@ -1,0 +1,182 @@
+// Reads a run folder written by `varbo run` (run_writer.cpp) back into memory.
+#include "varbo/run_folder.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/math.hpp"
+
+namespace fs = std::filesystem;
+
+namespace varbo {
+
+namespace {
+
+/// One CSV line with RFC 4180 quoting (the `error` column may hold commas and quotes).
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> cells(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        cells.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        cells.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      cells.emplace_back();
+    } else if (c != '\r') {
+      cells.back() += c;
+    }
+  }
+  return cells;
+}
+
+double parse_number(const std::string& text, const std::string& where) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || errno == ERANGE)
+    throw InputError(fmt::format("{}: expected a number, got '{}'", where, text));
+  return v;
+}
+
+std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
+  std::vector<Hyperparameters> out;
+  if (!fs::exists(file)) return out;
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}: cannot parse: {}", file, e.what()));
+  }
+  if (!root.IsSequence()) return out;  // only the header comment: no fit happened
+  for (const auto& entry : root) {
+    Hyperparameters h;
+    const YAML::Node hp = entry["hyperparameters"];
+    if (hp && hp.IsMap())
+      for (const auto& kv : hp) h.push_back({kv.first.as<std::string>(), kv.second.as<double>()});
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
+}  // namespace
+
+RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
+  RunFolder run;
+  run.folder = folder;
+  const std::string cfg = folder + "/config.resolved.yaml";
+  const std::string csv = folder + "/trials.csv";
+  if (!fs::is_directory(folder)) throw InputError(fmt::format("{}: no such run folder", folder));
+  if (!fs::exists(cfg)) throw InputError(fmt::format("{}: missing (is this a varbo run folder?)", cfg));
+  if (!fs::exists(csv)) throw InputError(fmt::format("{}: missing (is this a varbo run folder?)", csv));
+  run.study = parse_study(ConfigNode::load_file(cfg), registry);
+
+  BuildContext tctx;
+  tctx.seed = run.study.seed;
+  const std::unique_ptr<Task> task = registry.create<Task>(run.study.task, tctx);
+  run.domain = task->domain();
+  const Index d = run.domain.box.dim();
+  run.names = run.domain.names;
+  for (Index i = static_cast<Index>(run.names.size()); i < d; ++i) run.names.push_back(fmt::format("x{}", i + 1));
+
+  std::ifstream in(csv);
+  std::string line;
+  if (!std::getline(in, line)) throw InputError(fmt::format("{}: empty file (expected a header line)", csv));
+  const std::vector<std::string> header = split_csv(line);
+  auto column = [&](const std::string& name) {
+    for (std::size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return i;
+    throw InputError(fmt::format("{}: no column '{}' (header: {})", csv, name, join(header)));
+  };
+  std::vector<std::size_t> xcols;
+  for (const auto& n : run.names) xcols.push_back(column(n));
+  const std::size_t cost_col = column("cost"), ok_col = column("ok"), phase_col = column("phase");
+
+  std::vector<Vec> thetas;
+  std::vector<double> costs;
+  int lineno = 1;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const std::vector<std::string> cells = split_csv(line);
+    if (cells.size() != header.size())
+      throw InputError(fmt::format("{}:{}: expected {} values (as in the header), found {}", csv, lineno,
+                                   header.size(), cells.size()));
+    ++run.trials;
+    const std::string where = fmt::format("{}:{}", csv, lineno);
+    if (cells[ok_col] != "1") continue;  // failed trials inform no model (as in the algorithm)
+    Vec t(d);
+    for (Index j = 0; j < d; ++j) t[j] = parse_number(cells[xcols[static_cast<std::size_t>(j)]], where);
+    const double y = parse_number(cells[cost_col], where);
+    if (!t.allFinite() || !std::isfinite(y)) continue;
+    thetas.push_back(t);
+    costs.push_back(y);
+    run.phases.push_back(cells[phase_col]);
+  }
+  const Index n = static_cast<Index>(thetas.size());
+  run.theta.resize(n, d);
+  run.cost.resize(n);
+  run.data = Dataset::empty(d);
+  for (Index i = 0; i < n; ++i) {
+    run.theta.row(i) = thetas[static_cast<std::size_t>(i)].transpose();
+    run.cost[i] = costs[static_cast<std::size_t>(i)];
+    // The same clamp as the runner: a θ written in user units maps back into the unit cube.
+    run.data.add(Box::unit(d).clamp(to_unit(thetas[static_cast<std::size_t>(i)], run.domain.box)), run.cost[i]);
+  }
+  run.fits = read_model_yaml(folder + "/model.yaml");
+  return run;
+}
+
+const ResolvedComponent* run_surrogate_spec(const RunFolder& run) {
+  const ComponentInfo* info = run.study.algorithm.info;
+  if (info == nullptr) return nullptr;
+  for (const auto& o : info->options)
+    if (o.name == "surrogate" && o.type == OptionType::Component && run.study.algorithm.options.is_set("surrogate"))
+      return &run.study.algorithm.options.component("surrogate");
+  return nullptr;
+}
+
+std::unique_ptr<Surrogate> make_run_surrogate(const RunFolder& run, const ResolvedComponent& spec,
+                                              const Registry& registry, std::uint64_t seed, bool warm_start) {
+  BuildContext ctx;
+  ctx.dim = run.domain.box.dim();
+  ctx.seed = seed;
+  std::unique_ptr<Surrogate> model = registry.create<Surrogate>(spec, ctx);
+  const ResolvedComponent* own = run_surrogate_spec(run);
+  if (warm_start && !run.fits.empty() && own != nullptr && own->info == spec.info && !run.fits.back().empty()) {
+    try {
+      model->set_hyperparameters(run.fits.back());
+    } catch (const Error& e) {
+      log_warn("{}/model.yaml: last hyperparameters not usable as a start ({}); fitting from the defaults",
+               run.folder, e.what());
+    }
+  }
+  return model;
+}
+
+FitReport fit_run_surrogate(Surrogate& model, const RunFolder& run, std::uint64_t seed) {
+  if (run.data.size() < 2)
+    throw InputError(fmt::format("{}: {} successful trials; at least 2 are needed to fit a model", run.folder,
+                                 run.data.size()));
+  Rng rng = Rng(seed).stream(0xf17);
+  FitReport rep = model.fit(run.data, rng);
+  if (!rep.ok) log_warn("{}: model fit: {}", run.folder, rep.report());
+  if (!model.ready()) throw NumericalError(fmt::format("{}: the model fit failed: {}", run.folder, rep.message));
+  return rep;
+}
+
+}  // namespace varbo

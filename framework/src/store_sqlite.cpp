@@ -1,0 +1,485 @@
+// The SQLite study store: one file, WAL journal (readers never block the writer), a 10 s busy timeout plus
+// retries, and BEGIN IMMEDIATE transactions so that concurrent suggest/observe processes serialize their
+// read-modify-write steps and never lose an observation.
+#include <fmt/format.h>
+#include <sqlite3.h>
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <cmath>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/store.hpp"
+
+namespace varbo {
+
+namespace {
+
+constexpr const char* kFormat = "varbo-study";
+constexpr int kBusyTimeoutMs = 10000;
+constexpr int kBeginAttempts = 60;  // × up to 10 s of busy waiting each: a writer may hold the lock for a fit
+
+const char* kSchema = R"SQL(
+CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE trials (
+  id INTEGER PRIMARY KEY,
+  state TEXT NOT NULL CHECK (state IN ('pending', 'complete', 'failed', 'abandoned')),
+  phase TEXT NOT NULL DEFAULT '',
+  x TEXT NOT NULL,
+  theta TEXT NOT NULL,
+  cost REAL,
+  components TEXT NOT NULL DEFAULT '{}',
+  noiseless_cost REAL,
+  error TEXT NOT NULL DEFAULT '',
+  worker TEXT NOT NULL DEFAULT '',
+  created_at REAL NOT NULL,
+  finished_at REAL NOT NULL DEFAULT 0,
+  finish_seq INTEGER NOT NULL DEFAULT -1,
+  finished_before INTEGER NOT NULL DEFAULT 0,
+  pending_before INTEGER NOT NULL DEFAULT 0,
+  batch_size INTEGER NOT NULL DEFAULT 1,
+  batch_index INTEGER NOT NULL DEFAULT 0,
+  fit_seconds REAL NOT NULL DEFAULT 0,
+  acquisition_seconds REAL NOT NULL DEFAULT 0,
+  evaluation_seconds REAL NOT NULL DEFAULT 0
+);
+CREATE INDEX trials_state ON trials (state);
+CREATE TABLE snapshots (
+  id INTEGER PRIMARY KEY,
+  after_trials INTEGER NOT NULL,
+  iteration INTEGER NOT NULL,
+  objective REAL,
+  note TEXT NOT NULL DEFAULT '',
+  region_state TEXT NOT NULL DEFAULT '',
+  hyperparameters TEXT NOT NULL
+);
+)SQL";
+
+std::string vec_text(const Vec& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Index i = 0; i < v.size(); ++i) a.push_back(v[i]);  // dumped with 17 significant digits: exact
+  return a.dump();
+}
+
+Vec text_vec(const std::string& s, const std::string& where) {
+  nlohmann::json a = nlohmann::json::parse(s, nullptr, false);
+  if (!a.is_array()) throw InputError(fmt::format("{}: corrupt vector '{}'", where, s));
+  Vec v(static_cast<Index>(a.size()));
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!a[i].is_number()) throw InputError(fmt::format("{}: corrupt vector '{}'", where, s));
+    v[static_cast<Index>(i)] = a[i].get<double>();
+  }
+  return v;
+}
+
+std::string components_text(const Components& c) {
+  nlohmann::json o = nlohmann::json::array();  // an ordered list of [name, value] pairs keeps the task's order
+  for (const auto& [name, value] : c) o.push_back({name, std::isfinite(value) ? nlohmann::json(value) : nlohmann::json()});
+  return o.dump();
+}
+
+Components text_components(const std::string& s) {
+  Components c;
+  nlohmann::json o = nlohmann::json::parse(s, nullptr, false);
+  if (!o.is_array()) return c;
+  for (const auto& p : o)
+    if (p.is_array() && p.size() == 2 && p[0].is_string())
+      c.emplace_back(p[0].get<std::string>(), p[1].is_number() ? p[1].get<double>() : std::nan(""));
+  return c;
+}
+
+class SqliteStore;
+
+/// A prepared statement; errors name the store file.
+class Statement {
+ public:
+  Statement(sqlite3* db, const std::string& sql, const std::string& file) : db_(db), file_(file) {
+    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &stmt_, nullptr) != SQLITE_OK) fail("prepare");
+  }
+  ~Statement() { sqlite3_finalize(stmt_); }
+  Statement(const Statement&) = delete;
+  Statement& operator=(const Statement&) = delete;
+
+  Statement& bind(int i, double v) {
+    // SQLite stores NaN as NULL; read back as NaN.
+    check(std::isnan(v) ? sqlite3_bind_null(stmt_, i) : sqlite3_bind_double(stmt_, i, v));
+    return *this;
+  }
+  Statement& bind(int i, std::int64_t v) {
+    check(sqlite3_bind_int64(stmt_, i, v));
+    return *this;
+  }
+  Statement& bind(int i, const std::string& v) {
+    check(sqlite3_bind_text(stmt_, i, v.c_str(), static_cast<int>(v.size()), SQLITE_TRANSIENT));
+    return *this;
+  }
+  /// True while a row is available.
+  bool step() {
+    const int rc = sqlite3_step(stmt_);
+    if (rc == SQLITE_ROW) return true;
+    if (rc == SQLITE_DONE) return false;
+    fail("step");
+  }
+  double real(int c) const {
+    return sqlite3_column_type(stmt_, c) == SQLITE_NULL ? std::nan("") : sqlite3_column_double(stmt_, c);
+  }
+  std::int64_t integer(int c) const { return sqlite3_column_int64(stmt_, c); }
+  std::string text(int c) const {
+    const auto* p = sqlite3_column_text(stmt_, c);
+    return p ? std::string(reinterpret_cast<const char*>(p)) : std::string();
+  }
+
+ private:
+  void check(int rc) {
+    if (rc != SQLITE_OK) fail("bind");
+  }
+  [[noreturn]] void fail(const char* what) const {
+    throw InputError(fmt::format("{}: SQLite {} failed: {}", file_, what, sqlite3_errmsg(db_)));
+  }
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+  const std::string& file_;
+};
+
+class SqliteStore final : public StudyStore {
+ public:
+  SqliteStore(const std::string& path, bool create) : path_(path) {
+    namespace fs = std::filesystem;
+    if (create && fs::exists(path))
+      throw InputError(fmt::format("{}: a file with this name exists already; choose another study file or "
+                                   "continue it with `varbo suggest`/`varbo run --resume`",
+                                   path));
+    if (!create && !fs::exists(path)) throw InputError(fmt::format("{}: no such study file", path));
+    const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
+    if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
+      const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw InputError(fmt::format("{}: cannot open the study file: {}", path, msg));
+    }
+    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    try {
+      if (create) {
+        exec("PRAGMA journal_mode=WAL");  // persistent: every later connection uses WAL too
+        transaction([&] {
+          exec(kSchema);
+          set_meta("format", kFormat);
+          set_meta("schema_version", std::to_string(kSchemaVersion));
+        });
+      } else {
+        check_format();
+      }
+      exec("PRAGMA synchronous=NORMAL");  // WAL + NORMAL: a commit survives a process crash (not a power loss)
+      exec("PRAGMA foreign_keys=ON");
+    } catch (...) {
+      sqlite3_close(db_);
+      db_ = nullptr;
+      if (create) {
+        std::error_code ec;
+        fs::remove(path, ec);
+      }
+      throw;
+    }
+  }
+  ~SqliteStore() override { sqlite3_close(db_); }
+
+  const std::string& location() const override { return path_; }
+
+  void transaction(const std::function<void()>& body) override {
+    if (depth_ > 0) {  // join the outer transaction
+      ++depth_;
+      try {
+        body();
+      } catch (...) {
+        --depth_;
+        throw;
+      }
+      --depth_;
+      return;
+    }
+    begin_immediate();
+    depth_ = 1;
+    try {
+      body();
+      commit();
+    } catch (...) {
+      depth_ = 0;
+      sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+      throw;
+    }
+    depth_ = 0;
+  }
+
+  std::optional<std::string> meta(const std::string& key) const override {
+    Statement s(db_, "SELECT value FROM meta WHERE key = ?", path_);
+    s.bind(1, key);
+    if (!s.step()) return std::nullopt;
+    return s.text(0);
+  }
+  void set_meta(const std::string& key, const std::string& value) override {
+    Statement s(db_, "INSERT INTO meta (key, value) VALUES (?, ?) ON CONFLICT(key) DO UPDATE SET value = excluded.value",
+                path_);
+    s.bind(1, key).bind(2, value).step();
+  }
+
+  std::vector<TrialRecord> trials() const override { return select_trials("ORDER BY id", std::nullopt); }
+  std::optional<TrialRecord> trial(std::int64_t id) const override {
+    auto v = select_trials("WHERE id = ?", id);
+    if (v.empty()) return std::nullopt;
+    return v.front();
+  }
+
+  std::int64_t add_trial(const TrialRecord& t) override {
+    std::int64_t id = 0;
+    {
+      Statement s(db_, "SELECT COALESCE(MAX(id) + 1, 0) FROM trials", path_);
+      s.step();
+      id = s.integer(0);
+    }
+    TrialRecord r = t;
+    r.id = id;
+    Statement s(db_, std::string("INSERT INTO trials (") + kColumns + ") VALUES (" + kPlaceholders + ")", path_);
+    bind_trial(s, r);
+    s.step();
+    return id;
+  }
+
+  void update_trial(const TrialRecord& t) override {
+    Statement s(db_, std::string("UPDATE trials SET (") + kColumns + ") = (" + kPlaceholders + ") WHERE id = ?21",
+                path_);
+    bind_trial(s, t);
+    s.bind(21, t.id);
+    s.step();
+    if (sqlite3_changes(db_) != 1) throw InputError(fmt::format("{}: no trial with id {}", path_, t.id));
+  }
+
+  std::int64_t next_finish_seq() const override {
+    Statement s(db_, "SELECT COALESCE(MAX(finish_seq) + 1, 0) FROM trials", path_);
+    s.step();
+    return std::max<std::int64_t>(0, s.integer(0));
+  }
+
+  void add_snapshot(const StoredSnapshot& snap) override {
+    nlohmann::json h = nlohmann::json::array();
+    for (const auto& p : snap.snapshot.hyperparameters) h.push_back({p.name, p.value});
+    Statement s(db_,
+                "INSERT INTO snapshots (after_trials, iteration, objective, note, hyperparameters, region_state) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                path_);
+    s.bind(1, snap.after_trials)
+        .bind(2, static_cast<std::int64_t>(snap.snapshot.iteration))
+        .bind(3, snap.snapshot.objective)
+        .bind(4, snap.snapshot.note)
+        .bind(5, h.dump())
+        .bind(6, snap.snapshot.region_state);
+    s.step();
+  }
+
+  std::vector<StoredSnapshot> snapshots() const override {
+    std::vector<StoredSnapshot> out;
+    Statement s(db_, "SELECT after_trials, iteration, objective, note, hyperparameters, region_state FROM snapshots ORDER BY id",
+                path_);
+    while (s.step()) {
+      StoredSnapshot r;
+      r.after_trials = s.integer(0);
+      r.snapshot.iteration = static_cast<Index>(s.integer(1));
+      r.snapshot.objective = s.real(2);
+      r.snapshot.note = s.text(3);
+      r.snapshot.region_state = s.text(5);
+      nlohmann::json h = nlohmann::json::parse(s.text(4), nullptr, false);
+      if (h.is_array())
+        for (const auto& p : h)
+          if (p.is_array() && p.size() == 2 && p[0].is_string() && p[1].is_number())
+            r.snapshot.hyperparameters.push_back({p[0].get<std::string>(), p[1].get<double>()});
+      out.push_back(std::move(r));
+    }
+    return out;
+  }
+
+ private:
+  static constexpr const char* kColumns =
+      "id, state, phase, x, theta, cost, components, noiseless_cost, error, worker, created_at, finished_at, "
+      "finish_seq, finished_before, pending_before, batch_size, batch_index, fit_seconds, acquisition_seconds, "
+      "evaluation_seconds";
+  static constexpr const char* kPlaceholders = "?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, ?20";
+
+  void bind_trial(Statement& s, const TrialRecord& t) const {
+    s.bind(1, t.id)
+        .bind(2, state_name(t.state))
+        .bind(3, t.phase)
+        .bind(4, vec_text(t.x))
+        .bind(5, vec_text(t.theta))
+        .bind(6, t.cost)
+        .bind(7, components_text(t.components))
+        .bind(8, t.noiseless_cost)
+        .bind(9, t.error)
+        .bind(10, t.worker)
+        .bind(11, t.created_at)
+        .bind(12, t.finished_at)
+        .bind(13, t.finish_seq)
+        .bind(14, t.finished_before)
+        .bind(15, t.pending_before)
+        .bind(16, t.batch_size)
+        .bind(17, t.batch_index)
+        .bind(18, t.fit_seconds)
+        .bind(19, t.acquisition_seconds)
+        .bind(20, t.evaluation_seconds);
+  }
+
+  std::vector<TrialRecord> select_trials(const std::string& clause, std::optional<std::int64_t> id) const {
+    std::vector<TrialRecord> out;
+    Statement s(db_, std::string("SELECT ") + kColumns + " FROM trials " + clause, path_);
+    if (id) s.bind(1, *id);
+    while (s.step()) {
+      TrialRecord t;
+      t.id = s.integer(0);
+      t.state = state_from_name(s.text(1));
+      t.phase = s.text(2);
+      const std::string where = fmt::format("{}: trial {}", path_, t.id);
+      t.x = text_vec(s.text(3), where);
+      t.theta = text_vec(s.text(4), where);
+      t.cost = s.real(5);
+      t.components = text_components(s.text(6));
+      t.noiseless_cost = s.real(7);
+      t.error = s.text(8);
+      t.worker = s.text(9);
+      t.created_at = s.real(10);
+      t.finished_at = s.real(11);
+      t.finish_seq = s.integer(12);
+      t.finished_before = s.integer(13);
+      t.pending_before = s.integer(14);
+      t.batch_size = s.integer(15);
+      t.batch_index = s.integer(16);
+      t.fit_seconds = s.real(17);
+      t.acquisition_seconds = s.real(18);
+      t.evaluation_seconds = s.real(19);
+      out.push_back(std::move(t));
+    }
+    return out;
+  }
+
+  void exec(const char* sql) {
+    char* err = nullptr;
+    if (sqlite3_exec(db_, sql, nullptr, nullptr, &err) != SQLITE_OK) {
+      const std::string msg = err ? err : sqlite3_errmsg(db_);
+      sqlite3_free(err);
+      throw InputError(fmt::format("{}: SQLite: {}", path_, msg));
+    }
+  }
+
+  void begin_immediate() {
+    for (int attempt = 1;; ++attempt) {
+      const int rc = sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr);
+      if (rc == SQLITE_OK) return;
+      if ((rc != SQLITE_BUSY && rc != SQLITE_LOCKED) || attempt >= kBeginAttempts)
+        throw InputError(fmt::format("{}: cannot start a transaction after {} attempts: {}", path_, attempt,
+                                     sqlite3_errmsg(db_)));
+      log_debug("{}: store busy, retrying (attempt {})", path_, attempt);
+      std::this_thread::sleep_for(std::chrono::milliseconds(10 * attempt));
+    }
+  }
+
+  void commit() {
+    for (int attempt = 1;; ++attempt) {
+      const int rc = sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr);
+      if (rc == SQLITE_OK) return;
+      if (rc != SQLITE_BUSY || attempt >= kBeginAttempts)
+        throw InputError(fmt::format("{}: commit failed: {}", path_, sqlite3_errmsg(db_)));
+      std::this_thread::sleep_for(std::chrono::milliseconds(10 * attempt));
+    }
+  }
+
+  void check_format() {
+    // A file that is not SQLite fails at the first read (SQLITE_NOTADB); an SQLite file without our meta
+    // table or format marker is someone else's database.
+    sqlite3_stmt* probe = nullptr;
+    const int rc = sqlite3_prepare_v2(db_, "SELECT value FROM meta WHERE key = 'format'", -1, &probe, nullptr);
+    std::string format;
+    int step_rc = SQLITE_OK;
+    if (rc == SQLITE_OK) {
+      step_rc = sqlite3_step(probe);
+      if (step_rc == SQLITE_ROW) {
+        const auto* p = sqlite3_column_text(probe, 0);
+        format = p ? reinterpret_cast<const char*>(p) : "";
+      }
+    }
+    const int err = rc != SQLITE_OK ? rc : step_rc;
+    const std::string msg = sqlite3_errmsg(db_);
+    sqlite3_finalize(probe);
+    if (err == SQLITE_NOTADB)
+      throw InputError(fmt::format("{}: not a varbo study store (the file is not an SQLite database)", path_));
+    if (rc != SQLITE_OK && msg.find("no such table") != std::string::npos)
+      throw InputError(fmt::format("{}: not a varbo study store (an SQLite database without varbo's meta table)",
+                                   path_));
+    if (rc != SQLITE_OK || (step_rc != SQLITE_ROW && step_rc != SQLITE_DONE))
+      throw InputError(fmt::format("{}: cannot read the study store: {}", path_, msg));
+    if (format != kFormat)
+      throw InputError(fmt::format("{}: not a varbo study store (meta 'format' is '{}', expected '{}')", path_, format,
+                                   kFormat));
+    const auto v = meta("schema_version");
+    int version = 0;
+    try {
+      version = v ? std::stoi(*v) : 0;
+    } catch (const std::exception&) {
+      version = 0;
+    }
+    if (version < 1)
+      throw InputError(fmt::format("{}: corrupt varbo study store (schema_version '{}')", path_, v.value_or("")));
+    if (version > kSchemaVersion)
+      throw InputError(fmt::format("{}: written by a newer varbo (store schema version {}; this varbo reads up to "
+                                   "version {}); upgrade varbo to open it",
+                                   path_, version, kSchemaVersion));
+  }
+
+  std::string path_;
+  sqlite3* db_ = nullptr;
+  int depth_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
+                                                const std::vector<std::pair<std::string, std::string>>& meta) {
+  // Built under a temporary name and linked into place complete: a crash never leaves a half-made store,
+  // and two processes creating the same study cannot both succeed (link() refuses an existing name).
+  namespace fs = std::filesystem;
+  if (fs::exists(path))
+    throw InputError(fmt::format("{}: a file with this name exists already; choose another study file or continue "
+                                 "it with `varbo suggest`/`varbo run --resume`",
+                                 path));
+  const std::string tmp = fmt::format("{}.creating-{}", path, static_cast<long>(getpid()));
+  auto cleanup = [&] {
+    std::error_code ec;
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(tmp + suffix, ec);
+  };
+  cleanup();
+  try {
+    SqliteStore store(tmp, true);
+    store.transaction([&] {
+      for (const auto& [k, v] : meta) store.set_meta(k, v);
+    });
+  } catch (...) {
+    cleanup();
+    throw;
+  }
+  const int rc = link(tmp.c_str(), path.c_str());
+  const int err = errno;
+  cleanup();
+  if (rc != 0)
+    throw InputError(fmt::format("{}: cannot create the study file: {}", path,
+                                 err == EEXIST ? "a file with this name exists already" : std::strerror(err)));
+  return std::make_unique<SqliteStore>(path, false);
+}
+
+std::unique_ptr<StudyStore> open_sqlite_store(const std::string& path) {
+  return std::make_unique<SqliteStore>(path, false);
+}
+
+}  // namespace varbo

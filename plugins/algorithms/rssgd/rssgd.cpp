@@ -1,0 +1,236 @@
+#include "rssgd.hpp"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+
+namespace varbo::rssgd {
+
+namespace {
+// Purposes of the random streams: one stream per (purpose, step), so a step depends only on the seed and data.
+enum Stream : std::uint64_t { kPerturb = 1, kFit = 2 };
+
+std::vector<OptionSpec> phase_options() {
+  return {opt::integer("steps", 0, "updates in this phase (0 = for the rest of the run)").at_least(0),
+          opt::real("kappa", 0.0, "risk factor κ in this phase (> 0 risk-averse, < 0 risk-seeking)")};
+}
+}  // namespace
+
+std::vector<OptionSpec> options() {
+  return {
+      opt::real("sigma", 0.075, "perturbation std σ in the unit cube: z ~ N(0, σ²I) (paper: 0.075)").above(0),
+      opt::reals("sigma_diag", "",
+                 "per-dimension perturbation stds (unit cube), z ~ N(0, diag(σ_i²)); overrides sigma (natural "
+                 "gradient, section 4.1.1)"),
+      opt::real("eta", 0.5, "step size η (paper: 0.5)").above(0),
+      opt::real("step_min", 0.01, "lower bound of the scaled step η/r̃_θ (paper: 0.01)").above(0),
+      opt::real("step_max", 0.5, "upper bound of the scaled step η/r̃_θ (paper: 0.5)").above(0),
+      opt::real("epsilon", -1, "radius ε of the local data ball in the unit cube (-1 = 3.5·max σ, as the paper)")
+          .at_least(-1),
+      opt::integer("neighbors", 0, "> 0: use the k nearest observations instead of the ε-ball").at_least(0),
+      opt::integer("min_local_points", 3,
+                   "fit the critic on at least this many nearest observations; with fewer data no update is made")
+          .at_least(2),
+      opt::real("kappa", 0.0, "risk factor κ of eq. (19) (> 0 risk-averse, < 0 risk-seeking)"),
+      opt::node("phases", "",
+                "κ schedule: list of {steps: n, kappa: k}; the last phase may have steps: 0 (until the end); "
+                "overrides kappa"),
+      opt::component("critic", Kind::Surrogate, "{type: vhgp, restarts: 2}",
+                     "local model of the cost distribution, refit on the local data every step"),
+      opt::boolean("evaluate_initial", true, "execute θ0 itself in the first trial (gives the critic a point at θ)"),
+      opt::reals("start", "", "θ0 in the unit cube (default: the study's initial_point, else the cube's centre)"),
+      opt::string("history", "",
+                  "CSV of earlier observations (columns x1..xd in the unit cube and cost), e.g. written by "
+                  "`varbo rescore --continue`"),
+  };
+}
+
+Settings settings_from(const Options& o, Index dim) {
+  Settings s;
+  s.sigma = Vec::Constant(dim, o.real("sigma"));
+  if (o.is_set("sigma_diag")) {
+    const std::vector<double> v = o.reals("sigma_diag");
+    if (static_cast<Index>(v.size()) != dim)
+      o.node("sigma_diag").fail(fmt::format("expected {} values (one per dimension), got {}", dim, v.size()));
+    for (double x : v)
+      if (!(x > 0)) o.node("sigma_diag").fail("every perturbation std must be > 0");
+    s.sigma = Eigen::Map<const Vec>(v.data(), dim);
+  }
+  s.step.eta = o.real("eta");
+  s.step.min = o.real("step_min");
+  s.step.max = o.real("step_max");
+  if (s.step.min > s.step.max) o.node("step_min").fail("step_min must not exceed step_max");
+  const double eps = o.real("epsilon");
+  s.neighborhood.radius = eps > 0 ? eps : 3.5 * s.sigma.maxCoeff();  // paper: ε = 3.5σ
+  s.neighborhood.k_nearest = o.integer("neighbors");
+  s.neighborhood.min_points = o.integer("min_local_points");
+  s.min_fit_points = o.integer("min_local_points");
+  s.kappa = o.real("kappa");
+  s.evaluate_initial = o.boolean("evaluate_initial");
+  if (o.is_set("phases")) {
+    ConfigNode list = o.node("phases");
+    if (!list.is_sequence() || list.size() == 0) list.fail("expected a non-empty list of {steps: n, kappa: k}");
+    for (std::size_t i = 0; i < list.size(); ++i) {
+      ConfigNode item = list.item(i);
+      if (!item.is_map()) item.fail("expected a map {steps: n, kappa: k}");
+      Options po = validate_options(item, phase_options(), fmt::format("rssgd phase {}", i + 1), nullptr, {});
+      KappaPhase p{po.integer("steps"), po.real("kappa")};
+      if (p.steps == 0 && i + 1 < list.size())
+        item.child("steps").fail("only the last phase may run until the end (steps: 0)");
+      s.schedule.push_back(p);
+    }
+  }
+  return s;
+}
+
+Rssgd::Rssgd(Settings settings, std::unique_ptr<Surrogate> critic, Vec start, std::uint64_t seed, Dataset history)
+    : s_(std::move(settings)), critic_(std::move(critic)), theta_(std::move(start)), rng_(seed) {
+  const Index d = theta_.size();
+  if (d < 1) throw ConfigError("rssgd: the problem dimension must be at least 1");
+  if (s_.sigma.size() != d) throw ConfigError("rssgd: sigma has the wrong dimension");
+  if (!critic_) throw ConfigError("rssgd: no critic surrogate");
+  theta_ = Box::unit(d).clamp(theta_);
+  data_ = history.size() > 0 ? std::move(history) : Dataset::empty(d);
+  if (data_.dim() != d) throw InputError(fmt::format("rssgd: history of dimension {}, expected {}", data_.dim(), d));
+}
+
+double Rssgd::kappa_at(Index step) const {
+  if (kappa_override_ && step >= kappa_override_from_) return *kappa_override_;
+  if (s_.schedule.empty()) return s_.kappa;
+  Index start = 0;
+  for (const KappaPhase& p : s_.schedule) {
+    if (p.steps == 0 || step < start + p.steps) return p.kappa;
+    start += p.steps;
+  }
+  return s_.schedule.back().kappa;
+}
+
+void Rssgd::set_kappa(double kappa) {
+  kappa_override_ = kappa;
+  kappa_override_from_ = steps_;
+}
+
+std::vector<Suggestion> Rssgd::ask(Index q) {
+  std::vector<Suggestion> out;
+  const Index d = theta_.size();
+  for (Index j = 0; j < q; ++j) {
+    Suggestion s;
+    s.fit_seconds = j == 0 ? last_fit_seconds_ : 0.0;
+    Pending p;
+    if (s_.evaluate_initial && !asked_initial_) {
+      asked_initial_ = true;
+      p.x = theta_;
+      p.initial = true;
+      s.phase = "initial";
+    } else {
+      // Algorithm 3, step (a): z ~ N(0, diag(σ²)). A perturbation leaving the cube is clamped; tell() uses the
+      // executed z = x − θ, so the update stays consistent with what was observed.
+      Rng zr = rng_.stream(kPerturb, static_cast<std::uint64_t>(perturbations_++));
+      const Vec z = s_.sigma.cwiseProduct(zr.normal_vec(d));
+      p.x = Box::unit(d).clamp(theta_ + z);
+      s.phase = "rssgd";
+    }
+    s.x = p.x;
+    pending_.push_back(p);
+    out.push_back(std::move(s));
+  }
+  last_fit_seconds_ = 0;
+  return out;
+}
+
+void Rssgd::tell(const std::vector<Observation>& observations) {
+  for (const Observation& o : observations) {
+    Pending p;
+    if (!pending_.empty()) {
+      p = pending_.front();
+      pending_.pop_front();
+    } else {
+      p.x = o.x;
+      p.initial = true;  // not one of ours: data only
+    }
+    if (!o.ok || !std::isfinite(o.cost)) {
+      if (!p.initial) ++steps_;
+      log_warn("rssgd: a failed trial gives no update");
+      continue;
+    }
+    if (o.x.size() != theta_.size())
+      throw InputError(fmt::format("rssgd: observation of dimension {}, expected {}", o.x.size(), theta_.size()));
+    data_.add(o.x, o.cost);  // Algorithm 3, step (c)
+    if (p.initial) continue;
+    update_from(o, p);
+    ++steps_;
+  }
+}
+
+void Rssgd::update_from(const Observation& o, const Pending&) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<Index> local = local_indices(data_.X, theta_, s_.neighborhood);
+  if (static_cast<Index>(local.size()) < s_.min_fit_points) {
+    log_info("rssgd: step {}: {} local observations (< {}); collecting data, no update", steps_, local.size(),
+             s_.min_fit_points);
+    return;
+  }
+  const Dataset ld = subset(data_, local);
+  Rng fr = rng_.stream(kFit, static_cast<std::uint64_t>(steps_));
+  const FitReport rep = critic_->fit(ld, fr);
+  last_fit_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!rep.ok) log_warn("rssgd: critic fit at step {}: {}", steps_, rep.message);
+  critic_ready_ = critic_->ready();
+  if (!critic_ready_) {
+    log_warn("rssgd: no usable critic at step {}; no update", steps_);
+    return;
+  }
+  // Algorithm 3, steps (d)-(e), with the executed perturbation.
+  const Vec z = o.x - theta_;
+  const CriticEstimates est = query_critic(*critic_, theta_, o.x);
+  const double kappa = kappa_at(steps_);
+  const Vec delta = risk_sensitive_update(z, o.cost, est, kappa, s_.step);
+  if (!delta.allFinite()) {
+    log_warn("rssgd: non-finite update at step {} (critic J~ {}, r~ {}); skipped", steps_, est.mean_at_theta,
+             est.std_at_theta);
+    return;
+  }
+  theta_ = Box::unit(theta_.size()).clamp(theta_ + delta);
+  ++updates_;
+  snapshot_.iteration = data_.size();
+  snapshot_.hyperparameters = critic_->hyperparameters();
+  snapshot_.objective = rep.objective;
+  snapshot_.note = fmt::format("step {} kappa {} local {} J~ {:.6g} r~ {:.6g} r~z {:.6g} step_size {:.4g} |dtheta| {:.4g}",
+                               steps_, kappa, local.size(), est.mean_at_theta, est.std_at_theta,
+                               est.std_at_perturbed, scaled_step(s_.step, est.std_at_theta), delta.norm());
+  has_snapshot_ = true;
+  log_debug("rssgd: {}", snapshot_.note);
+}
+
+std::optional<ModelSnapshot> Rssgd::snapshot() const {
+  if (!has_snapshot_) return std::nullopt;
+  return snapshot_;
+}
+
+Dataset read_history(const std::string& file, Index dim) {
+  const CsvTable t = read_csv(file);
+  const Index cost = t.column("cost");
+  if (cost < 0) throw InputError(fmt::format("{}: no 'cost' column", file));
+  Dataset out = Dataset::empty(dim);
+  std::vector<Index> cols;
+  for (Index i = 0; i < dim; ++i) {
+    const Index c = t.column(fmt::format("x{}", i + 1));
+    if (c < 0) throw InputError(fmt::format("{}: no column 'x{}' (θ in the unit cube)", file, i + 1));
+    cols.push_back(c);
+  }
+  for (Index r = 0; r < t.values.rows(); ++r) {
+    Vec x(dim);
+    for (Index i = 0; i < dim; ++i) x[i] = t.values(r, cols[static_cast<std::size_t>(i)]);
+    const double y = t.values(r, cost);
+    if (!x.allFinite() || !std::isfinite(y)) continue;  // failed trials carry no information
+    out.add(x, y);
+  }
+  return out;
+}
+
+}  // namespace varbo::rssgd

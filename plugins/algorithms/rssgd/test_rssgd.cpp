@@ -1,0 +1,242 @@
+// Tests of the RSSGD update rule (Kuindersma 2013, eq. 14-19), its local data selection and the algorithm's
+// ask/tell loop, with fake critics whose predictions are exact so the tests check the update rule itself.
+#include <cmath>
+#include <functional>
+#include <numbers>
+
+#include "local_data.hpp"
+#include "rssgd.hpp"
+#include "rssgd_update.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+using namespace varbo::rssgd;
+
+namespace {
+
+/// A "critic" that knows the truth: mean J(θ) and cost std r(θ). fit() only records the data size.
+class ExactCritic final : public Surrogate {
+ public:
+  using Fn = std::function<double(const Vec&)>;
+  ExactCritic(Fn mean, Fn std) : mean_(std::move(mean)), std_(std::move(std)) {}
+  FitReport fit(const Dataset& d, Rng&) override { return condition(d); }
+  FitReport condition(const Dataset& d) override {
+    fitted_points = d.size();
+    ready_ = true;
+    return {};
+  }
+  Prediction predict(const Vec& x, bool) const override {
+    Prediction p;
+    p.mean = mean_(x);
+    p.latent_var = std::pow(std_(x), 2);  // all of V[Ĵ] in the latent part; noise variance ~ exp(-60)
+    p.log_noise_mean = -60;
+    return p;
+  }
+  double signal_variance() const override { return 1; }
+  Hyperparameters hyperparameters() const override { return {}; }
+  void set_hyperparameters(const Hyperparameters&) override {}
+  bool ready() const override { return ready_; }
+  Index fitted_points = 0;
+
+ private:
+  Fn mean_, std_;
+  bool ready_ = false;
+};
+
+double angle_degrees(const Vec& a, const Vec& b) {
+  return std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)) * 180 / std::numbers::pi;
+}
+
+}  // namespace
+
+TEST_CASE("scaled step is eta / r clamped to the configured range") {
+  const StepSize s{0.5, 0.01, 0.5};
+  CHECK(scaled_step(s, 2.0) == doctest::Approx(0.25));
+  CHECK(scaled_step(s, 0.1) == doctest::Approx(0.5));     // 5 clamped to 0.5
+  CHECK(scaled_step(s, 1000.0) == doctest::Approx(0.01)); // 5e-4 clamped to 0.01
+  CHECK(scaled_step(s, 0.0) == doctest::Approx(0.5));     // degenerate critic: the clamp bounds the step
+  CHECK(scaled_step(s, std::nan("")) == doctest::Approx(0.5));
+}
+
+TEST_CASE("with kappa = 0 or a constant variance estimate, the update equals classical weight perturbation") {
+  // Classical weight perturbation (section 4.1): Δθ = −η' (Ĵ_{θ+z} − b) z with baseline b = J̃_θ and η' = η/r̃.
+  Rng rng(7);
+  const StepSize s{0.5, 0.01, 0.5};
+  for (int trial = 0; trial < 50; ++trial) {
+    const Vec z = 0.075 * rng.normal_vec(5);
+    const double observed = rng.normal() * 3;
+    const double mean = rng.normal();
+    const double r = 0.5 + 3 * rng.uniform();
+    const Vec classical = -std::clamp(s.eta / r, s.min, s.max) * (observed - mean) * z;
+    // κ = 0 with any variance estimate at θ+z.
+    const Vec a = risk_sensitive_update(z, observed, {mean, r, r * (0.5 + rng.uniform())}, 0.0, s);
+    // Any κ with a locally constant variance estimate: r̃_{θ+z} = r̃_θ.
+    const Vec b = risk_sensitive_update(z, observed, {mean, r, r}, 1.0 + 3 * rng.normal(), s);
+    CHECK((a - classical).norm() <= 1e-15 * (1 + classical.norm()));
+    CHECK((b - classical).norm() <= 1e-15 * (1 + classical.norm()));
+  }
+}
+
+TEST_CASE("the algorithm's ask/tell steps equal classical weight perturbation under a constant-variance critic") {
+  // J(θ) = |θ − c|², critic exact in the mean with constant std 0.8; noisy observations.
+  const Vec c = (Vec(3) << 0.3, 0.6, 0.5).finished();
+  auto J = [c](const Vec& x) { return (x - c).squaredNorm(); };
+  auto critic = std::make_unique<ExactCritic>(J, [](const Vec&) { return 0.8; });
+  Settings s;
+  s.sigma = Vec::Constant(3, 0.03);
+  s.step = {0.5, 0.01, 0.5};
+  s.neighborhood.radius = 0.2;
+  s.kappa = 0.0;
+  s.evaluate_initial = false;
+  s.min_fit_points = 2;
+  Dataset history = Dataset::empty(3);
+  for (int i = 0; i < 3; ++i) history.add(Vec::Constant(3, 0.5) + Vec::Constant(3, 0.01 * i), 1.0);
+  Rssgd alg(s, std::move(critic), Vec::Constant(3, 0.5), 3, history);
+  Rng noise(11);
+  int compared = 0;
+  for (int k = 0; k < 40; ++k) {
+    const Vec before = alg.theta();
+    const Suggestion sg = alg.ask(1).front();
+    CHECK(sg.phase == "rssgd");
+    const double cost = J(sg.x) + 0.8 * noise.normal();
+    alg.tell({Observation{sg.x, cost, true, {}}});
+    const Vec classical = -std::clamp(0.5 / 0.8, 0.01, 0.5) * (cost - J(before)) * (sg.x - before);
+    CHECK((alg.theta() - before - classical).norm() <= 1e-12);
+    ++compared;
+  }
+  CHECK(compared == 40);
+  CHECK(alg.updates() == 40);
+  CHECK((alg.recommendation().value() - alg.theta()).norm() == 0.0);
+}
+
+TEST_CASE("the mean update points along -grad(J + kappa r) (eq. 16) for kappa in {-1, 0, 1}") {
+  // Quadratic mean and a known, varying std: J(θ) = ½θᵀAθ + bᵀθ, r(θ) = 0.4 + 0.3θ₁ + 0.4θ₂² − 0.5θ₃.
+  // For this J and r every odd moment of z vanishes beyond first order, so E[Δθ] = −(η/r̃_θ)σ²∇(J + κr) exactly
+  // (eq. 15-16 with the scaled step); only Monte-Carlo error remains.
+  Mat A(3, 3);
+  A << 2.0, 0.3, 0.0, 0.3, 1.0, 0.2, 0.0, 0.2, 1.5;
+  const Vec b = (Vec(3) << -1.0, 0.4, 0.2).finished();
+  auto J = [&](const Vec& x) { return 0.5 * x.dot(A * x) + b.dot(x); };
+  auto r = [](const Vec& x) { return 0.4 + 0.3 * x[0] + 0.4 * x[1] * x[1] - 0.5 * x[2]; };
+  const ExactCritic critic(J, r);
+  const Vec theta = (Vec(3) << 0.4, 0.6, 0.3).finished();
+  const Vec grad_J = A * theta + b;
+  const Vec grad_r = (Vec(3) << 0.3, 0.8 * theta[1], -0.5).finished();
+  const double sigma = 0.075;
+  const StepSize step{0.5, 0.01, 0.5};
+  const int n = 400000;
+  // Stated tolerance: 3 degrees. The Monte-Carlo angle error is about r/(σ|∇CB|√n) ≈ 0.5/(0.075·0.9·632) ≈ 0.01 rad
+  // (0.7 degrees).
+  const double tolerance_degrees = 3.0;
+  for (double kappa : {-1.0, 0.0, 1.0}) {
+    CAPTURE(kappa);
+    Rng rng(static_cast<std::uint64_t>(100 + 10 * kappa));
+    Vec sum = Vec::Zero(3);
+    for (int i = 0; i < n; ++i) {
+      const Vec z = sigma * rng.normal_vec(3);
+      const Vec x = theta + z;
+      const double observed = J(x) + r(x) * rng.normal();  // Ĵ_{θ+z} = J_{θ+z} + ε_{θ+z}, eq. (5)
+      sum += risk_sensitive_update(z, observed, query_critic(critic, theta, x), kappa, step);
+    }
+    const Vec mean = sum / n;
+    const Vec expected = -scaled_step(step, r(theta)) * sigma * sigma * (grad_J + kappa * grad_r);
+    const double angle = angle_degrees(mean, expected);
+    MESSAGE("kappa " << kappa << ": angle to -grad(J + kappa r) = " << angle << " deg, |mean|/|expected| = "
+                     << mean.norm() / expected.norm());
+    CHECK(angle < tolerance_degrees);
+    CHECK(mean.norm() / expected.norm() == doctest::Approx(1.0).epsilon(0.1));
+    // The test discriminates: the risk term turns the direction well beyond the tolerance.
+    if (kappa != 0) CHECK(angle_degrees(expected, -(grad_J)) > 5 * tolerance_degrees);
+  }
+}
+
+TEST_CASE("local data: the epsilon-ball and k nearest match a brute-force search") {
+  Rng rng(5);
+  const Index n = 300, d = 4;
+  Mat X(n, d);
+  for (Index i = 0; i < n; ++i) X.row(i) = rng.uniform_vec(d).transpose();
+  const Vec center = Vec::Constant(d, 0.5);
+  Neighborhood ball{0.3, 0, 3};
+  std::vector<Index> brute;
+  for (Index i = 0; i < n; ++i)
+    if ((X.row(i).transpose() - center).norm() <= 0.3) brute.push_back(i);
+  CHECK(local_indices(X, center, ball) == brute);
+  REQUIRE(brute.size() > 3);
+
+  Neighborhood knn{0.3, 7, 3};
+  std::vector<std::pair<double, Index>> by_distance;
+  for (Index i = 0; i < n; ++i) by_distance.push_back({(X.row(i).transpose() - center).norm(), i});
+  std::sort(by_distance.begin(), by_distance.end());
+  std::vector<Index> nearest7;
+  for (int i = 0; i < 7; ++i) nearest7.push_back(by_distance[static_cast<std::size_t>(i)].second);
+  std::sort(nearest7.begin(), nearest7.end());
+  CHECK(local_indices(X, center, knn) == nearest7);
+
+  // An empty ball falls back to the min_points nearest.
+  Neighborhood tiny{1e-6, 0, 4};
+  std::vector<Index> nearest4(nearest7.begin(), nearest7.end());
+  nearest4.clear();
+  for (int i = 0; i < 4; ++i) nearest4.push_back(by_distance[static_cast<std::size_t>(i)].second);
+  std::sort(nearest4.begin(), nearest4.end());
+  CHECK(local_indices(X, center, tiny) == nearest4);
+  CHECK(local_indices(Mat(0, d), center, ball).empty());
+}
+
+TEST_CASE("kappa follows its schedule and set_kappa changes it for later steps") {
+  Settings s;
+  s.sigma = Vec::Constant(2, 0.05);
+  s.schedule = {{3, 0.0}, {2, 2.0}, {0, -1.0}};
+  auto critic = std::make_unique<ExactCritic>([](const Vec&) { return 0.0; }, [](const Vec&) { return 1.0; });
+  Rssgd alg(s, std::move(critic), Vec::Constant(2, 0.5), 1);
+  CHECK(alg.kappa_at(0) == 0.0);
+  CHECK(alg.kappa_at(2) == 0.0);
+  CHECK(alg.kappa_at(3) == 2.0);
+  CHECK(alg.kappa_at(4) == 2.0);
+  CHECK(alg.kappa_at(5) == -1.0);
+  CHECK(alg.kappa_at(100) == -1.0);
+  alg.set_kappa(0.5);
+  CHECK(alg.kappa_at(0) == 0.5);
+}
+
+TEST_CASE("the first trial executes theta0, later trials perturb it with the configured per-dimension stds") {
+  Settings s;
+  s.sigma = (Vec(2) << 0.01, 0.1).finished();
+  auto critic = std::make_unique<ExactCritic>([](const Vec&) { return 0.0; }, [](const Vec&) { return 1.0; });
+  const Vec start = (Vec(2) << 0.5, 0.5).finished();
+  Rssgd alg(s, std::move(critic), start, 9);
+  set_log_level(LogLevel::Error);  // 2000 failed-trial warnings
+  const Suggestion first = alg.ask(1).front();
+  CHECK(first.phase == "initial");
+  CHECK((first.x - start).norm() == 0.0);
+  alg.tell({Observation{first.x, 1.0, true, {}}});
+  Vec sq = Vec::Zero(2);
+  const int n = 2000;
+  for (int i = 0; i < n; ++i) {
+    const Suggestion sg = alg.ask(1).front();
+    sq += (sg.x - start).cwiseAbs2();
+    alg.tell({Observation{sg.x, std::nan(""), false, {}}});  // failed trials: no update, θ stays
+  }
+  CHECK((alg.theta() - start).norm() == 0.0);
+  // Sample stds within 5% of the configured ones (standard error of a std with n = 2000: 1.6%).
+  CHECK(std::sqrt(sq[0] / n) == doctest::Approx(0.01).epsilon(0.05));
+  CHECK(std::sqrt(sq[1] / n) == doctest::Approx(0.1).epsilon(0.05));
+  set_log_level(LogLevel::Info);
+}
+
+TEST_CASE("rssgd is registered with its options and builds its default critic") {
+  Registry& r = test::registry();
+  const ComponentInfo* info = r.try_find(Kind::Algorithm, "rssgd");
+  REQUIRE(info != nullptr);
+  BuildContext ctx;
+  ctx.dim = 2;
+  ctx.seed = 1;
+  ctx.initial_point = (Vec(2) << 0.2, 0.7).finished();
+  auto alg = r.create<Algorithm>("{type: rssgd, phases: [{steps: 2, kappa: 0}, {kappa: 2}]}", ctx);
+  REQUIRE(alg);
+  CHECK((alg->recommendation().value() - *ctx.initial_point).norm() == 0.0);
+  CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, sigma_diag: [0.1]}", ctx), ConfigError);
+  CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, phases: [{steps: 0, kappa: 1}, {kappa: 2}]}", ctx), ConfigError);
+  CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, step_min: 0.6}", ctx), ConfigError);
+}

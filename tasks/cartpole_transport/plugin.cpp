@@ -1,0 +1,68 @@
+// libvarbo_cartpole_transport: a gantry crane moving a swinging load (issue 5, item 3).
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "transport_task.hpp"
+#include "varbo/plugin.hpp"
+
+namespace {
+using namespace varbo;
+
+/// `weights: {tracking: w, sway: w, energy: w}`; a component not listed has weight 1 (the convention
+/// `varbo rescore` uses for every task with a `weights:` option).
+std::map<std::string, double> parse_weights(const ConfigNode& node) {
+  const std::vector<std::string> names{"tracking", "sway", "energy"};
+  std::map<std::string, double> w{{"tracking", 1.0}, {"sway", 1.0}, {"energy", 1.0}};
+  if (!node.is_map()) node.fail("expected a map of component names to weights, e.g. {tracking: 1, energy: 0.01}");
+  for (const auto& key : node.keys()) {
+    if (!w.count(key)) node.child(key).fail(fmt::format("unknown cost component '{}' (expected tracking, sway or energy)", key));
+    const ConfigNode v = node.child(key);
+    double x = NAN;
+    try {
+      x = v.is_scalar() ? std::stod(v.scalar()) : NAN;
+    } catch (const std::exception&) {
+    }
+    if (!std::isfinite(x) || x < 0) v.fail("expected a finite weight >= 0");
+    w[key] = x;
+  }
+  return w;
+}
+}  // namespace
+
+VARBO_PLUGIN("cartpole_transport", "0.1.0", "Gantry crane transporting a swinging load; tracking/sway/energy costs") {
+  registry.add(make_component<Task>(
+      "cartpole_transport",
+      "cart with a load on a rod, PD servo tracking a cubic reference through 3 waypoints with 4 segment "
+      "durations (7 parameters); random load mass and rod length, force disturbances; cost = "
+      "w_tracking*int(x_load-D)^2 + w_sway*int(phi^2) + w_energy*int(F^2) over T",
+      {opt::node("weights", "{tracking: 0.25, sway: 2.0, energy: 0.002}",
+                 "weight of each cost component (unlisted components: 1); the cost is their weighted sum"),
+       opt::real("distance", 1.5, "transport distance D, m").above(0),
+       opt::real("horizon", 6.0, "episode length T, s").above(0),
+       opt::real("dt", 0.01, "fixed RK4 step and disturbance hold, s").above(0).at_most(0.05),
+       opt::real("load_mass", 1.0, "mean load mass m, kg").above(0),
+       opt::real("load_mass_std", 0.3, "per-episode std of the load mass, kg").at_least(0),
+       opt::real("rod_length", 0.7, "mean rod length l, m").above(0),
+       opt::real("rod_length_std", 0.2, "per-episode std of the rod length, m").at_least(0),
+       opt::real("force_noise_std", 1.0, "std of the force disturbance held over each step, N").at_least(0),
+       opt::real("initial_swing_std", 0.1, "std of the load's initial angle, rad").at_least(0),
+       opt::real("cart_mass", 1.0, "cart mass M, kg").above(0),
+       opt::real("force_limit", 20.0, "servo force limit, N").above(0)},
+      Factory<Task>([](const Options& o, const BuildContext&) {
+        transport::TransportSettings s;
+        s.weights = parse_weights(o.node("weights"));
+        s.distance = o.real("distance");
+        s.horizon = o.real("horizon");
+        s.dt = o.real("dt");
+        s.gantry.load_mass = o.real("load_mass");
+        s.load_mass_std = o.real("load_mass_std");
+        s.gantry.rod_length = o.real("rod_length");
+        s.rod_length_std = o.real("rod_length_std");
+        s.force_noise_std = o.real("force_noise_std");
+        s.initial_swing_std = o.real("initial_swing_std");
+        s.gantry.cart_mass = o.real("cart_mass");
+        s.gantry.force_limit = o.real("force_limit");
+        return std::make_unique<transport::TransportTask>(s);
+      })));
+}

@@ -1,0 +1,86 @@
+// The study commands of the `varbo` executable: suggest/observe/fail/status/export and their input errors.
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "process.hpp"
+#include "study_helpers.hpp"
+#include "varbo/store.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+std::string slurp(const std::string& f) {
+  std::ifstream in(f);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+TEST_CASE("CLI: create, suggest --json, observe, fail, malformed numbers, status, export") {
+  const std::string dir = test::temp_folder("cli_study");
+  const std::string cfg = dir + "/cfg.yaml", db = dir + "/s.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 8\nseed: 4\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "study", "create", db, cfg}, log).exit_code == 0);
+  CHECK(test::run({V, "study", "create", db, cfg}, log).exit_code == 2);  // exists
+
+  const std::string out = dir + "/suggest.json";
+  REQUIRE(test::run({V, "suggest", db, "--batch", "3", "--json"}, out).exit_code == 0);
+  const auto j = nlohmann::json::parse(slurp(out));
+  REQUIRE(j.size() == 3);
+  CHECK(j[0]["id"] == 0);
+  CHECK(j[2]["theta"].size() == 2);
+
+  // Malformed or non-finite input: exit code 2, a message, and the store untouched.
+  std::filesystem::remove(log);
+  CHECK(test::run({V, "observe", db, "0", "1.2.3"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "0", "nan"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "zero", "1"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "7", "1"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "0", "1", "--component", "energy"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "new", "1", "--theta", "0,99"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "new", "1", "--theta", "0,x"}, log).exit_code == 2);
+  const std::string errors = slurp(log);
+  CHECK(errors.find("malformed number '1.2.3'") != std::string::npos);
+  CHECK(errors.find("finite number, got nan") != std::string::npos);
+  CHECK(errors.find("malformed trial id 'zero'") != std::string::npos);
+  CHECK(errors.find("no trial with id 7") != std::string::npos);
+  CHECK(errors.find("expected name=value") != std::string::npos);
+  CHECK(errors.find("outside the domain") != std::string::npos);
+  {
+    auto store = open_sqlite_store(db);
+    for (const auto& t : store->trials()) CHECK(t.state == TrialState::Pending);
+    CHECK(store->trials().size() == 3);
+  }
+
+  CHECK(test::run({V, "observe", db, "0", "1.25", "--component", "energy=0.5"}, log).exit_code == 0);
+  CHECK(test::run({V, "observe", db, "0", "1.5"}, log).exit_code == 2);  // double observe
+  CHECK(test::run({V, "fail", db, "1", "--reason", "motor overheated"}, log).exit_code == 0);
+  CHECK(test::run({V, "observe", db, "new", "0.75", "--theta", "1,4"}, log).exit_code == 0);
+  CHECK(test::run({V, "abandon", db}, log).exit_code == 0);
+
+  const std::string status = dir + "/status.txt";
+  REQUIRE(test::run({V, "status", db}, status).exit_code == 0);
+  const std::string st = slurp(status);
+  CHECK(st.find("2 complete, 1 failed, 0 pending, 1 abandoned") != std::string::npos);
+  CHECK(st.find("best       trial 3: cost 0.75") != std::string::npos);
+
+  const std::string csv = dir + "/trials.csv";
+  REQUIRE(test::run({V, "export", db, "--csv", "-o", csv}, log).exit_code == 0);
+  const auto rows = test::read_rows(csv);
+  REQUIRE(rows.size() == 5);
+  CHECK(rows[0][test::column_of(rows[0], "energy")] == "energy");
+  CHECK(rows[1][test::column_of(rows[0], "cost")] == "1.25");
+  CHECK(rows[1][test::column_of(rows[0], "energy")] == "0.5");
+  CHECK(rows[2][test::column_of(rows[0], "state")] == "failed");
+
+  // A foreign file is refused by name.
+  std::ofstream(dir + "/notes.db") << "not a database at all, just some text that is long enough.................\n";
+  std::filesystem::remove(log);
+  CHECK(test::run({V, "status", dir + "/notes.db"}, log).exit_code == 2);
+  CHECK(slurp(log).find("notes.db: not a varbo study store") != std::string::npos);
+}

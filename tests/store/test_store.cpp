@@ -1,0 +1,198 @@
+// The SQLite study store: round trip of every field, the schema-version and foreign-file checks.
+#include <sqlite3.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "study_helpers.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/store.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+void exec_sql(const std::string& file, const std::string& sql) {
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open(file.c_str(), &db) == SQLITE_OK);
+  char* err = nullptr;
+  const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err);
+  if (err) sqlite3_free(err);
+  sqlite3_close(db);
+  REQUIRE(rc == SQLITE_OK);
+}
+
+std::string open_error(const std::string& file) {
+  try {
+    open_sqlite_store(file);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TrialRecord sample_trial() {
+  TrialRecord t;
+  t.state = TrialState::Complete;
+  t.phase = "ei";
+  t.x = (Vec(3) << 0.1, 1.0 / 3.0, 0.999999999999).finished();
+  t.theta = (Vec(3) << -4.9, 1e-300, 12345.678901234567).finished();
+  t.cost = 0.1 + 0.2;  // not exactly representable in decimal: must come back bit-identical
+  t.components = {{"energy", 1.5}, {"tracking, \"quoted\"", -2.25e-7}};
+  t.noiseless_cost = std::nan("");
+  t.error = "";
+  t.worker = "robot-1:42";
+  t.created_at = 1.7e9 + 0.125;
+  t.finished_at = 1.7e9 + 60.5;
+  t.finish_seq = 0;
+  t.finished_before = 0;
+  t.pending_before = 2;
+  t.batch_size = 3;
+  t.batch_index = 1;
+  t.fit_seconds = 0.25;
+  t.acquisition_seconds = 0.5;
+  t.evaluation_seconds = 12.0;
+  return t;
+}
+
+}  // namespace
+
+TEST_CASE("store round trip: meta, every trial field (bit-exact doubles, NaN), updates and snapshots") {
+  const std::string dir = test::temp_folder("store_round_trip");
+  const std::string file = dir + "/s.db";
+  const TrialRecord t = sample_trial();
+  {
+    auto store = create_sqlite_store(file);
+    store->set_meta(store_key::kConfig, "task: {type: branin}\n");
+    std::int64_t id0 = -1, id1 = -1;
+    store->transaction([&] {
+      id0 = store->add_trial(t);
+      TrialRecord p = t;
+      p.state = TrialState::Pending;
+      p.cost = std::nan("");
+      p.finish_seq = -1;
+      id1 = store->add_trial(p);
+    });
+    CHECK(id0 == 0);
+    CHECK(id1 == 1);
+    CHECK(store->next_finish_seq() == 1);
+    StoredSnapshot s;
+    s.after_trials = 7;
+    s.snapshot.iteration = 6;
+    s.snapshot.objective = -3.5;
+    s.snapshot.note = "fit failed";
+    s.snapshot.region_state = "box";
+    s.snapshot.hyperparameters = {{"lengthscale[0]", 0.3}, {"signal_std", 2.0}};
+    store->add_snapshot(s);
+  }
+  auto store = open_sqlite_store(file);  // reopened: everything came from the file
+  CHECK(store->meta(store_key::kConfig).value() == "task: {type: branin}\n");
+  CHECK_FALSE(store->meta("no such key").has_value());
+  const auto trials = store->trials();
+  REQUIRE(trials.size() == 2);
+  const TrialRecord& r = trials[0];
+  CHECK(r.id == 0);
+  CHECK(r.state == TrialState::Complete);
+  CHECK(r.phase == "ei");
+  CHECK(r.x == t.x);          // bit-exact
+  CHECK(r.theta == t.theta);  // bit-exact, including 1e-300
+  CHECK(r.cost == t.cost);
+  CHECK(r.components == t.components);
+  CHECK(std::isnan(r.noiseless_cost));
+  CHECK(r.worker == t.worker);
+  CHECK(r.created_at == t.created_at);
+  CHECK(r.finished_at == t.finished_at);
+  CHECK(r.finish_seq == 0);
+  CHECK(r.pending_before == 2);
+  CHECK(r.batch_size == 3);
+  CHECK(r.batch_index == 1);
+  CHECK(r.evaluation_seconds == 12.0);
+  CHECK(trials[1].state == TrialState::Pending);
+  CHECK(std::isnan(trials[1].cost));
+
+  TrialRecord u = trials[1];
+  u.state = TrialState::Failed;
+  u.error = "emergency stop";
+  u.finish_seq = store->next_finish_seq();
+  store->update_trial(u);
+  CHECK(store->trial(1)->state == TrialState::Failed);
+  CHECK(store->trial(1)->error == "emergency stop");
+  CHECK(store->trial(1)->finish_seq == 1);
+  CHECK_FALSE(store->trial(5).has_value());
+  u.id = 5;
+  CHECK_THROWS_AS(store->update_trial(u), InputError);
+
+  const auto snaps = store->snapshots();
+  REQUIRE(snaps.size() == 1);
+  CHECK(snaps[0].after_trials == 7);
+  CHECK(snaps[0].snapshot.iteration == 6);
+  CHECK(snaps[0].snapshot.objective == -3.5);
+  CHECK(snaps[0].snapshot.note == "fit failed");
+  CHECK(snaps[0].snapshot.region_state == "box");
+  REQUIRE(snaps[0].snapshot.hyperparameters.size() == 2);
+  CHECK(snaps[0].snapshot.hyperparameters[0].name == "lengthscale[0]");
+  CHECK(snaps[0].snapshot.hyperparameters[1].value == 2.0);
+}
+
+TEST_CASE("a transaction that throws writes nothing") {
+  const std::string file = test::temp_folder("store_rollback") + "/s.db";
+  auto store = create_sqlite_store(file);
+  CHECK_THROWS_AS(store->transaction([&] {
+    store->add_trial(sample_trial());
+    store->set_meta("k", "v");
+    throw InputError("bad input halfway");
+  }),
+                  InputError);
+  CHECK(store->trials().empty());
+  CHECK_FALSE(store->meta("k").has_value());
+  // Nested transactions join the outer one.
+  store->transaction([&] {
+    store->add_trial(sample_trial());
+    store->transaction([&] { store->add_trial(sample_trial()); });
+  });
+  CHECK(store->trials().size() == 2);
+}
+
+TEST_CASE("schema version: a store written by a newer varbo is a clear error naming the file") {
+  const std::string file = test::temp_folder("store_schema") + "/newer.db";
+  create_sqlite_store(file);
+  exec_sql(file, "UPDATE meta SET value = '99' WHERE key = 'schema_version'");
+  const std::string msg = open_error(file);
+  CHECK(msg.find(file) != std::string::npos);
+  CHECK(msg.find("newer varbo") != std::string::npos);
+  CHECK(msg.find("schema version 99") != std::string::npos);
+}
+
+TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, existing file on create") {
+  const std::string dir = test::temp_folder("store_foreign");
+  const std::string text = dir + "/notes.db";
+  std::ofstream(text) << "this is a text file, long enough to have a header of sorts..............................."
+                         ".........................................................................\n";
+  std::string msg = open_error(text);
+  CHECK(msg.find(text) != std::string::npos);
+  CHECK(msg.find("not a varbo study store") != std::string::npos);
+
+  const std::string other = dir + "/other.db";
+  exec_sql(other, "CREATE TABLE customers (name TEXT)");
+  msg = open_error(other);
+  CHECK(msg.find(other) != std::string::npos);
+  CHECK(msg.find("not a varbo study store") != std::string::npos);
+
+  const std::string wrong_format = dir + "/wrong.db";
+  exec_sql(wrong_format, "CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT); INSERT INTO meta VALUES ('format', 'x')");
+  CHECK(open_error(wrong_format).find("not a varbo study store") != std::string::npos);
+
+  msg = open_error(dir + "/missing.db");
+  CHECK(msg.find("no such study file") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(dir + "/missing.db"));  // opening never creates a file
+
+  CHECK_THROWS_WITH_AS(create_sqlite_store(other), doctest::Contains("exists already"), InputError);
+}
+
+TEST_CASE("trial states have stable names") {
+  for (TrialState s : {TrialState::Pending, TrialState::Complete, TrialState::Failed, TrialState::Abandoned})
+    CHECK(state_from_name(state_name(s)) == s);
+  CHECK_THROWS_AS(state_from_name("done"), InputError);
+}

@@ -1,0 +1,127 @@
+// select_policies (varbo/select.hpp): risk-sensitive selection on a fitted model, Kuindersma 2013 eq. (20).
+#include <cmath>
+
+#include "fake_two_wells.hpp"
+#include "study_helpers.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/run_folder.hpp"
+#include "varbo/select.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+// The exact argmin of m + κ s over [0, 1] by a 10⁶-point grid (spacing 1e-6).
+double grid_argmin(double kappa) {
+  double best = 0, best_v = INFINITY;
+  for (int i = 0; i <= 1000000; ++i) {
+    const double x = i * 1e-6;
+    const double v = test::FakeTwoWells::mean(x) + kappa * test::FakeTwoWells::std_dev(x);
+    if (v < best_v) {
+      best_v = v;
+      best = x;
+    }
+  }
+  return best;
+}
+
+std::unique_ptr<Optimizer> multistart() {
+  BuildContext ctx;
+  ctx.dim = 1;
+  return test::registry().create<Optimizer>("{type: multistart, candidates: 256, polish: 4}", ctx);
+}
+}  // namespace
+
+TEST_CASE("the gradient of -(E + kappa s) matches central differences") {
+  const test::FakeTwoWells model;
+  for (double kappa : {-2.0, -0.5, 0.0, 1.5}) {
+    const NegativeConfidenceBound f(model, 1, kappa);
+    for (double x : {0.07, 0.31, 0.62, 0.93}) {
+      const GradientCheck g = check_gradient(f, Vec::Constant(1, x), 1e-6);
+      CHECK(g.max_rel_error < 1e-6);  // central differences, h = 1e-6: truncation error ~1e-10 relative
+    }
+  }
+}
+
+TEST_CASE("select_policies: kappa > 0 picks the low-variance well, kappa < 0 the high-variance one") {
+  const test::FakeTwoWells model;
+  const Domain domain{Box{Vec::Constant(1, -2.0), Vec::Constant(1, 6.0)}, {"theta"}};  // user units ≠ unit cube
+  const auto opt = multistart();
+  const std::vector<double> kappas{1.5, -1.5, 0.0, 3.0};
+  const std::vector<RiskSelection> sel = select_policies(model, domain, kappas, *opt, Rng(7));
+  REQUIRE(sel.size() == 4);
+  for (const RiskSelection& s : sel) {
+    REQUIRE(s.ok);
+    INFO("kappa " << s.kappa << " x " << s.x[0]);
+    if (s.kappa != 0.0) CHECK(std::abs(s.x[0] - grid_argmin(s.kappa)) < 1e-5);  // polished optimum vs 1e-6 grid
+    CHECK(s.theta[0] == doctest::Approx(-2.0 + 8.0 * s.x[0]).epsilon(1e-12));  // mapped to the domain
+    CHECK(s.mean == doctest::Approx(test::FakeTwoWells::mean(s.x[0])).epsilon(1e-12));
+    CHECK(s.std == doctest::Approx(test::FakeTwoWells::std_dev(s.x[0])).epsilon(1e-12));
+    CHECK(s.criterion == doctest::Approx(s.mean + s.kappa * s.std).epsilon(1e-12));
+  }
+  // Risk-averse picks the well at 1/4 (s = 0.0325), risk-seeking the one at 3/4 (s = 0.1325) (task README).
+  CHECK(std::abs(sel[0].x[0] - 0.25) < 0.05);
+  CHECK(std::abs(sel[1].x[0] - 0.75) < 0.05);
+  CHECK(std::abs(sel[3].x[0] - 0.25) < 0.05);
+  // κ = 0: both wells have mean exactly 0.1; the optimizer may return either, at a true minimum.
+  CHECK(sel[2].mean == doctest::Approx(0.1).epsilon(1e-8));
+}
+
+TEST_CASE("select_policies: one kappa's answer does not depend on the others, and the seed fixes it") {
+  const test::FakeTwoWells model;
+  const Domain domain{Box::unit(1), {"theta"}};
+  const auto opt = multistart();
+  const auto a = select_policies(model, domain, {1.5, -1.5}, *opt, Rng(3));
+  const auto b = select_policies(model, domain, {-1.5}, *opt, Rng(3));
+  const auto c = select_policies(model, domain, {1.5, -1.5}, *opt, Rng(3));
+  CHECK(a[1].x[0] == b[0].x[0]);
+  CHECK(a[0].x[0] == c[0].x[0]);
+  CHECK(a[1].x[0] == c[1].x[0]);
+}
+
+TEST_CASE("select_policies: bad input is an error, a non-finite kappa is reported, not thrown") {
+  const test::FakeTwoWells model;
+  const auto opt = multistart();
+  CHECK_THROWS_AS(select_policies(model, Domain{Box::unit(1), {}}, {1.0}, *opt, Rng(1), Mat::Zero(3, 2)), InputError);
+  const auto sel = select_policies(model, Domain{Box::unit(1), {}}, {NAN}, *opt, Rng(1));
+  REQUIRE(sel.size() == 1);
+  CHECK_FALSE(sel[0].ok);
+  CHECK(sel[0].message.find("kappa") != std::string::npos);
+}
+
+TEST_CASE("a run folder reads back, refits and selects (two_minima_1d, short VHGP run)") {
+  const std::string out = test::temp_folder("vbo_select_run");
+  const std::string yaml = "task: {type: two_minima_1d}\nbudget: 12\nseed: 3\noutput: " + out +
+                           "\nalgorithm: {type: bo, initial_points: 8, initial_design: uniform, surrogate: {type: vhgp, "
+                           "restarts: 4}, acquisition: {type: ei, xi: 1.0}}\n";
+  test::run_yaml(yaml, test::registry());
+  const RunFolder run = load_run_folder(out, test::registry());
+  CHECK(run.trials == 12);
+  CHECK(run.data.size() == 12);
+  CHECK(run.names == std::vector<std::string>{"theta"});
+  CHECK(run.fits.size() == 4);  // one model.yaml entry per fit (trials 9..12)
+  const ResolvedComponent* spec = run_surrogate_spec(run);
+  REQUIRE(spec != nullptr);
+  CHECK(spec->info->name == "vhgp");
+  auto model = make_run_surrogate(run, *spec, test::registry(), 1, true);
+  const FitReport rep = fit_run_surrogate(*model, run, 1);
+  CHECK(rep.ok);
+  // Same seed, same answer (the fit and the optimizer are seeded).
+  const auto opt = multistart();
+  const auto s1 = select_policies(*model, run.domain, {1.5, -1.5}, *opt, Rng(1), run.data.X);
+  auto model2 = make_run_surrogate(run, *spec, test::registry(), 1, true);
+  fit_run_surrogate(*model2, run, 1);
+  const auto s2 = select_policies(*model2, run.domain, {1.5, -1.5}, *opt, Rng(1), run.data.X);
+  for (std::size_t k = 0; k < 2; ++k) {
+    REQUIRE(s1[k].ok);
+    CHECK(s1[k].theta[0] == s2[k].theta[0]);
+    CHECK(s1[k].theta[0] >= 0.0);
+    CHECK(s1[k].theta[0] <= 1.0);
+  }
+}
+
+TEST_CASE("load_run_folder: missing files and bad rows name the file") {
+  const std::string dir = test::temp_folder("vbo_bad_run");
+  CHECK_THROWS_WITH_AS(load_run_folder(dir, test::registry()), doctest::Contains("config.resolved.yaml"), InputError);
+  CHECK_THROWS_AS(load_run_folder(dir + "/nope", test::registry()), InputError);
+}
