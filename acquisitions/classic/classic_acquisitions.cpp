@@ -68,12 +68,16 @@ Target find_target(const AcquisitionContext& context, double kappa) {
 void ExpectedImprovement::prepare(const AcquisitionContext& context) {
   model_ = &require_model(context);
   target_ = find_target(context, 0.0);
-  margin_ = target_.mu_best + xi_ * signal_std(*model_);
+  // ξ ≥ 0 asks for an improvement of at least ξ·σ_f, i.e. more exploration, as the paper intends for its
+  // "exploration parameter". Its printed formula u = (μ_best − a* + ξ)/v has the opposite sign, which makes the
+  // incumbent a local maximum of EI for any ξ > 0 (a local acquisition search then never leaves it); the
+  // reference values for that form are reproduced with ξ = −0.01 in the tests.
+  margin_ = target_.mu_best - xi_ * signal_std(*model_);
 }
 
 double ExpectedImprovement::evaluate(const Vec& x, Vec* grad) const {
   const Prediction p = predict(model_, x, grad != nullptr);
-  // Kuindersma 2013, eq. (9): u = (μ_best − a* + ξ)/v*.
+  // Kuindersma 2013, eq. (9): u = (μ_best − a* − ξσ_f)/v* (sign of ξ: see prepare()).
   const double delta = margin_ - p.mean;
   const Vec d_delta = grad ? Vec(-p.d_mean) : Vec();
   return expect_over_log_noise(p, delta, &d_delta, rule_, improvement_integrand, grad);
@@ -135,7 +139,7 @@ std::string ConfidenceBound::state() const {
 void ExpectedRiskImprovement::prepare(const AcquisitionContext& context) {
   model_ = &require_model(context);
   target_ = find_target(context, kappa_);
-  margin_ = target_.mu_best + kappa_ * target_.s_best + xi_ * signal_std(*model_);
+  margin_ = target_.mu_best + kappa_ * target_.s_best - xi_ * signal_std(*model_);  // eq. (12)
 }
 
 double ExpectedRiskImprovement::evaluate(const Vec& x, Vec* grad) const {

@@ -5,8 +5,8 @@
 namespace {
 varbo::OptionSpec xi_option(double def) {
   return varbo::opt::real("xi", def,
-                          "exploration margin ξ, in units of σ_f = sqrt(signal variance): the target is "
-                          "μ_best + ξ·σ_f")
+                          "exploration ξ in units of σ_f = sqrt(signal variance): improvement is counted below "
+                          "μ_best − ξ·σ_f, so a larger ξ explores more")
       .at_least(0);
 }
 varbo::OptionSpec gh_option() {

@@ -146,13 +146,11 @@ TEST_CASE("EI and PI closed forms for a homoscedastic prediction") {
     ei.prepare(ctx);
     pi.prepare(ctx);
     const double v = 0.4;
-    const double target = mu_best + xi * 2.0;  // ξ scaled by σ_f = sqrt(4); EI follows Kuindersma's sign
+    const double target = mu_best - xi * 2.0;  // an improvement of at least ξ·σ_f, σ_f = sqrt(4)
     const double u = (target - a) / v;
     const double hand_ei = (target - a) * normal_cdf(u) + v * normal_pdf(u);
     CHECK(rel_err(ei.evaluate(x, nullptr), hand_ei) < 1e-13);
-    // PI asks for an improvement of at least ξ·σ_f (Kushner's convention): P(y < μ_best − ξ·σ_f).
-    const double u_pi = (mu_best - xi * 2.0 - a) / v;
-    CHECK(rel_err(pi.evaluate(x, nullptr), normal_cdf(u_pi)) < 1e-13);
+    CHECK(rel_err(pi.evaluate(x, nullptr), normal_cdf(u)) < 1e-13);
   }
   // CB = E + κ s with s = 0.4; utility −CB.
   ConfidenceBound cb(1.5, false);
@@ -195,7 +193,9 @@ TEST_CASE("GH-45 EI, ERI and CB at the reference predictive values (acquisition.
   data.add(Vec{{-1.0}}, 0.0);
   Rng rng(3);
   AcquisitionContext ctx{&model, &data, 0, &rng};
-  ExpectedImprovement ei0(0.0, 45), ei1(0.01, 45);
+  // The reference uses the paper's printed form u = (μ_best − a* + ξ)/v with ξ = 0.01; our ξ asks for an
+  // improvement (target μ_best − ξσ_f), so the same number is our ξ = −0.01 (σ_f = 1 here).
+  ExpectedImprovement ei0(0.0, 45), ei1(-0.01, 45);
   ExpectedRiskImprovement eri(kappa_eri, 0.0, 45);
   ConfidenceBound cbm(-2, false), cb0(0, false), cbp(2, false);
   for (Acquisition* a : std::vector<Acquisition*>{&ei0, &ei1, &eri, &cbm, &cb0, &cbp}) a->prepare(ctx);

@@ -65,7 +65,8 @@ std::string OptionSpec::expected() const {
     case OptionType::Choice: return "one of: " + join(choices, ", ");
     case OptionType::RealList: return "a list of real numbers, e.g. [0.1, 0.2]";
     case OptionType::Component:
-      return "a " + kind_name(component_kind) + " name or a map with 'type:' and its options";
+      return std::string(kind_name(component_kind)[0] == 'a' || kind_name(component_kind)[0] == 'o' ? "an " : "a ") +
+             kind_name(component_kind) + " name or a map with 'type:' and its options";
     case OptionType::Node: return "a YAML value";
   }
   return "?";

@@ -51,6 +51,7 @@ CREATE TABLE trials (
   evaluation_seconds REAL NOT NULL DEFAULT 0
 );
 CREATE INDEX trials_state ON trials (state);
+CREATE INDEX trials_finish_seq ON trials (finish_seq);
 CREATE TABLE snapshots (
   id INTEGER PRIMARY KEY,
   after_trials INTEGER NOT NULL,
@@ -234,6 +235,13 @@ class SqliteStore final : public StudyStore {
     auto v = select_trials("WHERE id = ?", id);
     if (v.empty()) return std::nullopt;
     return v.front();
+  }
+
+  std::vector<TrialRecord> finished_since(std::int64_t seq) const override {
+    return select_trials("WHERE finish_seq >= ? AND state IN ('complete', 'failed') ORDER BY finish_seq", seq);
+  }
+  std::vector<TrialRecord> pending_trials() const override {
+    return select_trials("WHERE state = 'pending' ORDER BY id", std::nullopt);
   }
 
   std::int64_t add_trial(const TrialRecord& t) override {

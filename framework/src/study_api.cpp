@@ -137,30 +137,25 @@ struct Study::Impl {
     told_ids.push_back(t.id);
   }
 
-  static std::vector<TrialRecord> finished_in_order(const std::vector<TrialRecord>& all) {
-    std::vector<TrialRecord> f;
-    for (const auto& t : all)
-      if (t.finished()) f.push_back(t);
-    std::sort(f.begin(), f.end(), [](const TrialRecord& a, const TrialRecord& b) { return a.finish_seq < b.finish_seq; });
-    return f;
-  }
 
-  /// Brings the live algorithm in step with the finished trials of the store.
-  void sync(const std::vector<TrialRecord>& finished) {
-    bool prefix_ok = alg && !dirty && told_ids.size() <= finished.size();
-    for (std::size_t i = 0; prefix_ok && i < told_ids.size(); ++i) prefix_ok = told_ids[i] == finished[i].id;
-    if (!prefix_ok) rebuild();
+  /// Brings the live algorithm in step with the finished trials of the store. finish_seq values are assigned
+  /// once, in order, and never change, so only the trials finished since the last sync need reading.
+  void sync() {
+    if (!alg || dirty) rebuild();
+    std::vector<TrialRecord> fresh = store->finished_since(static_cast<std::int64_t>(told_ids.size()));
+    std::size_t i = 0;
     if (outstanding) {
-      const std::size_t i = told_ids.size();
-      if (i < finished.size() && finished[i].id == *outstanding) {
-        alg->tell({observation_of(finished[i])});
-        told_ids.push_back(finished[i].id);
+      if (!fresh.empty() && fresh[0].id == *outstanding) {
+        alg->tell({observation_of(fresh[0])});
+        told_ids.push_back(fresh[0].id);
         outstanding.reset();
+        i = 1;
       } else {
         rebuild();
+        fresh = store->finished_since(0);
       }
     }
-    for (std::size_t i = told_ids.size(); i < finished.size(); ++i) replay_one(finished[i]);
+    for (; i < fresh.size(); ++i) replay_one(fresh[i]);
   }
 
   TrialRecord pending_trial(const std::int64_t id, const char* verb) const {
@@ -271,18 +266,16 @@ std::vector<TrialRecord> Study::ask(Index q) {
   std::vector<TrialRecord> out;
   m.store->transaction([&] {
     out.clear();
-    const std::vector<TrialRecord> all = m.store->trials();
-    const std::vector<TrialRecord> finished = Impl::finished_in_order(all);
     try {
-      m.sync(finished);
+      m.sync();
     } catch (...) {
       m.dirty = true;
       throw;
     }
+    const auto n_finished = static_cast<std::int64_t>(m.told_ids.size());
     std::vector<Vec> pending;
-    for (const auto& t : all)
-      if (t.state == TrialState::Pending) pending.push_back(t.x);
-    const Index remaining = m.config.budget - static_cast<Index>(finished.size() + pending.size());
+    for (const auto& t : m.store->pending_trials()) pending.push_back(t.x);
+    const Index remaining = m.config.budget - static_cast<Index>(n_finished) - static_cast<Index>(pending.size());
     if (remaining <= 0) return;
     const Index n = std::min(q, remaining);
     m.dirty = true;  // until the suggestion is stored
@@ -302,7 +295,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
       r.theta = from_unit(r.x, m.domain.box);
       r.worker = m.worker;
       r.created_at = now;
-      r.finished_before = static_cast<std::int64_t>(finished.size());
+      r.finished_before = n_finished;
       r.pending_before = static_cast<std::int64_t>(pending.size());
       r.batch_size = static_cast<std::int64_t>(sugg.size());
       r.batch_index = static_cast<std::int64_t>(j);

@@ -1,5 +1,6 @@
 // The ask / evaluate / tell loop of `varbo run`.
 #include <fmt/format.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -93,8 +94,31 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   Task& task = st.task();
   const Domain& shown = st.domain();
   const Domain domain = shown;
-  // Trials a killed session left pending: their results will never come; the replay suggests them again.
-  const auto interrupted = st.abandon(0, "interrupted: the run stopped before the result was recorded");
+  // Trials a killed session of this run left pending: their results will never come, and the replay suggests
+  // them again. Only trials of processes on this host that no longer exist are touched, so a study shared
+  // with live external workers keeps their pending trials.
+  std::vector<std::int64_t> interrupted;
+  st.store().transaction([&] {
+    interrupted.clear();
+    const std::string me = default_worker_name();
+    const std::string host = me.substr(0, me.rfind(':'));
+    for (TrialRecord t : st.store().pending_trials()) {
+      const auto colon = t.worker.rfind(':');
+      if (colon == std::string::npos || t.worker.substr(0, colon) != host) continue;
+      long pid = 0;
+      try {
+        pid = std::stol(t.worker.substr(colon + 1));
+      } catch (const std::exception&) {
+        continue;
+      }
+      if (pid <= 0 || (kill(static_cast<pid_t>(pid), 0) == 0 && pid != static_cast<long>(getpid()))) continue;
+      t.state = TrialState::Abandoned;
+      t.error = "interrupted: the run stopped before the result was recorded";
+      t.finished_at = unix_time();
+      st.store().update_trial(t);
+      interrupted.push_back(t.id);
+    }
+  });
 
   RunWriter writer(study.output, study, shown, task.component_names());
   set_log_file(study.output + "/log.txt");

@@ -113,7 +113,7 @@ TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitte
       const std::string algo = fmt::format("{{type: bo, initial_points: 5, surrogate: {}}}",
                                            surrogate_yaml(*s, o->full_name()));
       Outcome res;
-      CHECK_NOTHROW(res = run_combination(algo, out, 15));
+      CHECK_NOTHROW(res = run_combination(algo, out, 20));
       CHECK(res.finite);
       CHECK(res.best_after < res.best_initial);
       ++ran;

@@ -50,7 +50,7 @@ TEST_CASE("crash: varbo run killed 8 times at random moments and resumed equals 
   const std::string dir = test::temp_folder("crash_run");
   const std::string cfg = dir + "/study.yaml";
   // Noisy task (its noise stream is per trial index) and a GP model: the replay must reproduce both.
-  std::ofstream(cfg) << "task: {type: branin, noise_std: 0.1}\nbudget: 36\nseed: 11\nthreads: 1\n"
+  std::ofstream(cfg) << "task: {type: branin, noise_std: 0.1}\nbudget: 60\nseed: 11\nthreads: 1\n"
                         "algorithm: {type: bo, initial_points: 5}\n";
   const std::string V = VARBO_EXE;
   const std::string full = dir + "/full", cut = dir + "/cut", log = dir + "/log.txt";
@@ -67,15 +67,40 @@ TEST_CASE("crash: varbo run killed 8 times at random moments and resumed equals 
     const bool fresh = !std::filesystem::exists(cut + "/study.db");
     std::vector<std::string> args = fresh ? std::vector<std::string>{V, "-q", "run", cfg, "-o", cut, "--no-progress"}
                                           : std::vector<std::string>{V, "-q", "run", "--resume", cut, "--no-progress"};
-    // Kill somewhere in the first ~40% of what remains, so that every session makes some progress.
-    const double delay = rng.uniform(0.02, std::max(0.05, 0.4 * full_seconds));
-    const auto r = test::run_and_kill(args, delay, log);
+    // Session 1 is killed during start-up; later ones once a seeded random number of new trials is complete,
+    // plus a random 0-10 ms, so kills land anywhere: during replay, fitting, between commit and trials.csv.
+    const std::size_t before = completed(cut + "/study.db").size();
+    const std::size_t left = 60 - before;
+    const std::size_t target =
+        before + 1 + static_cast<std::size_t>(rng.index(static_cast<Index>(std::max<std::size_t>(1, left / 10))));
+    const pid_t pid = test::spawn(args, log);
+    const auto start = std::chrono::steady_clock::now();
+    test::ProcessResult r;
+    bool ended = false;
+    for (;;) {
+      int status = 0;
+      if (waitpid(pid, &status, WNOHANG) == pid) {
+        r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        ended = true;
+        break;
+      }
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (sessions == 1 ? elapsed > 0.02 : completed(cut + "/study.db").size() >= target) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const double delay = rng.uniform(0.0, 0.01);
+    if (!ended) {
+      std::this_thread::sleep_for(std::chrono::duration<double>(delay));
+      kill(pid, SIGKILL);
+      r = test::wait_for(pid);
+    }
     const auto now = completed(cut + "/study.db");
     for (const auto& [id, d] : seen) {
       REQUIRE(now.count(id) == 1);  // no completed trial lost
       CHECK(now.at(id).x == d.x);
       CHECK(now.at(id).cost == d.cost);
     }
+    MESSAGE("session " << sessions << ": killed " << delay << " s after reaching the target: " << now.size() << " complete trials");
     seen = now;
     if (!r.killed) {
       REQUIRE(r.exit_code == 0);
@@ -88,14 +113,14 @@ TEST_CASE("crash: varbo run killed 8 times at random moments and resumed equals 
   REQUIRE(test::run({V, "-q", "run", "--resume", cut, "--no-progress"}, log).exit_code == 0);
   const auto a = without_timings(test::read_rows(full + "/trials.csv"));
   const auto b = without_timings(test::read_rows(cut + "/trials.csv"));
-  REQUIRE(a.size() == 37);
+  REQUIRE(a.size() == 61);
   CHECK(a == b);
   std::ifstream ma(full + "/model.yaml"), mb(cut + "/model.yaml");
   std::stringstream sa, sb;
   sa << ma.rdbuf();
   sb << mb.rdbuf();
   CHECK(sa.str() == sb.str());
-  CHECK(completed(cut + "/study.db").size() == 36);
+  CHECK(completed(cut + "/study.db").size() == 60);
   std::ifstream lg(log);
   std::stringstream ls;
   ls << lg.rdbuf();
@@ -107,8 +132,11 @@ TEST_CASE("concurrency: 4 processes x 50 suggest/observe cycles; every observati
   const std::string db = dir + "/s.db";
   { Study::create_from_yaml(db, "task: {type: branin}\nbudget: 200\nseed: 9\nalgorithm: {type: random}\n"); }
   std::vector<pid_t> pids;
-  for (int w = 0; w < 4; ++w)
-    pids.push_back(test::spawn({STORE_WORKER_EXE, db, "50", "w" + std::to_string(w)}, dir + "/worker.log"));
+  for (int w = 0; w < 4; ++w) {
+    std::string name = "w";
+    name += std::to_string(w);
+    pids.push_back(test::spawn({STORE_WORKER_EXE, db, "50", name}, dir + "/worker.log"));
+  }
   for (pid_t p : pids) CHECK(test::wait_for(p).exit_code == 0);
   auto store = open_sqlite_store(db);
   const auto trials = store->trials();
@@ -138,4 +166,41 @@ TEST_CASE("concurrency: 4 processes x 50 suggest/observe cycles; every observati
   for (std::size_t i = 0; i < xs.size(); ++i)
     for (std::size_t j = i + 1; j < xs.size(); ++j) duplicates += xs[i] == xs[j] ? 1 : 0;
   CHECK(duplicates == 0);
+}
+
+TEST_CASE("crash: varbo suggest killed at random instants leaves a consistent store and loses no result") {
+  const std::string dir = test::temp_folder("crash_suggest");
+  const std::string db = dir + "/s.db";
+  {
+    Study s = Study::create_from_yaml(db, "task: {type: branin}\nbudget: 100\nseed: 4\n"
+                                          "algorithm: {type: bo, initial_points: 4}\n");
+    for (int i = 0; i < 8; ++i) {
+      const auto t = s.ask().at(0);
+      s.tell(t.id, t.theta.squaredNorm());
+    }
+  }
+  const auto before = completed(db);
+  Rng rng(77);
+  const std::string V = VARBO_EXE;
+  int killed = 0;
+  for (int i = 0; i < 8; ++i) {
+    const auto r = test::run_and_kill({V, "-q", "suggest", db, "--batch", "2"}, rng.uniform(0.002, 0.06),
+                                      dir + "/log.txt");
+    killed += r.killed ? 1 : 0;
+    if (!r.killed) CHECK(r.exit_code == 0);
+  }
+  MESSAGE(killed << " of 8 suggest processes killed");
+  Study s = Study::open(db);  // opens fine: every transaction either committed or vanished
+  const auto after = completed(db);
+  CHECK(after.size() == before.size());
+  for (const auto& [id, d] : before) {
+    REQUIRE(after.count(id) == 1);
+    CHECK(after.at(id).cost == d.cost);
+  }
+  for (const auto& t : s.trials()) {
+    if (t.state != TrialState::Pending) continue;
+    CHECK(t.batch_size == 2);  // a suggestion is stored whole or not at all
+  }
+  const auto more = s.ask(1);
+  CHECK(more.size() == 1);
 }

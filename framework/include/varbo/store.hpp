@@ -74,6 +74,10 @@ class StudyStore {
   /// Every trial, by id.
   virtual std::vector<TrialRecord> trials() const = 0;
   virtual std::optional<TrialRecord> trial(std::int64_t id) const = 0;
+  /// Finished (complete or failed) trials with finish_seq >= `seq`, in finish order.
+  virtual std::vector<TrialRecord> finished_since(std::int64_t seq) const = 0;
+  /// Pending trials, by id.
+  virtual std::vector<TrialRecord> pending_trials() const = 0;
   /// Inserts a trial (its id is ignored) and returns the id assigned.
   virtual std::int64_t add_trial(const TrialRecord& trial) = 0;
   /// Replaces every field of the trial with this id.

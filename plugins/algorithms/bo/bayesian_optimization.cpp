@@ -117,6 +117,20 @@ const Phase& BayesianOptimization::phase_at(Index evaluation) const {
   return phases_.back();
 }
 
+Mat BayesianOptimization::starts_near(const Mat& seeds, Rng& rng) const {
+  // The seeds (usually the data) plus a feasible copy of each moved by N(0, 0.01²) per coordinate: at a data
+  // point EI and PI are exactly flat (zero value, zero gradient), so a local optimizer started there alone
+  // would never move.
+  Mat out(2 * seeds.rows(), dim_);
+  Index n = 0;
+  for (Index i = 0; i < seeds.rows(); ++i) {
+    out.row(n++) = seeds.row(i);
+    const Vec moved = Box::unit(dim_).clamp(seeds.row(i).transpose() + 0.01 * rng.normal_vec(dim_));
+    if (region_->contains(moved)) out.row(n++) = moved.transpose();
+  }
+  return out.topRows(n);
+}
+
 Vec BayesianOptimization::random_point(Rng& rng) const {
   Mat m = design_sampler_->sample(*region_, 1, rng);
   if (m.rows() == 0) m = design_sampler_->sample(BoxRegion(Box::unit(dim_)), 1, rng);
@@ -198,7 +212,13 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     // The region's state (e.g. CRBO's cautiousness report, Fröhlich 2021 section 4.1) goes to the log and,
     // via the snapshot, to model.yaml of the run.
     snapshot_.region_state = region_->state();
-    if (!snapshot_.region_state.empty()) log_info("bo: trial {} region: {}", k, snapshot_.region_state);
+    if (!snapshot_.region_state.empty()) {
+      if (region_->has_constraint()) {
+        log_info("bo: trial {} region: {}", k, snapshot_.region_state);
+      } else {
+        log_debug("bo: trial {} region: {}", k, snapshot_.region_state);
+      }
+    }
   }
   Rng erng = rng_.stream(kEpsilon, uk);
   if (phase.epsilon > 0 && erng.uniform() < phase.epsilon) {
@@ -212,7 +232,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   phase.acquisition->prepare(actx);
   AcquisitionFunction f(*phase.acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
-  OptimizeResult res = optimizer_->maximize(f, *region_, region_->seeds(), orng);
+  OptimizeResult res = optimizer_->maximize(f, *region_, starts_near(region_->seeds(), orng), orng);
   s.acquisition_seconds = seconds_since(t_acq);
   if (res.x.size() != dim_ || !res.x.allFinite()) {
     log_warn("bo: acquisition optimization found no point at trial {} ({}); choosing at random", k, res.message);

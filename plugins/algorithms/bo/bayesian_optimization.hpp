@@ -37,6 +37,7 @@ class BayesianOptimization final : public Algorithm {
  private:
   const Phase& phase_at(Index evaluation) const;
   Vec random_point(Rng& rng) const;
+  Mat starts_near(const Mat& seeds, Rng& rng) const;
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have

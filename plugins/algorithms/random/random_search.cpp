@@ -16,8 +16,8 @@ RandomSearch::RandomSearch(const Options& o, const BuildContext& ctx) {
 
 std::vector<Suggestion> RandomSearch::ask(Index q) {
   std::vector<Suggestion> out;
-  for (Index j = 0; j < q && next_ < points_.rows(); ++j, ++next_)
-    out.push_back(Suggestion{points_.row(next_).transpose(), "random", 0, 0});
+  for (Index j = 0; j < q && next_ + skip_ < points_.rows(); ++j, ++next_)
+    out.push_back(Suggestion{points_.row(next_ + skip_).transpose(), "random", 0, 0});
   return out;
 }
 
