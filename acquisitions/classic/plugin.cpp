@@ -28,7 +28,9 @@ VARBO_PLUGIN("acquisitions", "0.1.0", "Expected improvement, probability of impr
 
   registry.add(varbo::make_component<Acquisition>(
       "ei", "expected improvement over the lowest posterior mean at the data (Kuindersma 2013, eq. 9)",
-      {xi_option(0.01), gh_option()},
+      // ξ = 0 by default: ξ is scaled by σ_f, and a fitted σ_f can be many times the spread of the data (long
+      // lengthscales on smooth costs), which turned ξ = 0.01 into pure exploration on Branin (bench/e2e).
+      {xi_option(0.0), gh_option()},
       varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
         return std::make_unique<varbo::acq::ExpectedImprovement>(o.real("xi"), static_cast<int>(o.integer("gh_nodes")));
       }),

@@ -43,7 +43,7 @@ if [[ $WHAT == synthetic || $WHAT == all ]]; then
         make_config "${m}_gp_sample.yaml" "$dir" "$seed" "$dim" > "$OUT/cfg.yaml"
         # Initial design of standard BO: the same size as CRBO's (ceil(sqrt(d)) points).
         "$VARBO" run "$OUT/cfg.yaml" > "$dir.log" 2>&1 || { echo "study failed: $dir (see $dir.log)"; continue; }
-        opt=$(python3 -c "import json;print(json.load(open('$dir/summary.json'))['optimum']['cost'])")
+        opt=$(python3 -c "import json;print(json.load(open('$dir/summary.json'))['known_optimum'])")
         rows+=$(python3 - "$dir/trials.csv" "$opt" "$m" <<'PY'
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1]))); opt = float(sys.argv[2]); best = float("inf")

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "varbo/loader.hpp"
+#include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 #include "vhgp_surrogate.hpp"
 
@@ -30,6 +31,8 @@ Dataset make_data(Index n, std::uint64_t seed) {
 }
 
 std::unique_ptr<vhgp::VhgpSurrogate> make_model() {
+  // VHGP_BENCH_VERBOSE=1 also prints each restart's iterations and evaluations (log level debug).
+  if (std::getenv("VHGP_BENCH_VERBOSE")) set_log_level(LogLevel::Debug);
   BuildContext ctx;
   ctx.dim = 2;
   std::shared_ptr<const Optimizer> opt(default_registry().create<Optimizer>("ceres_lbfgs", ctx));

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <utility>
 
+#include "triangular_ops.hpp"
+
 namespace varbo::vhgp {
 
 namespace {
@@ -64,8 +66,7 @@ bool factorize(const Mat& X, const Vec& y, const VhgpKernels& kernels, const Vhg
     error = "Cholesky of B = I + Λ^½ K_g Λ^½ failed";
     return false;
   }
-  f.cinvB = lltB.matrixL().solve(Mat::Identity(n, n));
-  f.cinvB.triangularView<Eigen::StrictlyUpper>().setZero();
+  f.cinvB = lower_triangular_inverse(lltB.matrixLLT());
   f.cinvBs = f.cinvB * f.s.asDiagonal();
 
   f.beta = f.lambda.array() - 0.5;
@@ -128,10 +129,7 @@ BoundValue VhgpBound::evaluate(const VhgpParams& p, bool with_gradient) const {
 
   const Index n = size(), dim = this->dim();
   // (S(K_f + R)S)⁻¹ = L⁻ᵀ L⁻¹ (symmetric; built from the triangular inverse).
-  const Mat Linv = f.lltA.matrixL().solve(Mat::Identity(n, n));
-  Mat invA = Mat::Zero(n, n);
-  invA.selfadjointView<Eigen::Lower>().rankUpdate(Linv.transpose());
-  invA.triangularView<Eigen::StrictlyUpper>() = invA.transpose();
+  const Mat invA = lower_triangular_gram(lower_triangular_inverse(f.lltA.matrixLLT()));
 
   // β̂ = ∂ log N(y|0,K_f+R)/∂μ = ½ r(α² − [(K_f+R)⁻¹]_ii)  (vhgp.md §5, the code's form)
   const Vec betahat = (-0.5 * (invA.diagonal() - f.alphas.cwiseAbs2())).cwiseProduct(f.rs);
@@ -155,12 +153,14 @@ BoundValue VhgpBound::evaluate(const VhgpParams& p, bool with_gradient) const {
   //   W_g = ββ' + 2(β̂ − β)β' − invBs' diag(Λ̂/Λ − 1) invBs − cinvBs'cinvBs,   invBs = B⁻¹Λ^{½}.
   // With P = B⁻¹ = L_B⁻ᵀ L_B⁻¹ (one symmetric rank update): cinvBs'cinvBs = Λ^{½} P Λ^{½} and
   // invBs' D invBs = Λ^{½} (P D P) Λ^{½}, which saves two of the three n³ products of the direct form.
-  Mat P = Mat::Zero(n, n);
-  P.selfadjointView<Eigen::Lower>().rankUpdate(f.cinvB.transpose());
-  P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+  // P D P is symmetric: only its lower triangle is computed (half the flops of the general product).
+  const Mat P = lower_triangular_gram(f.cinvB);
   const Vec d = lambdahat.cwiseQuotient(f.lambda).array() - 1.0;
-  Mat PDP = (P * d.asDiagonal()) * P;
-  PDP += P;
+  const Mat PD = P * d.asDiagonal();
+  Mat PDP(n, n);
+  PDP.triangularView<Eigen::Lower>() = PD * P;
+  PDP.triangularView<Eigen::Lower>() += P;
+  PDP.triangularView<Eigen::StrictlyUpper>() = PDP.transpose();
   Mat Wg = f.beta * f.beta.transpose() + 2.0 * (betahat - f.beta) * f.beta.transpose();
   Wg.noalias() -= f.s.asDiagonal() * PDP * f.s.asDiagonal();
   g.theta_g = kg.contract_gradient(X_, Wg);  // only the symmetric part of W_g counts
