@@ -70,7 +70,7 @@ RunSummary run(const std::string& yaml, const Registry& reg, const std::string& 
 
 int main(int argc, char** argv) {
   int seeds = 10, threads = 0;
-  bool timing = true;
+  bool timing = true, regret = true;
   std::string algorithm =
       "{type: bo, initial_points: 10, surrogate: {type: gp}, acquisition: {type: ei}, acquisition_optimizer: "
       "{type: multistart}}";
@@ -80,8 +80,9 @@ int main(int argc, char** argv) {
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--algorithm" && i + 1 < argc) algorithm = argv[++i];
     else if (a == "--skip-timing") timing = false;
+    else if (a == "--timing-only") regret = false;
     else {
-      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--algorithm YAML] [--skip-timing]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--algorithm YAML] [--skip-timing | --timing-only]\n", argv[0]);
       return 2;
     }
   }
@@ -94,6 +95,7 @@ int main(int argc, char** argv) {
                                          {"Ackley-5 [-5,10]^5", "{type: ackley, dim: 5, bounds: [-5, 10]}"}};
   const std::vector<int> checkpoints = {30, 60, 100};
   std::printf("algorithm: %s\nseeds: %d, threads: %d\n\n", algorithm.c_str(), seeds, threads);
+  if (regret) {
   std::printf("| problem | regret @30: median [q1, q3] | regret @60 | regret @100 | s/run (median) |\n");
   std::printf("|---|---|---|---|---|\n");
   for (const Problem& p : problems) {
@@ -123,6 +125,7 @@ int main(int argc, char** argv) {
     for (auto& r : regret) std::printf(" %.2g [%.2g, %.2g] |", quantile(r, 0.5), quantile(r, 0.25), quantile(r, 0.75));
     std::printf(" %.1f |\n", quantile(times, 0.5));
     std::fflush(stdout);
+  }
   }
   if (timing) {
     // One long run on Hartmann-6 (d = 6); the iteration time at N is fit + acquisition of the trial with

@@ -57,11 +57,20 @@ HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, 
   box.upper(dim) = box.upper(dim + 1) = std::log(1e2);
   const BoxRegion region(box);
   HomoscedasticFit fit;
+  // Several lengthscales: from ℓ = 0.5 alone, data with a short-period mean (the two-minima task at N = 20)
+  // sometimes converged to the flat "everything is noise" optimum, and every VHGP start inherited it.
   OptimizeResult res;
-  try {
-    res = optimizer.maximize(objective, region, start.transpose(), rng);
-  } catch (const std::exception&) {
-    res = OptimizeResult{};
+  res.value = -std::numeric_limits<double>::infinity();
+  for (const double lengthscale : {0.5, 0.15, 0.05}) {
+    Vec x0 = start;
+    x0.head(dim).setConstant(std::log(lengthscale));
+    OptimizeResult r;
+    try {
+      r = optimizer.maximize(objective, region, x0.transpose(), rng);
+    } catch (const std::exception&) {
+      continue;
+    }
+    if (r.x.size() == dim + 2 && r.x.allFinite() && std::isfinite(r.value) && r.value > res.value) res = r;
   }
   if (res.x.size() != dim + 2 || !res.x.allFinite() || !std::isfinite(res.value)) {
     res.x = start;  // fall back to the authors' start values

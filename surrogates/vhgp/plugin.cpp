@@ -57,6 +57,8 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.standardize = o.boolean("standardize");
   c.warm_start = o.boolean("warm_start");
   c.lambda_warmup = o.boolean("lambda_warmup");
+  c.restart_evaluations = static_cast<int>(o.integer("restart_evaluations"));
+  c.finalists = static_cast<int>(o.integer("finalists"));
   c.prior.enabled = o.boolean("hyperpriors");
   c.prior.lengthscale_f = prior_from(o, "prior_lengthscale_f", true);
   c.prior.lengthscale_g = prior_from(o, "prior_lengthscale_g", true);
@@ -99,6 +101,11 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
               .at_least(0)
               .at_most(1),
           opt::integer("restarts", 8, "optimizer starts per fit (warm start, GP initialization, random)").at_least(1),
+          opt::integer("restart_evaluations", 40,
+                       "objective evaluations per start before only the best `finalists` starts continue to "
+                       "convergence; 0: every start runs to convergence")
+              .at_least(0),
+          opt::integer("finalists", 2, "starts optimized to convergence after the first stage").at_least(1),
           opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
           opt::boolean("hyperpriors", true, "add independent log-normal hyperpriors to the bound (eq. 13)"),
           opt::reals("prior_lengthscale_f", "[1.0, 1.6]", "[median, sd of log] of the f lengthscales (unit cube)"),

@@ -1,10 +1,12 @@
 #include "vhgp_surrogate.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
+#include "budgeted_objective.hpp"
 #include "homoscedastic_init.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -182,13 +184,16 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
   starts.resize(static_cast<std::size_t>(n_restarts));
 
-  std::vector<RestartResult> results(starts.size());
-  parallel_for(static_cast<Index>(starts.size()), [&](Index k) {
-    RestartResult& out = results[static_cast<std::size_t>(k)];
-    Rng r = base.stream(2, static_cast<std::uint64_t>(k));
+  // Stage 1: every start gets `restart_evaluations` evaluations (all of them to convergence when 0 or when
+  // there are no more starts than finalists). Stage 2: the `finalists` best of stage 1 are optimized to
+  // convergence. Most restarts of a fit end in the same optimum, so spending 60–200 evaluations on each was
+  // the bulk of the fit time (README, benchmark).
+  const Index n_final = std::min<Index>(std::max(config_.finalists, 1), static_cast<Index>(starts.size()));
+  const bool staged = config_.restart_evaluations > 0 && static_cast<Index>(starts.size()) > n_final;
+  auto optimize = [&](const Vec& start, Rng& r, bool budgeted, Index k, RestartResult& out) {
     try {
-      Vec x0 = box.clamp(starts[static_cast<std::size_t>(k)].pack());
-      if (config_.lambda_warmup) {
+      Vec x0 = box.clamp(start);
+      if (config_.lambda_warmup && !out.ok) {
         // Phase 1: log Λ alone, hyperparameters fixed (the authors' fixhyp = 2 phase).
         const VhgpParams fixed = VhgpParams::unpack(x0, n, dim_);
         const VhgpObjective lambda_objective(bound, config_.prior, fixed);
@@ -197,22 +202,56 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
             optimizer_->maximize(lambda_objective, lambda_region, fixed.log_lambda.transpose(), r);
         if (w.x.size() == n && w.x.allFinite() && std::isfinite(w.value)) x0.head(n) = w.x;
       }
-      const OptimizeResult res = optimizer_->maximize(objective, region, x0.transpose(), r);
-      if (res.x.size() == objective.dim() && res.x.allFinite()) {
+      Vec x;
+      if (budgeted) {
+        const BudgetedObjective limited(objective, config_.restart_evaluations);
+        const OptimizeResult res = optimizer_->maximize(limited, region, x0.transpose(), r);
+        x = limited.best_x();
+        log_debug("vhgp: restart {} (stage 1): objective {:.10g} after {} iterations: {}", k, limited.best_value(),
+                  res.iterations, res.message);
+      } else {
+        const OptimizeResult res = optimizer_->maximize(objective, region, x0.transpose(), r);
+        x = res.x;
+        log_debug("vhgp: restart {}: {} iterations ({} evaluations): {}", k, res.iterations, res.evaluations,
+                  res.message);
+      }
+      if (x.size() == objective.dim() && x.allFinite()) {
         // Re-evaluate: the reported value must be the objective at the returned point.
-        const double v = objective.value(res.x, nullptr);
-        log_debug("vhgp: restart {}: objective {:.10g} after {} iterations ({} evaluations): {}", k, v,
-                  res.iterations, res.evaluations, res.message);
-        if (std::isfinite(v)) {
+        const double v = objective.value(x, nullptr);
+        log_debug("vhgp: restart {}: objective {:.10g}", k, v);
+        // A converged restart that ended below its stage-1 point keeps the better one.
+        if (std::isfinite(v) && (!out.ok || v >= out.objective)) {
           out.ok = true;
           out.objective = v;
-          out.x = res.x;
+          out.x = x;
         }
       }
     } catch (const std::exception& e) {
       log_debug("vhgp: restart {} failed: {}", k, e.what());
     }
+  };
+
+  std::vector<RestartResult> results(starts.size());
+  parallel_for(static_cast<Index>(starts.size()), [&](Index k) {
+    Rng r = base.stream(2, static_cast<std::uint64_t>(k));
+    optimize(starts[static_cast<std::size_t>(k)].pack(), r, staged, k, results[static_cast<std::size_t>(k)]);
   });
+  if (staged) {
+    // The finalists in order of their stage-1 objective (ties: lower index), independent of the thread count.
+    std::vector<Index> order;
+    for (Index k = 0; k < static_cast<Index>(results.size()); ++k)
+      if (results[static_cast<std::size_t>(k)].ok) order.push_back(k);
+    std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) {
+      return results[static_cast<std::size_t>(a)].objective > results[static_cast<std::size_t>(b)].objective;
+    });
+    order.resize(std::min<std::size_t>(order.size(), static_cast<std::size_t>(n_final)));
+    parallel_for(static_cast<Index>(order.size()), [&](Index j) {
+      const Index k = order[static_cast<std::size_t>(j)];
+      RestartResult& out = results[static_cast<std::size_t>(k)];
+      Rng r = base.stream(3, static_cast<std::uint64_t>(k));
+      optimize(out.x, r, false, k, out);
+    });
+  }
 
   Index best = -1;
   for (std::size_t k = 0; k < results.size(); ++k) {

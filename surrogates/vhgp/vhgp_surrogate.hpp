@@ -15,6 +15,8 @@ struct VhgpConfig {
   bool standardize = true;
   bool warm_start = true;
   bool lambda_warmup = false;  ///< optimize log Λ alone first (the authors' first phase; ~2× the time, rarely better)
+  int restart_evaluations = 40;  ///< stage-1 evaluations per start; 0: every start runs to convergence
+  int finalists = 2;             ///< starts optimized to convergence after stage 1 (2 keeps both cores busy)
   VhgpHyperprior prior;
 };
 

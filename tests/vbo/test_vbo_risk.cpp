@@ -4,8 +4,6 @@
 // section 5.1, Fig. 2(d)).
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <string>
 
 #include "study_helpers.hpp"
 #include "varbo/run_folder.hpp"
@@ -23,8 +21,7 @@ TEST_CASE("VBO on two_minima_1d: kappa = +1.5 / -1.5 pick the low / high varianc
   // The default optimizer of `varbo select`.
   const auto optimizer = registry.create<Optimizer>("{type: multistart, candidates: 2000, polish: 8}", octx);
   int both = 0;
-  const std::uint64_t first = std::getenv("VBO_RISK_FIRST") ? std::stoull(std::getenv("VBO_RISK_FIRST")) : 1;
-  for (std::uint64_t seed = first; seed < first + 30; ++seed) {
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     RunOverrides ov;
     ov.seed = seed;
     ov.output = test::temp_folder("vbo_risk_" + std::to_string(seed));

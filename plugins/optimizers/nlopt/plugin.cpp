@@ -51,8 +51,8 @@ VARBO_PLUGIN("nlopt", "0.1.0", "NLopt local optimizers, multi-start and random s
   auto multistart_options = tolerance_options(200, 1e-7, 1e-9);
   multistart_options.insert(
       multistart_options.begin(),
-      {opt::integer("candidates", 1000, "scrambled Sobol candidates evaluated without gradients").at_least(1),
-       opt::integer("polish", 5, "best candidates refined by the local method").at_least(0),
+      {opt::integer("candidates", 2000, "scrambled Sobol candidates evaluated without gradients").at_least(1),
+       opt::integer("polish", 10, "best candidates refined by the local method").at_least(0),
        opt::choice("local", "auto", with_auto(np::method_names()),
                    "local method for the polish; auto = lbfgs in a box, slsqp with a constraint")});
   registry.add(varbo::make_component<Optimizer>(
