@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "varbo/csv.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/study.hpp"
@@ -28,19 +29,6 @@ struct Problem {
   std::string name, task;
 };
 
-std::vector<std::vector<std::string>> read_rows(const std::string& file) {
-  std::ifstream in(file);
-  std::vector<std::vector<std::string>> rows;
-  std::string line;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
-    rows.push_back(cells);
-  }
-  return rows;
-}
 
 int col(const std::vector<std::string>& h, const std::string& n) {
   for (std::size_t i = 0; i < h.size(); ++i)
@@ -108,7 +96,7 @@ int main(int argc, char** argv) {
       RunSummary s = run(yaml, reg, out, threads);
       times.push_back(s.seconds);
       // Known optimum from summary.json is the same for all seeds; recompute regret per checkpoint.
-      auto rows = read_rows(out + "/trials.csv");
+      auto rows = read_csv_cells(out + "/trials.csv");
       const int c = col(rows[0], "cost");
       std::ifstream js(out + "/summary.json");
       std::string text((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
@@ -133,7 +121,7 @@ int main(int argc, char** argv) {
     const std::string out = tmp + "/timing";
     const std::string yaml = fmt::format("task: {{type: hartmann6}}\nbudget: 205\nseed: 1\nalgorithm: {}\n", algorithm);
     run(yaml, reg, out, threads);
-    auto rows = read_rows(out + "/trials.csv");
+    auto rows = read_csv_cells(out + "/trials.csv");
     const int f = col(rows[0], "fit_seconds"), a = col(rows[0], "acquisition_seconds");
     std::printf("\n| N (d = 6) | median iteration wall time (fit + acquisition) |\n|---|---|\n");
     for (int n : {50, 100, 200}) {

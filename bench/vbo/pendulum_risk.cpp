@@ -39,18 +39,7 @@ int main(int argc, char** argv) {
 
     // The task exactly as configured in the run (options of config.resolved.yaml).
     const Options& o = run.study.task.options;
-    tasks::SwingupSettings s;
-    s.tau_mean = o.real("tau_mean");
-    s.tau_std = o.real("tau_std");
-    s.horizon = o.real("horizon");
-    s.t_max = o.real("t_max");
-    s.dt = o.real("dt");
-    s.goal_tolerance = o.real("goal_tolerance");
-    s.pendulum.mass = o.real("mass");
-    s.pendulum.length = o.real("length");
-    s.pendulum.gravity = o.real("gravity");
-    s.angle_weight = o.real("angle_weight");
-    s.effort_weight = o.real("effort_weight");
+    const tasks::SwingupSettings s = tasks::swingup_settings(o);
 
     std::printf("run %s: %lld trials, %s fit objective %.6g%s\n", dir.c_str(), static_cast<long long>(run.trials),
                 run_surrogate_spec(run)->info->name.c_str(), rep.objective, rep.ok ? "" : " (FAILED)");

@@ -74,6 +74,20 @@ CsvTable read_csv(const std::string& filename) {
   return t;
 }
 
+std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename) {
+  std::ifstream in(filename);
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    rows.push_back(std::move(cells));
+  }
+  return rows;
+}
+
 std::string exact(double v) { return fmt::format("{}", v); }  // fmt prints the shortest round-trip form
 
 }  // namespace varbo

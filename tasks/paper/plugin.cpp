@@ -32,18 +32,6 @@ VARBO_PLUGIN("tasks_paper", "0.1.0",
        opt::real("angle_weight", 0.01, "weight of the angle-from-upright integral").at_least(0),
        opt::real("effort_weight", 1e-4, "weight of the squared-torque integral").at_least(0)},
       Factory<Task>([](const Options& o, const BuildContext&) {
-        tasks::SwingupSettings s;
-        s.tau_mean = o.real("tau_mean");
-        s.tau_std = o.real("tau_std");
-        s.horizon = o.real("horizon");
-        s.t_max = o.real("t_max");
-        s.dt = o.real("dt");
-        s.goal_tolerance = o.real("goal_tolerance");
-        s.pendulum.mass = o.real("mass");
-        s.pendulum.length = o.real("length");
-        s.pendulum.gravity = o.real("gravity");
-        s.angle_weight = o.real("angle_weight");
-        s.effort_weight = o.real("effort_weight");
-        return std::make_unique<tasks::SwingupTask>(s);
+        return std::make_unique<tasks::SwingupTask>(tasks::swingup_settings(o));
       })));
 }

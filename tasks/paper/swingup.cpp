@@ -107,4 +107,20 @@ Evaluation SwingupTask::evaluate(const Vec& theta, Rng& rng) {
   return e;
 }
 
+SwingupSettings swingup_settings(const Options& o) {
+  SwingupSettings s;
+  s.tau_mean = o.real("tau_mean");
+  s.tau_std = o.real("tau_std");
+  s.horizon = o.real("horizon");
+  s.t_max = o.real("t_max");
+  s.dt = o.real("dt");
+  s.goal_tolerance = o.real("goal_tolerance");
+  s.pendulum.mass = o.real("mass");
+  s.pendulum.length = o.real("length");
+  s.pendulum.gravity = o.real("gravity");
+  s.angle_weight = o.real("angle_weight");
+  s.effort_weight = o.real("effort_weight");
+  return s;
+}
+
 }  // namespace varbo::tasks

@@ -2,6 +2,7 @@
 // The noisy pendulum swing-up of Kuindersma et al. 2013, section 5.2 (eq. 21); details and the choices
 // the paper leaves open are in README.md in this folder.
 #include "pendulum.hpp"
+#include "varbo/options.hpp"
 #include "varbo/task.hpp"
 
 namespace varbo::tasks {
@@ -33,6 +34,9 @@ double bang_bang_torque(double t, double t1, double t2, double tau);
 
 /// One episode with the given switching times and maximum torque (deterministic).
 SwingupResult simulate_swingup(double t1, double t2, double tau_max, const SwingupSettings& s);
+
+/// The settings named by the `pendulum_swingup` options (the plugin's and a run's config.resolved.yaml).
+SwingupSettings swingup_settings(const Options& o);
 
 class SwingupTask : public Task {
  public:

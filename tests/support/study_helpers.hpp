@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "varbo/csv.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo::test {
@@ -19,19 +20,7 @@ inline std::string temp_folder(const std::string& name) {
 }
 
 /// trials.csv as rows of strings (header first).
-inline std::vector<std::vector<std::string>> read_rows(const std::string& file) {
-  std::ifstream in(file);
-  std::vector<std::vector<std::string>> rows;
-  std::string line;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
-    rows.push_back(cells);
-  }
-  return rows;
-}
+inline std::vector<std::vector<std::string>> read_rows(const std::string& file) { return read_csv_cells(file); }
 
 inline int column_of(const std::vector<std::string>& header, const std::string& name) {
   for (std::size_t i = 0; i < header.size(); ++i)

@@ -15,6 +15,10 @@ struct CsvTable {
 /// Reads a CSV file of numbers with one header line. Errors name the file, line and column.
 CsvTable read_csv(const std::string& filename);
 
+/// Every line of a CSV file split at commas, as text (header included); no quoting rules. Empty when the file
+/// cannot be read. For run-folder tables such as trials.csv that mix text and numbers.
+std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename);
+
 /// A double printed so that it reads back exactly.
 std::string exact(double v);
 
