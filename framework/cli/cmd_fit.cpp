@@ -17,6 +17,7 @@ Runner add_fit(CLI::App& app) {
   auto* cmd = app.add_subcommand("fit", "Fit a surrogate to a CSV of θ columns and a 'y' column; print JSON");
   struct Args {
     std::string surrogate, data, predict;
+    std::vector<std::string> columns;
     bool no_optimize = false;
     long long seed = 1;
     int threads = 0;
@@ -30,6 +31,8 @@ Runner add_fit(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--predict", a->predict, "CSV of points (same θ columns) to predict at")->check(CLI::ExistingFile);
+  cmd->add_option("--columns", a->columns, "θ columns to use (default: every column but y, i and index)")
+      ->delimiter(',');
   cmd->add_flag("--no-optimize", a->no_optimize, "keep the hyperparameters given in the YAML; only condition");
   cmd->add_option("--seed", a->seed, "random seed for restarts");
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)");
@@ -45,11 +48,20 @@ Runner add_fit(CLI::App& app) {
     if (ycol < 0) throw InputError(fmt::format("{}: no column named 'y' (the costs)", a->data));
     std::vector<Index> xcols;
     std::vector<std::string> xnames;
-    for (Index c = 0; c < static_cast<Index>(data.columns.size()); ++c)
-      if (c != ycol && data.columns[c] != "i" && data.columns[c] != "index") {
+    if (!a->columns.empty()) {
+      for (const auto& name : a->columns) {
+        const Index c = data.column(name);
+        if (c < 0) throw InputError(fmt::format("{}: no column named '{}' (from --columns)", a->data, name));
         xcols.push_back(c);
-        xnames.push_back(data.columns[c]);
+        xnames.push_back(name);
       }
+    } else {
+      for (Index c = 0; c < static_cast<Index>(data.columns.size()); ++c)
+        if (c != ycol && data.columns[c] != "i" && data.columns[c] != "index") {
+          xcols.push_back(c);
+          xnames.push_back(data.columns[c]);
+        }
+    }
     if (xcols.empty()) throw InputError(fmt::format("{}: no θ columns besides 'y'", a->data));
     Dataset ds;
     ds.X.resize(data.values.rows(), static_cast<Index>(xcols.size()));
