@@ -137,3 +137,26 @@ TEST_CASE("the same seed gives the same trials with 1 and 2 threads") {
   REQUIRE(ra.size() == 17);
   CHECK(ra == rb);
 }
+
+TEST_CASE("a CRBO iteration (confidence region, hit-and-run, SLSQP polish) is the same with 1 and 2 threads") {
+  set_log_level(LogLevel::Error);
+  const std::string yaml =
+      "task: {type: gp_sample, dim: 5, seed: 0}\nbudget: 8\nseed: 4\nalgorithm:\n  type: bo\n"
+      "  initial_design: {type: around_initial_point}\n  initial_points: 3\n"
+      "  surrogate: {type: gp, restarts: 2}\n  acquisition: {type: cb, kappa: -2}\n"
+      "  region: {type: confidence, gamma: 0.6}\n"
+      "  acquisition_optimizer: {type: sample_polish, samples: 300, polish: 2}\n";
+  const std::string a = test::temp_folder("crbo1"), b = test::temp_folder("crbo2");
+  RunOverrides o1, o2;
+  o1.threads = 1;
+  o1.output = a;
+  o2.threads = 2;
+  o2.output = b;
+  test::run_yaml(yaml, test::registry(), o1);
+  test::run_yaml(yaml, test::registry(), o2);
+  auto ra = without_timings(test::read_rows(a + "/trials.csv"));
+  auto rb = without_timings(test::read_rows(b + "/trials.csv"));
+  REQUIRE(ra.size() == 9);
+  CHECK(ra[8][1] == "cb");
+  CHECK(ra == rb);
+}
