@@ -127,7 +127,16 @@ FitReport VhgpSurrogate::condition(const Dataset& data) {
   if (c.log_lambda.size() != 0 && c.log_lambda.size() != data.size())
     log_warn("vhgp: log_lambda has {} values for {} points; missing ones are set to log(1/2), extra ones dropped",
              c.log_lambda.size(), data.size());
-  report = condition_at(data, to_model(c, data.size(), s), s, report);
+  const VhgpParams model_params = to_model(c, data.size(), s);
+  report = condition_at(data, model_params, s, report);
+  // For inspection (`varbo fit --no-optimize`): ∂F at the given parameters, packed as
+  // [∂F/∂log Λ ; ∂F/∂θ_f ; ∂F/∂θ_g ; ∂F/∂μ0], in model (standardized) units, without the hyperprior.
+  bound_gradient_ = Vec();
+  if (report.ok) {
+    const VhgpBound bound(data.X, (data.y.array() - s.mean) / s.scale, config_.kernels);
+    const BoundValue v = bound.evaluate(model_params, true);
+    if (v.ok) bound_gradient_ = v.gradient.pack();
+  }
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
 }
@@ -349,7 +358,9 @@ void VhgpSurrogate::set_hyperparameters(const Hyperparameters& values) {
 }
 
 std::vector<std::pair<std::string, Vec>> VhgpSurrogate::state() const {
-  return {{"log_lambda", params_ ? params_->log_lambda : Vec()}};
+  std::vector<std::pair<std::string, Vec>> out = {{"log_lambda", params_ ? params_->log_lambda : Vec()}};
+  if (bound_gradient_.size() > 0) out.emplace_back("bound_gradient", bound_gradient_);
+  return out;
 }
 
 void VhgpSurrogate::set_state(const std::string& name, const Vec& value) {

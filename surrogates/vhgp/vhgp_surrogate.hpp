@@ -61,6 +61,7 @@ class VhgpSurrogate final : public Surrogate {
   VhgpConfig config_;
   std::shared_ptr<const Optimizer> optimizer_;
   std::optional<CostParams> params_;  ///< given or fitted hyperparameters (cost units)
+  Vec bound_gradient_;  ///< ∂F at the parameters of the last condition() (model units), for inspection
   Scaling scaling_;
   std::shared_ptr<const VhgpPosterior> posterior_;
   double bound_ = 0;
