@@ -62,6 +62,20 @@ std::vector<std::vector<std::string>> without_timings(std::vector<std::vector<st
   return rows;
 }
 
+// Runs `yaml` with 1 and with 2 threads; returns both trials.csv tables without the timing columns.
+std::pair<std::vector<std::vector<std::string>>, std::vector<std::vector<std::string>>> run_with_1_and_2_threads(
+    const std::string& yaml, const std::string& name) {
+  const std::string a = test::temp_folder(name + "1"), b = test::temp_folder(name + "2");
+  RunOverrides o1, o2;
+  o1.threads = 1;
+  o1.output = a;
+  o2.threads = 2;
+  o2.output = b;
+  test::run_yaml(yaml, test::registry(), o1);
+  test::run_yaml(yaml, test::registry(), o2);
+  return {without_timings(test::read_rows(a + "/trials.csv")), without_timings(test::read_rows(b + "/trials.csv"))};
+}
+
 }  // namespace
 
 TEST_CASE("a run writes the resolved config, trials, model snapshots and a summary") {
@@ -124,16 +138,7 @@ TEST_CASE("the same seed gives the same trials with 1 and 2 threads") {
   const std::string yaml_base =
       "task: {type: hartmann3, noise_std: 0.01}\nbudget: 16\nseed: 5\nalgorithm: {type: bo, initial_points: 6, "
       "surrogate: {type: gp, restarts: 4}}\n";
-  const std::string a = test::temp_folder("det1"), b = test::temp_folder("det2");
-  RunOverrides o1, o2;
-  o1.threads = 1;
-  o1.output = a;
-  o2.threads = 2;
-  o2.output = b;
-  test::run_yaml(yaml_base, test::registry(), o1);
-  test::run_yaml(yaml_base, test::registry(), o2);
-  auto ra = without_timings(test::read_rows(a + "/trials.csv"));
-  auto rb = without_timings(test::read_rows(b + "/trials.csv"));
+  const auto [ra, rb] = run_with_1_and_2_threads(yaml_base, "det");
   REQUIRE(ra.size() == 17);
   CHECK(ra == rb);
 }
@@ -146,16 +151,7 @@ TEST_CASE("a CRBO iteration (confidence region, hit-and-run, SLSQP polish) is th
       "  surrogate: {type: gp, restarts: 2}\n  acquisition: {type: cb, kappa: -2}\n"
       "  region: {type: confidence, gamma: 0.6}\n"
       "  acquisition_optimizer: {type: sample_polish, samples: 300, polish: 2}\n";
-  const std::string a = test::temp_folder("crbo1"), b = test::temp_folder("crbo2");
-  RunOverrides o1, o2;
-  o1.threads = 1;
-  o1.output = a;
-  o2.threads = 2;
-  o2.output = b;
-  test::run_yaml(yaml, test::registry(), o1);
-  test::run_yaml(yaml, test::registry(), o2);
-  auto ra = without_timings(test::read_rows(a + "/trials.csv"));
-  auto rb = without_timings(test::read_rows(b + "/trials.csv"));
+  const auto [ra, rb] = run_with_1_and_2_threads(yaml, "crbo");
   REQUIRE(ra.size() == 9);
   CHECK(ra[8][1] == "cb");
   CHECK(ra == rb);
