@@ -19,7 +19,7 @@ struct GpSettings {
   // Box of the fit in natural units; σ bounds are relative to the standard deviation of y.
   double min_lengthscale = 0.01, max_lengthscale = 50.0;
   double min_signal_std = 0.05, max_signal_std = 20.0;
-  double min_noise_std = 1e-4, max_noise_std = 2.0;
+  double min_noise_std = 1e-6, max_noise_std = 2.0;
 };
 
 class GpSurrogate final : public Surrogate {
