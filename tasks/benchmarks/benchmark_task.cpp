@@ -31,6 +31,8 @@ Evaluation BenchmarkTask::evaluate(const Vec& theta, Rng& rng) {
     return e;
   }
   e.cost = spec_.f(theta);
+  // The noiseless value goes with the trial, so simple regret is measured on f, not on a lucky noisy draw.
+  e.noiseless_cost = e.cost;
   // Draw only when noisy, so a noiseless task leaves the stream untouched.
   if (noise_std_ > 0) e.cost += noise_std_ * rng.normal();
   if (!std::isfinite(e.cost)) {

@@ -121,6 +121,7 @@ TEST_CASE("additive noise has the stated standard deviation") {
     const Evaluation e = task.evaluate(x, trial);
     REQUIRE(e.ok);
     CHECK(e.components.empty());
+    CHECK(e.noiseless_cost == f);  // the regret of a noisy run is measured on f
     sum += e.cost - f;
     sum2 += (e.cost - f) * (e.cost - f);
   }
