@@ -1,4 +1,6 @@
-// GP fit (restarts in parallel, default settings) and predict at N ∈ {50, 200, 1000}, d ∈ {2, 6}.
+// GP fit (restarts in parallel, default settings) and predict at N ∈ {50, 200, 1000}, d ∈ {2, 6}, and one
+// acquisition optimization (EI on the fitted GP, `multistart` with its defaults: 2000 scrambled Sobol candidates,
+// the 10 best polished with L-BFGS in the box), with 1 and 2 threads.
 // Data: a smooth test function on uniform points (Styblinski–Tang-like sum of sines, scaled to [0,1]^d).
 #include <benchmark/benchmark.h>
 
@@ -8,6 +10,10 @@
 
 #include "ceres_lbfgs.hpp"
 #include "gp_surrogate.hpp"
+#include "varbo/acquisition.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/parallel.hpp"
+#include "varbo/region.hpp"
 
 using namespace varbo;
 
@@ -105,8 +111,43 @@ void BM_GpPredict(benchmark::State& state) {
   }
 }
 
+/// One acquisition optimization as inside a BO iteration: EI prepared on a fitted GP, maximized by `multistart`
+/// over the unit box, with the data points as extra starts (the bo algorithm adds jittered copies too).
+void BM_AcquisitionOptimize(benchmark::State& state) {
+  const Index n = state.range(0), d = state.range(1);
+  ThreadLimit limit(static_cast<int>(state.range(2)));
+  const Dataset data = make_data(n, d, 7);
+  auto gp = make_gp();
+  Rng rng(8);
+  gp->fit(data, rng);
+  BuildContext ctx;
+  ctx.registry = &default_registry();
+  ctx.dim = d;
+  const auto ei = default_registry().create<Acquisition>("{type: ei}", ctx);
+  const auto box = default_registry().create<RegionConstraint>("{type: box}", ctx);
+  const auto optimizer = default_registry().create<Optimizer>("{type: multistart}", ctx);
+  AcquisitionContext actx;
+  actx.model = gp.get();
+  actx.data = &data;
+  ei->prepare(actx);
+  const AcquisitionFunction f(*ei, d);
+  std::uint64_t seed = 1;
+  double value = 0;
+  for (auto _ : state) {
+    Rng orng(seed++);
+    const OptimizeResult r = optimizer->maximize(f, *box, data.X, orng);
+    value = r.value;
+    benchmark::DoNotOptimize(value);
+  }
+}
+
 }  // namespace
 
+BENCHMARK(BM_AcquisitionOptimize)
+    ->ArgsProduct({{50, 200}, {2, 6}, {1, 2}})
+    ->ArgNames({"N", "d", "threads"})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_GpFit)
     ->ArgsProduct({{50, 100, 200, 1000}, {2, 6}})
     ->ArgNames({"N", "d"})
