@@ -5,6 +5,7 @@
 //
 // Prints Markdown tables (the README's benchmark section is produced by this program).
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -106,9 +107,12 @@ int main(int argc, char** argv) {
       auto rows = read_csv_cells(out + "/trials.csv");
       const int c = col(rows[0], "cost");
       std::ifstream js(out + "/summary.json");
-      std::string text((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
-      const auto k = text.find("\"known_optimum\":");
-      const double fstar = std::stod(text.substr(k + 16));
+      const nlohmann::json summary = nlohmann::json::parse(js);
+      if (!summary.contains("known_optimum")) {
+        std::fprintf(stderr, "%s/summary.json has no known_optimum: the task must know its optimum\n", out.c_str());
+        return 1;
+      }
+      const double fstar = summary["known_optimum"].get<double>();
       double best = INFINITY;
       std::size_t next = 0;
       for (std::size_t r = 1; r < rows.size(); ++r) {
