@@ -16,7 +16,9 @@ VARBO_PLUGIN("samplers", "0.1.0", "Uniform, Latin hypercube and Sobol samplers o
         return std::make_unique<varbo::sampling::LatinHypercubeSampler>();
       })));
   registry.add(varbo::make_component<Sampler>(
-      "sobol", "Sobol low-discrepancy sequence (Boost.Random), randomized by a digital shift",
+      "sobol",
+      "Sobol low-discrepancy sequence (Boost.Random), randomized by a digital shift; for a few points in many "
+      "dimensions prefer lhs (the first Sobol points lie on a few diagonal lines)",
       {varbo::opt::boolean("scramble", true,
                            "apply a random digital shift drawn from the seed (false: the plain sequence, "
                            "the same for every seed)")},
