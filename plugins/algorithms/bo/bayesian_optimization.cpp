@@ -33,7 +33,7 @@ std::vector<OptionSpec> phase_options() {
 std::vector<OptionSpec> options() {
   return {
       // Latin hypercube by default: a handful of digitally shifted Sobol points in d ≥ 5 lie on a few diagonal
-      // lines (point 2 = point 1 + 0.25 in every coordinate); on Hartmann-6 with 10 points that design left 5 of 10
+      // lines (point 2 = point 1 + 0.25 in every coordinate); on Hartmann-6 with 10 points that design left 6 of 10
       // seeds in a local minimum against 2 of 10 with LHS (README, benchmarks).
       opt::component("initial_design", Kind::Sampler, "lhs", "sampler of the initial design and random points"),
       opt::integer("initial_points", -1, "initial design size (-1 = 2·(d+1), capped by the budget)").at_least(-1),
