@@ -21,8 +21,10 @@
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/study.hpp"
+#include "bo_table_config.hpp"
 
 using namespace varbo;
+using varbo::bench::quantile;
 
 namespace {
 
@@ -37,14 +39,6 @@ int col(const std::vector<std::string>& h, const std::string& n) {
   return -1;
 }
 
-double quantile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  if (v.empty()) return NAN;
-  const double pos = q * static_cast<double>(v.size() - 1);
-  const std::size_t lo = static_cast<std::size_t>(pos);
-  const std::size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-}
 
 RunSummary run(const std::string& yaml, const Registry& reg, const std::string& out, int threads) {
   RunOverrides ov;
@@ -60,12 +54,7 @@ RunSummary run(const std::string& yaml, const Registry& reg, const std::string& 
 int main(int argc, char** argv) {
   int seeds = 10, threads = 0;
   bool timing = true, regret = true;
-  // The defaults (Latin hypercube design, gp Matérn-5/2 ARD, EI, multistart) with the last 20 evaluations
-  // minimizing the posterior mean (cb with κ = 0): EI keeps spending evaluations on corners of the box while the
-  // incumbent could still be refined (Ackley-5: median regret 1.2 without that phase, 0.07 with it).
-  std::string algorithm =
-      "{type: bo, initial_points: 10, surrogate: {type: gp}, acquisition: {type: ei}, acquisition_optimizer: "
-      "{type: multistart}, phases: [{evaluations: 70}, {acquisition: {type: cb, kappa: 0}}]}";
+  std::string algorithm = bench::kTableAlgorithm;
   // Timing uses EI at every iteration (the full acquisition optimization), unless --algorithm is given.
   std::string timing_algorithm =
       "{type: bo, initial_points: 10, surrogate: {type: gp}, acquisition: {type: ei}, acquisition_optimizer: "

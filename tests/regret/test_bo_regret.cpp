@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "bo_table_config.hpp"
 #include "study_helpers.hpp"
 #include "varbo_test.hpp"
 
@@ -18,17 +19,8 @@ using namespace varbo;
 
 namespace {
 
-constexpr const char* kAlgorithm =
-    "{type: bo, initial_points: 10, surrogate: {type: gp}, acquisition: {type: ei}, acquisition_optimizer: "
-    "{type: multistart}, phases: [{evaluations: 70}, {acquisition: {type: cb, kappa: 0}}]}";
-
-// Same convention as the benchmark table: linear interpolation between order statistics.
-double quantile(std::vector<double> v, double q) {
-  std::sort(v.begin(), v.end());
-  const double pos = q * static_cast<double>(v.size() - 1);
-  const std::size_t lo = static_cast<std::size_t>(pos), hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-}
+using bench::kTableAlgorithm;
+using bench::quantile;
 
 std::vector<double> regrets(const std::string& name, const std::string& task) {
   std::vector<double> r;
@@ -37,7 +29,7 @@ std::vector<double> regrets(const std::string& name, const std::string& task) {
     ov.output = test::temp_folder("bo_regret_" + name + "_" + std::to_string(seed));
     ov.threads = 2;
     const RunSummary s = test::run_yaml(
-        "task: " + task + "\nbudget: 100\nseed: " + std::to_string(seed) + "\nalgorithm: " + kAlgorithm + "\n",
+        "task: " + task + "\nbudget: 100\nseed: " + std::to_string(seed) + "\nalgorithm: " + kTableAlgorithm + "\n",
         test::registry(), ov);
     REQUIRE(s.evaluations == 100);
     REQUIRE(s.simple_regret.has_value());
