@@ -19,6 +19,10 @@ class BenchmarkTask : public Task {
 
   /// The noiseless value.
   double value(const Vec& theta) const { return spec_.f(theta); }
+  std::optional<double> noiseless_cost(const Vec& theta) const override {
+    if (theta.size() != dim_) return std::nullopt;
+    return spec_.f(theta);
+  }
 
  private:
   const BenchmarkSpec& spec_;

@@ -19,6 +19,10 @@ class TwoMinimaTask : public Task {
   Evaluation evaluate(const Vec& theta, Rng& rng) override;
   /// Minimum of the expected cost: 0.1 at both θ = 0.25 and θ = 0.75.
   std::optional<Optimum> optimum() const override;
+  std::optional<double> noiseless_cost(const Vec& theta) const override {
+    if (theta.size() != 1) return std::nullopt;
+    return two_minima_mean(theta[0]);
+  }
 
  private:
   double noise_scale_;

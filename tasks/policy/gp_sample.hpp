@@ -55,6 +55,10 @@ class GpSampleTask final : public Task {
   std::optional<Optimum> optimum() const override { return optimum_; }
   std::optional<Vec> initial_point() const override { return initial_; }
   const GpSampleFunction& function() const { return f_; }
+  std::optional<double> noiseless_cost(const Vec& theta) const override {
+    if (theta.size() != s_.dim) return std::nullopt;
+    return -f_.value(theta);
+  }
 
  private:
   GpSampleSettings s_;

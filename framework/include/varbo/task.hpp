@@ -42,6 +42,13 @@ class Task {
   /// An initial policy θ0 (user units), for cautious methods that start from a known policy.
   virtual std::optional<Vec> initial_point() const { return std::nullopt; }
   virtual std::vector<std::string> component_names() const { return {}; }
+  /// The cost at θ (user units) without observation noise, when the task knows it (synthetic benchmarks),
+  /// computed without counting as a trial: used to score the *recommended* θ (regret_recommended in
+  /// summary.json), never shown to the algorithm. nullopt when unknown (real experiments).
+  virtual std::optional<double> noiseless_cost(const Vec& theta) const {
+    (void)theta;
+    return std::nullopt;
+  }
 };
 
 }  // namespace varbo
