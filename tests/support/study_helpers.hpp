@@ -31,6 +31,7 @@ inline int column_of(const std::vector<std::string>& header, const std::string& 
 /// Runs a study given as YAML text against `registry`.
 inline RunSummary run_yaml(const std::string& yaml, const Registry& registry, RunOverrides ov = {}) {
   ov.progress = false;
+  if (!ov.resume) ov.overwrite = true;  // tests rerun studies into their scratch folders
   StudyConfig s = parse_study(ConfigNode::parse(yaml, "<test study>"), registry);
   return run_study(s, registry, ov);
 }
