@@ -40,7 +40,7 @@ Fit fit(const std::string& dir, const std::string& surrogate, const std::string&
   return {test::run(args, log).exit_code, slurp(log)};
 }
 
-const char* kGp = "type: gp\nkernel: se_ard\nhyperparameters: {lengthscale: [0.3], signal_std: 1.0, noise_std: 0.1}\n";
+const char* kGp = "type: gp\nkernel: se_ard\nhyperparameters: {\"lengthscale[0]\": 0.3, signal_std: 1.0, noise_std: 0.1}\n";
 const char* kData = "x,y\n0.1,1\n0.5,2\n0.9,1.5\n";
 
 }  // namespace
