@@ -192,3 +192,18 @@ TEST_CASE("random search with a huge budget draws its points lazily, determinist
   CHECK(batch[4096].x != batch[0].x);
   fs::remove_all(dir);
 }
+
+TEST_CASE("an external command answering in hexadecimal is a failed trial, not a cost of 16") {
+  const std::string dir = scratch("external_hex");
+  const std::string cfg = dir + "/c.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: 'echo 0x10', dim: 1}\nbudget: 2\nseed: 1\n"
+                        "algorithm: {type: random}\n";
+  REQUIRE(test::run({VARBO_EXE, "-q", "run", cfg, "-o", out, "--no-progress"}).exit_code == 0);
+  const auto trials = open_sqlite_store(out + "/study.db")->trials();
+  REQUIRE(trials.size() == 2);
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Failed);
+    CHECK(contains(t.error, "0x10"));
+  }
+  fs::remove_all(dir);
+}
