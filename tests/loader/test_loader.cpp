@@ -133,6 +133,11 @@ TEST_CASE("a plugin whose info gives a NULL name is refused with the file named"
              "names it)");
 }
 
+TEST_CASE("a plugin name with the qualification separator is refused") {
+  CHECK(contains(error_loading<PluginLoadError>(fixture("slashname")),
+                 ": not loaded: its plugin name 'bad/name' has a character other than letters, digits"));
+}
+
 TEST_CASE("hostile entries in a plugin folder are skipped with a named reason, never thrown") {
   const fs::path dir = fs::temp_directory_path() / "varbo_hostile_plugin_dir";
   fs::remove_all(dir);
@@ -231,10 +236,10 @@ TEST_CASE("scanning a folder loads the good library once and records every bad o
   Registry r;
   PluginLoader l(r);
   l.load_directory(VARBO_FIXTURE_DIR);
-  // Sorted: abi, build, clash, foreign, good, nullname, text, throws. clash and good load; "throws" carries
-  // the same plugin name as good, so it is shadowed (first wins) and never runs; the other five are skipped.
+  // Sorted: abi, build, clash, foreign, good, nullname, slashname, text, throws. clash and good load; "throws"
+  // carries the same plugin name as good, so it is shadowed (first wins) and never runs; six are skipped.
   CHECK(l.loaded().size() == 2);
-  CHECK(l.skipped().size() == 5);
+  CHECK(l.skipped().size() == 6);
   for (const auto& s : l.skipped()) CHECK(contains(s.reason, s.path));
 }
 
