@@ -24,8 +24,9 @@ static void print_options(const std::vector<OptionSpec>& options, const std::str
 }
 
 static void describe(const ComponentInfo& c) {
-  std::printf("%s %s  (plugin %s, %s)\n  %s\n", kind_name(c.kind).c_str(), c.full_name().c_str(), c.plugin.c_str(),
-              c.library.c_str(), c.description.c_str());
+  std::printf("%s %s  (%s plugin %s, %s)\n  %s\n", kind_name(c.kind).c_str(), c.full_name().c_str(),
+              is_builtin(c) ? "built-in" : "third-party", c.plugin.c_str(), c.library.c_str(),
+              c.description.c_str());
   if (!c.provides.empty()) std::printf("  provides: %s\n", join(c.provides).c_str());
   if (!c.needs.empty()) std::printf("  needs:    %s\n", join(c.needs).c_str());
   if (c.options.empty()) {
@@ -45,31 +46,53 @@ Runner add_plugins(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("--describe", a->describe, "show one component (name or plugin/name), or 'study' for top-level keys");
-  cmd->add_option("--load", a->load, "also load these plugin files or folders (errors are fatal)");
+  cmd->add_option("--load", a->load, "also load these plugin files or folders (a file named must load; a folder's broken libraries are listed as skipped)");
   cmd->add_flag("--brief", a->brief, "names only");
   return [a]() {
     Registry registry;
     PluginLoader loader(registry);
-    for (const auto& p : a->load) {
-      if (std::filesystem::is_directory(p)) {
-        loader.load_directory(p);
-      } else {
-        loader.load_file(p);
-      }
-    }
-    loader.load_default();
+    for (const auto& p : a->load)
+      if (std::error_code ec; !std::filesystem::exists(p, ec))
+        throw InputError(fmt::format("--load {}: {}; expected a plugin file (libvarbo_NAME.so) or a folder of them",
+                                     p, ec ? ec.message() : "does not exist"));
+    loader.load_default(a->load);  // built-ins first, so --load cannot replace them
     if (a->describe == "study") {
       std::printf("study file (top-level keys)\n");
       print_options(study_options(), "  ");
       return 0;
     }
     if (!a->describe.empty()) {
+      // Resolve exactly as a config does (built-in first), and say what else carries the name.
       bool any = false;
-      for (const auto* c : registry.all())
-        if (c->name == a->describe || c->full_name() == a->describe) {
-          describe(*c);
+      for (Kind k : {Kind::Task, Kind::Algorithm, Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler,
+                     Kind::Optimizer}) {
+        const ComponentInfo* chosen = registry.try_find(k, a->describe);
+        std::vector<const ComponentInfo*> same;
+        for (const auto* c : registry.components(k))
+          if (c != chosen && (c->name == a->describe || c->full_name() == a->describe)) same.push_back(c);
+        if (chosen) {
+          if (any) std::printf("\n");
+          describe(*chosen);
           any = true;
+          for (const auto* c : same)
+            std::printf("  note: '%s' means this %s; %s plugin '%s' (%s) also has one, reachable only as '%s'\n",
+                        a->describe.c_str(), is_builtin(*chosen) ? "built-in one" : "one",
+                        is_builtin(*c) ? "the built-in" : "the third-party", c->plugin.c_str(),
+                        c->library.c_str(), c->full_name().c_str());
+        } else if (!same.empty()) {
+          if (any) std::printf("\n");
+          any = true;
+          std::vector<std::string> full;
+          for (const auto* c : same) full.push_back(c->full_name());
+          std::printf("%s name '%s' is ambiguous (several third-party plugins, no built-in one); a config must "
+                      "use one of: %s\n",
+                      kind_name(k).c_str(), a->describe.c_str(), join(full).c_str());
+          for (const auto* c : same) {
+            std::printf("\n");
+            describe(*c);
+          }
         }
+      }
       if (!any) {
         std::vector<std::string> names;
         for (const auto* c : registry.all()) names.push_back(c->name);
@@ -81,8 +104,12 @@ Runner add_plugins(CLI::App& app) {
     }
     std::printf("plugin libraries (%zu loaded, %zu skipped)\n", loader.loaded().size(), loader.skipped().size());
     for (const auto& l : loader.loaded())
-      std::printf("  %-22s %-8s %s\n", l.name.c_str(), l.version.c_str(), l.path.c_str());
+      std::printf("  %-22s %-8s %s%s\n", l.name.c_str(), l.version.c_str(), l.path.c_str(),
+                  l.builtin ? "" : "  (third-party)");
     for (const auto& s : loader.skipped()) std::printf("  SKIPPED %s\n", s.reason.c_str());
+    for (const auto* c : loader.shadowed())
+      std::printf("  NOTE %s '%s' of plugin '%s' has a built-in name: reachable only as '%s'\n",
+                  kind_name(c->kind).c_str(), c->name.c_str(), c->plugin.c_str(), c->full_name().c_str());
     for (Kind k : {Kind::Task, Kind::Algorithm, Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler,
                    Kind::Optimizer}) {
       auto comps = registry.components(k);

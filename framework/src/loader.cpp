@@ -3,13 +3,15 @@
 #include <dlfcn.h>
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <set>
 
+#include "elf_check.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/plugin.hpp"
@@ -24,16 +26,32 @@ namespace varbo {
 
 const char* host_fingerprint() { return VARBO_BUILD_FINGERPRINT; }
 
-static bool is_elf(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  char magic[4] = {0, 0, 0, 0};
-  in.read(magic, 4);
-  return in.gcount() == 4 && magic[0] == 0x7f && magic[1] == 'E' && magic[2] == 'L' && magic[3] == 'F';
+namespace {
+
+/// A plugin name is the first half of every qualified component name ("plugin/name"): it must be printable
+/// and free of the separator.
+std::string bad_plugin_name(const char* name) {
+  if (name == nullptr) return "its plugin info gives no name (NULL)";
+  const std::string n = name;
+  if (n.empty()) return "its plugin info gives an empty name";
+  if (n.size() > 128) return "its plugin name is longer than 128 characters";
+  for (unsigned char ch : n)
+    if (!(std::isalnum(ch) || ch == '_' || ch == '-' || ch == '.')) {
+      const bool printable = std::all_of(n.begin(), n.end(), [](unsigned char c) { return c >= 0x20 && c < 0x7f; });
+      return fmt::format("its plugin name {}has a character other than letters, digits, '_', '-', '.'",
+                         printable ? "'" + n + "' " : "");
+    }
+  return "";
 }
 
-void PluginLoader::load_file(const std::string& path) {
-  if (!fs::exists(path)) throw PluginLoadError(fmt::format("{}: plugin library not found", path));
-  if (!is_elf(path)) throw PluginLoadError(fmt::format("{}: not a shared library (no ELF header)", path));
+}  // namespace
+
+void PluginLoader::load_file(const std::string& path) { load_file(path, false); }
+
+void PluginLoader::load_file(const std::string& path, bool builtin) {
+  // Size, class, machine and every segment are checked first: dlopen maps a truncated file and dies with
+  // SIGBUS on the first page past its end, and says "No such file or directory" for another architecture.
+  detail::check_elf_file(path);
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* err = dlerror();
@@ -62,43 +80,70 @@ void PluginLoader::load_file(const std::string& path) {
     throw PluginVersionError(fmt::format("{}: plugin '{}' was built with [{}], host is [{}]; rebuild it with the "
                                          "same compiler, standard library and Eigen",
                                          path, info->name ? info->name : "?", fp, host_fingerprint()));
-  const std::string name = info->name ? info->name : "";
+  if (const std::string why = bad_plugin_name(info->name); !why.empty())
+    throw PluginLoadError(fmt::format("{}: not loaded: {} (VARBO_PLUGIN(\"name\", ...) names it)", path, why));
+  const std::string name = info->name;
   for (const auto& l : loaded_)
     if (l.name == name) {
-      log_debug("plugin '{}' from {} shadowed by {}", name, path, l.path);
+      // First wins, and built-in folders are searched first: a third-party library cannot replace a plugin
+      // shipped with varbo. Two installs of varbo's own plugins (build tree and prefix) are routine: quiet.
+      if (builtin && l.builtin)
+        log_debug("plugin '{}' from {} shadowed by {}", name, path, l.path);
+      else
+        log_warn("{}: plugin '{}' not loaded: {} plugin of that name is already loaded from {}; rename it",
+                 path, name, l.builtin ? "the built-in" : "a", l.path);
       return;
     }
   registry_.set_origin(name, path);
   char error[1024] = {0};
   const int rc = reg_fn(&registry_, error, sizeof error);
   registry_.set_origin("", "");
+  error[sizeof error - 1] = '\0';
   if (rc != 0) throw PluginLoadError(fmt::format("{}: plugin '{}' failed to register: {}", path, name, error));
   loaded_.push_back(LoadedLibrary{path, name, info->version ? info->version : "", fp,
-                                  info->description ? info->description : ""});
+                                  info->description ? info->description : "", builtin});
 }
 
-void PluginLoader::load_directory(const std::string& dir) {
+void PluginLoader::skip(const std::string& path, const std::string& reason) {
+  skipped_.push_back(SkippedLibrary{path, reason});
+  log_warn("skipped plugin library {}", reason);
+}
+
+void PluginLoader::load_directory(const std::string& dir) { load_directory(dir, false); }
+
+void PluginLoader::load_directory(const std::string& dir, bool builtin) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return;
   std::vector<std::string> files;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    const std::string fname = e.path().filename().string();
-    if (fname.rfind("libvarbo_", 0) == 0 && e.path().extension() == ".so" && fname != "libvarbo_core.so")
-      files.push_back(e.path().string());
+  // error_code overloads throughout: an unreadable folder or an entry that cannot be stat'ed is a warning,
+  // never an exception out of every command.
+  fs::directory_iterator it(dir, ec), end;
+  if (ec) {
+    log_warn("plugin folder {}: cannot list it: {}; skipped", dir, ec.message());
+    return;
+  }
+  for (; it != end; it.increment(ec)) {
+    if (ec) {
+      log_warn("plugin folder {}: stopped listing it: {}", dir, ec.message());
+      break;
+    }
+    const fs::path p = it->path();
+    const std::string fname = p.filename().string();
+    if (fname.rfind("libvarbo_", 0) == 0 && p.extension() == ".so" && fname != "libvarbo_core.so")
+      files.push_back(p.string());
   }
   std::sort(files.begin(), files.end());  // deterministic load order
   for (const auto& f : files) {
     try {
-      load_file(f);
+      load_file(f, builtin);
     } catch (const PluginLoadError& e) {
-      skipped_.push_back(SkippedLibrary{f, e.what()});
-      log_warn("skipped plugin library {}", e.what());
+      skip(f, e.what());
     }
   }
 }
 
-std::vector<std::string> PluginLoader::search_path(const std::vector<std::string>& extra) {
-  std::vector<std::string> out(extra.begin(), extra.end());
+std::vector<std::string> PluginLoader::env_path() {
+  std::vector<std::string> out;
   if (const char* env = std::getenv("VARBO_PLUGIN_PATH")) {
     std::string s = env;
     std::size_t start = 0;
@@ -110,27 +155,87 @@ std::vector<std::string> PluginLoader::search_path(const std::vector<std::string
       start = end + 1;
     }
   }
+  return out;
+}
+
+std::vector<std::string> PluginLoader::builtin_path() {
+  std::vector<std::string> out;
   Dl_info dl;
   if (dladdr(reinterpret_cast<void*>(&host_fingerprint), &dl) != 0 && dl.dli_fname != nullptr) {
-    const fs::path core = fs::weakly_canonical(fs::path(dl.dli_fname));
-    out.push_back((core.parent_path() / "varbo" / "plugins").string());
+    std::error_code ec;
+    const fs::path core = fs::weakly_canonical(fs::path(dl.dli_fname), ec);
+    if (!ec) out.push_back((core.parent_path() / "varbo" / "plugins").string());
   }
   if (std::strlen(VARBO_INSTALL_PLUGIN_DIR) > 0) out.push_back(VARBO_INSTALL_PLUGIN_DIR);
   return out;
 }
 
+std::vector<std::string> PluginLoader::search_path(const std::vector<std::string>& extra) {
+  std::vector<std::string> out = builtin_path();
+  out.insert(out.end(), extra.begin(), extra.end());
+  for (auto& p : env_path()) out.push_back(std::move(p));
+  return out;
+}
+
 void PluginLoader::load_default(const std::vector<std::string>& extra) {
   std::set<std::string> seen;
-  for (const auto& p : search_path(extra)) {
+  auto load = [&](const std::string& p, bool builtin, const char* origin) {
     std::error_code ec;
-    const std::string canon = fs::weakly_canonical(p, ec).string();
-    if (!seen.insert(canon).second) continue;
-    if (fs::is_regular_file(p, ec)) {
-      load_file(p);  // a file named explicitly must load
-    } else {
-      load_directory(p);
+    std::string canon = fs::weakly_canonical(p, ec).string();
+    if (ec) canon = p;
+    if (!seen.insert(canon).second) return;
+    const fs::file_status st = fs::status(p, ec);
+    if (builtin) {
+      if (fs::is_directory(st)) load_directory(p, true);
+      return;  // a missing install folder is normal (build tree, relocated prefix)
     }
+    if (ec || !fs::exists(st)) {
+      const std::string why = ec && ec != std::errc::no_such_file_or_directory ? ec.message() : "does not exist";
+      log_warn("plugin path '{}' (from {}): {}; ignored", p, origin, why);
+      skipped_.push_back(SkippedLibrary{p, fmt::format("{}: plugin path from {}: {}", p, origin, why)});
+    } else if (fs::is_directory(st)) {
+      load_directory(p, false);
+    } else {
+      load_file(p, false);  // a file named explicitly must load
+    }
+  };
+  for (const auto& p : builtin_path()) load(p, true, "");
+  for (const auto& p : extra) load(p, false, "plugin_path or --load");
+  for (const auto& p : env_path()) load(p, false, "VARBO_PLUGIN_PATH");
+  for (const ComponentInfo* c : shadowed_by_builtin(registry_)) {
+    if (std::find(shadowed_.begin(), shadowed_.end(), c) != shadowed_.end()) continue;
+    shadowed_.push_back(c);
+    const ComponentInfo* b = registry_.try_find(c->kind, c->name);
+    log_warn("{}: plugin '{}' registers {} '{}', a built-in name: '{}' keeps meaning the built-in {}; use '{}' "
+             "for this one",
+             c->library, c->plugin, kind_name(c->kind), c->name, c->name, b ? b->full_name() : c->name,
+             c->full_name());
   }
+}
+
+bool is_builtin(const ComponentInfo& c) {
+  // Library paths are built as <folder>/<file> from the very strings builtin_path() returns.
+  static const std::vector<std::string> dirs = [] {
+    std::vector<std::string> d;
+    for (const auto& p : PluginLoader::builtin_path()) d.push_back(fs::path(p).lexically_normal().string());
+    return d;
+  }();
+  const std::string parent = fs::path(c.library).parent_path().lexically_normal().string();
+  return !c.library.empty() && std::find(dirs.begin(), dirs.end(), parent) != dirs.end();
+}
+
+std::vector<const ComponentInfo*> shadowed_by_builtin(const Registry& registry) {
+  std::vector<const ComponentInfo*> out;
+  const auto all = registry.all();
+  for (const ComponentInfo* c : all) {
+    if (is_builtin(*c)) continue;
+    for (const ComponentInfo* b : all)
+      if (b->kind == c->kind && b->name == c->name && is_builtin(*b)) {
+        out.push_back(c);
+        break;
+      }
+  }
+  return out;
 }
 
 namespace {

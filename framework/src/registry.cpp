@@ -6,6 +6,7 @@
 #include <set>
 
 #include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
 
 namespace varbo {
 
@@ -37,16 +38,23 @@ void Registry::add(ComponentInfo info) {
 }
 
 const ComponentInfo* Registry::try_find(Kind kind, const std::string& name) const {
-  const ComponentInfo* found = nullptr;
-  int matches = 0;
+  const ComponentInfo *found = nullptr, *builtin = nullptr;
+  int matches = 0, builtin_matches = 0;
   for (const auto& c : items_) {
     if (c->kind != kind) continue;
     if (c->full_name() == name) return c.get();
     if (c->name == name) {
       found = c.get();
       ++matches;
+      if (is_builtin(*c)) {
+        builtin = c.get();
+        ++builtin_matches;
+      }
     }
   }
+  // Built-in first (loader.hpp): a default such as `acquisition: ei` must keep meaning varbo's ei whatever
+  // third-party plugin is installed; only the full name "plugin/ei" reaches theirs.
+  if (builtin_matches == 1) return builtin;
   return matches == 1 ? found : nullptr;
 }
 

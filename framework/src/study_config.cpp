@@ -29,11 +29,24 @@ std::vector<std::string> plugin_paths_of(const ConfigNode& root) {
   std::vector<std::string> out;
   if (!root.is_map() || !root.has("plugin_path")) return out;
   ConfigNode p = root.child("plugin_path");
-  const std::filesystem::path base = std::filesystem::path(root.file()).parent_path();
+  std::error_code abs_ec;
+  const std::filesystem::path base = std::filesystem::absolute(root.file(), abs_ec).parent_path();
+  const std::string expected =
+      "expected a plugin file (libvarbo_NAME.so) or a folder of them, absolute or relative to the study file, "
+      "or a list of these";
   auto add = [&](const ConfigNode& n) {
-    if (!n.is_scalar()) n.fail("expected a path (string) or a list of paths");
+    if (!n.is_scalar() || n.scalar().empty()) n.fail(expected);
     std::filesystem::path q(n.scalar());
-    out.push_back((q.is_absolute() ? q : base / q).string());
+    const std::filesystem::path full = q.is_absolute() ? q : base / q;
+    // A path that names nothing used to be skipped silently, and the study then ran without its plugin.
+    std::error_code ec;
+    const auto st = std::filesystem::status(full, ec);
+    if (ec || !std::filesystem::exists(st)) {
+      const std::string why = ec && ec != std::errc::no_such_file_or_directory ? ec.message() : "does not exist";
+      n.fail(fmt::format("plugin path '{}'{} {}; {}", n.scalar(),
+                         q.is_absolute() ? "" : " (" + full.string() + ")", why, expected));
+    }
+    out.push_back(full.string());
   };
   if (p.is_sequence()) {
     for (std::size_t i = 0; i < p.size(); ++i) add(p.item(i));

@@ -1,13 +1,21 @@
 // Plugin loading: good, broken, foreign and mismatched libraries each give a clear, file-naming error.
+#include <elf.h>
+#include <sys/stat.h>
+
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/plugin.hpp"
+#include "varbo/study.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
+namespace fs = std::filesystem;
 
 namespace {
 std::string fixture(const std::string& name) { return std::string(VARBO_FIXTURE_DIR) + "/libvarbo_fixture_" + name + ".so"; }
@@ -24,6 +32,17 @@ std::string error_loading(const std::string& path) {
   return "(no error)";
 }
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+std::vector<char> read_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+/// Writes `bytes` to a file in the temporary folder and returns its path.
+std::string scratch(const std::string& name, const std::vector<char>& bytes) {
+  const std::string path = (fs::temp_directory_path() / name).string();
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  return path;
+}
 }  // namespace
 
 TEST_CASE("a good plugin registers its components and reports its info") {
@@ -64,18 +83,143 @@ TEST_CASE("a text file is not a shared library") {
   CHECK(m == fixture("text") + ": not a shared library (no ELF header)");
 }
 
-TEST_CASE("a truncated library is refused with the dynamic loader's reason") {
-  const std::string trunc = std::filesystem::temp_directory_path() / "libvarbo_truncated_test.so";
-  {
-    std::ifstream in(fixture("good"), std::ios::binary);
-    std::ofstream out(trunc, std::ios::binary | std::ios::trunc);
-    std::vector<char> buf(200);
-    in.read(buf.data(), 200);
-    out.write(buf.data(), 200);
+TEST_CASE("a truncated library is refused before dlopen maps it (no SIGBUS)") {
+  const std::vector<char> good = read_bytes(fixture("good"));
+  // Cut inside the ELF header, inside the program headers, inside the segments and one byte short.
+  for (std::size_t cut : {std::size_t{40}, std::size_t{200}, good.size() / 3, good.size() / 2, good.size() - 1}) {
+    CAPTURE(cut);
+    const std::string trunc = scratch("libvarbo_truncated_test.so", {good.begin(), good.begin() + long(cut)});
+    const std::string m = error_loading<PluginLoadError>(trunc);
+    CHECK(contains(m, trunc + ": truncated"));
   }
-  const std::string m = error_loading<PluginLoadError>(trunc);
-  CHECK(contains(m, trunc + ": cannot load:"));
-  std::filesystem::remove(trunc);
+}
+
+TEST_CASE("a library for another architecture or word size says what it was built for") {
+  std::vector<char> bytes = read_bytes(fixture("good"));
+#if defined(__x86_64__)
+  bytes[18] = char(EM_AARCH64 & 0xff);
+  bytes[19] = char(EM_AARCH64 >> 8);
+  CHECK(contains(error_loading<PluginLoadError>(scratch("libvarbo_arch.so", bytes)),
+                 "built for aarch64, this is x86-64 (64-bit); rebuild the plugin for this machine"));
+  bytes = read_bytes(fixture("good"));
+  bytes[EI_CLASS] = ELFCLASS32;
+  bytes[18] = char(EM_386);
+  bytes[19] = 0;
+  CHECK(contains(error_loading<PluginLoadError>(scratch("libvarbo_arch.so", bytes)),
+                 "built for i386 (32-bit), this is x86-64 (64-bit)"));
+#endif
+  bytes = read_bytes(fixture("good"));
+  bytes[EI_DATA] = ELFDATA2MSB;
+  CHECK(contains(error_loading<PluginLoadError>(scratch("libvarbo_arch.so", bytes)), "big-endian byte order"));
+  bytes = read_bytes(fixture("good"));
+  bytes[16] = char(ET_EXEC);
+  CHECK(contains(error_loading<PluginLoadError>(scratch("libvarbo_arch.so", bytes)),
+                 "not a shared library (ELF type executable"));
+}
+
+TEST_CASE("a section header table past the end of the file is refused") {
+  std::vector<char> bytes = read_bytes(fixture("good"));
+  Elf64_Ehdr eh;
+  std::memcpy(&eh, bytes.data(), sizeof eh);
+  eh.e_shoff = bytes.size() - 10;
+  std::memcpy(bytes.data(), &eh, sizeof eh);
+  CHECK(contains(error_loading<PluginLoadError>(scratch("libvarbo_sh.so", bytes)),
+                 "the section header table (offset"));
+}
+
+TEST_CASE("a plugin whose info gives a NULL name is refused with the file named") {
+  const std::string m = error_loading<PluginLoadError>(fixture("nullname"));
+  CHECK(m == fixture("nullname") + ": not loaded: its plugin info gives no name (NULL) (VARBO_PLUGIN(\"name\", ...) "
+             "names it)");
+}
+
+TEST_CASE("a plugin name with the qualification separator is refused") {
+  CHECK(contains(error_loading<PluginLoadError>(fixture("slashname")),
+                 ": not loaded: its plugin name 'bad/name' has a character other than letters, digits"));
+}
+
+TEST_CASE("hostile entries in a plugin folder are skipped with a named reason, never thrown") {
+  const fs::path dir = fs::temp_directory_path() / "varbo_hostile_plugin_dir";
+  fs::remove_all(dir);
+  fs::create_directories(dir / "libvarbo_dir.so");
+  fs::create_symlink("libvarbo_loop_b.so", dir / "libvarbo_loop_a.so");
+  fs::create_symlink("libvarbo_loop_a.so", dir / "libvarbo_loop_b.so");
+  fs::create_symlink("libvarbo_nowhere.so", dir / "libvarbo_dangling.so");
+  REQUIRE(mkfifo((dir / "libvarbo_fifo.so").c_str(), 0600) == 0);  // opening it for reading would block
+  fs::copy_file(fixture("good"), dir / "libvarbo_good.so");
+  Registry r;
+  PluginLoader l(r);
+  l.load_directory(dir.string());
+  CHECK(l.loaded().size() == 1);
+  REQUIRE(l.skipped().size() == 5);
+  std::map<std::string, std::string> why;
+  for (const auto& s : l.skipped()) why[fs::path(s.path).filename().string()] = s.reason;
+  CHECK(contains(why["libvarbo_dangling.so"], "broken symbolic link"));
+  CHECK(contains(why["libvarbo_dir.so"], "a directory, not a shared library file"));
+  CHECK(contains(why["libvarbo_fifo.so"], "a named pipe (FIFO)"));
+  CHECK(contains(why["libvarbo_loop_a.so"], "symbolic link loop"));
+  CHECK(contains(why["libvarbo_loop_b.so"], (dir / "libvarbo_loop_b.so").string() + ": symbolic link loop"));
+  // The same folder named as an extra path, and a symlink loop as the path itself: warnings, no exception.
+  fs::create_symlink("loop2", dir / "loop1");
+  fs::create_symlink("loop1", dir / "loop2");
+  Registry r2;
+  PluginLoader l2(r2);
+  CHECK_NOTHROW(l2.load_default({dir.string(), (dir / "loop1").string()}));
+  bool loop_named = false;
+  for (const auto& s : l2.skipped()) loop_named |= contains(s.reason, (dir / "loop1").string());
+  CHECK(loop_named);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("missing plugin paths, from the caller or VARBO_PLUGIN_PATH, are named") {
+  ::setenv("VARBO_PLUGIN_PATH", "/nonexistent_env_dir", 1);
+  Registry r;
+  PluginLoader l(r);
+  l.load_default({"/nonexistent_extra_dir"});
+  ::unsetenv("VARBO_PLUGIN_PATH");
+  std::string all;
+  for (const auto& s : l.skipped()) all += s.reason + "\n";
+  CHECK(contains(all, "/nonexistent_extra_dir: plugin path from plugin_path or --load: does not exist"));
+  CHECK(contains(all, "/nonexistent_env_dir: plugin path from VARBO_PLUGIN_PATH: does not exist"));
+  CHECK_FALSE(r.all().empty());  // the built-ins still load
+}
+
+TEST_CASE("plugin_path naming nothing is a config error at its key") {
+  auto error_of = [](const std::string& yaml) {
+    try {
+      plugin_paths_of(ConfigNode::parse(yaml, "/tmp/s.yaml"));
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  const std::string a = error_of("task: branin\nplugin_path: [/nonexistent]\n");
+  CHECK(contains(a, "/tmp/s.yaml:2:15: key 'plugin_path[0]'"));
+  CHECK(contains(a, "plugin path '/nonexistent' does not exist; expected a plugin file (libvarbo_NAME.so)"));
+  const std::string b = error_of("task: branin\nplugin_path: 5\n");
+  CHECK(contains(b, "/tmp/s.yaml:2:14: key 'plugin_path': plugin path '5' (/tmp/5) does not exist"));
+  CHECK(contains(error_of("plugin_path: {a: 1}\n"), "expected a plugin file"));
+  CHECK(plugin_paths_of(ConfigNode::parse("plugin_path: [" + std::string(VARBO_FIXTURE_DIR) + "]\n", "/tmp/s.yaml"))
+            .size() == 1);
+}
+
+TEST_CASE("a third-party component with a built-in name is reachable only by its full name") {
+  Registry r;
+  PluginLoader l(r);
+  l.load_default({fixture("clash")});
+  const ComponentInfo& ei = r.find(Kind::Acquisition, "ei");
+  CHECK(ei.plugin == "acquisitions");
+  CHECK(is_builtin(ei));
+  const ComponentInfo& theirs = r.find(Kind::Acquisition, "thirdparty/ei");
+  CHECK(theirs.library == fixture("clash"));
+  CHECK_FALSE(is_builtin(theirs));
+  REQUIRE(l.shadowed().size() == 1);
+  CHECK(l.shadowed()[0] == &theirs);
+  // A unique third-party name still resolves by its short name.
+  CHECK(r.find(Kind::Acquisition, "thirdparty_constant").plugin == "thirdparty");
+  // The default acquisition of a BO config is the built-in one.
+  auto a = r.create<Acquisition>("{type: thirdparty/ei}", BuildContext{});
+  CHECK(a->evaluate(Vec::Zero(2), nullptr) == 42.0);
 }
 
 TEST_CASE("a plugin whose registration throws reports the reason") {
@@ -92,10 +236,10 @@ TEST_CASE("scanning a folder loads the good library once and records every bad o
   Registry r;
   PluginLoader l(r);
   l.load_directory(VARBO_FIXTURE_DIR);
-  // Sorted: abi, build, foreign, good, text, throws. good loads; "throws" carries the same plugin name
-  // as good, so it is shadowed (first wins) and never runs; the other four are skipped with reasons.
-  CHECK(l.loaded().size() == 1);
-  CHECK(l.skipped().size() == 4);
+  // Sorted: abi, build, clash, foreign, good, nullname, slashname, text, throws. clash and good load; "throws"
+  // carries the same plugin name as good, so it is shadowed (first wins) and never runs; six are skipped.
+  CHECK(l.loaded().size() == 2);
+  CHECK(l.skipped().size() == 6);
   for (const auto& s : l.skipped()) CHECK(contains(s.reason, s.path));
 }
 

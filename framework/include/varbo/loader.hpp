@@ -8,6 +8,7 @@ namespace varbo {
 
 struct LoadedLibrary {
   std::string path, name, version, fingerprint, description;
+  bool builtin = false;  ///< from varbo's own plugin folder (next to libvarbo_core, or the install folder)
 };
 struct SkippedLibrary {
   std::string path, reason;
@@ -16,23 +17,44 @@ struct SkippedLibrary {
 class PluginLoader {
  public:
   explicit PluginLoader(Registry& registry) : registry_(registry) {}
-  /// Loads one library; throws PluginLoadError (or PluginVersionError) naming the file and the reason.
+  /// Loads one third-party library; throws PluginLoadError (or PluginVersionError) naming the file and the
+  /// reason. The file is checked (regular file, ELF64 for this machine, every segment inside the file) before
+  /// dlopen sees it.
   void load_file(const std::string& path);
-  /// Loads every libvarbo_*.so in `dir`; failures are recorded in skipped() (and logged), not thrown.
+  /// Loads every libvarbo_*.so in `dir`; failures (including symlink loops and unreadable entries) are
+  /// recorded in skipped() and logged as warnings, not thrown.
   void load_directory(const std::string& dir);
-  /// Loads `extra` (files or directories), then VARBO_PLUGIN_PATH, then the directory next to
-  /// libvarbo_core (…/lib/varbo/plugins), then the install directory. A plugin name seen twice is
-  /// loaded once (first wins).
+  /// Loads the built-in plugins (the folder next to libvarbo_core, …/lib/varbo/plugins, then the install
+  /// folder), then `extra` (files or folders, e.g. a study's plugin_path), then VARBO_PLUGIN_PATH. A plugin
+  /// name seen twice is loaded once (first wins, so built-ins cannot be replaced; a warning names both
+  /// files). A missing `extra` or VARBO_PLUGIN_PATH entry is a warning naming it. A third-party component
+  /// whose short name is a built-in one's gets a warning: the short name keeps meaning the built-in one.
   void load_default(const std::vector<std::string>& extra = {});
   const std::vector<LoadedLibrary>& loaded() const { return loaded_; }
   const std::vector<SkippedLibrary>& skipped() const { return skipped_; }
+  /// Third-party components reachable only by their full name (their short name is a built-in one).
+  const std::vector<const ComponentInfo*>& shadowed() const { return shadowed_; }
   static std::vector<std::string> search_path(const std::vector<std::string>& extra = {});
+  static std::vector<std::string> builtin_path();
+  static std::vector<std::string> env_path();  ///< VARBO_PLUGIN_PATH, split at ':'
 
  private:
+  void load_file(const std::string& path, bool builtin);
+  void load_directory(const std::string& dir, bool builtin);
+  void skip(const std::string& path, const std::string& reason);
+
   Registry& registry_;
   std::vector<LoadedLibrary> loaded_;
   std::vector<SkippedLibrary> skipped_;
+  std::vector<const ComponentInfo*> shadowed_;
 };
+
+/// True for a component of a plugin shipped with varbo: its library lies in one of
+/// PluginLoader::builtin_path()'s folders. A short name resolves to the built-in component when one has it.
+bool is_builtin(const ComponentInfo& c);
+/// Components of third-party plugins whose short name is also a built-in component's (of the same kind):
+/// each is reachable only by its full name "plugin/name".
+std::vector<const ComponentInfo*> shadowed_by_builtin(const Registry& registry);
 
 /// A registry with every plugin on the default search path loaded (one per process; thread-safe init).
 Registry& default_registry();
