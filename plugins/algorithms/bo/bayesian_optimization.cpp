@@ -55,7 +55,7 @@ std::vector<OptionSpec> options() {
                 "randomize: true}}]; the last phase continues until the budget is spent"),
       opt::node("failure_model", "",
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
-                "0.2}; the acquisition is weighted by P(success | θ) from a GP classifier of successes and failures "
+                "0.5}; the acquisition is weighted by P(success | θ) from a GP classifier of successes and failures "
                 "and θ with P < min_probability are never suggested (docs/failures.md)"),
   };
 }
@@ -161,6 +161,10 @@ bool BayesianOptimization::update_feasibility(Index k, bool refit) {
   const Vec ell = cost_lengthscales(model_ready_ ? surrogate_->hyperparameters() : Hyperparameters{}, dim_);
   const bool was_on = feasibility_on_;
   feasibility_on_ = n + m > 0 && feasibility_->fit(X, success, ell);
+  // Never stricter than 0.8 × the probability of success where nothing is known (the smoothed success rate):
+  // in a study where most trials fail, unexplored regions stay open while failed neighbourhoods are excluded.
+  if (feasibility_on_)
+    exclusion_threshold_ = std::min(failure_settings_.min_probability, 0.8 * feasibility_->prior_probability());
   if (!feasibility_on_) {
     log_warn("bo: trial {}: the failure model could not be fitted; failed trials are ignored this time", k);
   } else if (!was_on) {
@@ -176,7 +180,7 @@ Vec BayesianOptimization::random_point_avoiding_failures(Rng& rng) const {
   for (int i = 0; i < 64; ++i) {
     Vec x = random_point(rng);
     const double p = feasibility_->probability(x);
-    if (p >= failure_settings_.min_probability) return x;
+    if (p >= exclusion_threshold_) return x;
     if (p > best_p) {
       best_p = p;
       best = std::move(x);
@@ -287,7 +291,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(
         *phase.acquisition, *feasibility_, failure_utility(*phase.acquisition, data_.X),
-        failure_settings_.min_probability);
+        exclusion_threshold_);
   const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : *phase.acquisition;
   AcquisitionFunction f(acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
@@ -299,7 +303,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "random";
     return s;
   }
-  if (feasible && feasibility_->probability(Box::unit(dim_).clamp(res.x)) < failure_settings_.min_probability) {
+  if (feasible && feasibility_->probability(Box::unit(dim_).clamp(res.x)) < exclusion_threshold_) {
     // Every start ended where failure is likely: never suggest it; a random point where success is likely.
     log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < min_probability; choosing at random",
              k, feasibility_->probability(Box::unit(dim_).clamp(res.x)));

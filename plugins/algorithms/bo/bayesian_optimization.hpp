@@ -71,6 +71,7 @@ class BayesianOptimization final : public Algorithm {
   FailureModelSettings failure_settings_;
   std::unique_ptr<FeasibilityModel> feasibility_;
   bool feasibility_on_ = false;  ///< the classifier is fitted and weights the acquisition
+  double exclusion_threshold_ = 0;  ///< θ with P(success) below it are never suggested
   Index fits_ = 0;
   bool model_ready_ = false;
   ModelSnapshot snapshot_;

@@ -15,9 +15,10 @@ std::vector<OptionSpec> failure_model_options() {
                   "weight the acquisition by P(success | θ) from a GP classifier of the trials: auto = from the "
                   "first failed trial on (a run without failures is unchanged), on = always, off = failed trials "
                   "are ignored"),
-      opt::real("min_probability", 0.2,
-                "never suggest a θ whose modelled probability of success is below this (a failed θ and its "
-                "neighbourhood are excluded until successes nearby say otherwise)")
+      opt::real("min_probability", 0.5,
+                "never suggest a θ whose modelled probability of success is below this, or below 0.8 × the "
+                "success rate where nothing is known if that is lower (a failed θ and its neighbourhood are excluded "
+                "until successes nearby say success is likely there)")
           .at_least(0)
           .below(1),
   };

@@ -26,7 +26,7 @@ namespace varbo::bo {
 struct FailureModelSettings {
   enum class Enabled { Auto, On, Off };
   Enabled enabled = Enabled::Auto;  ///< auto: on from the first failed trial
-  double min_probability = 0.2;
+  double min_probability = 0.5;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

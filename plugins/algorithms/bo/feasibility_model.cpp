@@ -138,6 +138,10 @@ bool FeasibilityModel::fit(const Mat& X, const std::vector<bool>& success, const
   return true;
 }
 
+double FeasibilityModel::prior_probability() const {
+  return normal_cdf(prior_mean_ / std::sqrt(1.0 + hyper_.signal_std * hyper_.signal_std));
+}
+
 void FeasibilityModel::latent(const Vec& x, double& mean, double& variance) const {
   const Vec k = kernel_.cross_vec(x, X_);
   mean = prior_mean_ + k.dot(dlik_);  // R&W eq. (3.21): at the mode K⁻¹(f̂ − m) = ∇ log p(y | f̂)

@@ -54,6 +54,8 @@ class FeasibilityModel {
   bool ready() const { return ready_; }
   const Hyper& hyper() const { return hyper_; }
   double prior_mean() const { return prior_mean_; }
+  /// P(success) far from every trial: Φ(m/√(1 + σ²)) = the smoothed success rate (s + 1)/(n + 2).
+  double prior_probability() const;
   double log_evidence() const { return log_evidence_; }
   const Vec& mode() const { return f_; }  ///< the Laplace mode f̂ at the training points
 
