@@ -159,6 +159,12 @@ bool BayesianOptimization::update_feasibility(Index k, bool refit) {
     success[static_cast<std::size_t>(n + i)] = false;
   }
   const Vec ell = cost_lengthscales(model_ready_ ? surrogate_->hyperparameters() : Hyperparameters{}, dim_);
+  // P(success) where nothing is known = the smoothed success rate of the initial design: a space-filling sample
+  // of the domain estimates the feasible share of it, while later trials are concentrated by the optimizer where
+  // it is good (and feasible), so counting them would make unexplored regions look safer than they are.
+  if (design_told_ > 0)
+    feasibility_->set_prior_success_rate((static_cast<double>(design_told_ - design_failed_) + 1.0) /
+                                         (static_cast<double>(design_told_) + 2.0));
   const bool was_on = feasibility_on_;
   feasibility_on_ = n + m > 0 && feasibility_->fit(X, success, ell);
   // Never stricter than 0.8 × the probability of success where nothing is known (the smoothed success rate):
@@ -356,8 +362,11 @@ std::vector<Suggestion> BayesianOptimization::ask(Index q) {
 
 void BayesianOptimization::tell(const std::vector<Observation>& observations) {
   for (const Observation& o : observations) {
+    const bool in_design = told_ < design_.rows();  // results arrive in trial order in a run
     ++told_;
+    design_told_ += in_design;
     if (!o.ok || !std::isfinite(o.cost)) {
+      design_failed_ += in_design;
       // Failed trials inform the failure model only (the cost model has no value for them).
       if (o.x.size() == dim_ && o.x.allFinite()) failed_.push_back(o.x);
       continue;

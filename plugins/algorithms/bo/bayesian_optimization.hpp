@@ -68,6 +68,7 @@ class BayesianOptimization final : public Algorithm {
   Dataset data_;             ///< successful observations
   Index told_ = 0;           ///< all observations, failed included
   std::vector<Vec> failed_;  ///< θ of failed observations (unit cube)
+  Index design_told_ = 0, design_failed_ = 0;  ///< the first design_.rows() observations
   FailureModelSettings failure_settings_;
   std::unique_ptr<FeasibilityModel> feasibility_;
   bool feasibility_on_ = false;  ///< the classifier is fitted and weights the acquisition

@@ -50,8 +50,11 @@ double FeasibilityModel::laplace(const Mat& X, const Vec& y, const Vec& base, co
   kernel_.set_log_params(logp);
   const Mat K = kernel_.matrix(X);
   // Prior mean: P(success) far from the data equals the smoothed success rate, Φ(m/√(1 + σ²)) = p̄.
-  const double successes = (y.array() > 0).cast<double>().sum();
-  const double pbar = (successes + 1.0) / (static_cast<double>(n) + 2.0);
+  double pbar = prior_rate_;
+  if (!(pbar > 0 && pbar < 1)) {
+    const double successes = (y.array() > 0).cast<double>().sum();
+    pbar = (successes + 1.0) / (static_cast<double>(n) + 2.0);
+  }
   const double m = normal_quantile(pbar) * std::sqrt(1.0 + h.signal_std * h.signal_std);
 
   // R&W Algorithm 3.1 on g = f − m, g ~ GP(0, K).

@@ -10,9 +10,11 @@
 // would be somewhat better calibrated but is iterative over sites and needs more code for the same decisions.
 //
 // Hyperparameters: a Matérn-5/2 ARD kernel whose lengthscales are the cost model's times a factor, a signal std,
-// and a constant prior mean m of the latent set from the smoothed success rate p̄ = (s + 1)/(n + 2), so that far
-// from every trial P(success) = p̄ (empirical Bayes). The factor and the signal std are chosen on a small fixed grid
+// and a constant prior mean m of the latent set from a smoothed success rate p̄ = (s + 1)/(n + 2), so that far
+// from every trial P(success) = p̄ (empirical Bayes; BO counts its space-filling initial design only, see
+// bayesian_optimization.cpp). The factor and the signal std are chosen on a small fixed grid
 // by the Laplace approximation of the evidence (R&W eq. 3.32): deterministic, no random restarts.
+#include <limits>
 #include <vector>
 
 #include "kernel.hpp"
@@ -39,6 +41,10 @@ class FeasibilityModel {
   using Hyper = FeasibilityHyper;
 
   explicit FeasibilityModel(Index dim);
+
+  /// The probability of success far from every trial (the prior mean's target); NaN (default) = the smoothed
+  /// success rate (s + 1)/(n + 2) of the labels given to fit().
+  void set_prior_success_rate(double rate) { prior_rate_ = rate; }
 
   /// Fits on points X (rows, unit cube) with labels success[i]. `base_lengthscales` (unit cube, one per
   /// dimension) come from the cost model. When `select` is true the factor and signal std are chosen on the grid
@@ -71,6 +77,7 @@ class FeasibilityModel {
   bool ready_ = false;
   Hyper hyper_;
   double prior_mean_ = 0;
+  double prior_rate_ = std::numeric_limits<double>::quiet_NaN();
   double log_evidence_ = 0;
   kernels::ArdKernel kernel_;
   Mat X_;

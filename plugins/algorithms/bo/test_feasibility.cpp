@@ -67,6 +67,16 @@ TEST_CASE("one failed trial: the Laplace mode and predictive equal the scalar cl
   CHECK(model.probability(vec1(0.4)) < 1.0 / 3.0);  // less likely to succeed at the failure than anywhere else
 }
 
+TEST_CASE("a given prior success rate is the probability far from every trial, for every grid hyperparameter") {
+  for (const FeasibilityModel::Hyper& h : FeasibilityModel::grid()) {
+    FeasibilityModel model(1);
+    model.set_prior_success_rate(0.625);
+    REQUIRE(model.fit(column({0.2, 0.5, 0.6}), {false, true, true}, vec1(0.2), false, h));
+    CHECK(model.prior_probability() == doctest::Approx(0.625).epsilon(1e-9));
+    CHECK(model.probability(vec1(60.0)) == doctest::Approx(0.625).epsilon(1e-9));
+  }
+}
+
 TEST_CASE("separable 1-D data: mode equation, mirror symmetry, monotone probability and its limits") {
   // Failures at x < 0.3, successes at x > 0.7, as many of each: p̄ = 1/2, so m = 0 and mirroring x → 1 − x with
   // the labels swapped must give P(x) = 1 − P(1 − x) exactly.
