@@ -54,11 +54,8 @@ Result run(const Registry& reg, const std::string& task_yaml, int budget, int se
   const RunSummary summary = run_study(s, reg, ov);
   Result r;
   r.failed = static_cast<int>(summary.failed);
-  if (summary.simple_regret) r.regret_best = *summary.simple_regret;
-  // The recommended θ scored on the noiseless function (the task without its failure region knows it).
-  auto task = reg.create<Task>("{" + task_yaml + "}", BuildContext{&reg});
-  if (summary.recommended_theta)
-    if (auto f = task->noiseless_cost(*summary.recommended_theta)) r.regret_recommended = *f - task->optimum()->cost;
+  if (summary.regret_best_observed) r.regret_best = *summary.regret_best_observed;
+  if (summary.regret_recommended) r.regret_recommended = *summary.regret_recommended;
   const auto rows = read_csv_cells(out + "/trials.csv");
   const auto col = [&](const std::string& n) {
     return static_cast<std::size_t>(std::find(rows[0].begin(), rows[0].end(), n) - rows[0].begin());
@@ -73,7 +70,8 @@ Result run(const Registry& reg, const std::string& task_yaml, int budget, int se
 
 /// Share of 200,000 uniform points of the box where the task fails (the region's volume fraction).
 double measured_fraction(const Registry& reg, const std::string& task_yaml) {
-  auto task = reg.create<Task>("{" + task_yaml + "}", BuildContext{&reg});
+  BuildContext ctx;
+  auto task = reg.create<Task>("{" + task_yaml + "}", ctx);
   const Domain d = task->domain();
   Rng rng(12345);
   const int n = 200000;
