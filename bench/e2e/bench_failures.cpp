@@ -2,7 +2,7 @@
 // global optimum (docs/failures.md): failure rate after the initial design and the regret of the recommended and
 // of the best observed point, against the same runs without the failure region. Plain defaults ({type: bo}).
 //
-//   nice -n 10 build/bin/bench_failures [--seeds 10] [--threads 2] [--only branin|hartmann6]
+//   nice -n 10 build/bin/bench_failures [--seeds 10] [--first-seed 1] [--threads 2] [--only branin|hartmann6]
 //
 // Prints a Markdown table (README and docs/failures.md) and each region's measured volume fraction.
 #include <fmt/format.h>
@@ -90,22 +90,24 @@ std::string cell(std::vector<double> v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int seeds = 10, threads = 0;
+  int seeds = 10, first_seed = 1, threads = 0;
   std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--seeds" && i + 1 < argc) seeds = std::atoi(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else if (a == "--first-seed" && i + 1 < argc) first_seed = std::atoi(argv[++i]);
     else if (a == "--only" && i + 1 < argc) only = argv[++i];
     else {
-      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--only branin|hartmann6]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed S] [--threads N] [--only branin|hartmann6]\n", argv[0]);
       return 2;
     }
   }
   set_log_level(LogLevel::Error);
   Registry& reg = default_registry();
   const std::string tmp = (std::filesystem::temp_directory_path() / "varbo_bench_failures").string();
-  std::printf("algorithm: {type: bo} (plain defaults); seeds 1-%d; threads %d\n\n", seeds, threads);
+  std::printf("algorithm: {type: bo} (plain defaults); seeds %d-%d; threads %d\n\n", first_seed, first_seed + seeds - 1,
+              threads);
   std::printf("| problem (budget) | failure region (measured volume) | failed after the design: median [q1, q3] (pooled) "
               "| regret of the recommended θ, with failures | without | ratio of medians | best-observed regret, with "
               "| without |\n|---|---|---|---|---|---|---|---|\n");
@@ -117,7 +119,7 @@ int main(int argc, char** argv) {
     const std::string failing = p.task + ", failure_region: " + p.failure_region;
     std::vector<double> rate, rec_with, rec_without, best_with, best_without;
     int failed_pooled = 0, after_pooled = 0;
-    for (int seed = 1; seed <= seeds; ++seed) {
+    for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
       const Result w = run(reg, failing, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, lower, seed));
       const Result o = run(reg, p.task, p.budget, seed, threads, fmt::format("{}/{}_o_{}", tmp, lower, seed));
       rate.push_back(static_cast<double>(w.failed_after_design) / std::max(1, w.after_design));
