@@ -100,6 +100,8 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   nlohmann::json j;
   j["evaluations"] = s.evaluations;
   j["failed"] = s.failed;
+  // Share of the trials that failed (no cost): on a robot, how often it fell; 0 before any trial.
+  j["failure_rate"] = s.evaluations > 0 ? static_cast<double>(s.failed) / static_cast<double>(s.evaluations) : 0.0;
   j["parameter_names"] = domain.names;
   if (s.best_theta) {
     j["best_theta"] = vec_json(*s.best_theta);

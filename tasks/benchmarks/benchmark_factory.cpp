@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "benchmark_task.hpp"
+#include "failure_region.hpp"
 
 namespace varbo::tasks {
 
@@ -14,6 +15,9 @@ std::vector<OptionSpec> benchmark_options(const BenchmarkSpec& spec) {
   o.push_back(opt::reals("bounds", "",
                          "[lo, hi] applied to every dimension, replacing the standard domain (optional)"));
   o.push_back(opt::real("noise_std", 0.0, "std of additive Gaussian noise on the cost").at_least(0));
+  o.push_back(opt::node("failure_region", "",
+                        "trials inside fail (no cost), for testing failure handling: {shape: ball, center: [...], "
+                        "radius: r} or {shape: box, lower: [...], upper: [...]}, in fractions of the box"));
   return o;
 }
 
@@ -27,7 +31,9 @@ std::unique_ptr<Task> make_benchmark_task(const BenchmarkSpec& spec, const Optio
                                               b.size() == 2 ? fmt::format(" [{}, {}]", b[0], b[1]) : ""));
     box = Box{Vec::Constant(dim, b[0]), Vec::Constant(dim, b[1])};
   }
-  return std::make_unique<BenchmarkTask>(spec, dim, std::move(box), options.real("noise_std"));
+  auto task = std::make_unique<BenchmarkTask>(spec, dim, std::move(box), options.real("noise_std"));
+  task->set_failure_region(parse_failure_region(options, dim));
+  return task;
 }
 
 }  // namespace varbo::tasks

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "varbo/math.hpp"
+
 namespace varbo::tasks {
 
 BenchmarkTask::BenchmarkTask(const BenchmarkSpec& spec, Index dim, Box box, double noise_std)
@@ -28,6 +30,11 @@ Evaluation BenchmarkTask::evaluate(const Vec& theta, Rng& rng) {
   if (theta.size() != dim_) {
     e.ok = false;
     e.error = spec_.name + ": expected " + std::to_string(dim_) + " parameters, got " + std::to_string(theta.size());
+    return e;
+  }
+  if (failure_region_ && failure_region_->contains(to_unit(theta, box_))) {
+    e.ok = false;
+    e.error = spec_.name + ": θ in the failure region (" + failure_region_->describe() + ")";
     return e;
   }
   e.cost = spec_.f(theta);

@@ -1,6 +1,9 @@
 #pragma once
 // A Task wrapping one benchmark function: a box domain, optional additive Gaussian noise, known optimum.
+#include <optional>
+
 #include "benchmark_functions.hpp"
+#include "failure_region.hpp"
 #include "varbo/task.hpp"
 
 namespace varbo::tasks {
@@ -17,6 +20,9 @@ class BenchmarkTask : public Task {
   /// optimum is unknown (nullopt), because f* would no longer be the minimum over the domain.
   std::optional<Optimum> optimum() const override;
 
+  /// Trials with θ inside `region` (fractions of the box) fail; nullopt = none.
+  void set_failure_region(std::optional<FailureRegion> region) { failure_region_ = std::move(region); }
+
   /// The noiseless value.
   double value(const Vec& theta) const { return spec_.f(theta); }
   std::optional<double> noiseless_cost(const Vec& theta) const override {
@@ -29,6 +35,7 @@ class BenchmarkTask : public Task {
   Index dim_;
   Box box_;
   double noise_std_;
+  std::optional<FailureRegion> failure_region_;
 };
 
 }  // namespace varbo::tasks

@@ -7,6 +7,7 @@
 #include "benchmark_factory.hpp"
 #include "benchmark_task.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/math.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -194,5 +195,43 @@ TEST_CASE("benchmark tasks through the registry: options") {
       CHECK(std::string(e.what()).find("lo < hi") != std::string::npos);
       CHECK(std::string(e.what()).find("bounds") != std::string::npos);
     }
+  }
+}
+
+TEST_CASE("failure_region: trials inside fail with no cost, outside are unchanged; its volume; bad regions") {
+  Registry& reg = test::registry();
+  BuildContext ctx;
+  // The disc of the failure benchmark (docs/failures.md): area π·0.31² of the square, entirely inside it.
+  auto t = reg.create<Task>("{type: branin, failure_region: {shape: ball, center: [0.5, 0.5], radius: 0.31}}", ctx);
+  const Box box = t->domain().box;
+  Rng rng(3);
+  const int n = 100000;
+  int failed = 0;
+  for (int i = 0; i < n; ++i) {
+    const Vec u = rng.uniform_vec(2);
+    Rng trial(1);
+    const Evaluation e = t->evaluate(from_unit(u, box), trial);
+    const bool inside = (u - Vec::Constant(2, 0.5)).norm() < 0.31;
+    CHECK(e.ok == !inside);
+    if (!e.ok) {
+      ++failed;
+      CHECK(e.error.find("failure region") != std::string::npos);
+    } else {
+      CHECK(e.cost == t->noiseless_cost(from_unit(u, box)).value());
+    }
+  }
+  // Binomial standard error √(p(1 − p)/n) ≈ 0.0015: 5 of them.
+  CHECK(std::abs(static_cast<double>(failed) / n - std::numbers::pi * 0.31 * 0.31) < 0.0075);
+  // A slab x6 > 0.7 of Hartmann-6 holds the point with x6 = 0.71 and not the minimizer (x6 = 0.657).
+  auto h = reg.create<Task>("{type: hartmann6, failure_region: {shape: box, lower: [0, 0, 0, 0, 0, 0.7], upper: [1, 1, 1, 1, 1, 1]}}", ctx);
+  Rng r2(1);
+  CHECK(h->evaluate(h->optimum()->thetas[0], r2).ok);
+  CHECK(!h->evaluate(vec({0.2, 0.15, 0.48, 0.28, 0.31, 0.71}), r2).ok);
+  for (const char* bad : {"{type: branin, failure_region: {shape: ball, center: [0.5], radius: 0.3}}",
+                          "{type: branin, failure_region: {shape: ball, center: [0.5, 0.5]}}",
+                          "{type: branin, failure_region: {shape: box, lower: [0, 0], upper: [0, 1]}}",
+                          "{type: branin, failure_region: {shape: cube}}", "{type: branin, failure_region: 1}"}) {
+    CAPTURE(bad);
+    CHECK_THROWS_AS(reg.create<Task>(bad, ctx), ConfigError);
   }
 }

@@ -61,6 +61,10 @@ std::vector<OptionSpec> options() {
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
                 "randomize: true}}]; the last phase continues until the budget is spent"),
+      opt::node("failure_model", "",
+                "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
+                "0.5}; the acquisition is weighted by P(success | θ) from a GP classifier of successes and failures "
+                "and θ with P < min_probability are never suggested (docs/failures.md)"),
   };
 }
 
@@ -82,6 +86,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   const long ip = o.integer("initial_points");
   initial_points_ = ip >= 0 ? ip : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
+  failure_settings_ = parse_failure_model(o, &r);
+  feasibility_ = std::make_unique<FeasibilityModel>(dim_);
 
   if (o.is_set("phases")) {
     ConfigNode list = o.node("phases");
@@ -151,6 +157,55 @@ Vec BayesianOptimization::random_point(Rng& rng) const {
   return m.row(0).transpose();
 }
 
+bool BayesianOptimization::update_feasibility(Index k, bool refit) {
+  if (!failure_settings_.active(static_cast<Index>(failed_.size()))) return feasibility_on_ = false;
+  if (!refit && feasibility_on_) return true;
+  // Successes (the real data, not batch fantasies) and failures, in one design matrix.
+  const Index n = data_.size(), m = static_cast<Index>(failed_.size());
+  Mat X(n + m, dim_);
+  std::vector<bool> success(static_cast<std::size_t>(n + m), true);
+  if (n > 0) X.topRows(n) = data_.X;
+  for (Index i = 0; i < m; ++i) {
+    X.row(n + i) = failed_[static_cast<std::size_t>(i)].transpose();
+    success[static_cast<std::size_t>(n + i)] = false;
+  }
+  const Vec ell = cost_lengthscales(model_ready_ ? surrogate_->hyperparameters() : Hyperparameters{}, dim_);
+  // P(success) where nothing is known = the smoothed success rate of the initial design: a space-filling sample
+  // of the domain estimates the feasible share of it, while later trials are concentrated by the optimizer where
+  // it is good (and feasible), so counting them would make unexplored regions look safer than they are.
+  if (design_told_ > 0)
+    feasibility_->set_prior_success_rate((static_cast<double>(design_told_ - design_failed_) + 1.0) /
+                                         (static_cast<double>(design_told_) + 2.0));
+  const bool was_on = feasibility_on_;
+  feasibility_on_ = n + m > 0 && feasibility_->fit(X, success, ell);
+  // Never stricter than 0.8 × the probability of success where nothing is known (the smoothed success rate):
+  // in a study where most trials fail, unexplored regions stay open while failed neighbourhoods are excluded.
+  if (feasibility_on_)
+    exclusion_threshold_ = std::min(failure_settings_.min_probability, 0.8 * feasibility_->prior_probability());
+  if (!feasibility_on_) {
+    log_warn("bo: trial {}: the failure model could not be fitted; failed trials are ignored this time", k);
+  } else if (!was_on) {
+    log_info("bo: trial {}: {} of {} trials failed; weighting the acquisition by P(success)", k, m, n + m);
+  }
+  return feasibility_on_;
+}
+
+Vec BayesianOptimization::random_point_avoiding_failures(Rng& rng) const {
+  if (!feasibility_on_) return random_point(rng);
+  Vec best;
+  double best_p = -1;
+  for (int i = 0; i < 64; ++i) {
+    Vec x = random_point(rng);
+    const double p = feasibility_->probability(x);
+    if (p >= exclusion_threshold_) return x;
+    if (p > best_p) {
+      best_p = p;
+      best = std::move(x);
+    }
+  }
+  return best;
+}
+
 void BayesianOptimization::fit_model(Index k, const Dataset& data) {
   Rng frng = rng_.stream(kFit, static_cast<std::uint64_t>(k));
   const FitReport rep =
@@ -193,13 +248,15 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const auto uk = static_cast<std::uint64_t>(k);
   if (phase.random) {
     Rng rr = rng_.stream(kRandom, uk);
-    s.x = random_point(rr);
+    update_feasibility(k, refit);
+    s.x = random_point_avoiding_failures(rr);
     s.phase = "random";
     return s;
   }
   if (data.size() < 2) {
     Rng rr = rng_.stream(kRandom, uk);
-    s.x = random_point(rr);
+    update_feasibility(k, refit);
+    s.x = random_point_avoiding_failures(rr);
     s.phase = "random";
     log_info("bo: fewer than 2 successful trials; choosing trial {} at random", k);
     return s;
@@ -214,7 +271,8 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   s.fit_seconds = seconds_since(t_fit);
   if (!model_ready_) {
     Rng rr = rng_.stream(kRandom, uk);
-    s.x = random_point(rr);
+    update_feasibility(k, refit);
+    s.x = random_point_avoiding_failures(rr);
     s.phase = "random";
     log_warn("bo: no usable model at trial {}; choosing at random", k);
     return s;
@@ -234,9 +292,10 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       }
     }
   }
+  const bool weighted = update_feasibility(k, refit);
   Rng erng = rng_.stream(kEpsilon, uk);
   if (phase.epsilon > 0 && erng.uniform() < phase.epsilon) {
-    s.x = random_point(erng);
+    s.x = random_point_avoiding_failures(erng);
     s.phase = "epsilon";
     s.acquisition_seconds = seconds_since(t_acq);
     return s;
@@ -244,19 +303,34 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   Rng arng = rng_.stream(kAcquisition, uk);
   AcquisitionContext actx{surrogate_.get(), &data, k, &arng};
   phase.acquisition->prepare(actx);
-  AcquisitionFunction f(*phase.acquisition, dim_);
+  // With failures seen, maximize the acquisition weighted by P(success) (failure_aware.hpp).
+  std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
+  if (weighted)
+    feasible = std::make_unique<FeasibilityWeightedAcquisition>(
+        *phase.acquisition, *feasibility_, failure_utility(*phase.acquisition, data_.X),
+        exclusion_threshold_);
+  const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : *phase.acquisition;
+  AcquisitionFunction f(acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
   OptimizeResult res = optimizer_->maximize(f, *region_, starts_near(region_->seeds(), orng), orng);
   s.acquisition_seconds = seconds_since(t_acq);
   if (res.x.size() != dim_ || !res.x.allFinite()) {
     log_warn("bo: acquisition optimization found no point at trial {} ({}); choosing at random", k, res.message);
-    s.x = random_point(orng);
+    s.x = random_point_avoiding_failures(orng);
+    s.phase = "random";
+    return s;
+  }
+  if (feasible && feasibility_->probability(Box::unit(dim_).clamp(res.x)) < exclusion_threshold_) {
+    // Every start ended where failure is likely: never suggest it; a random point where success is likely.
+    log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < min_probability; choosing at random",
+             k, feasibility_->probability(Box::unit(dim_).clamp(res.x)));
+    s.x = random_point_avoiding_failures(orng);
     s.phase = "random";
     return s;
   }
   s.x = Box::unit(dim_).clamp(res.x);
   s.phase = phase.name;
-  log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, phase.acquisition->state());
+  log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
   return s;
 }
 
@@ -299,8 +373,15 @@ std::vector<Suggestion> BayesianOptimization::ask(Index q) {
 
 void BayesianOptimization::tell(const std::vector<Observation>& observations) {
   for (const Observation& o : observations) {
+    const bool in_design = told_ < design_.rows();  // results arrive in trial order in a run
     ++told_;
-    if (!o.ok || !std::isfinite(o.cost)) continue;  // failed trials inform no model
+    design_told_ += in_design;
+    if (!o.ok || !std::isfinite(o.cost)) {
+      design_failed_ += in_design;
+      // Failed trials inform the failure model only (the cost model has no value for them).
+      if (o.x.size() == dim_ && o.x.allFinite()) failed_.push_back(o.x);
+      continue;
+    }
     if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));
     data_.add(o.x, o.cost);
   }

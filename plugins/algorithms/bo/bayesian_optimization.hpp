@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "failure_aware.hpp"
 #include "recommender.hpp"
 #include "varbo/registry.hpp"
 
@@ -44,6 +45,12 @@ class BayesianOptimization final : public Algorithm {
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have
+  /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
+  /// yet fitted); true when the acquisition is to be weighted.
+  bool update_feasibility(Index evaluation, bool refit);
+  /// A random point; with the failure model on, the first of up to 64 draws with P(success) ≥ min_probability
+  /// (else the likeliest draw), so random and ε-random trials avoid known failure regions too.
+  Vec random_point_avoiding_failures(Rng& rng) const;
 
   enum class BatchStrategy { KrigingBeliever, ConstantLiarMin, ConstantLiarMean };
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
@@ -63,6 +70,12 @@ class BayesianOptimization final : public Algorithm {
   Mat design_;
   Dataset data_;             ///< successful observations
   Index told_ = 0;           ///< all observations, failed included
+  std::vector<Vec> failed_;  ///< θ of failed observations (unit cube)
+  Index design_told_ = 0, design_failed_ = 0;  ///< the first design_.rows() observations
+  FailureModelSettings failure_settings_;
+  std::unique_ptr<FeasibilityModel> feasibility_;
+  bool feasibility_on_ = false;  ///< the classifier is fitted and weights the acquisition
+  double exclusion_threshold_ = 0;  ///< θ with P(success) below it are never suggested
   Index fits_ = 0;
   bool model_ready_ = false;
   ModelSnapshot snapshot_;

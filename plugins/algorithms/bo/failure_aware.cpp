@@ -1,0 +1,82 @@
+#include "failure_aware.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "varbo/errors.hpp"
+
+namespace varbo::bo {
+
+std::vector<OptionSpec> failure_model_options() {
+  return {
+      opt::choice("enabled", "auto", {"auto", "on", "off"},
+                  "weight the acquisition by P(success | θ) from a GP classifier of the trials: auto = from the "
+                  "first failed trial on (a run without failures is unchanged), on = always, off = failed trials "
+                  "are ignored"),
+      opt::real("min_probability", 0.5,
+                "never suggest a θ whose modelled probability of success is below this, or below 0.8 × the "
+                "success rate where nothing is known if that is lower (a failed θ and its neighbourhood are excluded "
+                "until successes nearby say success is likely there)")
+          .at_least(0)
+          .below(1),
+  };
+}
+
+FailureModelSettings parse_failure_model(const Options& o, const Registry* registry) {
+  FailureModelSettings s;
+  if (!o.is_set("failure_model")) return s;
+  const ConfigNode node = o.node("failure_model");
+  if (!node.is_map()) node.fail("expected a map: {enabled: auto|on|off, min_probability: p}");
+  const Options fo = validate_options(node, failure_model_options(), "failure_model", registry, {});
+  const std::string e = fo.str("enabled");
+  s.enabled = e == "on"    ? FailureModelSettings::Enabled::On
+              : e == "off" ? FailureModelSettings::Enabled::Off
+                           : FailureModelSettings::Enabled::Auto;
+  s.min_probability = fo.real("min_probability");
+  return s;
+}
+
+Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double fallback) {
+  Vec ell = Vec::Constant(dim, fallback);
+  for (Index d = 0; d < dim; ++d) {
+    // fmt, not "[" + to_string: GCC 12 -Wrestrict false positive.
+    const std::string gp_name = fmt::format("lengthscale[{}]", d), vhgp_name = fmt::format("lengthscale_f[{}]", d);
+    for (const Hyperparameter& h : hyperparameters)
+      if ((h.name == gp_name || h.name == vhgp_name) && std::isfinite(h.value) && h.value > 0)
+        ell(d) = h.value;
+  }
+  return ell.cwiseMax(0.01).cwiseMin(10.0);
+}
+
+double failure_utility(const Acquisition& base, const Mat& X) {
+  double u = 0;
+  for (Index i = 0; i < X.rows(); ++i) {
+    const double v = base.evaluate(X.row(i).transpose(), nullptr);
+    if (std::isfinite(v)) u = std::min(u, v);
+  }
+  return u;
+}
+
+double FeasibilityWeightedAcquisition::evaluate(const Vec& x, Vec* grad) const {
+  Vec dp;
+  const double p = model_.probability(x, grad ? &dp : nullptr);
+  if (p < p_min_) {
+    // Excluded: below every allowed point, rising towards the allowed set.
+    if (grad) *grad = dp;
+    return -(p_min_ - p);
+  }
+  Vec du;
+  const double u = base_.evaluate(x, grad ? &du : nullptr);
+  if (grad) *grad = p * du + (u - u_fail_) * dp;
+  return p * (u - u_fail_);
+}
+
+std::string FeasibilityWeightedAcquisition::state() const {
+  const auto& h = model_.hyper();
+  return fmt::format("{} | feasibility: u_fail {:.3g}, min P {:.3g}, lengthscale ×{:g}, signal std {:g}, prior mean {:.3g}",
+                     base_.state(), u_fail_, p_min_, h.lengthscale_factor, h.signal_std, model_.prior_mean());
+}
+
+}  // namespace varbo::bo

@@ -1,0 +1,67 @@
+#pragma once
+// Failure-aware acquisition: the acquisition weighted by the probability that a trial succeeds, as in the
+// unknown-constraint handling of Gelbart, Snoek & Adams 2014 ("Bayesian optimization with unknown constraints",
+// eq. 2: EI × P(feasible)) and Gardner et al. 2014, used by BayesOpt and Ax.
+//
+// The weighting is the expected utility of a trial that fails with probability 1 − P and then yields the utility
+// u_fail of a failure:  E[u] = P·u(x) + (1 − P)·u_fail = u_fail + P·(u(x) − u_fail).  Maximizing it is maximizing
+// P·(u(x) − u_fail). For improvement-based utilities (EI, PI, ERI: u ≥ 0, and a failure improves nothing)
+// u_fail = 0 and this is exactly EI × P. For utilities that can be negative (cb: u = −(μ + κσ)) the product
+// u × P would *prefer* likely failures wherever u < 0; with u_fail = the lowest utility at the evaluated points
+// (a failure is worth no more than the worst trial seen) the weight again only rewards a likely success. The
+// rule used, u_fail = min(0, min_i u(x_i)), gives both cases without knowing which acquisition is plugged in.
+//
+// Points where P < min_probability are excluded: their value is −(min_probability − P) < 0, below every allowed
+// point, with the gradient of P, so a local optimizer started there climbs out towards likely success.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "feasibility_model.hpp"
+#include "varbo/acquisition.hpp"
+#include "varbo/options.hpp"
+
+namespace varbo::bo {
+
+struct FailureModelSettings {
+  enum class Enabled { Auto, On, Off };
+  Enabled enabled = Enabled::Auto;  ///< auto: on from the first failed trial
+  double min_probability = 0.5;
+  /// Active for a run with `failures` failed trials so far.
+  bool active(Index failures) const {
+    return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);
+  }
+};
+
+/// The keys of `bo.failure_model` (one declaration: validation, defaults, --describe).
+std::vector<OptionSpec> failure_model_options();
+/// Reads `bo.failure_model` (a map, validated) or the defaults when absent.
+FailureModelSettings parse_failure_model(const Options& bo_options, const Registry* registry);
+
+/// The cost model's lengthscales in the unit cube ("lengthscale[d]" of gp, "lengthscale_f[d]" of vhgp), clipped
+/// to [0.01, 10]; `fallback` for a dimension the surrogate does not name.
+Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double fallback = 0.2);
+
+/// u_fail = min(0, min_i u(x_i)) over the rows of X (see above).
+double failure_utility(const Acquisition& base, const Mat& X);
+
+/// α̃(x) = P(x)·(u(x) − u_fail) where P(x) ≥ min_probability, −(min_probability − P(x)) elsewhere.
+/// `base` must be prepared; both references must outlive this object.
+class FeasibilityWeightedAcquisition final : public Acquisition {
+ public:
+  FeasibilityWeightedAcquisition(const Acquisition& base, const FeasibilityModel& model, double failure_utility,
+                                 double min_probability)
+      : base_(base), model_(model), u_fail_(failure_utility), p_min_(min_probability) {}
+  void prepare(const AcquisitionContext&) override {}  // the base is prepared by the caller
+  double evaluate(const Vec& x, Vec* grad) const override;
+  bool has_gradient() const override { return base_.has_gradient(); }
+  std::string state() const override;
+
+ private:
+  const Acquisition& base_;
+  const FeasibilityModel& model_;
+  double u_fail_;
+  double p_min_;
+};
+
+}  // namespace varbo::bo

@@ -1,0 +1,218 @@
+// Failure-aware BO (failure_aware.hpp): the weighted acquisition's gradient, the failure utility, and whole
+// runs — the repeated-failure regression of issue 11 (a task failing when x1 < 0.25, in-process and through the
+// study API as the CLI's suggest → fail cycle uses it), no change without failures, 1 vs 2 threads.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "failure_aware.hpp"
+#include "study_helpers.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/function.hpp"
+#include "varbo/math.hpp"
+#include "varbo/study_api.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+// Styblinski–Tang on [−5, 5]² failing where x1 is in the lowest quarter of its range (x1 < −2.5): the global
+// minimizer (−2.90, −2.90) lies inside, so a model that ignores failures keeps being drawn there.
+const char* kFailingTask = "{type: styblinski_tang, failure_region: {shape: box, lower: [0, 0], upper: [0.25, 1]}}";
+const Box kFailingBox{Vec{{-5.0, -5.0}}, Vec{{5.0, 5.0}}};
+const Box kBraninBox{Vec{{-5.0, 0.0}}, Vec{{10.0, 15.0}}};
+
+struct Trial {
+  Vec u;  ///< unit cube
+  bool ok;
+  std::string phase;
+};
+
+std::vector<Trial> read_trials(const std::string& folder, const Box& box) {
+  const auto rows = test::read_rows(folder + "/trials.csv");
+  const int x1 = test::column_of(rows[0], "x1"), x2 = test::column_of(rows[0], "x2");
+  const int ok = test::column_of(rows[0], "ok"), phase = test::column_of(rows[0], "phase");
+  REQUIRE(x1 >= 0);
+  REQUIRE(ok >= 0);
+  std::vector<Trial> out;
+  for (std::size_t r = 1; r < rows.size(); ++r) {
+    Vec theta{{std::stod(rows[r][static_cast<std::size_t>(x1)]), std::stod(rows[r][static_cast<std::size_t>(x2)])}};
+    out.push_back({to_unit(theta, box), rows[r][static_cast<std::size_t>(ok)] == "1",
+                   rows[r][static_cast<std::size_t>(phase)]});
+  }
+  return out;
+}
+
+std::vector<Trial> run(const std::string& name, const std::string& task, const Box& box, const std::string& algorithm,
+                       int budget, int threads) {
+  RunOverrides ov;
+  ov.output = test::temp_folder("failure_aware_" + name);
+  ov.threads = threads;
+  test::run_yaml("task: " + task + "\nbudget: " + std::to_string(budget) + "\nseed: 3\nalgorithm: " + algorithm + "\n",
+                 test::registry(), ov);
+  return read_trials(*ov.output, box);
+}
+
+/// Smallest distance from a failed trial to any earlier trial (unit cube): 0 for an exact repeat.
+double closest_repeat_of_failure(const std::vector<Trial>& t) {
+  double d = INFINITY;
+  for (std::size_t i = 0; i < t.size(); ++i)
+    if (!t[i].ok)
+      for (std::size_t j = 0; j < i; ++j) d = std::min(d, (t[i].u - t[j].u).norm());
+  return d;
+}
+
+Dataset branin_data(const std::vector<Vec>& points) {
+  Dataset d = Dataset::empty(2);
+  for (const Vec& u : points) {
+    const Vec x = from_unit(u, kBraninBox);
+    const double a = x(1) - 5.1 / (4 * M_PI * M_PI) * x(0) * x(0) + 5 / M_PI * x(0) - 6;
+    d.add(u, a * a + 10 * (1 - 1 / (8 * M_PI)) * std::cos(x(0)) + 10);
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("the feasibility-weighted acquisition's gradient matches central differences (ei and cb)") {
+  Registry& reg = test::registry();
+  BuildContext ctx;
+  ctx.registry = &reg;
+  ctx.dim = 2;
+  Rng rng(5);
+  std::vector<Vec> pts;
+  for (int i = 0; i < 10; ++i) pts.push_back(rng.uniform_vec(2));
+  const Dataset data = branin_data(pts);
+  auto gp = reg.create<Surrogate>("{type: gp}", ctx);
+  Rng frng(1);
+  REQUIRE(gp->fit(data, frng).ok);
+  // Successes at the data, failures on a 3 × 3 grid in the corner [0.05, 0.25]², so both the allowed and the
+  // excluded (P < 0.2) sides are sampled below.
+  Mat X(19, 2);
+  X.topRows(10) = data.X;
+  std::vector<bool> ok(19, true);
+  for (int i = 0; i < 9; ++i) {
+    X.row(10 + i) << 0.05 + 0.1 * (i % 3), 0.05 + 0.1 * (i / 3);
+    ok[static_cast<std::size_t>(10 + i)] = false;
+  }
+  bo::FeasibilityModel model(2);
+  REQUIRE(model.fit(X, ok, bo::cost_lengthscales(gp->hyperparameters(), 2)));
+  for (const char* yaml : {"{type: ei}", "{type: cb, kappa: 1}", "{type: cb, kappa: -2}"}) {
+    auto acq = reg.create<Acquisition>(yaml, ctx);
+    Rng arng(2);
+    acq->prepare({gp.get(), &data, 10, &arng});
+    const double u_fail = bo::failure_utility(*acq, data.X);
+    if (std::string(yaml) == "{type: ei}") CHECK(u_fail == 0.0);  // EI ≥ 0: a failure improves nothing
+    else CHECK(u_fail < 0.0);                                      // cb = −(μ + κσ) is negative on Branin's data
+    bo::FeasibilityWeightedAcquisition w(*acq, model, u_fail, 0.2);
+    FunctionRef f(2, [&](const Vec& x, Vec* g) { return w.evaluate(x, g); });
+    int allowed = 0, excluded = 0;
+    for (int t = 0; t < 40; ++t) {
+      const Vec x = rng.uniform_vec(2);
+      const double p = model.probability(x);
+      if (std::abs(p - 0.2) < 1e-3) continue;  // the kink at min_probability
+      const GradientCheck c = check_gradient(f, x, 1e-6, 1e-8);
+      CAPTURE(yaml);
+      CAPTURE(p);
+      CHECK(c.max_rel_error < 1e-5);
+      (p >= 0.2 ? allowed : excluded)++;
+      if (p >= 0.2) {
+        CHECK(w.evaluate(x, nullptr) >= -1e-12);  // allowed points never score below excluded ones
+      } else {
+        CHECK(w.evaluate(x, nullptr) < 0.0);
+      }
+    }
+    CHECK(allowed > 0);
+    CHECK(excluded > 0);
+  }
+}
+
+TEST_CASE("issue 11 regression: BO leaves a failure region instead of repeating the failing θ") {
+  // 6 initial points + 18 BO trials, as in the audit (there all 18 failed at one θ).
+  const std::vector<Trial> t = run("x1_quarter", kFailingTask, kFailingBox, "{type: bo}", 24, 2);
+  REQUIRE(t.size() == 24);
+  int failed_after_design = 0, failed_last_half = 0;
+  for (std::size_t i = 6; i < t.size(); ++i) {
+    failed_after_design += !t[i].ok;
+    failed_last_half += i >= 15 && !t[i].ok;
+  }
+  const double repeat = closest_repeat_of_failure(t);
+  std::printf("x1 < 0.25 task: %d of 18 BO trials failed (%d of the last 9); closest repeat of a failure %.3g\n",
+              failed_after_design, failed_last_half, repeat);
+  CHECK(repeat > 0.02);             // no failed θ is a repeat (the audit: 18 at one θ)
+  CHECK(failed_after_design <= 4);  // it leaves the failure region
+  CHECK(failed_last_half == 0);
+
+  // The same run ignoring failures (the behaviour before) does repeat: the test can tell the difference.
+  const std::vector<Trial> off = run("x1_quarter_off", kFailingTask, kFailingBox, "{type: bo, failure_model: {enabled: off}}", 24, 2);
+  int off_failed = 0;
+  for (std::size_t i = 6; i < off.size(); ++i) off_failed += !off[i].ok;
+  std::printf("  with failure_model off: %d of 18 BO trials failed; closest repeat %.3g\n", off_failed,
+              closest_repeat_of_failure(off));
+  CHECK(off_failed > failed_after_design);
+}
+
+TEST_CASE("issue 11 regression: suggest → fail cycles through the study API give distinct points") {
+  // What `varbo suggest` / `varbo fail` do: each cycle opens the study afresh (replaying it) and fails the
+  // suggested trial. The design's 6 points are observed; then every suggestion fails.
+  const std::string folder = test::temp_folder("failure_aware_study");
+  const std::string store = folder + "/s.db";
+  const StudyConfig cfg = parse_study(
+      ConfigNode::parse("task: {type: branin}\nbudget: 30\nseed: 3\nalgorithm: {type: bo}\n", "<test>"),
+      test::registry());
+  {
+    Study s = Study::attach(store, cfg, test::registry());
+    for (int i = 0; i < 6; ++i) {
+      const TrialRecord r = s.ask().at(0);
+      Rng rng(static_cast<std::uint64_t>(i));
+      s.tell(r.id, s.task().evaluate(r.theta, rng).cost);
+    }
+  }
+  std::vector<Vec> failed;
+  for (int cycle = 0; cycle < 6; ++cycle) {
+    Study s = Study::attach(store, cfg, test::registry());
+    const TrialRecord r = s.ask().at(0);
+    failed.push_back(r.x);
+    s.fail(r.id, "the robot fell");
+  }
+  double closest = INFINITY;
+  for (std::size_t i = 0; i < failed.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j) closest = std::min(closest, (failed[i] - failed[j]).norm());
+  std::printf("study API: 6 failed suggestions, closest pair %.3g apart (unit cube)\n", closest);
+  CHECK(closest > 0.02);  // the audit: 5 points within 2e-5
+}
+
+TEST_CASE("without failures the failure model changes nothing; with failures, 1 and 2 threads agree") {
+  const std::vector<Trial> plain = run("plain", "{type: branin}", kBraninBox, "{type: bo}", 14, 2);
+  const std::vector<Trial> off = run("plain_off", "{type: branin}", kBraninBox, "{type: bo, failure_model: {enabled: off}}", 14, 2);
+  REQUIRE(plain.size() == off.size());
+  for (std::size_t i = 0; i < plain.size(); ++i) CHECK((plain[i].u - off[i].u).norm() == 0.0);
+
+  const std::vector<Trial> one = run("threads1", kFailingTask, kFailingBox, "{type: bo}", 16, 1);
+  const std::vector<Trial> two = run("threads2", kFailingTask, kFailingBox, "{type: bo}", 16, 2);
+  REQUIRE(one.size() == two.size());
+  int failures = 0;
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    CHECK((one[i].u - two[i].u).norm() == 0.0);
+    CHECK(one[i].ok == two[i].ok);
+    failures += !one[i].ok;
+  }
+  CHECK(failures > 0);  // the failure model was in use
+}
+
+TEST_CASE("failure_model options are validated") {
+  const char* bad[] = {"{type: bo, failure_model: {enabled: maybe}}", "{type: bo, failure_model: {min_probability: 1}}",
+                       "{type: bo, failure_model: {min_prob: 0.1}}", "{type: bo, failure_model: 3}"};
+  BuildContext ctx;
+  ctx.registry = &test::registry();
+  ctx.dim = 2;
+  ctx.budget = 10;
+  for (const char* a : bad) {
+    CAPTURE(a);
+    CHECK_THROWS_AS(test::registry().create<Algorithm>(a, ctx), ConfigError);
+  }
+  CHECK_NOTHROW(test::registry().create<Algorithm>("{type: bo, failure_model: {enabled: on, min_probability: 0.05}}", ctx));
+}

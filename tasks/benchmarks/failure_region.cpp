@@ -1,0 +1,56 @@
+#include "failure_region.hpp"
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+namespace varbo::tasks {
+
+bool FailureRegion::contains(const Vec& u) const {
+  if (shape == Shape::Ball) return (u - center).norm() < radius;
+  return (u.array() > lower.array()).all() && (u.array() < upper.array()).all();
+}
+
+std::string FailureRegion::describe() const {
+  auto v = [](const Vec& x) { return fmt::format("[{}]", fmt::join(x.data(), x.data() + x.size(), ", ")); };
+  if (shape == Shape::Ball) return fmt::format("ball centre {} radius {} (box fractions)", v(center), radius);
+  return fmt::format("box {} to {} (box fractions)", v(lower), v(upper));
+}
+
+std::vector<OptionSpec> failure_region_options() {
+  return {
+      opt::choice("shape", "ball", {"ball", "box"}, "ball: |u − center| < radius; box: lower < u < upper"),
+      opt::reals("center", "", "ball centre, one fraction of the box per dimension"),
+      opt::real("radius", 0.0, "ball radius in box fractions (Euclidean)").at_least(0),
+      opt::reals("lower", "", "box: lower corner, one fraction per dimension"),
+      opt::reals("upper", "", "box: upper corner, one fraction per dimension"),
+  };
+}
+
+std::optional<FailureRegion> parse_failure_region(const Options& o, Index dim) {
+  if (!o.is_set("failure_region")) return std::nullopt;
+  const ConfigNode node = o.node("failure_region");
+  if (!node.is_map()) node.fail("expected a map: {shape: ball, center: [...], radius: r} or {shape: box, lower: [...], upper: [...]}");
+  const Options fo = validate_options(node, failure_region_options(), "failure_region", nullptr, {});
+  auto vec = [&](const char* key) {
+    if (!fo.is_set(key)) node.fail(fmt::format("failure_region of shape {} needs '{}'", fo.str("shape"), key));
+    const std::vector<double> v = fo.reals(key);
+    if (static_cast<Index>(v.size()) != dim)
+      fo.node(key).fail(fmt::format("expected {} values (one per dimension), got {}", dim, v.size()));
+    return Vec(Eigen::Map<const Vec>(v.data(), dim));
+  };
+  FailureRegion r;
+  if (fo.str("shape") == "ball") {
+    r.shape = FailureRegion::Shape::Ball;
+    r.center = vec("center");
+    r.radius = fo.real("radius");
+    if (!(r.radius > 0)) node.fail("failure_region: a ball needs radius > 0");
+  } else {
+    r.shape = FailureRegion::Shape::Box;
+    r.lower = vec("lower");
+    r.upper = vec("upper");
+    if (!(r.lower.array() < r.upper.array()).all()) fo.node("upper").fail("expected upper > lower in every dimension");
+  }
+  return r;
+}
+
+}  // namespace varbo::tasks
