@@ -39,7 +39,8 @@ Evaluation NoisyTask::evaluate(const Vec& theta, Rng& rng) {
     return e;
   }
   const Vec u = ((theta - fn_.box.lower).array() / fn_.box.width().array()).matrix();
-  e.cost = fn_.fstar + noise_.apply(f - fn_.fstar, u, rng);
+  // Without noise the cost is f itself (f* + (f - f*) may differ from f in the last bit).
+  e.cost = noise_.model == NoiseModel::None ? f : fn_.fstar + noise_.apply(f - fn_.fstar, u, rng);
   return e;
 }
 
