@@ -9,7 +9,7 @@ std::vector<OptionSpec> noisy_task_options() {
       opt::choice("function", "sphere", noisy_function_names(),
                   "test function (branin: d = 2 only; hartmann6: d = 6 only; rosenbrock, schaffer, "
                   "griewank_rosenbrock: d >= 2); see docs/noisy.md"),
-      opt::integer("dim", 2, "number of dimensions (ignored by branin and hartmann6 unless it contradicts them)")
+      opt::integer("dim", 2, "number of dimensions (branin: 2, hartmann6: 6, where another value is an error)")
           .at_least(1).at_most(1000),
       opt::integer("instance", 1, "instance: fixes the shift x_opt, rotations and peaks (a seed of the problem)")
           .at_least(1).at_most(1000000),
