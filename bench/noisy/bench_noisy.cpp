@@ -98,7 +98,7 @@ struct Result {
   double regret_best_observed = NAN;        ///< summary.json's simple_regret (oracle: best noise-free value seen)
   double best_cost = NAN, seconds = NAN;
   long evaluations = 0, failed = 0;
-  std::string recommended_source, theta, error;
+  std::string recommended_source, recommendation_rule, theta, error;
 };
 
 // ---- small helpers ----
@@ -230,7 +230,9 @@ Result score(const Job& job, const Registry& reg) {
   r.failed = j.value("failed", 0L);
   r.seconds = j.value("seconds", NAN);
   r.best_cost = j.value("best_cost", NAN);
-  r.regret_best_observed = j.value("simple_regret", NAN);
+  // regret_best_observed since the summary rework; simple_regret before it (same oracle figure).
+  r.regret_best_observed = j.value("regret_best_observed", j.value("simple_regret", NAN));
+  r.recommendation_rule = j.value("recommendation_rule", std::string());
   if (j.contains("regret_recommended")) r.regret_recommended_summary = j["regret_recommended"].get<double>();
   const char* key = j.contains("recommended_theta") ? "recommended_theta" : "best_theta";
   r.recommended_source = j.contains(key) ? (key == std::string("best_theta") ? "best_observed" : "recommended") : "none";
@@ -416,16 +418,17 @@ int main(int argc, char** argv) {
     fs::create_directories(fs::path(csv).parent_path().empty() ? "." : fs::path(csv).parent_path());
     std::ofstream f(csv);
     f << "problem,function,dim,noise,level,group,instance,seed,algorithm,budget,evaluations,failed,recommended_source,"
-         "regret_recommended,regret_recommended_summary,regret_best_observed,best_cost,seconds,recommended_theta,error\n";
+         "recommendation_rule,regret_recommended,regret_recommended_summary,regret_best_observed,best_cost,seconds,"
+         "recommended_theta,error\n";
     for (std::size_t k = 0; k < all.size(); ++k) {
       const Job& j = all[k];
       const Result& r = results[k];
       std::string err = r.error;
       std::replace(err.begin(), err.end(), '"', '\'');
-      f << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.3f},{},\"{}\"\n",
+      f << fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.3f},{},\"{}\"\n",
                        j.problem.id(), j.problem.function, j.problem.dim, j.problem.noise, j.problem.level,
                        j.problem.group(), j.seed, j.seed, j.algorithm.name, j.budget, r.evaluations, r.failed,
-                       r.recommended_source, r.regret_recommended, r.regret_recommended_summary,
+                       r.recommended_source, r.recommendation_rule, r.regret_recommended, r.regret_recommended_summary,
                        r.regret_best_observed, r.best_cost, r.seconds, r.theta, err);
     }
   }
