@@ -93,14 +93,14 @@ bool tracked(pid_t pid) {
   return false;
 }
 
-// Fills g_tree with the descendants of this process: every process whose parent is this process or a
+// Fills g_tree with the descendants of this process (false: /proc cannot be read): every process whose parent is this process or a
 // process already found. Orphans re-parent to us (subreaper), so the parent chains never leave the tree.
 // Repeated passes catch children listed in /proc before their parent.
-void find_descendants() {
+bool find_descendants() {
   g_tree_size = 0;
   const pid_t self = ::getpid();
   const int dir = ::open("/proc", O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir < 0) return;
+  if (dir < 0) return false;
   alignas(8) char buf[16384];
   for (int pass = 0; pass < 16; ++pass) {
     bool grew = false;
@@ -127,6 +127,7 @@ void find_descendants() {
     if (!grew) break;
   }
   ::close(dir);
+  return true;
 }
 
 // Collects every exited child (orphans of the command included), noting the shell's status.
@@ -142,9 +143,13 @@ void reap(pid_t shell, int& shell_status, bool& shell_done) {
   }
 }
 
-// Sends `sig` to every descendant; returns how many there were.
-int signal_tree(int sig) {
-  find_descendants();
+// Sends `sig` to every descendant; returns how many there were. Without /proc, falls back to the shell's
+// process group (what stayed in it).
+int signal_tree(int sig, pid_t shell) {
+  if (!find_descendants()) {
+    if (shell > 0) ::kill(-shell, sig);
+    return 0;
+  }
   for (int i = 0; i < g_tree_size; ++i) {
     ::kill(g_tree[i], sig);
     if (sig == SIGTERM) ::kill(g_tree[i], SIGCONT);  // a stopped process must run to see SIGTERM
@@ -254,18 +259,17 @@ void close_all_but(const int* keep, int n) {
   if (stop) {
     // Polite first (a simulator may want to save its state), then certain.
     const long hard = now_ms() + p.grace_ms;
-    signal_tree(SIGTERM);
+    signal_tree(SIGTERM, shell);
     while (now_ms() < hard) {
       reap(shell, shell_status, shell_done);
-      find_descendants();
-      if (g_tree_size == 0) break;
+      if (!find_descendants() || g_tree_size == 0) break;
       sleep_ms(5);
     }
   }
   // Whatever is left (background jobs, daemons in their own session) would outlive the trial and could hold
   // its pipes: kill it, sweep again for what it forked meanwhile, reap, until nothing is left (bounded).
   const long give_up = now_ms() + 3000;
-  while (signal_tree(SIGKILL) > 0 && now_ms() < give_up) {
+  while (signal_tree(SIGKILL, shell) > 0 && now_ms() < give_up) {
     sleep_ms(2);
     reap(shell, shell_status, shell_done);
   }
