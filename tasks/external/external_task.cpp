@@ -61,7 +61,7 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
   auto fail = [&](const std::string& what) {
     e.ok = false;
     std::string msg = fmt::format("external command failed ({}): {}; last stdout line: '{}'", r.status_text(), what,
-                                  tail(abbreviate(last_nonempty_line(r.out), 100), 200));
+                                  tail(abbreviate(last_nonempty_line(r.out), 100), 300));
     if (r.out_dropped > 0)
       msg += fmt::format(" (stdout was {} bytes, only its last {} were read into memory)", r.out_dropped + r.out.size(),
                          r.out.size());
