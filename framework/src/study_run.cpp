@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "run_writer.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/loader.hpp"
@@ -40,8 +41,11 @@ std::string RunSummary::report() const {
   std::string s = fmt::format("varbo run summary\n  output          {}\n  evaluations     {} ({} failed)\n", output,
                               evaluations, failed);
   if (best_theta) s += fmt::format("  best cost       {:.8g} at {}\n", best_cost, fmt_vec(*best_theta));
-  if (recommended_theta) s += fmt::format("  recommended     {} (lowest posterior mean)\n", fmt_vec(*recommended_theta));
-  if (simple_regret) s += fmt::format("  simple regret   {:.3e}\n", *simple_regret);
+  if (recommended_theta)
+    s += fmt::format("  recommended     {}{}\n", fmt_vec(*recommended_theta),
+                     recommendation_rule.empty() ? std::string() : " (" + recommendation_rule + ")");
+  if (regret_recommended) s += fmt::format("  regret of the recommended θ     {:.3e}\n", *regret_recommended);
+  if (regret_best_observed) s += fmt::format("  regret of the best observed θ   {:.3e}\n", *regret_best_observed);
   s += fmt::format("  wall time       {:.2f} s\n", seconds);
   return s;
 }
@@ -122,20 +126,36 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     }
   });
 
-  RunWriter writer(study.output, study, shown, task.component_names());
+  const std::optional<Optimum> optimum = task.optimum();
+  RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value());
   set_log_file(study.output + "/log.txt");
   log_info("run {}: task {}, algorithm {}, budget {}, seed {}, threads {}", study.output, study.task.info->name,
            study.algorithm.info->name, study.budget, study.seed,
            study.threads > 0 ? study.threads : hardware_threads());
 
-  const std::optional<Optimum> optimum = task.optimum();
   RunSummary summary;
+  if (study.algorithm.info && study.algorithm.info->name == "bo")
+    summary.recommendation_rule = study.algorithm.options.str("recommendation");
   summary.output = study.output;
   double best_noiseless = std::numeric_limits<double>::infinity();
   const Rng task_rng = Rng(study.seed).stream(0x7a5c);  // task noise: one stream per trial index
   Index last_snapshot = -1;
 
-  auto account = [&](const TrialRow& row) {
+  // The recommendation after the latest tell, and its noise-free regret where the task can tell it.
+  auto recommend = [&]() {
+    const Algorithm* a = st.algorithm();
+    if (!a) return;
+    const std::optional<Vec> r = a->recommendation();
+    if (!r) return;
+    summary.recommended_theta = from_unit(*r, domain.box);
+    if (!optimum) return;
+    const std::optional<double> v = task.noiseless_cost(*summary.recommended_theta);
+    if (v && std::isfinite(*v)) summary.regret_recommended = *v - optimum->cost;
+  };
+  // Per-row regret of the recommendation, kept in the store so a resumed run rewrites trials.csv exactly.
+  auto regret_key = [](Index row) { return fmt::format("regret_recommended/{}", row); };
+
+  auto account = [&](TrialRow& row) {
     if (!row.evaluation.ok) {
       ++summary.failed;
     } else {
@@ -147,7 +167,10 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       best_noiseless = std::min(best_noiseless, nl);
     }
     ++summary.evaluations;
-    if (optimum && std::isfinite(best_noiseless)) summary.simple_regret = best_noiseless - optimum->cost;
+    if (optimum && std::isfinite(best_noiseless)) {
+      summary.regret_best_observed = best_noiseless - optimum->cost;
+      row.regret_best_observed = *summary.regret_best_observed;
+    }
   };
 
   // Resume: rewrite the run folder from the store (it may lag behind the store by the trial being written).
@@ -158,10 +181,13 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     std::sort(done.begin(), done.end(),
               [](const TrialRecord& a, const TrialRecord& b) { return a.finish_seq < b.finish_seq; });
     for (const auto& t : done) {
-      const TrialRow row = row_of(t, summary.evaluations);
-      writer.trial(row);
+      TrialRow row = row_of(t, summary.evaluations);
       account(row);
+      if (optimum)
+        if (auto v = st.store().meta(regret_key(row.index))) row.regret_recommended = std::strtod(v->c_str(), nullptr);
+      writer.trial(row);
     }
+    if (!done.empty()) recommend();
     for (const auto& s : st.store().snapshots()) {
       writer.model(s.snapshot);
       last_snapshot = s.snapshot.iteration;
@@ -221,14 +247,18 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     st.store().transaction([&] {
       st.record(t.id, row.evaluation, row.evaluation_seconds);
       if (new_snapshot) st.store().add_snapshot(StoredSnapshot{row.index + 1, *snap});
+      summary.regret_recommended.reset();
+      recommend();
+      if (summary.regret_recommended) st.store().set_meta(regret_key(row.index), exact(*summary.regret_recommended));
     });
-    writer.trial(row);
+    if (summary.regret_recommended) row.regret_recommended = *summary.regret_recommended;
     account(row);
+    writer.trial(row);
     if (ov.progress) {
       std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
                                      study.budget, t.phase, row.evaluation.ok ? row.evaluation.cost : NAN,
                                      summary.best_theta ? summary.best_cost : NAN);
-      if (summary.simple_regret) line += fmt::format("  regret {:.2e}", *summary.simple_regret);
+      if (summary.regret_recommended) line += fmt::format("  regret(rec) {:.2e}", *summary.regret_recommended);
       line += fmt::format("  fit {:.3f}s acq {:.3f}s eval {:.3f}s", t.fit_seconds, t.acquisition_seconds,
                           row.evaluation_seconds);
       std::fprintf(stderr, "%s\n", line.c_str());
@@ -238,13 +268,9 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       last_snapshot = snap->iteration;
     }
     summary.seconds = seconds_since(t_start);
-    if (const Algorithm* a = st.algorithm())
-      if (auto r = a->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
     writer.summary(summary, shown, optimum);
   }
-  if (!summary.recommended_theta)
-    if (const Algorithm* a = st.algorithm())
-      if (auto r = a->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
+  if (!summary.recommended_theta) recommend();
   if (st.replay_mismatches() > 0)
     log_warn("{} replayed trial(s) did not reproduce their stored point: this run is not bit-for-bit the run that "
              "would not have stopped",

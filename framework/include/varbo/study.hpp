@@ -49,8 +49,14 @@ struct RunSummary {
   Index failed = 0;
   std::optional<Vec> best_theta;        ///< user units, best observed cost
   double best_cost = 0;
-  std::optional<Vec> recommended_theta; ///< user units, lowest posterior mean among evaluated points
-  std::optional<double> simple_regret;  ///< min noiseless cost − known optimum
+  std::optional<Vec> recommended_theta; ///< user units, by the algorithm's recommendation rule
+  std::string recommendation_rule;      ///< e.g. "lowest_mean_evaluated" (bo's `recommendation`), if known
+  /// Where the optimum is known: noise-free cost of the recommended θ − f* (the regret of what a user
+  /// deploys; needs Task::noiseless_cost).
+  std::optional<double> regret_recommended;
+  /// Where the optimum is known: lowest noise-free cost among evaluated θ − f* (an oracle figure: on a noisy
+  /// task a user cannot know which evaluated θ that is).
+  std::optional<double> regret_best_observed;
   double seconds = 0;
   std::string report() const;
 };
