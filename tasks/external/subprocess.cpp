@@ -156,6 +156,7 @@ struct Reports {
 }  // namespace
 
 std::string ProcessResult::status_text() const {
+  if (interrupted && !started) return error;  // "not started: varbo received SIGTERM"
   if (!started) return "could not start: " + error;
   if (interrupted)
     return fmt::format("interrupted by {} after {:.3g} s (the command's process tree was killed)",
