@@ -46,6 +46,7 @@ RunSummary run(const std::string& yaml, const Registry& reg, const std::string& 
   ov.progress = false;
   ov.output = out;
   ov.threads = threads;
+  ov.overwrite = true;  // a benchmark rewrites its scratch folders
   StudyConfig s = parse_study(ConfigNode::parse(yaml, "<bench>"), reg);
   return run_study(s, reg, ov);
 }

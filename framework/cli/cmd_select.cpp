@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "component_arg.hpp"
 #include "varbo/errors.hpp"
@@ -44,7 +45,8 @@ Runner add_select(CLI::App& app) {
   cmd->add_option("--kappa", a->kappas,
                   "risk factor(s): > 0 risk-averse, < 0 risk-seeking, 0 neutral; repeat or comma-separate "
                   "(default: 2, 0, -2)")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->check(decimal_number());
   cmd->add_flag("--surrogate-from-config", a->from_config,
                 "fit the surrogate of config.resolved.yaml from its defaults only (default: start the fit from "
                 "the last hyperparameters in model.yaml)");

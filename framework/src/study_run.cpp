@@ -19,6 +19,7 @@
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/run_lock.hpp"
 #include "varbo/store.hpp"
 #include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
@@ -73,6 +74,28 @@ void remove_store_files(const std::string& path) {
   for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(path + suffix, ec);
 }
 
+bool same_file(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
+  return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+/// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
+void refuse_to_replace(const std::string& folder, const std::string& store_path) {
+  std::size_t n = 0;
+  try {
+    n = open_sqlite_store(store_path)->trials().size();
+  } catch (const Error& e) {
+    throw InputError(fmt::format("{}: the run folder holds a study file that cannot be read ({}); move it away, or "
+                                 "pass --overwrite to replace it",
+                                 folder, e.what()));
+  }
+  if (n == 0) return;
+  throw InputError(fmt::format("{}: this run folder holds a study with {} trial(s) ({}); continue it with "
+                               "`varbo run --resume {}`, or pass --overwrite to replace it (its trials are lost)",
+                               folder, n, store_path, folder));
+}
+
 }  // namespace
 
 RunSummary run_study(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov) {
@@ -84,17 +107,31 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   ThreadLimit limit(study.threads);
   const auto t_start = std::chrono::steady_clock::now();
 
+  // Every configuration error surfaces before anything is created (no empty run folder left behind).
+  Study::validate(study, registry);
+
   // The study store: every trial is committed there before it appears in trials.csv, so a killed run can be
   // continued with --resume (docs/studies.md).
+  const bool own_store = !ov.store;  // <output>/study.db, not a study file given with --study
+  const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
+  if (ov.resume && !std::filesystem::exists(store_path))
+    throw InputError(fmt::format("{}: no study store to resume", store_path));
   {
     std::error_code ec;
     std::filesystem::create_directories(study.output, ec);
     if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", study.output, ec.message()));
   }
-  const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
-  if (!ov.store && !ov.resume) remove_store_files(store_path);  // a fresh run replaces the folder's old study
-  if (ov.resume && !std::filesystem::exists(store_path))
-    throw InputError(fmt::format("{}: no study store to resume", store_path));
+  // One driver per study and per run folder (docs/studies.md, "One writer"): held until this function returns,
+  // after the store is closed (declared before it).
+  std::vector<RunLock> locks;
+  locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
+  const std::string folder_store = study.output + "/study.db";
+  if (!own_store && !same_file(folder_store, store_path))
+    locks.push_back(RunLock::acquire(folder_store + ".lock", fmt::format("the run folder {}", study.output)));
+  if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
+    if (!ov.overwrite) refuse_to_replace(study.output, store_path);
+    remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
+  }
   Study st = Study::attach(store_path, study, registry);
   st.store().set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
@@ -317,8 +354,14 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
   }
   RunOverrides ov = overrides;
   if (!ov.output) {
-    if (auto out = store->meta(store_key::kOutput)) ov.output = *out;
-    else if (std::filesystem::is_directory(target)) ov.output = target;
+    // Where the run folder is now: a moved or copied folder is continued in place, never at the path stored
+    // when it was created (that may be the original, still in use, or gone).
+    namespace fs = std::filesystem;
+    const fs::path parent = fs::absolute(store_path).parent_path();
+    if (fs::is_directory(target)) ov.output = target;
+    else if (fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) ov.output = parent.string();
+    else if (auto out = store->meta(store_key::kOutput)) ov.output = *out;  // a study file kept apart (--study)
+    else ov.output = parent.string();
   }
   store.reset();
   ov.store = store_path;

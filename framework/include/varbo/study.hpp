@@ -38,9 +38,11 @@ struct RunOverrides {
   /// Study store of the run (default: <output>/study.db). An existing store is continued (its configuration
   /// must match); a new one is created.
   std::optional<std::string> store;
-  /// Continue the run in `store` (or <output>/study.db) instead of starting afresh. Without it, a stale
-  /// <output>/study.db is replaced.
+  /// Continue the run in `store` (or <output>/study.db) instead of starting afresh. Without it, a
+  /// <output>/study.db holding trials is refused (InputError pointing at --resume and --overwrite).
   bool resume = false;
+  /// Replace the study of <output>/study.db even if it holds trials.
+  bool overwrite = false;
 };
 
 struct RunSummary {
