@@ -3,6 +3,7 @@
 
 #include "commands.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo::cli {
@@ -46,6 +47,9 @@ Runner add_run(CLI::App& app) {
     if (!a->study.empty()) ov.store = a->study;
     if (a->config.empty() && a->resume.empty())
       throw InputError("varbo run: give a study configuration (CONFIG.yaml) or --resume RUN_DIR");
+    // Ctrl-C, SIGTERM, SIGHUP: the running trial's command is killed with its process tree, the trial is
+    // recorded abandoned, and varbo exits with 128 + signal (main.cpp); --resume continues the run.
+    install_interrupt_handlers();
     RunSummary s = a->resume.empty() ? run_study_file(a->config, ov) : resume_study(a->resume, ov);
     std::printf("%s", s.report().c_str());
     return 0;

@@ -22,12 +22,7 @@ std::string theta_text(const Vec& theta, const std::vector<std::string>& names) 
   return s;
 }
 
-std::string csv_cell(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
-  return out + "\"";
-}
+std::string csv_cell(const std::string& s) { return csv_text(s); }
 
 }  // namespace
 

@@ -4,6 +4,7 @@
 
 #include "commands.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
 #include "varbo/version.hpp"
 
@@ -46,6 +47,9 @@ int main(int argc, char** argv) {
   try {
     for (auto& [sub, run] : runners)
       if (sub->parsed()) return run();
+  } catch (const varbo::Interrupted& e) {
+    std::fprintf(stderr, "varbo: %s\n", e.what());
+    return 128 + e.signal();  // as a shell reports a process killed by that signal
   } catch (const varbo::Error& e) {
     std::fprintf(stderr, "varbo: error: %s\n", e.what());
     return 2;

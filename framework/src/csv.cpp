@@ -9,6 +9,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -95,6 +96,14 @@ std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename
     rows.push_back(std::move(cells));
   }
   return rows;
+}
+
+std::string csv_text(const std::string& text) {
+  const std::string s = printable(text);
+  if (s.find_first_of(",\"") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
 }
 
 std::string exact(double v) { return fmt::format("{}", v); }  // fmt prints the shortest round-trip form

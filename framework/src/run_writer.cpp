@@ -13,12 +13,8 @@ namespace fs = std::filesystem;
 
 namespace varbo {
 
-static std::string csv_escape(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string out = "\"";
-  for (char c : s) out += (c == '"') ? std::string("\"\"") : (c == '\n' ? std::string(" ") : std::string(1, c));
-  return out + "\"";
-}
+// Names and error messages: one valid UTF-8 line per cell, whatever a task wrote (varbo/csv.hpp).
+static std::string csv_escape(const std::string& s) { return csv_text(s); }
 
 RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
                      std::vector<std::string> component_names, bool with_regret)

@@ -14,6 +14,7 @@
 #include "run_writer.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
@@ -22,6 +23,7 @@
 #include "varbo/store.hpp"
 #include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -233,7 +235,11 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
                                                                  interrupted.size()));
   }
 
-  while (summary.evaluations < study.budget) {
+  // A stop signal (install_interrupt_handlers, `varbo run`) ends the loop between trials, or during one: an
+  // external command is then killed with its whole process tree, and its trial, which has no result, is
+  // recorded abandoned (so --resume suggests it again) rather than failed.
+  int stop_signal = 0;
+  while (summary.evaluations < study.budget && !(stop_signal = interrupt_signal())) {
     std::vector<TrialRecord> asked = st.ask(1);
     if (asked.empty()) {
       log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
@@ -256,6 +262,16 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       row.evaluation.error = e.what();
     }
     row.evaluation_seconds = seconds_since(t0);
+    if ((stop_signal = interrupt_signal()) != 0 && !row.evaluation.ok) {
+      TrialRecord abandoned = t;
+      abandoned.state = TrialState::Abandoned;
+      abandoned.error = fmt::format("interrupted by {}", signal_name(stop_signal));
+      abandoned.finished_at = unix_time();
+      st.store().transaction([&] { st.store().update_trial(abandoned); });
+      log_warn("trial {} abandoned: {} ({})", row.index, abandoned.error, safe_text(row.evaluation.error, 300));
+      break;
+    }
+    if (!row.evaluation.ok) row.evaluation.error = abbreviate(printable(row.evaluation.error), 2048);
     if (row.evaluation.ok && !std::isfinite(row.evaluation.cost)) {
       row.evaluation.ok = false;
       row.evaluation.error = fmt::format("non-finite cost {}", row.evaluation.cost);
@@ -298,6 +314,12 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
              st.replay_mismatches());
   summary.seconds = seconds_since(t_start);
   writer.summary(summary, shown, optimum);
+  if (stop_signal) {
+    log_warn("run {} stopped by {} after {} evaluations; continue it with: varbo run --resume {}", study.output,
+             signal_name(stop_signal), summary.evaluations, study.output);
+    set_log_file("");
+    throw Interrupted(stop_signal);
+  }
   set_log_file("");
   return summary;
 }

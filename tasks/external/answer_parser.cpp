@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::tasks {
 
@@ -33,7 +34,8 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
     return std::nullopt;
   }
   if (j.contains("error")) {
-    why = "the command reported an error: " + (j["error"].is_string() ? j["error"].get<std::string>() : j["error"].dump());
+    why = "the command reported an error: " +
+          abbreviate(j["error"].is_string() ? j["error"].get<std::string>() : j["error"].dump(), 512);
     return std::nullopt;
   }
   if (!j.contains("cost")) {
@@ -41,7 +43,7 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
     return std::nullopt;
   }
   if (!j["cost"].is_number()) {
-    why = "\"cost\" is not a number: " + j["cost"].dump();
+    why = "\"cost\" is not a number: " + abbreviate(j["cost"].dump(), 512);
     return std::nullopt;
   }
   Answer a;
@@ -58,7 +60,8 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
     }
     for (auto it = c.begin(); it != c.end(); ++it) {
       if (!it.value().is_number() || !std::isfinite(it.value().get<double>())) {
-        why = fmt::format("component \"{}\" is not a finite number: {}", it.key(), it.value().dump());
+        why = fmt::format("component \"{}\" is not a finite number: {}", abbreviate(it.key(), 512),
+                        abbreviate(it.value().dump(), 512));
         return std::nullopt;
       }
       a.components.emplace_back(it.key(), it.value().get<double>());
@@ -91,7 +94,7 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
   double v = 0;
   if (parse_number(last, v)) {
     if (!std::isfinite(v)) {
-      why = fmt::format("the cost '{}' is not a finite number", last);
+      why = fmt::format("the cost '{}' is not a finite number", abbreviate(last, 512));
       return std::nullopt;
     }
     return Answer{v, {}};
@@ -111,10 +114,10 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
       const auto j = nlohmann::json::parse(stdout_text.substr(brace), nullptr, /*allow_exceptions=*/false);
       if (!j.is_discarded()) return from_json(j, why);
     }
-    why = fmt::format("the answer '{}' is neither a number nor a valid JSON object", last);
+    why = fmt::format("the answer '{}' is neither a number nor a valid JSON object", abbreviate(last, 512));
     return std::nullopt;
   }
-  why = fmt::format("the last line '{}' is not a number", last);
+  why = fmt::format("the last line '{}' is not a number", abbreviate(last, 512));
   return std::nullopt;
 }
 

@@ -18,7 +18,7 @@ std::vector<OptionSpec> external_options() {
       opt::node("names", "", "list of parameter names (default x1, x2, ...)"),
       opt::choice("input", "json", {"json", "args"},
                   "json: {\"theta\": [...], \"names\": [...], \"trial\": k} on stdin; args: θ appended as arguments"),
-      opt::real("timeout", 600, "seconds before the command's process group is killed (a failed trial)").above(0),
+      opt::real("timeout", 600, "seconds before the command and every process it started are killed (a failed trial)").above(0),
       opt::string("workdir", "", "working directory of the command (default: inherited)"),
   };
 }

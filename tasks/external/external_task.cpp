@@ -6,6 +6,8 @@
 #include <stdexcept>
 
 #include "answer_parser.hpp"
+#include "varbo/interrupt.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::tasks {
 
@@ -54,14 +56,25 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
   const ProcessResult r =
       run_shell(json ? s_.command : command_with_args(theta), json ? json_input(theta, trial) : "", s_.process);
 
+  // The message goes to trials.csv, log.txt, the study store and the terminal: bounded (a 50 MB line is
+  // quoted by its ends) and printable (binary output is escaped), whatever the command wrote.
   auto fail = [&](const std::string& what) {
     e.ok = false;
-    e.error = fmt::format("external command failed ({}): {}; last stdout line: '{}'; stderr: '{}'",
-                          r.status_text(), what, tail(last_nonempty_line(r.out), 200), tail(r.err, 400));
+    std::string msg = fmt::format("external command failed ({}): {}; last stdout line: '{}'", r.status_text(), what,
+                                  tail(abbreviate(last_nonempty_line(r.out), 100), 300));
+    if (r.out_dropped > 0)
+      msg += fmt::format(" (stdout was {} bytes, only its last {} were read into memory)", r.out_dropped + r.out.size(),
+                         r.out.size());
+    msg += fmt::format("; stderr: '{}'", tail(r.err, 400));
+    e.error = abbreviate(printable(msg), 2048);
     return e;
   };
+  if (r.interrupted) return fail(fmt::format("varbo was asked to stop ({})", signal_name(r.interrupted)));
   if (!r.started) return fail("the process could not be started");
   if (r.timed_out) return fail(fmt::format("no answer within the timeout of {} s", s_.process.timeout_seconds));
+  if (r.output_held)
+    return fail("its stdout was kept open by a process it started outside its process tree; the answer may be "
+                "incomplete");
   if (!r.exited) return fail("terminated by a signal");
   if (r.exit_status != 0)
     return fail(r.exit_status == 127 ? "non-zero exit (127: command not found?)" : "non-zero exit");

@@ -1,8 +1,10 @@
 #pragma once
 // Runs a shell command with a time limit, feeding it stdin and collecting stdout/stderr, without ever
-// hanging or leaving zombies: fork/execve of /bin/sh -c in its own process group, non-blocking pipes
-// multiplexed with poll(), the whole group killed on timeout (and any background stragglers killed
-// once the shell exits), SIGPIPE blocked in the calling thread while writing stdin.
+// hanging or leaving a process behind. The command runs under a supervisor process (process_tree.hpp)
+// that finds and kills its whole tree — background jobs, processes in a new session, orphans — when the
+// command exits, when the deadline passes, when varbo is asked to stop (interrupt.hpp) and when varbo
+// dies. Non-blocking pipes multiplexed with poll(); SIGPIPE blocked in the calling thread while writing
+// stdin; at most max_stdout bytes of output are held in memory.
 #include <cstddef>
 #include <string>
 
@@ -11,18 +13,24 @@ namespace varbo::tasks {
 struct ProcessOptions {
   double timeout_seconds = 600;
   std::string working_directory;             ///< empty: inherit
-  std::size_t max_stdout = 16u << 20;        ///< beyond this only the tail is kept
+  std::size_t max_stdout = 1u << 20;         ///< beyond this only the tail is kept (the answer is at the end)
   std::size_t max_stderr = 64u << 10;        ///< tail kept
-  double kill_grace_seconds = 0.2;           ///< SIGTERM -> SIGKILL delay on timeout
+  double kill_grace_seconds = 0.2;           ///< SIGTERM -> SIGKILL delay when the command is stopped
+  /// After the command has exited, how long its output may stay open: a process outside its tree (which
+  /// the supervisor cannot find) may hold it; reading stops then.
+  double output_close_seconds = 2.0;
 };
 
 struct ProcessResult {
   bool started = false;     ///< false: pipe/fork failed, see `error`
-  bool timed_out = false;
+  bool timed_out = false;   ///< still running at the deadline: its tree was killed
+  int interrupted = 0;      ///< the stop signal varbo received while the command ran (its tree was killed)
+  bool output_held = false; ///< it exited, but its stdout/stderr stayed open; reading stopped
   bool exited = false;      ///< exited normally (then exit_status is valid)
   int exit_status = -1;
   int signal = 0;           ///< terminating signal when !exited
-  std::string out;          ///< stdout (tail if longer than max_stdout)
+  std::string out;          ///< stdout (its last max_stdout bytes)
+  std::size_t out_dropped = 0;  ///< bytes of stdout read but not kept (from the front)
   std::string err;          ///< stderr tail
   std::string error;        ///< why it could not start
   double seconds = 0;       ///< wall time
@@ -30,7 +38,8 @@ struct ProcessResult {
   std::string status_text() const;
 };
 
-/// Runs `/bin/sh -c command` with `input` on stdin. Never throws for a failing command.
+/// Runs `/bin/sh -c command` with `input` on stdin. Never throws for a failing command. Safe to call from
+/// several threads at once.
 ProcessResult run_shell(const std::string& command, const std::string& input, const ProcessOptions& options);
 
 }  // namespace varbo::tasks

@@ -1,19 +1,27 @@
 // Tests of the external task: answers (number, JSON, components), every failure mode as a failed
 // trial (exit status, signal, timeout, garbage, NaN), both input modes, no SIGPIPE death, no zombies,
-// no hang on background children, and option validation through the registry.
+// no hang on background children, no process of the command left behind (even in a new session), bounded
+// and printable failure messages, and option validation through the registry.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
 #include <fmt/format.h>
+#include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "answer_parser.hpp"
 #include "external_task.hpp"
 #include "subprocess.hpp"
 #include "varbo/errors.hpp"
+#include "study_helpers.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -42,6 +50,22 @@ double seconds_of(const std::function<void()>& f) {
   const auto t0 = std::chrono::steady_clock::now();
   f();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+// The pids a command wrote to `file`, one a line.
+std::vector<pid_t> pids_in(const std::string& file) {
+  std::vector<pid_t> out;
+  std::ifstream in(file);
+  for (long p; in >> p;) out.push_back(static_cast<pid_t>(p));
+  return out;
+}
+// Alive and not a zombie (a zombie has ended; only its parent's wait is missing).
+bool alive(pid_t pid) {
+  if (::kill(pid, 0) != 0) return false;
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string s;
+  std::getline(f, s);
+  const auto p = s.rfind(')');
+  return p == std::string::npos || p + 2 >= s.size() || s[p + 2] != 'Z';
 }
 }  // namespace
 
@@ -284,4 +308,124 @@ TEST_CASE("external task through the registry: options") {
       CHECK_THROWS_AS(reg.create<Task>(y, ctx), ConfigError);
     }
   }
+}
+
+// Issue 11 item 2. A process that leaves the command's process group (setsid) used to escape the kill and,
+// holding stdout, kept the trial waiting past the timeout; now the supervisor finds it as a descendant.
+TEST_CASE("external task: a child in a new session holding stdout is killed when the command exits") {
+  const std::string dir = test::temp_folder("ext_setsid_exit");
+  Evaluation e;
+  const double t = seconds_of([&] {
+    e = run(fmt::format("setsid sh -c 'echo $$ >> {0}/pids; exec sleep 20' & "
+                        "while [ ! -s {0}/pids ]; do sleep 0.01; done; echo 6.5",
+                        dir),
+            InputMode::Json, 2);
+  });
+  CHECK(e.ok);  // the command exited with its answer; what it left behind is killed, as documented
+  CHECK(e.cost == 6.5);
+  CHECK(t < 1.5);
+  const auto pids = pids_in(dir + "/pids");
+  REQUIRE(pids.size() == 1);
+  CHECK_FALSE(alive(pids[0]));
+}
+
+TEST_CASE("external task: a timeout kills the command's whole tree, new sessions and orphans included") {
+  const std::string dir = test::temp_folder("ext_setsid_timeout");
+  // The shell, a child in a new session, and an orphan of a double fork (re-parented to the supervisor).
+  const std::string cmd = fmt::format(
+      "echo $$ >> {0}/pids; setsid sh -c 'echo $$ >> {0}/pids; exec sleep 20' & "
+      "(sh -c 'echo $$ >> {0}/pids; exec sleep 20' &); "
+      "while [ $(wc -l < {0}/pids) -lt 3 ]; do sleep 0.01; done; echo 6.5; sleep 30",
+      dir);
+  Evaluation e;
+  const double t = seconds_of([&] { e = run(cmd, InputMode::Json, 2); });
+  CHECK_FALSE(e.ok);
+  CHECK(contains(e.error, "timed out"));
+  CHECK(t >= 1.9);
+  CHECK(t < 5.0);
+  const auto pids = pids_in(dir + "/pids");
+  REQUIRE(pids.size() == 3);
+  for (pid_t p : pids) CHECK_FALSE(alive(p));
+}
+
+TEST_CASE("external task: a daemon that closed its output is killed when the command exits") {
+  const std::string dir = test::temp_folder("ext_daemon");
+  const Evaluation e = run(fmt::format("(setsid sh -c 'echo $$ >> {0}/pids; exec sleep 20' </dev/null >/dev/null 2>&1 &); "
+                                       "while [ ! -s {0}/pids ]; do sleep 0.01; done; echo 2",
+                                       dir));
+  CHECK(e.ok);
+  const auto pids = pids_in(dir + "/pids");
+  REQUIRE(pids.size() == 1);
+  CHECK_FALSE(alive(pids[0]));
+}
+
+TEST_CASE("run_shell: output held open by a process outside the command's tree stops being read") {
+  // A process that is no descendant (started here, not by the command) opens the command's stdout through
+  // /proc: the supervisor cannot find it, so only the bounded wait after the exit ends the trial.
+  const std::string dir = test::temp_folder("ext_held");
+  const std::string holder_script = fmt::format(
+      "while [ ! -s {0}/shell ]; do sleep 0.01; done; exec 3>/proc/$(cat {0}/shell)/fd/1; touch {0}/holding; "
+      "exec sleep 20",
+      dir);
+  const pid_t holder = ::fork();
+  if (holder == 0) {
+    ::execl("/bin/sh", "sh", "-c", holder_script.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  REQUIRE(holder > 0);
+  ProcessOptions po;
+  po.timeout_seconds = 10;
+  po.output_close_seconds = 0.5;
+  ProcessResult r;
+  const double t = seconds_of([&] {
+    r = run_shell(fmt::format("echo $$ > {0}/shell; while [ ! -e {0}/holding ]; do sleep 0.01; done; echo 3", dir),
+                  "", po);
+  });
+  ::kill(holder, SIGKILL);
+  ::waitpid(holder, nullptr, 0);
+  CHECK(r.exited);
+  CHECK(r.output_held);
+  CHECK(r.out == "3\n");
+  CHECK(contains(r.status_text(), "outside its process tree"));
+  CHECK(t < 3.0);
+}
+
+TEST_CASE("run_shell: the supervisor holds no descriptor of the calling process") {
+  // A pipe of ours (another trial's stdout, in a multi-threaded varbo) must reach EOF when we close it, not
+  // when some other command ends: the supervisor, which never execs, closes what it inherited.
+  int p[2];
+  REQUIRE(::pipe2(p, O_CLOEXEC) == 0);
+  std::thread other([] {
+    ProcessOptions po;
+    po.timeout_seconds = 10;
+    run_shell("sleep 1.5; echo 1", "", po);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the other command is running by now
+  ::close(p[1]);
+  pollfd pf{p[0], POLLIN, 0};
+  const int n = ::poll(&pf, 1, 700);
+  other.join();
+  ::close(p[0]);
+  CHECK(n == 1);
+  CHECK((pf.revents & POLLHUP) != 0);
+}
+
+// Issue 11 item 6: what is kept of a bad answer is bounded and printable.
+TEST_CASE("external task: a 50 MB answer line gives a short message quoting its ends") {
+  Evaluation e;
+  const double t = seconds_of([&] { e = run("printf 'head-'; head -c 50000000 /dev/zero | tr '\\0' a; echo '-tail'"); });
+  CHECK_FALSE(e.ok);
+  CHECK(e.error.size() < 4096);
+  CHECK(contains(e.error, "bytes omitted"));
+  CHECK(contains(e.error, "-tail"));
+  CHECK(contains(e.error, "stdout was 50000011 bytes"));
+  CHECK(t < 10.0);
+}
+
+TEST_CASE("external task: binary output is escaped in the message") {
+  const Evaluation e = run("printf 'bad \\377\\376\\000\\033[31m,\"q\"\\r\\302\\251\\n'");
+  CHECK_FALSE(e.ok);
+  // Bytes that are not UTF-8 and control characters as \xHH; the valid "©" (C2 A9) kept.
+  CHECK(contains(e.error, "bad \\xFF\\xFE\\x00\\x1B[31m,\"q\"\\r©"));
+  for (char c : e.error) CHECK(static_cast<unsigned char>(c) >= 0x20);
 }

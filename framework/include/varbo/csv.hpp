@@ -22,6 +22,10 @@ CsvTable read_csv(const std::string& filename);
 /// cannot be read. For run-folder tables such as trials.csv that mix text and numbers.
 std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename);
 
+/// A CSV cell of free text (a name, an error message): printable() — valid UTF-8 on one line, control
+/// characters and bytes that are not UTF-8 escaped — and quoted (RFC 4180) when it holds a comma or a quote.
+std::string csv_text(const std::string& text);
+
 /// A double printed so that it reads back exactly.
 std::string exact(double v);
 

@@ -1,0 +1,30 @@
+#pragma once
+// Stopping cleanly on SIGINT, SIGTERM or SIGHUP. A long command (`varbo run`) installs the handlers; the
+// first signal is only recorded, and work that waits (an external command's trial) watches interrupt_fd()
+// and ends what it runs. The handlers are one-shot: a second signal gets the default action and kills
+// at once (the study store stays consistent either way: every result is committed before it is shown).
+#include <stdexcept>
+#include <string>
+
+namespace varbo {
+
+/// Installs the one-shot handlers for SIGINT, SIGTERM and SIGHUP (idempotent).
+void install_interrupt_handlers();
+/// The signal that asked this process to stop, or 0.
+int interrupt_signal();
+/// Readable (poll POLLIN) once a stop signal arrived; -1 until install_interrupt_handlers().
+int interrupt_fd();
+/// "SIGTERM", "SIGINT", ... ("signal N" for others).
+std::string signal_name(int sig);
+
+/// Thrown once the interrupted work is recorded; the command exits with 128 + signal.
+class Interrupted : public std::runtime_error {
+ public:
+  explicit Interrupted(int sig);
+  int signal() const { return signal_; }
+
+ private:
+  int signal_;
+};
+
+}  // namespace varbo

@@ -1,0 +1,23 @@
+#pragma once
+// Free text that came from outside (a command's output, an error message) made safe to keep: bounded in
+// size and valid UTF-8 on one line, so trials.csv, log.txt, the study store and the terminal stay readable.
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace varbo {
+
+/// `text` if it is at most 2·keep bytes (plus a little); else its first and last `keep` bytes around a
+/// "[... N bytes omitted ...]" marker (cut at UTF-8 character boundaries).
+std::string abbreviate(std::string_view text, std::size_t keep = 1024);
+
+/// Valid UTF-8 on one line: well-formed UTF-8 sequences are kept, \n \r \t become those two-character
+/// escapes, other control bytes and bytes that are not UTF-8 become \xHH.
+std::string printable(std::string_view text);
+
+/// printable(abbreviate(text, keep)): what to keep of a message of unknown size and content.
+inline std::string safe_text(std::string_view text, std::size_t keep = 1024) {
+  return printable(abbreviate(text, keep));
+}
+
+}  // namespace varbo

@@ -1,0 +1,73 @@
+#include "varbo/interrupt.hpp"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstring>
+#include <mutex>
+
+namespace varbo {
+
+namespace {
+
+std::atomic<int> g_signal{0};
+// A self-pipe: the handler writes one byte that nobody reads, so the read end stays readable for every
+// poll() that watches it, however many there are.
+int g_pipe[2] = {-1, -1};
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+void on_stop_signal(int sig) {
+  const int saved = errno;
+  int expected = 0;
+  g_signal.compare_exchange_strong(expected, sig);
+  if (g_pipe[1] >= 0) {
+    const char byte = 1;
+    [[maybe_unused]] ssize_t ignored = ::write(g_pipe[1], &byte, 1);
+  }
+  // One-shot for all three: a second Ctrl-C (or a SIGTERM after it) kills at once.
+  struct sigaction dfl;
+  std::memset(&dfl, 0, sizeof dfl);
+  dfl.sa_handler = SIG_DFL;
+  for (int s : kStopSignals) ::sigaction(s, &dfl, nullptr);
+  errno = saved;
+}
+
+}  // namespace
+
+void install_interrupt_handlers() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (::pipe2(g_pipe, O_CLOEXEC | O_NONBLOCK) != 0) g_pipe[0] = g_pipe[1] = -1;
+    struct sigaction sa;
+    std::memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    for (int s : kStopSignals) sigaddset(&sa.sa_mask, s);
+    sa.sa_flags = SA_RESTART;
+    for (int s : kStopSignals) ::sigaction(s, &sa, nullptr);
+  });
+}
+
+int interrupt_signal() { return g_signal.load(); }
+
+int interrupt_fd() { return g_pipe[0]; }
+
+std::string signal_name(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    case SIGKILL: return "SIGKILL";
+    case SIGQUIT: return "SIGQUIT";
+    default: return fmt::format("signal {}", sig);
+  }
+}
+
+Interrupted::Interrupted(int sig)
+    : std::runtime_error(fmt::format("interrupted by {}", signal_name(sig))), signal_(sig) {}
+
+}  // namespace varbo

@@ -1,0 +1,69 @@
+#include "varbo/text.hpp"
+
+#include <fmt/format.h>
+
+namespace varbo {
+
+namespace {
+
+bool is_continuation(unsigned char c) { return (c & 0xC0) == 0x80; }
+
+// Length of the well-formed UTF-8 sequence starting at s[i] (RFC 3629: no overlongs, no surrogates,
+// nothing above U+10FFFF), or 0 when the bytes there are not one.
+std::size_t utf8_length(std::string_view s, std::size_t i) {
+  const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[i + k]); };
+  const unsigned char c = b(0);
+  std::size_t n = 0;
+  unsigned char lo = 0x80, hi = 0xBF;  // allowed range of the second byte
+  if (c < 0x80) return 1;
+  if (c >= 0xC2 && c <= 0xDF) n = 2;
+  else if (c == 0xE0) n = 3, lo = 0xA0;
+  else if (c == 0xED) n = 3, hi = 0x9F;
+  else if (c >= 0xE1 && c <= 0xEF) n = 3;
+  else if (c == 0xF0) n = 4, lo = 0x90;
+  else if (c == 0xF4) n = 4, hi = 0x8F;
+  else if (c >= 0xF1 && c <= 0xF3) n = 4;
+  else return 0;
+  if (i + n > s.size()) return 0;
+  if (b(1) < lo || b(1) > hi) return 0;
+  for (std::size_t k = 2; k < n; ++k)
+    if (!is_continuation(b(k))) return 0;
+  return n;
+}
+
+}  // namespace
+
+std::string abbreviate(std::string_view text, std::size_t keep) {
+  if (text.size() <= 2 * keep + 64) return std::string(text);
+  std::size_t head = keep, tail = text.size() - keep;
+  // Do not split a character: move the cuts off continuation bytes (at most 3 steps for UTF-8).
+  for (int k = 0; k < 3 && head > 0 && is_continuation(static_cast<unsigned char>(text[head])); ++k) --head;
+  for (int k = 0; k < 3 && tail < text.size() && is_continuation(static_cast<unsigned char>(text[tail])); ++k) ++tail;
+  return fmt::format("{}[... {} bytes omitted ...]{}", text.substr(0, head), tail - head, text.substr(tail));
+}
+
+std::string printable(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (std::size_t i = 0; i < text.size();) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    const std::size_t n = utf8_length(text, i);
+    if (n == 1 && c >= 0x20 && c != 0x7F) {
+      out += static_cast<char>(c);
+    } else if (n > 1) {
+      out.append(text.substr(i, n));
+    } else if (c == '\n') {
+      out += "\\n";
+    } else if (c == '\r') {
+      out += "\\r";
+    } else if (c == '\t') {
+      out += "\\t";
+    } else {
+      out += fmt::format("\\x{:02X}", c);
+    }
+    i += n > 0 ? n : 1;
+  }
+  return out;
+}
+
+}  // namespace varbo

@@ -1,0 +1,32 @@
+#pragma once
+// The supervisor: a small process between varbo and an external command that owns everything the command
+// starts. It is a child subreaper (prctl PR_SET_CHILD_SUBREAPER), so every orphan of the command re-parents
+// to it, even one that left the command's process group or session (`setsid sleep 20 &`); it can therefore
+// find the whole tree (its descendants, from /proc) and kill it, which killing a process group cannot do.
+// It also watches varbo: when varbo dies, even by SIGKILL, the kernel sends it SIGTERM (PR_SET_PDEATHSIG)
+// and it takes the command's tree down with it.
+//
+// Protocol on the report pipe: {kPid, pid of the shell} once it is forked, {kStatus, its wait status} when it
+// has exited, {kStartError, errno} if fork failed. The supervisor then kills what the command left and exits.
+// Sending it SIGTERM (or SIGINT/SIGHUP) stops the command: SIGTERM to the tree, then SIGKILL after the grace.
+#include <sys/types.h>
+
+namespace varbo::tasks {
+
+struct SupervisorPlan {
+  const char* const* argv = nullptr;  ///< the command, e.g. {"sh", "-c", text, nullptr}
+  const char* path = "/bin/sh";
+  const char* workdir = nullptr;      ///< nullptr: inherit
+  int stdin_fd = -1, stdout_fd = -1, stderr_fd = -1;  ///< the command's ends of the pipes
+  int report_fd = -1;                  ///< write end of the report pipe (O_CLOEXEC)
+  pid_t parent = 0;                    ///< varbo's pid
+  long grace_ms = 200;                 ///< SIGTERM -> SIGKILL delay when told to stop
+};
+
+enum SupervisorReport : int { kPid = 1, kStatus = 2, kStartError = 3 };
+
+/// Runs in the child of fork() and never returns. Makes only async-signal-safe calls (the parent may have
+/// other threads), so everything it needs is prepared in `plan` before the fork.
+[[noreturn]] void run_supervisor(const SupervisorPlan& plan);
+
+}  // namespace varbo::tasks

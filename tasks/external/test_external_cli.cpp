@@ -1,0 +1,237 @@
+// `varbo run` with external commands that misbehave, as a user would see it (issue 11, items 2 and 6):
+//  - SIGTERM, SIGINT or SIGHUP during a long trial: varbo exits at once with 128 + signal, the command's whole
+//    tree (a child in its own session included) is gone, the trial is recorded abandoned, and --resume
+//    finishes the run; after SIGKILL the tree is gone too;
+//  - a child in a new session holding stdout, with threads 1 and 2: the trial ends at the command's exit or at
+//    the timeout, and nothing of it survives;
+//  - a 50 MB answer line and a binary answer: short messages, trials.csv valid UTF-8 with one line per trial.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fmt/format.h>
+#include <fstream>
+#include <thread>
+
+#include "study_helpers.hpp"
+#include "varbo/interrupt.hpp"
+#include "varbo/store.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+pid_t spawn(const std::vector<std::string>& args, const std::string& log) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd >= 0) {
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::close(fd);
+    }
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+// The exit code; 1000 + signal when killed by a signal (not a clean exit); -1 if still running after `seconds`.
+int wait_exit(pid_t pid, double seconds) {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) != pid) {
+    if (Clock::now() > deadline) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 1000 + WTERMSIG(status);
+}
+
+int run_varbo(const std::vector<std::string>& args, const std::string& log, double seconds = 60) {
+  std::vector<std::string> all = {VARBO_EXE};
+  all.insert(all.end(), args.begin(), args.end());
+  return wait_exit(spawn(all, log), seconds);
+}
+
+std::vector<pid_t> pids_in(const std::string& file) {
+  std::vector<pid_t> out;
+  std::ifstream in(file);
+  for (long p; in >> p;) out.push_back(static_cast<pid_t>(p));
+  return out;
+}
+
+bool alive(pid_t pid) {
+  if (::kill(pid, 0) != 0) return false;
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string s;
+  std::getline(f, s);
+  const auto p = s.rfind(')');
+  return p == std::string::npos || p + 2 >= s.size() || s[p + 2] != 'Z';
+}
+
+bool wait_for_lines(const std::string& file, std::size_t n, double seconds) {
+  const auto deadline = Clock::now() + std::chrono::duration<double>(seconds);
+  while (pids_in(file).size() < n) {
+    if (Clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+bool valid_utf8(const std::string& file) {  // an independent decoder
+  return std::system(("iconv -f UTF-8 -t UTF-8 '" + file + "' >/dev/null 2>&1").c_str()) == 0;
+}
+
+std::size_t lines_of(const std::string& file) {
+  const std::string s = read_file(file);
+  return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
+}
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+}  // namespace
+
+TEST_CASE("varbo run: a stop signal kills the running command's tree, abandons its trial, --resume finishes") {
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP, SIGKILL}) {
+    CAPTURE(sig);
+    const std::string dir = test::temp_folder(fmt::format("ext_cli_signal_{}", sig));
+    // While the file `slow` exists, a trial is a shell and a child in its own session that sleep.
+    std::ofstream(dir + "/trial.sh") << "if [ -e " << dir << "/slow ]; then\n"
+                                     << "  echo $$ >> " << dir << "/pids\n"
+                                     << "  setsid sh -c 'echo $$ >> " << dir << "/pids; exec sleep 30' &\n"
+                                     << "  sleep 30\n"
+                                     << "fi\n"
+                                     << "echo 1.5\n";
+    std::ofstream(dir + "/study.yaml") << "task: {type: external, command: 'sh " << dir
+                                       << "/trial.sh', dim: 1, bounds: [0, 1], timeout: 60}\n"
+                                       << "algorithm: {type: random}\nbudget: 3\nseed: 4\n";
+    std::ofstream(dir + "/slow");
+    const std::string out = dir + "/run", log = dir + "/log.txt";
+    const pid_t varbo = spawn({VARBO_EXE, "run", dir + "/study.yaml", "-o", out, "--no-progress"}, log);
+    REQUIRE(wait_for_lines(dir + "/pids", 2, 20));
+    const auto pids = pids_in(dir + "/pids");
+    const auto t0 = Clock::now();
+    ::kill(varbo, sig);
+    const int code = wait_exit(varbo, 10);
+    const double stop_seconds = seconds_since(t0);
+    if (sig == SIGKILL) {
+      // No chance to clean up: the supervisor, told by the kernel (PR_SET_PDEATHSIG), kills the tree; the
+      // trial stays pending until --resume finds its process gone.
+      CHECK(code == 1000 + SIGKILL);
+      const auto deadline = Clock::now() + std::chrono::seconds(3);
+      while ((alive(pids[0]) || alive(pids[1])) && Clock::now() < deadline)
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    } else {
+      CHECK(code == 128 + sig);  // exited (cleanly, with the shell's code for that signal), not killed by it
+      CHECK(stop_seconds < 2.0);  // the kill grace is 0.2 s
+      CHECK(read_file(log).find("--resume") != std::string::npos);
+    }
+    for (pid_t p : pids) CHECK_FALSE(alive(p));
+    {
+      auto store = open_sqlite_store(out + "/study.db");
+      const auto trials = store->trials();
+      REQUIRE(trials.size() == 1);
+      if (sig == SIGKILL) {
+        CHECK(trials[0].state == TrialState::Pending);
+      } else {
+        CHECK(trials[0].state == TrialState::Abandoned);
+        CHECK(trials[0].error == "interrupted by " + signal_name(sig));
+      }
+    }
+    CHECK(lines_of(out + "/trials.csv") == 1);  // the header: nothing finished
+
+    std::filesystem::remove(dir + "/slow");
+    CHECK(run_varbo({"run", "--resume", out, "--no-progress"}, log) == 0);
+    const auto rows = test::read_rows(out + "/trials.csv");
+    REQUIRE(rows.size() == 4);
+    for (std::size_t i = 1; i < rows.size(); ++i) {
+      CHECK(rows[i][test::column_of(rows[0], "ok")] == "1");
+      CHECK(rows[i][test::column_of(rows[0], "cost")] == "1.5");
+    }
+  }
+}
+
+TEST_CASE("varbo run, threads 1 and 2: a child in a new session holding stdout does not hold the trial") {
+  for (const int threads : {1, 2}) {
+    CAPTURE(threads);
+    const std::string dir = test::temp_folder(fmt::format("ext_cli_setsid_{}", threads));
+    // Trial 0 answers and exits, trial 1 keeps running: both leave a child in a new session on stdout.
+    std::ofstream(dir + "/trial.sh") << "read -r input\n"
+                                     << "setsid sh -c 'echo $$ >> " << dir << "/pids; exec sleep 20' &\n"
+                                     << "while [ ! -s " << dir << "/pids ]; do sleep 0.01; done\n"
+                                     << "echo 6.5\n"
+                                     << "case \"$input\" in *'\"trial\":1'*) sleep 30;; esac\n";
+    std::ofstream(dir + "/study.yaml") << "task: {type: external, command: 'sh " << dir
+                                       << "/trial.sh', dim: 1, bounds: [0, 1], timeout: 2}\n"
+                                       << "algorithm: {type: random}\nbudget: 2\nseed: 4\n";
+    const auto t0 = Clock::now();
+    CHECK(run_varbo({"run", dir + "/study.yaml", "-o", dir + "/run", "--no-progress", "--threads",
+                     std::to_string(threads)},
+                    dir + "/log.txt", 30) == 0);
+    CHECK(seconds_since(t0) < 8.0);  // 2 s timeout + start-up; was 20 s per trial
+    const auto rows = test::read_rows(dir + "/run/trials.csv");
+    REQUIRE(rows.size() == 3);
+    const int ok = test::column_of(rows[0], "ok"), cost = test::column_of(rows[0], "cost");
+    const int secs = test::column_of(rows[0], "evaluation_seconds");
+    CHECK(rows[1][ok] == "1");
+    CHECK(rows[1][cost] == "6.5");
+    CHECK(std::stod(rows[1][secs]) < 1.5);
+    CHECK(rows[2][ok] == "0");
+    CHECK(read_file(dir + "/run/trials.csv").find("timed out") != std::string::npos);
+    CHECK(std::stod(rows[2][secs]) < 4.0);
+    const auto pids = pids_in(dir + "/pids");
+    CHECK(pids.size() == 2);
+    for (pid_t p : pids) CHECK_FALSE(alive(p));
+  }
+}
+
+TEST_CASE("varbo run: a 50 MB answer line and a binary answer keep the run folder readable") {
+  const std::string dir = test::temp_folder("ext_cli_outputs");
+  std::ofstream(dir + "/trial.sh")
+      << "read -r input\n"
+      << "case \"$input\" in\n"
+      << "  *'\"trial\":0'*) head -c 50000000 /dev/zero | tr '\\0' a; echo;;\n"
+      << "  *) printf 'bad \\377\\376\\000\\033[31m,\"q\"\\r\\200\\n'; printf 'oops\\0\\377\\n' >&2;;\n"
+      << "esac\n";
+  std::ofstream(dir + "/study.yaml") << "task: {type: external, command: 'sh " << dir
+                                     << "/trial.sh', dim: 1, bounds: [0, 1], timeout: 60}\n"
+                                     << "algorithm: {type: random}\nbudget: 2\nseed: 4\n";
+  const std::string out = dir + "/run", log = dir + "/stderr.txt";
+  REQUIRE(run_varbo({"run", dir + "/study.yaml", "-o", out}, log) == 0);
+  const std::string csv = out + "/trials.csv";
+  CHECK(valid_utf8(csv));
+  CHECK(lines_of(csv) == 3);  // header and one line per trial: no raw newline from the output
+  CHECK(std::filesystem::file_size(csv) < 16384);
+  CHECK(read_file(csv).find("bytes omitted") != std::string::npos);
+  CHECK(read_file(csv).find("\\xFF\\xFE") != std::string::npos);
+  CHECK(valid_utf8(out + "/log.txt"));
+  CHECK(std::filesystem::file_size(out + "/log.txt") < 32768);
+  CHECK(valid_utf8(log));
+  CHECK(std::filesystem::file_size(log) < 32768);
+  CHECK(std::filesystem::file_size(out + "/study.db") < (1u << 20));
+  auto store = open_sqlite_store(out + "/study.db");
+  for (const auto& t : store->trials()) {
+    CHECK(t.state == TrialState::Failed);
+    CHECK(t.error.size() < 8192);
+  }
+}
