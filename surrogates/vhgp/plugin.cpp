@@ -59,6 +59,10 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.lambda_warmup = o.boolean("lambda_warmup");
   c.restart_evaluations = static_cast<int>(o.integer("restart_evaluations"));
   c.finalists = static_cast<int>(o.integer("finalists"));
+  c.residual_start = o.boolean("residual_start");
+  c.wide_starts = o.boolean("wide_starts");
+  c.warm_restarts = static_cast<int>(o.integer("warm_restarts"));
+  c.fixed_hyperparameters = o.boolean("fixed_hyperparameters");
   c.prior.enabled = o.boolean("hyperpriors");
   c.prior.lengthscale_f = prior_from(o, "prior_lengthscale_f", true);
   c.prior.lengthscale_g = prior_from(o, "prior_lengthscale_g", true);
@@ -106,6 +110,11 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
                        "convergence; 0: every start runs to convergence")
               .at_least(0),
           opt::integer("finalists", 2, "starts optimized to convergence after the first stage").at_least(1),
+          opt::boolean("residual_start", false,
+                       "add a start whose log Lambda comes from the homoscedastic GP's leave-one-out residuals"),
+          opt::boolean("wide_starts", false, "spread the random starts over sigma_g in [0.2, 3], ell_g in [0.05, 1] "
+                                             "and mu0 +- 2 (else near the GP start)"),
+          opt::integer("warm_restarts", 0, "starts per fit once a previous solution exists (0: `restarts`)").at_least(0),
           opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
           opt::boolean("hyperpriors", true, "add independent log-normal hyperpriors to the bound (eq. 13)"),
           opt::reals("prior_lengthscale_f", "[1.0, 1.6]", "[median, sd of log] of the f lengthscales (unit cube)"),
@@ -116,8 +125,12 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
           opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
           opt::boolean("lambda_warmup", false, "optimize log Lambda alone before each joint optimization (about twice the time)"),
+          opt::boolean("fixed_hyperparameters", false,
+                       "keep `hyperparameters` (or the defaults) fixed in every fit and optimize only log Lambda; "
+                       "otherwise they are the start of one restart"),
           opt::node("hyperparameters", "",
-                    "initial hyperparameters in cost units: {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
+                    "initial hyperparameters in cost units (one start of the fit, or fixed with "
+                    "fixed_hyperparameters): {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
                     "signal_std_g, mu0}"),
           opt::reals("log_lambda", "", "initial variational parameters log Lambda, one per data point"),
       },

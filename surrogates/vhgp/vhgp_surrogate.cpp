@@ -162,6 +162,27 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   // One seed drawn from the caller's stream per fit; restart k then uses stream k of it, whatever the thread.
   const Rng base(rng.next());
 
+  if (config_.fixed_hyperparameters) {
+    // Hyperparameters as given (`hyperparameters:`) or the defaults; only the variational parameters log Λ
+    // are optimized, from the previous Λ (new points at log ½).
+    const VhgpParams fixed = to_model(params_ ? *params_ : defaults(s), n, s);
+    const VhgpObjective lambda_objective(bound, config_.prior, fixed);
+    const BoxRegion lambda_region(Box{box.lower.head(n), box.upper.head(n)});
+    Rng r = base.stream(2, 0);
+    VhgpParams best = fixed;
+    try {
+      const OptimizeResult w = optimizer_->maximize(lambda_objective, lambda_region, fixed.log_lambda.transpose(), r);
+      if (w.x.size() == n && w.x.allFinite() && std::isfinite(lambda_objective.value(w.x, nullptr)))
+        best.log_lambda = lambda_region.bounds().clamp(w.x);
+    } catch (const std::exception& e) {
+      log_debug("vhgp: log Lambda optimization failed: {}", e.what());
+    }
+    report.restarts = 1;
+    report = condition_at(data, best, s, report);
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return report;
+  }
+
   // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and
   // random perturbations of the latter.
   Rng init_rng = base.stream(0);
@@ -176,19 +197,30 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   gp_start.mu0 = homo.log_noise_var;
 
   std::vector<VhgpParams> starts;
-  if (config_.warm_start && params_) starts.push_back(to_model(*params_, n, s));
+  const bool warm = config_.warm_start && params_;
+  if (warm) starts.push_back(to_model(*params_, n, s));
   starts.push_back(gp_start);
-  const Index n_restarts = std::max<Index>(config_.restarts, 1);
+  if (config_.residual_start) {
+    VhgpParams p = gp_start;
+    const Vec log_lambda = residual_log_lambda(data.X, ys, config_.kernels.f, config_.kernels.jitter, homo,
+                                               config_.kernels.g, &p.theta_g, &p.mu0);
+    if (log_lambda.size() == n && log_lambda.allFinite()) {
+      p.log_lambda = log_lambda;
+      starts.push_back(p);
+    }
+  }
+  const Index n_restarts =
+      std::max<Index>(warm && config_.warm_restarts > 0 ? config_.warm_restarts : config_.restarts, 1);
   for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
     Rng r = base.stream(1, static_cast<std::uint64_t>(k));
     VhgpParams p = gp_start;
     for (Index d = 0; d < dim_; ++d) {
       p.theta_f(d) += 0.5 * r.normal();
-      p.theta_g(d) = std::log(r.uniform(0.05, 1.0));
+      p.theta_g(d) = config_.wide_starts ? std::log(0.05) + r.uniform() * std::log(20.0) : std::log(r.uniform(0.05, 1.0));
     }
     p.theta_f(dim_) += 0.3 * r.normal();
-    p.theta_g(dim_) = std::log(r.uniform(0.2, 1.5));
-    p.mu0 = gp_start.mu0 + r.normal();
+    p.theta_g(dim_) = config_.wide_starts ? std::log(0.2) + r.uniform() * std::log(15.0) : std::log(r.uniform(0.2, 1.5));
+    p.mu0 = gp_start.mu0 + (config_.wide_starts ? 2.0 : 1.0) * r.normal();
     starts.push_back(p);
   }
   starts.resize(static_cast<std::size_t>(n_restarts));

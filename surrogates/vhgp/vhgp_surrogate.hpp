@@ -17,6 +17,10 @@ struct VhgpConfig {
   bool lambda_warmup = false;  ///< optimize log Λ alone first (the authors' first phase; ~2× the time, rarely better)
   int restart_evaluations = 40;  ///< stage-1 evaluations per start; 0: every start runs to convergence
   int finalists = 2;             ///< starts optimized to convergence after stage 1 (2 keeps both cores busy)
+  bool residual_start = false;   ///< one start with log Λ from the GP's leave-one-out residuals
+  bool wide_starts = false;      ///< random starts spread over σ_g, ℓ_g and μ0 (instead of near the GP's start)
+  bool fixed_hyperparameters = false;  ///< fit() optimizes log Λ only, at the given (or default) hyperparameters
+  int warm_restarts = 0;         ///< starts once a previous solution exists (0: `restarts`)
   VhgpHyperprior prior;
 };
 
