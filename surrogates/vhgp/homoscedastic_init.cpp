@@ -83,40 +83,4 @@ HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, 
   return fit;
 }
 
-Vec residual_log_lambda(const Mat& X, const Vec& y, KernelType f_type, double jitter, const HomoscedasticFit& fit,
-                        KernelType g_type, Vec* theta_g, double* mu0) {
-  const Index n = y.size(), dim = X.cols();
-  constexpr double kLogChi2Mean = -1.2703628454614782;  // E[log χ²₁] = −γ − log 2
-  const double log_chi2_var = M_PI * M_PI / 2.0;         // Var[log χ²₁]
-  ArdKernel kf(f_type, dim);
-  kf.set_log_params(fit.theta_f);
-  Mat K = kf.matrix(X);
-  K.diagonal().array() += jitter * kf.variance() + std::exp(fit.log_noise_var);
-  const Eigen::LLT<Mat> llt(K);
-  if (llt.info() != Eigen::Success) return Vec();
-  const Mat Kinv = llt.solve(Mat::Identity(n, n));
-  const Vec alpha = Kinv * y;
-  // Leave-one-out residuals (Rasmussen & Williams eq. 5.12): y_i − μ_{−i} = α_i / [K⁻¹]_ii.
-  Vec t(n);
-  for (Index i = 0; i < n; ++i) {
-    const double e = alpha(i) / Kinv(i, i);
-    t(i) = std::log(e * e + 1e-12) - kLogChi2Mean;
-  }
-  const double mean_t = t.mean();
-  const double var_t = n > 1 ? (t.array() - mean_t).square().sum() / static_cast<double>(n - 1) : 0.0;
-  *mu0 = mean_t;
-  Vec tg(dim + 1);
-  tg.head(dim) = fit.theta_f.head(dim);
-  tg(dim) = 0.5 * std::log(std::max(var_t - log_chi2_var, 0.25));
-  *theta_g = tg;
-  ArdKernel kg(g_type, dim);
-  kg.set_log_params(tg);
-  Mat A = kg.matrix(X);
-  A.diagonal().array() += jitter * kg.variance() + log_chi2_var;
-  const Eigen::LLT<Mat> lltg(A);
-  if (lltg.info() != Eigen::Success) return Vec();
-  const Vec beta = lltg.solve((t.array() - mean_t).matrix());
-  return (beta.array() + 0.5).max(1e-3).log().matrix();
-}
-
 }  // namespace varbo::vhgp

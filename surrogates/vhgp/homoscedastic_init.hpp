@@ -24,14 +24,3 @@ HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, 
 
 }  // namespace varbo::vhgp
 
-namespace varbo::vhgp {
-
-/// A heteroscedastic start from the homoscedastic fit: the leave-one-out residuals e_i of the GP give noisy
-/// observations t_i = log e_i² + 1.27 of the log noise variance (E[log χ²₁] = −1.27, Var = π²/2); smoothing them
-/// with the g kernel, μ = K_g(K_g + π²/2·I)⁻¹(t − μ0) + μ0, gives β = Λ − ½ = (K_g + π²/2·I)⁻¹(t − μ0), so that
-/// q(g) starts with a noise model that already varies over the domain instead of the constant μ0 of Λ = ½.
-/// Returns log Λ (Λ floored at 1e-3, where β would be < −½); sets *mu0 and *theta_g (σ_g from the spread of t).
-Vec residual_log_lambda(const Mat& X, const Vec& y, KernelType f_type, double jitter, const HomoscedasticFit& fit,
-                        KernelType g_type, Vec* theta_g, double* mu0);
-
-}  // namespace varbo::vhgp

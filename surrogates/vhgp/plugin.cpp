@@ -59,10 +59,8 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.lambda_warmup = o.boolean("lambda_warmup");
   c.restart_evaluations = static_cast<int>(o.integer("restart_evaluations"));
   c.finalists = static_cast<int>(o.integer("finalists"));
-  c.residual_start = o.boolean("residual_start");
-  c.wide_starts = o.boolean("wide_starts");
-  c.warm_restarts = static_cast<int>(o.integer("warm_restarts"));
   c.fixed_hyperparameters = o.boolean("fixed_hyperparameters");
+  c.full_fit_growth = o.real("full_fit_growth");
   c.prior.enabled = o.boolean("hyperpriors");
   c.prior.lengthscale_f = prior_from(o, "prior_lengthscale_f", true);
   c.prior.lengthscale_g = prior_from(o, "prior_lengthscale_g", true);
@@ -110,11 +108,10 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
                        "convergence; 0: every start runs to convergence")
               .at_least(0),
           opt::integer("finalists", 2, "starts optimized to convergence after the first stage").at_least(1),
-          opt::boolean("residual_start", false,
-                       "add a start whose log Lambda comes from the homoscedastic GP's leave-one-out residuals"),
-          opt::boolean("wide_starts", false, "spread the random starts over sigma_g in [0.2, 3], ell_g in [0.05, 1] "
-                                             "and mu0 +- 2 (else near the GP start)"),
-          opt::integer("warm_restarts", 0, "starts per fit once a previous solution exists (0: `restarts`)").at_least(0),
+          opt::real("full_fit_growth", 1.0,
+                    "a full fit (GP initialization and all restarts) once N has grown by this factor since the last "
+                    "one; in between only the warm start is optimized (1: every fit is full)")
+              .at_least(1),
           opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
           opt::boolean("hyperpriors", true, "add independent log-normal hyperpriors to the bound (eq. 13)"),
           opt::reals("prior_lengthscale_f", "[1.0, 1.6]", "[median, sd of log] of the f lengthscales (unit cube)"),

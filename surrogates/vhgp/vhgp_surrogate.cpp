@@ -184,44 +184,38 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
 
   // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and
-  // random perturbations of the latter.
-  Rng init_rng = base.stream(0);
-  const HomoscedasticFit homo =
-      fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_, init_rng);
-  VhgpParams gp_start;
-  gp_start.log_lambda = Vec::Constant(n, kLogHalf);
-  gp_start.theta_f = homo.theta_f;
-  gp_start.theta_g = Vec::Constant(dim_ + 1, 0.0);
-  gp_start.theta_g.head(dim_) = homo.theta_f.head(dim_);
-  gp_start.theta_g(dim_) = std::log(0.5);
-  gp_start.mu0 = homo.log_noise_var;
-
-  std::vector<VhgpParams> starts;
+  // random perturbations of the latter. Between full fits (see `full_fit_growth`) only the warm start runs.
   const bool warm = config_.warm_start && params_;
+  const bool full = !warm || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 || n < last_full_fit_n_ ||
+                    static_cast<double>(n) >= config_.full_fit_growth * static_cast<double>(last_full_fit_n_);
+  std::vector<VhgpParams> starts;
   if (warm) starts.push_back(to_model(*params_, n, s));
-  starts.push_back(gp_start);
-  if (config_.residual_start) {
-    VhgpParams p = gp_start;
-    const Vec log_lambda = residual_log_lambda(data.X, ys, config_.kernels.f, config_.kernels.jitter, homo,
-                                               config_.kernels.g, &p.theta_g, &p.mu0);
-    if (log_lambda.size() == n && log_lambda.allFinite()) {
-      p.log_lambda = log_lambda;
+  Index n_restarts = 1;
+  if (full) {
+    Rng init_rng = base.stream(0);
+    const HomoscedasticFit homo =
+        fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_, init_rng);
+    VhgpParams gp_start;
+    gp_start.log_lambda = Vec::Constant(n, kLogHalf);
+    gp_start.theta_f = homo.theta_f;
+    gp_start.theta_g = Vec::Constant(dim_ + 1, 0.0);
+    gp_start.theta_g.head(dim_) = homo.theta_f.head(dim_);
+    gp_start.theta_g(dim_) = std::log(0.5);
+    gp_start.mu0 = homo.log_noise_var;
+    starts.push_back(gp_start);
+    n_restarts = std::max<Index>(config_.restarts, 1);
+    for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
+      Rng r = base.stream(1, static_cast<std::uint64_t>(k));
+      VhgpParams p = gp_start;
+      for (Index d = 0; d < dim_; ++d) {
+        p.theta_f(d) += 0.5 * r.normal();
+        p.theta_g(d) = std::log(r.uniform(0.05, 1.0));
+      }
+      p.theta_f(dim_) += 0.3 * r.normal();
+      p.theta_g(dim_) = std::log(r.uniform(0.2, 1.5));
+      p.mu0 = gp_start.mu0 + r.normal();
       starts.push_back(p);
     }
-  }
-  const Index n_restarts =
-      std::max<Index>(warm && config_.warm_restarts > 0 ? config_.warm_restarts : config_.restarts, 1);
-  for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
-    Rng r = base.stream(1, static_cast<std::uint64_t>(k));
-    VhgpParams p = gp_start;
-    for (Index d = 0; d < dim_; ++d) {
-      p.theta_f(d) += 0.5 * r.normal();
-      p.theta_g(d) = config_.wide_starts ? std::log(0.05) + r.uniform() * std::log(20.0) : std::log(r.uniform(0.05, 1.0));
-    }
-    p.theta_f(dim_) += 0.3 * r.normal();
-    p.theta_g(dim_) = config_.wide_starts ? std::log(0.2) + r.uniform() * std::log(15.0) : std::log(r.uniform(0.2, 1.5));
-    p.mu0 = gp_start.mu0 + (config_.wide_starts ? 2.0 : 1.0) * r.normal();
-    starts.push_back(p);
   }
   starts.resize(static_cast<std::size_t>(n_restarts));
 
@@ -310,6 +304,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     log_warn("vhgp: fit on {} points: {}", n, report.message);
   } else {
     report = condition_at(data, VhgpParams::unpack(results[static_cast<std::size_t>(best)].x, n, dim_), s, report);
+    if (report.ok && full) last_full_fit_n_ = n;
     if (report.ok && report.restarts_failed > 0)
       report.message = std::to_string(report.restarts_failed) + " restart(s) failed and were skipped";
   }
