@@ -96,7 +96,8 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
       "Variational heteroscedastic GP: cost GP f and log-noise GP g, marginal variational bound maximized jointly "
       "over log Lambda and hyperparameters with restarts (Kuindersma 2013, eq. 6-7, 13)",
       {
-          opt::choice("kernel_f", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the cost GP f"),
+          opt::choice("kernel_f", "matern52_ard", {"se_ard", "matern52_ard"},
+                      "covariance of the cost GP f (Matern-5/2 as the gp's; se_ard is the paper's)"),
           opt::choice("kernel_g", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the log-noise GP g"),
           opt::real("jitter", 1e-6, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
                                     "(as GPML covSEisoj); 0 for none")
@@ -108,7 +109,7 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
                        "convergence; 0: every start runs to convergence")
               .at_least(0),
           opt::integer("finalists", 2, "starts optimized to convergence after the first stage").at_least(1),
-          opt::real("full_fit_growth", 1.0,
+          opt::real("full_fit_growth", 1.25,
                     "a full fit (GP initialization and all restarts) once N has grown by this factor since the last "
                     "one; in between only the warm start is optimized (1: every fit is full)")
               .at_least(1),
