@@ -557,16 +557,16 @@ TEST_CASE("full_fit_growth: all restarts when N has grown by the factor, only th
   cfg.restarts = 4;
   cfg.full_fit_growth = 1.5;
   VhgpSurrogate s(1, cfg, fit_optimizer());
-  const Dataset all = heteroscedastic_data(16, 1, 11);
+  const Dataset all = heteroscedastic_data(32, 1, 11);
   Rng rng(2);
   std::vector<int> restarts;
-  for (Index n = 10; n <= 16; ++n) {
+  for (Index n = 19; n <= 32; ++n) {
     Dataset d = Dataset::empty(1);
     for (Index i = 0; i < n; ++i) d.add(all.X.row(i).transpose(), all.y(i));
     const FitReport r = s.fit(d, rng);
     REQUIRE(r.ok);
     restarts.push_back(r.restarts);
   }
-  // N = 10 (first fit) and N = 15 (≥ 1.5 × 10) are full fits.
-  CHECK(restarts == std::vector<int>{4, 1, 1, 1, 1, 4, 1});
+  // Up to N = 20 every fit is full; then N = 30 (≥ 1.5 × 20) is the next full one.
+  CHECK(restarts == std::vector<int>{4, 4, 1, 1, 1, 1, 1, 1, 1, 1, 1, 4, 1, 1});
 }

@@ -185,8 +185,12 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
 
   // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and
   // random perturbations of the latter. Between full fits (see `full_fit_growth`) only the warm start runs.
+  // Below kAlwaysFullFit points a full fit is cheap and the hyperparameters still move a lot from point to point
+  // (a warm-only fit there lost a 15-trial Branin smoke test); the saving matters at large N.
+  constexpr Index kAlwaysFullFit = 20;
   const bool warm = config_.warm_start && params_;
-  const bool full = !warm || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 || n < last_full_fit_n_ ||
+  const bool full = !warm || n <= kAlwaysFullFit || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
+                    n < last_full_fit_n_ ||
                     static_cast<double>(n) >= config_.full_fit_growth * static_cast<double>(last_full_fit_n_);
   std::vector<VhgpParams> starts;
   if (warm) starts.push_back(to_model(*params_, n, s));
