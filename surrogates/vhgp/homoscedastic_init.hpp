@@ -23,3 +23,4 @@ HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, 
                                    const VhgpHyperprior& prior, const Optimizer& optimizer, Rng& rng);
 
 }  // namespace varbo::vhgp
+

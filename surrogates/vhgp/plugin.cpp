@@ -59,6 +59,8 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.lambda_warmup = o.boolean("lambda_warmup");
   c.restart_evaluations = static_cast<int>(o.integer("restart_evaluations"));
   c.finalists = static_cast<int>(o.integer("finalists"));
+  c.fixed_hyperparameters = o.boolean("fixed_hyperparameters");
+  c.full_fit_growth = o.real("full_fit_growth");
   c.prior.enabled = o.boolean("hyperpriors");
   c.prior.lengthscale_f = prior_from(o, "prior_lengthscale_f", true);
   c.prior.lengthscale_g = prior_from(o, "prior_lengthscale_g", true);
@@ -94,7 +96,8 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
       "Variational heteroscedastic GP: cost GP f and log-noise GP g, marginal variational bound maximized jointly "
       "over log Lambda and hyperparameters with restarts (Kuindersma 2013, eq. 6-7, 13)",
       {
-          opt::choice("kernel_f", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the cost GP f"),
+          opt::choice("kernel_f", "matern52_ard", {"se_ard", "matern52_ard"},
+                      "covariance of the cost GP f (Matern-5/2 as the gp's; se_ard is the paper's)"),
           opt::choice("kernel_g", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the log-noise GP g"),
           opt::real("jitter", 1e-6, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
                                     "(as GPML covSEisoj); 0 for none")
@@ -106,6 +109,10 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
                        "convergence; 0: every start runs to convergence")
               .at_least(0),
           opt::integer("finalists", 2, "starts optimized to convergence after the first stage").at_least(1),
+          opt::real("full_fit_growth", 1.25,
+                    "a full fit (GP initialization and all restarts) once N has grown by this factor since the last "
+                    "one; in between only the warm start is optimized (1: every fit is full)")
+              .at_least(1),
           opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
           opt::boolean("hyperpriors", true, "add independent log-normal hyperpriors to the bound (eq. 13)"),
           opt::reals("prior_lengthscale_f", "[1.0, 1.6]", "[median, sd of log] of the f lengthscales (unit cube)"),
@@ -116,8 +123,12 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
           opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
           opt::boolean("lambda_warmup", false, "optimize log Lambda alone before each joint optimization (about twice the time)"),
+          opt::boolean("fixed_hyperparameters", false,
+                       "keep `hyperparameters` (or the defaults) fixed in every fit and optimize only log Lambda; "
+                       "otherwise they are the start of one restart"),
           opt::node("hyperparameters", "",
-                    "initial hyperparameters in cost units: {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
+                    "initial hyperparameters in cost units (one start of the fit, or fixed with "
+                    "fixed_hyperparameters): {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
                     "signal_std_g, mu0}"),
           opt::reals("log_lambda", "", "initial variational parameters log Lambda, one per data point"),
       },

@@ -501,3 +501,72 @@ TEST_CASE("two-stage restarts reach the same optimum as running every start to c
   // ceres_lbfgs stops at a relative function change of 1e-6: the two agree to that order.
   CHECK(fa.objective >= fb.objective - 1e-3 * std::abs(fb.objective));
 }
+
+TEST_CASE("fixed_hyperparameters: a fit keeps the given hyperparameters and optimizes log Lambda only") {
+  // Issue 10: `hyperparameters:` alone are the start of one restart (the fit may leave them); with
+  // fixed_hyperparameters they are what every fit uses, and only the variational parameters move.
+  BuildContext ctx;
+  ctx.dim = 2;
+  const std::string given =
+      "hyperparameters: {lengthscale_f: [0.3, 0.5], signal_std_f: 1.7, lengthscale_g: [0.4, 0.6], signal_std_g: 0.9, "
+      "mu0: -2.5}";
+  auto fixed = test::registry().create<Surrogate>("{type: vhgp, fixed_hyperparameters: true, " + given + "}", ctx);
+  auto free = test::registry().create<Surrogate>("{type: vhgp, " + given + "}", ctx);
+  Dataset d = heteroscedastic_data(25, 2, 8);
+  const auto start = fixed->hyperparameters();
+  Rng r1(5), r2(5);
+  const FitReport a = fixed->fit(d, r1);
+  REQUIRE(a.ok);
+  REQUIRE(free->fit(d, r2).ok);
+  const auto after = fixed->hyperparameters(), moved = free->hyperparameters();
+  REQUIRE(after.size() == start.size());
+  double largest_move = 0;
+  for (std::size_t i = 0; i < start.size(); ++i) {
+    CHECK(after[i].value == doctest::Approx(start[i].value).epsilon(1e-12));
+    largest_move = std::max(largest_move, std::abs(std::log(std::abs(moved[i].value / start[i].value))));
+  }
+  CHECK(largest_move > 0.1);  // the free fit does move them
+  // log Λ is at a stationary point of the objective at those hyperparameters: F improved on Λ = ½ and ∂F/∂log Λ ≈ 0.
+  auto* v = dynamic_cast<VhgpSurrogate*>(fixed.get());
+  REQUIRE(v != nullptr);
+  const Vec log_lambda = v->state()[0].second;
+  REQUIRE(log_lambda.size() == 25);
+  CHECK((log_lambda.array() - std::log(0.5)).abs().maxCoeff() > 1e-3);
+  const double fitted = a.log_likelihood;
+  fixed->set_state("log_lambda", Vec::Constant(25, std::log(0.5)));
+  const FitReport at_half = fixed->condition(d);
+  REQUIRE(at_half.ok);
+  CHECK(fitted > at_half.log_likelihood);
+  REQUIRE(fixed->state().size() == 2);
+  const double grad_at_half = fixed->state()[1].second.head(25).cwiseAbs().maxCoeff();
+  fixed->set_state("log_lambda", log_lambda);
+  REQUIRE(fixed->condition(d).ok);
+  const auto st = fixed->state();
+  REQUIRE(st.size() == 2);
+  CHECK(st[1].first == "bound_gradient");
+  // The fit optimizer's default tolerances stop short of an exact zero: 5 % of the gradient at the start.
+  CHECK(st[1].second.head(25).cwiseAbs().maxCoeff() < 0.05 * grad_at_half);
+  // A second fit with a new point keeps them too.
+  d.add(Vec::Constant(2, 0.5), 0.1);
+  REQUIRE(fixed->fit(d, r1).ok);
+  CHECK(fixed->hyperparameters()[0].value == doctest::Approx(0.3).epsilon(1e-12));
+}
+
+TEST_CASE("full_fit_growth: all restarts when N has grown by the factor, only the warm start in between") {
+  VhgpConfig cfg;
+  cfg.restarts = 4;
+  cfg.full_fit_growth = 1.5;
+  VhgpSurrogate s(1, cfg, fit_optimizer());
+  const Dataset all = heteroscedastic_data(32, 1, 11);
+  Rng rng(2);
+  std::vector<int> restarts;
+  for (Index n = 19; n <= 32; ++n) {
+    Dataset d = Dataset::empty(1);
+    for (Index i = 0; i < n; ++i) d.add(all.X.row(i).transpose(), all.y(i));
+    const FitReport r = s.fit(d, rng);
+    REQUIRE(r.ok);
+    restarts.push_back(r.restarts);
+  }
+  // Up to N = 20 every fit is full; then N = 30 (≥ 1.5 × 20) is the next full one.
+  CHECK(restarts == std::vector<int>{4, 4, 1, 1, 1, 1, 1, 1, 1, 1, 1, 4, 1, 1});
+}

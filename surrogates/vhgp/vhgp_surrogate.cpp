@@ -162,34 +162,64 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   // One seed drawn from the caller's stream per fit; restart k then uses stream k of it, whatever the thread.
   const Rng base(rng.next());
 
-  // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and
-  // random perturbations of the latter.
-  Rng init_rng = base.stream(0);
-  const HomoscedasticFit homo =
-      fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_, init_rng);
-  VhgpParams gp_start;
-  gp_start.log_lambda = Vec::Constant(n, kLogHalf);
-  gp_start.theta_f = homo.theta_f;
-  gp_start.theta_g = Vec::Constant(dim_ + 1, 0.0);
-  gp_start.theta_g.head(dim_) = homo.theta_f.head(dim_);
-  gp_start.theta_g(dim_) = std::log(0.5);
-  gp_start.mu0 = homo.log_noise_var;
-
-  std::vector<VhgpParams> starts;
-  if (config_.warm_start && params_) starts.push_back(to_model(*params_, n, s));
-  starts.push_back(gp_start);
-  const Index n_restarts = std::max<Index>(config_.restarts, 1);
-  for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
-    Rng r = base.stream(1, static_cast<std::uint64_t>(k));
-    VhgpParams p = gp_start;
-    for (Index d = 0; d < dim_; ++d) {
-      p.theta_f(d) += 0.5 * r.normal();
-      p.theta_g(d) = std::log(r.uniform(0.05, 1.0));
+  if (config_.fixed_hyperparameters) {
+    // Hyperparameters as given (`hyperparameters:`) or the defaults; only the variational parameters log Λ
+    // are optimized, from the previous Λ (new points at log ½).
+    const VhgpParams fixed = to_model(params_ ? *params_ : defaults(s), n, s);
+    const VhgpObjective lambda_objective(bound, config_.prior, fixed);
+    const BoxRegion lambda_region(Box{box.lower.head(n), box.upper.head(n)});
+    Rng r = base.stream(2, 0);
+    VhgpParams best = fixed;
+    try {
+      const OptimizeResult w = optimizer_->maximize(lambda_objective, lambda_region, fixed.log_lambda.transpose(), r);
+      if (w.x.size() == n && w.x.allFinite() && std::isfinite(lambda_objective.value(w.x, nullptr)))
+        best.log_lambda = lambda_region.bounds().clamp(w.x);
+    } catch (const std::exception& e) {
+      log_debug("vhgp: log Lambda optimization failed: {}", e.what());
     }
-    p.theta_f(dim_) += 0.3 * r.normal();
-    p.theta_g(dim_) = std::log(r.uniform(0.2, 1.5));
-    p.mu0 = gp_start.mu0 + r.normal();
-    starts.push_back(p);
+    report.restarts = 1;
+    report = condition_at(data, best, s, report);
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return report;
+  }
+
+  // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and
+  // random perturbations of the latter. Between full fits (see `full_fit_growth`) only the warm start runs.
+  // Below kAlwaysFullFit points a full fit is cheap and the hyperparameters still move a lot from point to point
+  // (a warm-only fit there lost a 15-trial Branin smoke test); the saving matters at large N.
+  constexpr Index kAlwaysFullFit = 20;
+  const bool warm = config_.warm_start && params_;
+  const bool full = !warm || n <= kAlwaysFullFit || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
+                    n < last_full_fit_n_ ||
+                    static_cast<double>(n) >= config_.full_fit_growth * static_cast<double>(last_full_fit_n_);
+  std::vector<VhgpParams> starts;
+  if (warm) starts.push_back(to_model(*params_, n, s));
+  Index n_restarts = 1;
+  if (full) {
+    Rng init_rng = base.stream(0);
+    const HomoscedasticFit homo =
+        fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_, init_rng);
+    VhgpParams gp_start;
+    gp_start.log_lambda = Vec::Constant(n, kLogHalf);
+    gp_start.theta_f = homo.theta_f;
+    gp_start.theta_g = Vec::Constant(dim_ + 1, 0.0);
+    gp_start.theta_g.head(dim_) = homo.theta_f.head(dim_);
+    gp_start.theta_g(dim_) = std::log(0.5);
+    gp_start.mu0 = homo.log_noise_var;
+    starts.push_back(gp_start);
+    n_restarts = std::max<Index>(config_.restarts, 1);
+    for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
+      Rng r = base.stream(1, static_cast<std::uint64_t>(k));
+      VhgpParams p = gp_start;
+      for (Index d = 0; d < dim_; ++d) {
+        p.theta_f(d) += 0.5 * r.normal();
+        p.theta_g(d) = std::log(r.uniform(0.05, 1.0));
+      }
+      p.theta_f(dim_) += 0.3 * r.normal();
+      p.theta_g(dim_) = std::log(r.uniform(0.2, 1.5));
+      p.mu0 = gp_start.mu0 + r.normal();
+      starts.push_back(p);
+    }
   }
   starts.resize(static_cast<std::size_t>(n_restarts));
 
@@ -278,6 +308,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     log_warn("vhgp: fit on {} points: {}", n, report.message);
   } else {
     report = condition_at(data, VhgpParams::unpack(results[static_cast<std::size_t>(best)].x, n, dim_), s, report);
+    if (report.ok && full) last_full_fit_n_ = n;
     if (report.ok && report.restarts_failed > 0)
       report.message = std::to_string(report.restarts_failed) + " restart(s) failed and were skipped";
   }

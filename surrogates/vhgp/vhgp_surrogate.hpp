@@ -17,6 +17,10 @@ struct VhgpConfig {
   bool lambda_warmup = false;  ///< optimize log Λ alone first (the authors' first phase; ~2× the time, rarely better)
   int restart_evaluations = 40;  ///< stage-1 evaluations per start; 0: every start runs to convergence
   int finalists = 2;             ///< starts optimized to convergence after stage 1 (2 keeps both cores busy)
+  bool fixed_hyperparameters = false;  ///< fit() optimizes log Λ only, at the given (or default) hyperparameters
+  /// A full fit (homoscedastic init + all restarts) when N has grown by this factor since the last one; in
+  /// between only the warm start is optimized. ≤ 1: every fit is full.
+  double full_fit_growth = 1.0;
   VhgpHyperprior prior;
 };
 
@@ -65,6 +69,7 @@ class VhgpSurrogate final : public Surrogate {
   Scaling scaling_;
   std::shared_ptr<const VhgpPosterior> posterior_;
   double bound_ = 0;
+  Index last_full_fit_n_ = 0;  ///< N at the last full fit (0: none yet)
 };
 
 }  // namespace varbo::vhgp

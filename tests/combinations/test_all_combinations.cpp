@@ -51,7 +51,67 @@ Outcome run_combination(const std::string& algorithm_yaml, const std::string& ou
   return o;
 }
 
+std::vector<std::vector<std::string>> trials_without_timings(const std::string& folder) {
+  auto rows = test::read_rows(folder + "/trials.csv");
+  std::vector<int> drop;
+  for (const char* c : {"fit_seconds", "acquisition_seconds", "evaluation_seconds"}) drop.push_back(test::column_of(rows[0], c));
+  for (auto& r : rows)
+    for (int i = static_cast<int>(r.size()) - 1; i >= 0; --i)
+      if (std::find(drop.begin(), drop.end(), i) != drop.end()) r.erase(r.begin() + i);
+  return rows;
+}
+
+/// Issue 11 item 8: a seed fixes a run whatever the thread count. Runs `algorithm_yaml` on noisy Branin with
+/// 1 and 2 threads and compares the trials (without timings).
+bool same_with_1_and_2_threads(const std::string& algorithm_yaml, const std::string& out, Index budget) {
+  const std::string yaml = fmt::format("task: {{type: branin, noise_std: 1.0}}\nbudget: {}\nseed: 7\nalgorithm: {}\n",
+                                       budget, algorithm_yaml);
+  RunOverrides one, two;
+  one.threads = 1;
+  one.output = out + "/t1";
+  two.threads = 2;
+  two.output = out + "/t2";
+  test::run_yaml(yaml, test::registry(), one);
+  test::run_yaml(yaml, test::registry(), two);
+  const auto a = trials_without_timings(out + "/t1"), b = trials_without_timings(out + "/t2");
+  return a.size() == static_cast<std::size_t>(budget) + 1 && a == b;
+}
+
 }  // namespace
+
+TEST_CASE("every surrogate x region x acquisition optimizer, and every algorithm, is the same with 1 and 2 threads") {
+  set_log_level(LogLevel::Error);
+  Registry& r = test::registry();
+  const std::string out = test::temp_folder("thread_combinations");
+  const ComponentInfo* ei = nullptr;
+  const ComponentInfo* sobol = nullptr;
+  for (const auto* a : r.components(Kind::Acquisition))
+    if (a->name == "ei") ei = a;
+  for (const auto* m : r.components(Kind::Sampler))
+    if (m->name == "sobol") sobol = m;
+  REQUIRE(ei != nullptr);
+  REQUIRE(sobol != nullptr);
+  int ran = 0;
+  for (const auto* s : r.components(Kind::Surrogate))
+    for (const auto* g : r.components(Kind::Region))
+      for (const auto* o : r.components(Kind::Optimizer)) {
+        if (!compatible({s, ei, g, o, sobol})) continue;
+        INFO(s->name << " + " << g->name << " + " << o->name);
+        const std::string algo = fmt::format(
+            "{{type: bo, initial_points: 5, initial_design: {}, surrogate: {}, region: {}, acquisition_optimizer: {}}}",
+            sobol->full_name(), surrogate_yaml(*s), g->full_name(), o->full_name());
+        CHECK(same_with_1_and_2_threads(algo, out, 8));
+        ++ran;
+      }
+  for (const auto* a : r.components(Kind::Algorithm)) {
+    if (a->name == "bo") continue;  // covered above
+    INFO(a->name);
+    CHECK(same_with_1_and_2_threads(fmt::format("{{type: {}}}", a->full_name()), out, 12));
+    ++ran;
+  }
+  MESSAGE(fmt::format("compared {} configurations across thread counts", ran));
+  CHECK(ran > 0);
+}
 
 TEST_CASE("every compatible surrogate x acquisition x region x optimizer x sampler combination improves on Branin") {
   set_log_level(LogLevel::Error);
