@@ -1,5 +1,7 @@
 // Output transform: Yeo–Johnson round trips, derivatives (finite differences), the fitted λ against an independent
 // brute-force maximization of the likelihood, and a GP on exponentially scaled costs with and without warping.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -10,6 +12,7 @@
 #include "output_transform.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/acquisition.hpp"
+#include "varbo/errors.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -266,4 +269,25 @@ TEST_CASE("transformed gp: on exponentially scaled costs it predicts held-out po
   CHECK(rmse_low[1] < 0.1 * rmse_low[0]);
   CHECK(lowest[1] > 0.5);  // f ≥ 1 everywhere; the raw GP predicts far below 0 here
   CHECK(lowest[0] < 0.0);
+}
+
+TEST_CASE("gp and vhgp components: output_transform option, its state, and a clear error for a bad value") {
+  auto& reg = test::registry();
+  BuildContext ctx;
+  ctx.dim = 2;
+  const Dataset data = exp_data(12, 21);
+  for (const char* type : {"gp", "vhgp"}) {
+    INFO(type);
+    auto plain = reg.create<Surrogate>(fmt::format("{{type: {}}}", type), ctx);
+    auto warped = reg.create<Surrogate>(fmt::format("{{type: {}, output_transform: yeo_johnson}}", type), ctx);
+    Rng r2(2);
+    REQUIRE(warped->fit(data, r2).ok);
+    const auto state = warped->state();
+    REQUIRE(!state.empty());
+    CHECK(state.back().first == "output_transform");
+    CHECK(state.back().second(0) == data.y.minCoeff());  // shift = the best cost
+    CHECK(&warped->acquisition_model() != warped.get());
+    CHECK(&plain->acquisition_model() == plain.get());
+    CHECK_THROWS_AS(reg.create<Surrogate>(fmt::format("{{type: {}, output_transform: logg}}", type), ctx), ConfigError);
+  }
 }
