@@ -3,7 +3,7 @@
 // Hartmann-6, and Branin and Hartmann-3 with additive noise); regret of the *recommended* θ (summary's recommended_theta, scored noise-free) and of the best
 // observed θ, median [q1, q3] over seeds, and per-seed wins of yeo_johnson (ratio < 0.9) / ties / losses (> 1.1).
 //
-//   nice -n 10 build/bin/bench_output_transform [--seeds 8] [--threads 1] [--surrogate gp|vhgp] [--only NAME-PREFIX]
+//   nice -n 10 build/bin/bench_output_transform [--seeds 8] [--threads 1] [--surrogate gp|vhgp] [--only NAME-PREFIX] [--first-seed K]
 //
 // Prints a Markdown table (docs/output_transform.md).
 #include <fmt/format.h>
@@ -96,7 +96,7 @@ std::string summary(const std::vector<double>& v) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int seeds = 8, threads = 1;
+  int seeds = 8, threads = 1, first_seed = 1;
   std::string surrogate = "gp", only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -104,8 +104,9 @@ int main(int argc, char** argv) {
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--surrogate" && i + 1 < argc) surrogate = argv[++i];
     else if (a == "--only" && i + 1 < argc) only = argv[++i];
+    else if (a == "--first-seed" && i + 1 < argc) first_seed = std::atoi(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--surrogate gp|vhgp] [--only NAME-PREFIX]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--surrogate gp|vhgp] [--only NAME-PREFIX] [--first-seed K]\n", argv[0]);
       return 2;
     }
   }
@@ -128,15 +129,15 @@ int main(int argc, char** argv) {
       {"noisy Branin (sd 2)", "{type: branin, noise_std: 2}", 50, nullptr},
       {"noisy Hartmann-3 (sd 0.1)", "{type: hartmann3, noise_std: 0.1}", 50, nullptr},
   };
-  std::printf("surrogate: %s; algorithm {type: bo} defaults; seeds 1-%d; threads %d\n\n", surrogate.c_str(), seeds,
-              threads);
+  std::printf("surrogate: %s; algorithm {type: bo} defaults; seeds %d-%d; threads %d\n\n", surrogate.c_str(),
+              first_seed, first_seed + seeds - 1, threads);
   std::printf("| problem | budget | recommended: none | recommended: yeo_johnson | yj wins/ties/losses | "
               "best observed: none | best observed: yeo_johnson | s/run none, yj |\n|---|---|---|---|---|---|---|---|\n");
   for (const Problem& p : problems) {
     if (!only.empty() && p.name.rfind(only, 0) != 0) continue;  // prefix match
     std::vector<double> rec[2], best[2], secs[2];
     int wins = 0, ties = 0, losses = 0;
-    for (int seed = 1; seed <= seeds; ++seed) {
+    for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
       Outcome o[2];
       for (int k = 0; k < 2; ++k) {
         const std::string tr = k == 0 ? "none" : "yeo_johnson";
