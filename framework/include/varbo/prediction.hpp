@@ -8,8 +8,6 @@ namespace varbo {
 /// Predictive distribution at θ*, in cost units:
 ///   y* | g* ~ N(mean, latent_var + exp(g*)),  g* ~ N(log_noise_mean, log_noise_var)   (Kuindersma 2013, eq. 7)
 /// A homoscedastic GP is the special case log_noise_var = 0, exp(log_noise_mean) = σ_n².
-/// With an output transform (gp/vhgp `output_transform`) mean is the median of the back-transformed predictive and
-/// the variances are delta-method approximations in cost units (docs/output_transform.md).
 struct Prediction {
   double mean = 0;            ///< a*   E[y*]
   double latent_var = 0;      ///< c*²  variance of the latent cost f*
