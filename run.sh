@@ -3,6 +3,10 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 ./scripts/setup.sh
-config=${1:-examples/quickstart.yaml}
-shift || true
+if [ $# -eq 0 ]; then
+  # The demo: re-running it replaces runs/quickstart. A study of your own is never replaced silently.
+  exec "${BUILD_DIR:-build}/bin/varbo" run examples/quickstart.yaml --overwrite
+fi
+config=$1
+shift
 exec "${BUILD_DIR:-build}/bin/varbo" run "$config" "$@"

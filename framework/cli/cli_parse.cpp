@@ -6,19 +6,17 @@
 #include <cstdlib>
 
 #include "varbo/errors.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo::cli {
 
 double parse_number(const std::string& text, const std::string& what) {
-  const char* s = text.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s, &end);
-  if (text.empty() || end == s || *end != '\0' || errno == ERANGE)
+  const std::optional<double> v = parse_decimal(text);
+  if (!v)
     throw InputError(fmt::format("{}: malformed number '{}' (expected a decimal number such as 0.25 or -1.5e-3); "
                                  "nothing written",
                                  what, text));
-  return v;
+  return *v;
 }
 
 std::int64_t parse_id(const std::string& text) {

@@ -1,14 +1,26 @@
 #pragma once
 // Strict parsing of numbers given on the command line: "1.5x" or "" is an error, never a silent 1.5 or 0.
+#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <string>
 #include <utility>
+
+#include "varbo/numbers.hpp"
 
 namespace varbo::cli {
 /// A finite or non-finite decimal number; InputError naming `what` when malformed.
 double parse_number(const std::string& text, const std::string& what);
 /// A trial id: a non-negative integer.
 std::int64_t parse_id(const std::string& text);
+/// CLI11 check for numeric options (--kappa, --epsilon): decimal notation only, as for COST ("0x10" is refused).
+inline CLI::Validator decimal_number() {
+  return CLI::Validator(
+      [](std::string& text) {
+        return parse_decimal(text) ? std::string()
+                                   : "expected a decimal number such as 0.25 or -1.5e-3, got '" + text + "'";
+      },
+      "DECIMAL");
+}
 /// "name=value".
 std::pair<std::string, double> parse_component(const std::string& text);
 }  // namespace varbo::cli

@@ -2,16 +2,99 @@
 // predictions as JSON — for checking a model against another implementation.
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
 #include <cstdio>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
+#include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 
 namespace varbo::cli {
+
+namespace {
+
+/// Costs and coordinates are squared inside every model (standardization, kernels): beyond this magnitude the
+/// squares overflow and a fit fails deep inside with no hint at the data.
+constexpr double kMaxMagnitude = 1e150;
+
+/// Finite, moderate values in the used columns; errors name the file, line and column.
+void check_values(const CsvTable& t, const std::vector<Index>& cols, const std::string& file) {
+  for (Index r = 0; r < t.values.rows(); ++r)
+    for (Index c : cols) {
+      const double v = t.values(r, c);
+      const int line = t.lines[static_cast<std::size_t>(r)];
+      const std::string& name = t.columns[static_cast<std::size_t>(c)];
+      if (!std::isfinite(v))
+        throw InputError(fmt::format("{}:{}: column '{}': {} is not a finite number (varbo fit needs finite θ and y; "
+                                     "drop failed trials)",
+                                     file, line, name, v));
+      if (std::abs(v) > kMaxMagnitude)
+        throw InputError(fmt::format("{}:{}: column '{}': {} is too large in magnitude (at most {:g}: the models "
+                                     "square it); rescale the column",
+                                     file, line, name, v, kMaxMagnitude));
+    }
+}
+
+/// Each restart of an exact GP fit costs O(N³) per likelihood evaluation: past kManyPoints points, unless the
+/// YAML sets `restarts`, one restart per fit (docs/studies.md, "varbo fit").
+constexpr Index kManyPoints = 500;
+
+ResolvedComponent with_fewer_restarts(const Registry& registry, ResolvedComponent rc, Index n) {
+  if (n <= kManyPoints || rc.options.given("restarts")) return rc;
+  bool declares = false;
+  for (const auto& o : rc.info->options) declares = declares || o.name == "restarts";
+  if (!declares || rc.options.integer("restarts") <= 1) return rc;
+  YAML::Node m = YAML::Clone(rc.resolved());
+  m["restarts"] = 1;
+  YAML::Emitter em;
+  em << m;
+  log_info("varbo fit: {} points (> {}) and no `restarts:` given: 1 restart instead of {} (set restarts to override)",
+           n, kManyPoints, rc.options.integer("restarts"));
+  return registry.resolve(Kind::Surrogate, ConfigNode::parse(em.c_str(), "<varbo fit: restarts for large N>"));
+}
+
+/// Past a few seconds, a line on stderr every so often: a large fit must not look hung.
+class ProgressLine {
+ public:
+  explicit ProgressLine(std::string what) : what_(std::move(what)), thread_([this] { loop(); }) {}
+  ~ProgressLine() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  ProgressLine(const ProgressLine&) = delete;
+  ProgressLine& operator=(const ProgressLine&) = delete;
+
+ private:
+  void loop() {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::unique_lock<std::mutex> lock(mutex_);
+    double next = 5.0;
+    while (!cv_.wait_until(lock, t0 + std::chrono::duration<double>(next), [this] { return done_; })) {
+      std::fprintf(stderr, "varbo fit: fitting %s: %.0f s so far\n", what_.c_str(), next);
+      next = next < 30 ? next + 5 : next + 30;
+    }
+  }
+  std::string what_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::thread thread_;
+};
+
+}  // namespace
 
 Runner add_fit(CLI::App& app) {
   auto* cmd = app.add_subcommand("fit", "Fit a surrogate to a CSV of θ columns and a 'y' column; print JSON");
@@ -25,8 +108,7 @@ Runner add_fit(CLI::App& app) {
   auto a = std::make_shared<Args>();
   cmd->add_option("--surrogate", a->surrogate,
                   "YAML file: a surrogate map ({type: gp, ...}) or a study file with a 'surrogate:' key")
-      ->required()
-      ->check(CLI::ExistingFile);
+      ->required();
   cmd->add_option("--data", a->data, "CSV with θ columns and a 'y' column (θ used as given: the model's coordinates)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -50,6 +132,10 @@ Runner add_fit(CLI::App& app) {
     std::vector<std::string> xnames;
     if (!a->columns.empty()) {
       for (const auto& name : a->columns) {
+        if (name == "y")
+          throw InputError(fmt::format("--columns: 'y' is the target (the costs) and cannot also be a θ column"));
+        if (std::find(xnames.begin(), xnames.end(), name) != xnames.end())
+          throw InputError(fmt::format("--columns: '{}' is named twice", name));
         const Index c = data.column(name);
         if (c < 0) throw InputError(fmt::format("{}: no column named '{}' (from --columns)", a->data, name));
         xcols.push_back(c);
@@ -63,20 +149,37 @@ Runner add_fit(CLI::App& app) {
         }
     }
     if (xcols.empty()) throw InputError(fmt::format("{}: no θ columns besides 'y'", a->data));
+    if (data.values.rows() == 0)
+      throw InputError(fmt::format("{}: no data rows after the header; a model needs at least one (θ, y) row", a->data));
+    std::vector<Index> used = xcols;
+    used.push_back(ycol);
+    check_values(data, used, a->data);
     Dataset ds;
     ds.X.resize(data.values.rows(), static_cast<Index>(xcols.size()));
     for (std::size_t j = 0; j < xcols.size(); ++j) ds.X.col(static_cast<Index>(j)) = data.values.col(xcols[j]);
     ds.y = data.values.col(ycol);
-    if (!ds.X.allFinite() || !ds.y.allFinite()) throw InputError(fmt::format("{}: non-finite values", a->data));
 
     Registry& registry = default_registry();
     ResolvedComponent rc = registry.resolve(Kind::Surrogate, node);
+    if (!a->no_optimize) rc = with_fewer_restarts(registry, std::move(rc), ds.size());
     BuildContext ctx;
     ctx.dim = ds.dim();
     ctx.seed = static_cast<std::uint64_t>(a->seed);
     auto model = registry.create<Surrogate>(rc, ctx);
     Rng rng(static_cast<std::uint64_t>(a->seed));
-    FitReport rep = a->no_optimize ? model->condition(ds) : model->fit(ds, rng);
+    FitReport rep;
+    {
+      const ProgressLine progress(fmt::format("{} on {} points × {} dimensions", rc.info->name, ds.size(), ds.dim()));
+      try {
+        rep = a->no_optimize ? model->condition(ds) : model->fit(ds, rng);
+      } catch (const Error&) {
+        throw;
+      } catch (const std::exception& e) {
+        throw NumericalError(fmt::format("{}: the {} fit failed on this data: {} (are θ and y scaled to moderate "
+                                         "magnitudes?)",
+                                         a->data, rc.info->name, e.what()));
+      }
+    }
 
     nlohmann::json j;
     j["surrogate"] = rc.info->full_name();
@@ -92,15 +195,28 @@ Runner add_fit(CLI::App& app) {
     for (const auto& [name, v] : model->state()) j["state"][name] = std::vector<double>(v.data(), v.data() + v.size());
     if (!a->predict.empty()) {
       const CsvTable pts = read_csv(a->predict);
+      std::vector<Index> pcols;
+      for (const auto& name : xnames) {
+        const Index c = pts.column(name);
+        if (c < 0) throw InputError(fmt::format("{}: missing column '{}'", a->predict, name));
+        pcols.push_back(c);
+      }
+      check_values(pts, pcols, a->predict);
+      if (!model->ready())
+        throw NumericalError(fmt::format("{}: the {} model is not usable after the fit ({}); no predictions",
+                                         a->data, rc.info->name, rep.message));
       nlohmann::json preds = nlohmann::json::array();
       for (Index r = 0; r < pts.values.rows(); ++r) {
         Vec x(ds.dim());
-        for (std::size_t k = 0; k < xnames.size(); ++k) {
-          const Index c = pts.column(xnames[k]);
-          if (c < 0) throw InputError(fmt::format("{}: missing column '{}'", a->predict, xnames[k]));
-          x[static_cast<Index>(k)] = pts.values(r, c);
+        for (std::size_t k = 0; k < pcols.size(); ++k) x[static_cast<Index>(k)] = pts.values(r, pcols[k]);
+        Prediction p;
+        try {
+          p = model->predict(x, false);
+        } catch (const Error&) {
+          throw;
+        } catch (const std::exception& e) {
+          throw NumericalError(fmt::format("{}:{}: prediction failed: {}", a->predict, pts.lines[static_cast<std::size_t>(r)], e.what()));
         }
-        const Prediction p = model->predict(x, false);
         preds.push_back({{"x", std::vector<double>(x.data(), x.data() + x.size())},
                          {"mean", p.mean},
                          {"variance", p.total_var()},

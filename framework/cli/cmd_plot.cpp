@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "component_arg.hpp"
 #include "varbo/errors.hpp"
@@ -180,7 +181,8 @@ Runner add_plot(CLI::App& app) {
   cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
   cmd->add_option("-o,--output", a->output, "SVG file (default: RUN_DIR/model.svg)");
   cmd->add_option("--kappa", a->kappas, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->check(decimal_number());
   cmd->add_option("--surrogate", a->surrogate, "2-D: model to draw (default: the run's surrogate)");
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
   cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));

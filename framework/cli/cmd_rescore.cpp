@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
@@ -38,8 +39,10 @@ Runner add_rescore(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--weights", a->weights, "new weights, e.g. energy=0.1,tracking=1 (unlisted: the run's)");
-  cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")->delimiter(',');
-  cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)");
+  cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")->delimiter(',')
+      ->check(decimal_number());
+  cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)")
+      ->check(decimal_number());
   cmd->add_option("--critic", a->critic, "local model as YAML, e.g. '{type: vhgp, restarts: 8}' (default: the run's)");
   cmd->add_option("--continue", a->continue_steps,
                   "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)");

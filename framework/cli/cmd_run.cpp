@@ -18,12 +18,16 @@ Runner add_run(CLI::App& app) {
     std::string study;
     std::string resume;
     bool no_progress = false;
+    bool overwrite = false;
   };
   auto a = std::make_shared<Args>();
-  auto* config = cmd->add_option("config", a->config, "study configuration (YAML)")->check(CLI::ExistingFile);
+  auto* config = cmd->add_option("config", a->config, "study configuration (YAML)");
   auto* resume = cmd->add_option("--resume", a->resume,
                                  "continue an interrupted run: its folder (holding study.db) or its study file");
   config->excludes(resume);
+  cmd->add_flag("--overwrite", a->overwrite,
+                "replace the study of the run folder even if it holds trials (they are lost)")
+      ->excludes(resume);
   cmd->add_option("--study", a->study,
                   "study file of the run (default: <output>/study.db); an existing one is continued");
   cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file");
@@ -38,6 +42,7 @@ Runner add_run(CLI::App& app) {
     if (a->budget > 0) ov.budget = a->budget;
     if (!a->output.empty()) ov.output = a->output;
     ov.progress = !a->no_progress;
+    ov.overwrite = a->overwrite;
     if (!a->study.empty()) ov.store = a->study;
     if (a->config.empty() && a->resume.empty())
       throw InputError("varbo run: give a study configuration (CONFIG.yaml) or --resume RUN_DIR");

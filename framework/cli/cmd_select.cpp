@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "component_arg.hpp"
 #include "varbo/errors.hpp"
@@ -35,7 +36,7 @@ Runner add_select(CLI::App& app) {
   struct Args {
     std::string run, surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
     std::vector<double> kappas;
-    bool from_config = false, json = false;
+    bool from_config = false, json = false, among_evaluated = false;
     long long seed = 1;
     int threads = 0;
   };
@@ -44,7 +45,8 @@ Runner add_select(CLI::App& app) {
   cmd->add_option("--kappa", a->kappas,
                   "risk factor(s): > 0 risk-averse, < 0 risk-seeking, 0 neutral; repeat or comma-separate "
                   "(default: 2, 0, -2)")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->check(decimal_number());
   cmd->add_flag("--surrogate-from-config", a->from_config,
                 "fit the surrogate of config.resolved.yaml from its defaults only (default: start the fit from "
                 "the last hyperparameters in model.yaml)");
@@ -56,6 +58,9 @@ Runner add_select(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--threads", a->threads, "worker threads (0 = all); the result does not depend on it");
   cmd->add_flag("--json", a->json, "print JSON instead of a table");
+  cmd->add_flag("--among-evaluated", a->among_evaluated,
+                "choose among the evaluated θ only (default: minimize over the whole domain, where a model far "
+                "from the data extrapolates)");
   return [a]() {
     ThreadLimit limit(a->threads);
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
@@ -84,7 +89,11 @@ Runner add_select(CLI::App& app) {
     const std::unique_ptr<Optimizer> optimizer = registry.create<Optimizer>(ospec, octx);
     // The evaluated points are starts too, so a minimum at a data point is never missed.
     const std::vector<RiskSelection> sel =
-        select_policies(*model, run.domain, kappas, *optimizer, Rng(seed).stream(0x5e1), run.data.X);
+        a->among_evaluated ? select_among(*model, run.domain, kappas, run.data.X)
+                           : select_policies(*model, run.domain, kappas, *optimizer, Rng(seed).stream(0x5e1), run.data.X);
+    // A selection where the latent sd is most of σ_f lies where the model knows little: its E and s are
+    // extrapolations (issue 10 saw predicted means far below the true minimum there).
+    constexpr double kExtrapolating = 0.5;
 
     if (a->json) {
       nlohmann::json j;
@@ -104,6 +113,8 @@ Runner add_select(CLI::App& app) {
           e["mean"] = s.mean;
           e["std"] = s.std;
           e["criterion"] = s.criterion;
+          e["relative_latent_std"] = s.relative_latent_std;
+          e["extrapolating"] = s.relative_latent_std > kExtrapolating;
         }
         j["selections"].push_back(e);
       }
@@ -119,10 +130,17 @@ Runner add_select(CLI::App& app) {
           std::printf("  %8.3g  no selection: %s\n", s.kappa, s.message.c_str());
           continue;
         }
-        std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g\n", s.kappa, theta_text(s.theta).c_str(), s.mean, s.std,
-                    s.criterion);
+        std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g%s\n", s.kappa, theta_text(s.theta).c_str(), s.mean, s.std,
+                    s.criterion, s.relative_latent_std > kExtrapolating ? "  (far from the data)" : "");
       }
     }
+    for (const auto& s : sel)
+      if (s.ok && s.relative_latent_std > kExtrapolating) {
+        std::fprintf(stderr,
+                     "varbo select: kappa %g chose a θ far from the data (latent sd %.2f of the prior's): its E and s "
+                     "are extrapolated; --among-evaluated chooses among the evaluated θ\n",
+                     s.kappa, s.relative_latent_std);
+      }
     for (const auto& s : sel)
       if (!s.ok) return 1;
     return 0;

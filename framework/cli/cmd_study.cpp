@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -23,7 +24,7 @@ Runner add_study(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   create->add_option("store", a->store, "the study file to create (SQLite)")->required();
-  create->add_option("config", a->config, "study configuration (YAML)")->required()->check(CLI::ExistingFile);
+  create->add_option("config", a->config, "study configuration (YAML)")->required();
   return [a]() {
     Study s = Study::create(a->store, a->config);
     std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", a->store.c_str(),
@@ -147,15 +148,18 @@ Runner add_abandon(CLI::App& app) {
   auto* cmd = app.add_subcommand("abandon", "Abandon pending trials whose worker died (their points may be suggested again)");
   struct Args {
     std::string store;
-    double older_than = 0;
+    std::string older_than = "0";
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file")->required();
-  cmd->add_option("--older-than", a->older_than, "only trials suggested more than this many seconds ago (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--older-than", a->older_than, "only trials suggested more than this many seconds ago (0 = all)");
   return [a]() {
+    const double older_than = parse_number(a->older_than, "--older-than");
+    if (!std::isfinite(older_than) || older_than < 0)
+      throw InputError(fmt::format("--older-than: expected a finite number of seconds ≥ 0, got '{}'; nothing written",
+                                   a->older_than));
     Study s = Study::open(a->store);
-    const auto ids = s.abandon(a->older_than, fmt::format("abandoned (pending longer than {} s)", a->older_than));
+    const auto ids = s.abandon(older_than, fmt::format("abandoned (pending longer than {} s)", older_than));
     std::vector<std::string> t;
     for (auto id : ids) t.push_back(std::to_string(id));
     std::printf("abandoned %zu trial(s)%s%s\n", ids.size(), ids.empty() ? "" : ": ", join(t).c_str());

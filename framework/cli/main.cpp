@@ -38,7 +38,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help/--version exit 0; any other command-line mistake is a user error: exit 2 like every other one.
+    return app.exit(e) == 0 ? 0 : 2;
   }
   if (verbose) varbo::set_log_level(varbo::LogLevel::Debug);
   if (quiet) varbo::set_log_level(varbo::LogLevel::Warn);

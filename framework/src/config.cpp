@@ -18,14 +18,68 @@ ConfigNode::ConfigNode(YAML::Node node, std::shared_ptr<const std::string> file,
   }
 }
 
+namespace {
+
+std::string at(const std::string& name, const YAML::Mark& m) {
+  if (m.line < 0) return name;
+  return fmt::format("{}:{}:{}", name, m.line + 1, m.column + 1);
+}
+
+/// Plain, quoted and the YAML core-schema tags; any other (`!foo`, `!!binary`) would be silently dropped.
+bool known_tag(const std::string& tag) {
+  static const char* core = "tag:yaml.org,2002:";
+  if (tag.empty() || tag == "?" || tag == "!") return true;
+  if (tag.rfind(core, 0) != 0) return false;
+  const std::string t = tag.substr(std::string(core).size());
+  return t == "str" || t == "int" || t == "float" || t == "bool" || t == "null" || t == "map" || t == "seq";
+}
+
+/// What yaml-cpp accepts but a configuration must not hold: a key given twice (the first would win silently),
+/// a key that is not a plain scalar, an unknown tag, absurd nesting.
+void check_structure(const YAML::Node& n, const std::string& name, int depth) {
+  if (depth > 64) throw ConfigError(fmt::format("{}: nested more than 64 levels deep", at(name, n.Mark())));
+  if (!known_tag(n.Tag()))
+    throw ConfigError(fmt::format("{}: unknown YAML tag '{}' (a configuration uses plain values, no tags)",
+                                  at(name, n.Mark()), n.Tag()));
+  if (n.IsMap()) {
+    std::vector<std::pair<std::string, YAML::Mark>> seen;
+    for (const auto& kv : n) {
+      if (!kv.first.IsScalar())
+        throw ConfigError(fmt::format("{}: a key must be a plain name, not a list or a map", at(name, kv.first.Mark())));
+      if (!known_tag(kv.first.Tag()))
+        throw ConfigError(fmt::format("{}: unknown YAML tag '{}' on key '{}'", at(name, kv.first.Mark()),
+                                      kv.first.Tag(), kv.first.Scalar()));
+      const std::string key = kv.first.Scalar();
+      for (const auto& [k, mark] : seen)
+        if (k == key)
+          throw ConfigError(fmt::format("{}: duplicate key '{}' (first given at line {}); each key may appear once "
+                                        "in a map",
+                                        at(name, kv.first.Mark()), key, mark.line + 1));
+      seen.emplace_back(key, kv.first.Mark());
+      check_structure(kv.second, name, depth + 1);
+    }
+  } else if (n.IsSequence()) {
+    for (const auto& item : n) check_structure(item, name, depth + 1);
+  }
+}
+
+}  // namespace
+
 static ConfigNode parse_impl(const std::string& text, const std::string& name) {
   auto file = std::make_shared<const std::string>(name);
+  std::vector<YAML::Node> docs;
   try {
-    return ConfigNode(YAML::Load(text), file, "");
+    docs = YAML::LoadAll(text);
   } catch (const YAML::Exception& e) {
     throw ConfigError(fmt::format("{}:{}:{}: YAML syntax error: {}", name, e.mark.line + 1, e.mark.column + 1,
                                   e.msg));
   }
+  if (docs.size() > 1)
+    throw ConfigError(fmt::format("{}: a second YAML document (after '---'); a configuration file holds one",
+                                  at(name, docs[1].Mark())));
+  YAML::Node root = docs.empty() ? YAML::Node() : docs[0];
+  check_structure(root, name, 0);
+  return ConfigNode(root, file, "");
 }
 
 ConfigNode ConfigNode::load_file(const std::string& filename) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "varbo/errors.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo {
 
@@ -49,6 +50,15 @@ CsvTable read_csv(const std::string& filename) {
     if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
     auto cells = split_line(line);
     if (t.columns.empty()) {
+      for (std::size_t c = 0; c < cells.size(); ++c) {
+        if (cells[c].empty())
+          throw InputError(fmt::format("{}:{}: column {} of the header has no name", filename, lineno, c + 1));
+        for (std::size_t k = 0; k < c; ++k)
+          if (cells[k] == cells[c])
+            throw InputError(fmt::format("{}:{}: column name '{}' appears twice (columns {} and {}); each column "
+                                         "needs its own name",
+                                         filename, lineno, cells[c], k + 1, c + 1));
+      }
       t.columns = cells;
       continue;
     }
@@ -57,15 +67,14 @@ CsvTable read_csv(const std::string& filename) {
                                    lineno, t.columns.size(), cells.size()));
     std::vector<double> row;
     for (std::size_t c = 0; c < cells.size(); ++c) {
-      char* end = nullptr;
-      errno = 0;
-      const double v = std::strtod(cells[c].c_str(), &end);
-      if (cells[c].empty() || *end != '\0' || errno == ERANGE)
-        throw InputError(fmt::format("{}:{}: column '{}': expected a number, got '{}'", filename, lineno,
+      const std::optional<double> v = parse_decimal(cells[c]);
+      if (!v)
+        throw InputError(fmt::format("{}:{}: column '{}': expected a decimal number, got '{}'", filename, lineno,
                                      t.columns[c], cells[c]));
-      row.push_back(v);
+      row.push_back(*v);
     }
     rows.push_back(std::move(row));
+    t.lines.push_back(lineno);
   }
   if (t.columns.empty()) throw InputError(fmt::format("{}: empty file (expected a header line)", filename));
   t.values.resize(static_cast<Index>(rows.size()), static_cast<Index>(t.columns.size()));

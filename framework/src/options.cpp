@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "varbo/errors.hpp"
+#include "varbo/numbers.hpp"
 #include "varbo/registry.hpp"
 
 namespace varbo {
@@ -112,17 +113,12 @@ OptionSpec node(std::string name, std::string def_yaml, std::string d) {
 }  // namespace opt
 
 static bool parse_real(const std::string& text, double& out) {
-  if (text.empty()) return false;
-  const char* s = text.c_str();
-  char* end = nullptr;
-  errno = 0;
-  out = std::strtod(s, &end);
-  if (end == s || *end != '\0' || errno == ERANGE) {
-    // YAML spellings of infinity.
-    if (text == ".inf" || text == ".Inf" || text == "+.inf") { out = INFINITY; return true; }
-    if (text == "-.inf" || text == "-.Inf") { out = -INFINITY; return true; }
-    return false;
-  }
+  // YAML spellings of infinity.
+  if (text == ".inf" || text == ".Inf" || text == "+.inf") { out = INFINITY; return true; }
+  if (text == "-.inf" || text == "-.Inf") { out = -INFINITY; return true; }
+  const std::optional<double> v = parse_decimal(text);  // decimal only: no 0x10, no 1e999
+  if (!v) return false;
+  out = *v;
   return true;
 }
 

@@ -12,6 +12,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
+#include "varbo/numbers.hpp"
 
 namespace fs = std::filesystem;
 
@@ -49,14 +50,9 @@ std::vector<std::string> split_csv_line(const std::string& line) {
 
 double to_number(const std::string& s, const std::string& where) {
   if (s == "nan" || s.empty()) return std::nan("");
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(s, &used);
-    if (used != s.size()) throw std::invalid_argument(s);
-    return v;
-  } catch (const std::exception&) {
-    throw InputError(fmt::format("{}: expected a number, got '{}'", where, s));
-  }
+  const std::optional<double> v = parse_decimal(s);
+  if (!v) throw InputError(fmt::format("{}: expected a decimal number, got '{}'", where, s));
+  return *v;
 }
 
 std::optional<Vec> json_vec(const nlohmann::json& j, const char* key) {
@@ -383,6 +379,7 @@ RunSummary continue_with_rssgd(const ComponentRun& run, const Weights& weights, 
   const StudyConfig study = parse_study(ConfigNode::load_file(file), registry);
   RunOverrides ov;
   ov.progress = false;
+  ov.overwrite = true;  // the continuation folder is rescore's own output, rewritten on every call
   return run_study(study, registry, ov);
 }
 

@@ -11,6 +11,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
+#include "varbo/numbers.hpp"
 
 namespace fs = std::filesystem;
 
@@ -45,12 +46,9 @@ std::vector<std::string> split_csv(const std::string& line) {
 }
 
 double parse_number(const std::string& text, const std::string& where) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || errno == ERANGE)
-    throw InputError(fmt::format("{}: expected a number, got '{}'", where, text));
-  return v;
+  const std::optional<double> v = parse_decimal(text);
+  if (!v) throw InputError(fmt::format("{}: expected a decimal number, got '{}'", where, text));
+  return *v;
 }
 
 std::vector<Hyperparameters> read_model_yaml(const std::string& file) {

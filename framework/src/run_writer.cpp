@@ -21,8 +21,8 @@ static std::string csv_escape(const std::string& s) {
 }
 
 RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
-                     std::vector<std::string> component_names)
-    : folder_(folder), components_(std::move(component_names)) {
+                     std::vector<std::string> component_names, bool with_regret)
+    : folder_(folder), components_(std::move(component_names)), with_regret_(with_regret) {
   std::error_code ec;
   fs::create_directories(folder_, ec);
   if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", folder_, ec.message()));
@@ -39,7 +39,9 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   for (const auto& n : domain.names) trials_ << "," << csv_escape(n);
   trials_ << ",cost,ok";
   for (const auto& c : components_) trials_ << "," << csv_escape(c);
-  trials_ << ",fit_seconds,acquisition_seconds,evaluation_seconds,error\n";
+  trials_ << ",fit_seconds,acquisition_seconds,evaluation_seconds,error";
+  if (with_regret_) trials_ << ",regret_best_observed,regret_recommended";
+  trials_ << "\n";
   trials_.flush();
   model_.open(folder_ + "/model.yaml", std::ios::trunc);
   model_ << "# hyperparameters after each fit\n";
@@ -68,7 +70,9 @@ void RunWriter::trial(const TrialRow& r) {
     }
   }
   trials_ << "," << fmt::format("{:.6f},{:.6f},{:.6f}", r.fit_seconds, r.acquisition_seconds, r.evaluation_seconds)
-          << "," << csv_escape(r.evaluation.error) << "\n";
+          << "," << csv_escape(r.evaluation.error);
+  if (with_regret_) trials_ << "," << exact(r.regret_best_observed) << "," << exact(r.regret_recommended);
+  trials_ << "\n";
   trials_.flush();
 }
 
@@ -103,7 +107,11 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   }
   if (s.recommended_theta) j["recommended_theta"] = vec_json(*s.recommended_theta);
   if (optimum) j["known_optimum"] = optimum->cost;
-  if (s.simple_regret) j["simple_regret"] = *s.simple_regret;
+  if (!s.recommendation_rule.empty()) j["recommendation_rule"] = s.recommendation_rule;
+  // Where the optimum is known: the regret of what the run recommends (what a user deploys) and the oracle
+  // figure of the best evaluated θ (a user of a noisy task cannot know which one that is).
+  if (s.regret_recommended) j["regret_recommended"] = *s.regret_recommended;
+  if (s.regret_best_observed) j["regret_best_observed"] = *s.regret_best_observed;
   j["seconds"] = s.seconds;
   const std::string tmp = folder_ + "/summary.json.tmp";
   {

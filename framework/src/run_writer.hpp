@@ -2,6 +2,7 @@
 // Writes a run folder incrementally: every row is flushed when it happens, summary.json is replaced
 // atomically, so an interrupted run loses nothing already recorded.
 #include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -17,12 +18,16 @@ struct TrialRow {
   Vec theta;  ///< user units
   Evaluation evaluation;
   double fit_seconds = 0, acquisition_seconds = 0, evaluation_seconds = 0;
+  /// Where the optimum is known: after this trial, the noise-free cost of the best observed θ − f*, and of
+  /// the θ the algorithm recommends − f* (NaN when the task cannot evaluate it without noise).
+  double regret_best_observed = std::numeric_limits<double>::quiet_NaN();
+  double regret_recommended = std::numeric_limits<double>::quiet_NaN();
 };
 
 class RunWriter {
  public:
   RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
-            std::vector<std::string> component_names);
+            std::vector<std::string> component_names, bool with_regret = false);
   void trial(const TrialRow& row);
   void model(const ModelSnapshot& snapshot);
   void summary(const RunSummary& summary, const Domain& domain, const std::optional<Optimum>& optimum);
@@ -33,6 +38,7 @@ class RunWriter {
   std::vector<std::string> components_;
   std::ofstream trials_, model_;
   bool warned_extra_ = false;
+  bool with_regret_ = false;  ///< trials.csv carries regret_best_observed and regret_recommended
 };
 
 }  // namespace varbo

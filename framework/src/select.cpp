@@ -3,7 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <bit>
+#include <limits>
 #include <cmath>
 #include <stdexcept>
 
@@ -63,10 +65,53 @@ std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain&
     r.mean = p.mean;
     r.std = p.total_std();
     r.criterion = r.mean + kappa * r.std;
+    r.relative_latent_std = std::sqrt(std::max(0.0, p.latent_var) / std::max(model.signal_variance(), 1e-300));
     r.theta = from_unit(r.x, domain.box);
     r.ok = std::isfinite(r.criterion);
     r.message = r.ok ? res.message : "non-finite prediction at the optimizer's point";
     out.push_back(std::move(r));
+  }
+  return out;
+}
+
+}  // namespace varbo
+
+namespace varbo {
+
+std::vector<RiskSelection> select_among(const Surrogate& model, const Domain& domain,
+                                        const std::vector<double>& kappas, const Mat& points) {
+  if (!model.ready()) throw InputError("select: the model is not fitted (no data?)");
+  const Index d = domain.box.dim();
+  if (points.rows() == 0 || points.cols() != d)
+    throw InputError(fmt::format("select: {} candidate points of dimension {}, the domain has {}", points.rows(),
+                                 points.cols(), d));
+  std::vector<Prediction> p;
+  for (Index i = 0; i < points.rows(); ++i) p.push_back(model.predict(points.row(i).transpose(), false));
+  std::vector<RiskSelection> out;
+  for (double kappa : kappas) {
+    RiskSelection r;
+    r.kappa = kappa;
+    if (!std::isfinite(kappa)) {
+      r.message = "kappa is not finite";
+      out.push_back(r);
+      continue;
+    }
+    double best = std::numeric_limits<double>::infinity();
+    for (Index i = 0; i < points.rows(); ++i) {
+      const Prediction& q = p[static_cast<std::size_t>(i)];
+      const double v = q.mean + kappa * q.total_std();
+      if (!(v < best)) continue;
+      best = v;
+      r.x = points.row(i).transpose();
+      r.mean = q.mean;
+      r.std = q.total_std();
+      r.criterion = v;
+      r.relative_latent_std = std::sqrt(std::max(0.0, q.latent_var) / std::max(model.signal_variance(), 1e-300));
+    }
+    r.ok = std::isfinite(best);
+    if (r.ok) r.theta = from_unit(r.x, domain.box);
+    else r.message = "no candidate has a finite E + kappa*s";
+    out.push_back(r);
   }
   return out;
 }

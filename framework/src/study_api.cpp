@@ -260,6 +260,12 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
   return Study(std::move(impl));
 }
 
+void Study::validate(const StudyConfig& config, const Registry& registry) {
+  Study::Impl impl;
+  impl.init(config, registry);
+  impl.make_algorithm();
+}
+
 std::vector<TrialRecord> Study::ask(Index q) {
   if (q < 1) throw InputError(fmt::format("ask: the batch size must be at least 1, got {}", q));
   Impl& m = *impl_;
@@ -408,6 +414,9 @@ void Study::fail(std::int64_t id, const std::string& reason) {
 }
 
 std::vector<std::int64_t> Study::abandon(double older_than_seconds, const std::string& reason) {
+  if (!std::isfinite(older_than_seconds) || older_than_seconds < 0)
+    throw InputError(fmt::format("{}: abandon: the age must be a finite number of seconds ≥ 0, got {}; nothing written",
+                                 impl_->store->location(), older_than_seconds));
   Impl& m = *impl_;
   std::vector<std::int64_t> ids;
   m.store->transaction([&] {

@@ -1,6 +1,7 @@
 // The top-level keys of a study file and their validation.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 
 #include "varbo/errors.hpp"
@@ -57,6 +58,53 @@ YAML::Node StudyConfig::resolved() const {
   return out;
 }
 
+namespace {
+
+/// The components an algorithm composes (its component-valued options) must meet each other's capability
+/// tags (docs/plugins.md), e.g. a `confidence` region needs an acquisition optimizer that honours constraints:
+/// `ceres_lbfgs` there would ignore the region. Checked here so the error comes before anything runs.
+void check_capabilities(const ResolvedComponent& algorithm, const Registry& registry) {
+  struct Part {
+    std::string key;
+    const ResolvedComponent* rc;
+  };
+  std::vector<Part> parts;
+  for (const auto& o : algorithm.info->options)
+    if (o.type == OptionType::Component && algorithm.options.is_set(o.name))
+      parts.push_back({"algorithm." + o.name, &algorithm.options.component(o.name)});
+  for (const auto& p : parts) {
+    for (const auto& tag : p.rc->info->needs) {
+      bool met = false;
+      for (const auto& q : parts)
+        met = met || (&q != &p && std::find(q.rc->info->provides.begin(), q.rc->info->provides.end(), tag) !=
+                                      q.rc->info->provides.end());
+      if (met) continue;
+      // Name the keys of this algorithm whose kind could provide the tag, and the components that do.
+      std::vector<std::string> providers, keys;
+      for (const ComponentInfo* c : registry.all())
+        if (std::find(c->provides.begin(), c->provides.end(), tag) != c->provides.end()) {
+          providers.push_back(c->name);
+          for (const auto& q : parts)
+            if (q.rc->info->kind == c->kind && &q != &p) {
+              const std::string k = fmt::format("'{}' ({})", q.key, q.rc->info->name);
+              if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+            }
+        }
+      const std::string head = fmt::format("{}: key '{}': {} '{}' needs '{}'", algorithm.options.node(p.key.substr(10)).where(),
+                                           p.key, kind_name(p.rc->info->kind), p.rc->info->name, tag);
+      if (!keys.empty())
+        throw ConfigError(fmt::format("{}, which {} does not provide; use one of: {}", head, join(keys, " or "),
+                                      join(providers)));
+      throw ConfigError(fmt::format("{}, which no other component of algorithm '{}' provides{}", head,
+                                    algorithm.info->name,
+                                    providers.empty() ? std::string(" (it is meant for another use, e.g. a fit_optimizer)")
+                                                      : "; components that do: " + join(providers)));
+    }
+  }
+}
+
+}  // namespace
+
 StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   if (!root.is_map()) root.fail("expected a map of study settings (task:, algorithm:, budget:, ...)");
   Options o = validate_options(root, study_options(), "the study", &registry, {});
@@ -64,6 +112,7 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   s.source = root;
   s.task = o.component("task");
   s.algorithm = o.component("algorithm");
+  check_capabilities(s.algorithm, registry);
   s.budget = o.integer("budget");
   s.seed = static_cast<std::uint64_t>(o.integer("seed"));
   s.threads = static_cast<int>(o.integer("threads"));

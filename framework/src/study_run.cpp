@@ -12,11 +12,13 @@
 #include <sstream>
 
 #include "run_writer.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/run_lock.hpp"
 #include "varbo/store.hpp"
 #include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
@@ -38,8 +40,11 @@ std::string RunSummary::report() const {
   std::string s = fmt::format("varbo run summary\n  output          {}\n  evaluations     {} ({} failed)\n", output,
                               evaluations, failed);
   if (best_theta) s += fmt::format("  best cost       {:.8g} at {}\n", best_cost, fmt_vec(*best_theta));
-  if (recommended_theta) s += fmt::format("  recommended     {} (lowest posterior mean)\n", fmt_vec(*recommended_theta));
-  if (simple_regret) s += fmt::format("  simple regret   {:.3e}\n", *simple_regret);
+  if (recommended_theta)
+    s += fmt::format("  recommended     {}{}\n", fmt_vec(*recommended_theta),
+                     recommendation_rule.empty() ? std::string() : " (" + recommendation_rule + ")");
+  if (regret_recommended) s += fmt::format("  regret of the recommended θ     {:.3e}\n", *regret_recommended);
+  if (regret_best_observed) s += fmt::format("  regret of the best observed θ   {:.3e}\n", *regret_best_observed);
   s += fmt::format("  wall time       {:.2f} s\n", seconds);
   return s;
 }
@@ -67,6 +72,28 @@ void remove_store_files(const std::string& path) {
   for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(path + suffix, ec);
 }
 
+bool same_file(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
+  return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+/// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
+void refuse_to_replace(const std::string& folder, const std::string& store_path) {
+  std::size_t n = 0;
+  try {
+    n = open_sqlite_store(store_path)->trials().size();
+  } catch (const Error& e) {
+    throw InputError(fmt::format("{}: the run folder holds a study file that cannot be read ({}); move it away, or "
+                                 "pass --overwrite to replace it",
+                                 folder, e.what()));
+  }
+  if (n == 0) return;
+  throw InputError(fmt::format("{}: this run folder holds a study with {} trial(s) ({}); continue it with "
+                               "`varbo run --resume {}`, or pass --overwrite to replace it (its trials are lost)",
+                               folder, n, store_path, folder));
+}
+
 }  // namespace
 
 RunSummary run_study(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov) {
@@ -78,17 +105,31 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   ThreadLimit limit(study.threads);
   const auto t_start = std::chrono::steady_clock::now();
 
+  // Every configuration error surfaces before anything is created (no empty run folder left behind).
+  Study::validate(study, registry);
+
   // The study store: every trial is committed there before it appears in trials.csv, so a killed run can be
   // continued with --resume (docs/studies.md).
+  const bool own_store = !ov.store;  // <output>/study.db, not a study file given with --study
+  const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
+  if (ov.resume && !std::filesystem::exists(store_path))
+    throw InputError(fmt::format("{}: no study store to resume", store_path));
   {
     std::error_code ec;
     std::filesystem::create_directories(study.output, ec);
     if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", study.output, ec.message()));
   }
-  const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
-  if (!ov.store && !ov.resume) remove_store_files(store_path);  // a fresh run replaces the folder's old study
-  if (ov.resume && !std::filesystem::exists(store_path))
-    throw InputError(fmt::format("{}: no study store to resume", store_path));
+  // One driver per study and per run folder (docs/studies.md, "One writer"): held until this function returns,
+  // after the store is closed (declared before it).
+  std::vector<RunLock> locks;
+  locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
+  const std::string folder_store = study.output + "/study.db";
+  if (!own_store && !same_file(folder_store, store_path))
+    locks.push_back(RunLock::acquire(folder_store + ".lock", fmt::format("the run folder {}", study.output)));
+  if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
+    if (!ov.overwrite) refuse_to_replace(study.output, store_path);
+    remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
+  }
   Study st = Study::attach(store_path, study, registry);
   st.store().set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
@@ -120,20 +161,36 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     }
   });
 
-  RunWriter writer(study.output, study, shown, task.component_names());
+  const std::optional<Optimum> optimum = task.optimum();
+  RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value());
   set_log_file(study.output + "/log.txt");
   log_info("run {}: task {}, algorithm {}, budget {}, seed {}, threads {}", study.output, study.task.info->name,
            study.algorithm.info->name, study.budget, study.seed,
            study.threads > 0 ? study.threads : hardware_threads());
 
-  const std::optional<Optimum> optimum = task.optimum();
   RunSummary summary;
+  if (study.algorithm.info && study.algorithm.info->name == "bo")
+    summary.recommendation_rule = study.algorithm.options.str("recommendation");
   summary.output = study.output;
   double best_noiseless = std::numeric_limits<double>::infinity();
   const Rng task_rng = Rng(study.seed).stream(0x7a5c);  // task noise: one stream per trial index
   Index last_snapshot = -1;
 
-  auto account = [&](const TrialRow& row) {
+  // The recommendation after the latest tell, and its noise-free regret where the task can tell it.
+  auto recommend = [&]() {
+    const Algorithm* a = st.algorithm();
+    if (!a) return;
+    const std::optional<Vec> r = a->recommendation();
+    if (!r) return;
+    summary.recommended_theta = from_unit(*r, domain.box);
+    if (!optimum) return;
+    const std::optional<double> v = task.noiseless_cost(*summary.recommended_theta);
+    if (v && std::isfinite(*v)) summary.regret_recommended = *v - optimum->cost;
+  };
+  // Per-row regret of the recommendation, kept in the store so a resumed run rewrites trials.csv exactly.
+  auto regret_key = [](Index row) { return fmt::format("regret_recommended/{}", row); };
+
+  auto account = [&](TrialRow& row) {
     if (!row.evaluation.ok) {
       ++summary.failed;
     } else {
@@ -145,7 +202,10 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       best_noiseless = std::min(best_noiseless, nl);
     }
     ++summary.evaluations;
-    if (optimum && std::isfinite(best_noiseless)) summary.simple_regret = best_noiseless - optimum->cost;
+    if (optimum && std::isfinite(best_noiseless)) {
+      summary.regret_best_observed = best_noiseless - optimum->cost;
+      row.regret_best_observed = *summary.regret_best_observed;
+    }
   };
 
   // Resume: rewrite the run folder from the store (it may lag behind the store by the trial being written).
@@ -156,10 +216,13 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     std::sort(done.begin(), done.end(),
               [](const TrialRecord& a, const TrialRecord& b) { return a.finish_seq < b.finish_seq; });
     for (const auto& t : done) {
-      const TrialRow row = row_of(t, summary.evaluations);
-      writer.trial(row);
+      TrialRow row = row_of(t, summary.evaluations);
       account(row);
+      if (optimum)
+        if (auto v = st.store().meta(regret_key(row.index))) row.regret_recommended = std::strtod(v->c_str(), nullptr);
+      writer.trial(row);
     }
+    if (!done.empty()) recommend();
     for (const auto& s : st.store().snapshots()) {
       writer.model(s.snapshot);
       last_snapshot = s.snapshot.iteration;
@@ -205,14 +268,18 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     st.store().transaction([&] {
       st.record(t.id, row.evaluation, row.evaluation_seconds);
       if (new_snapshot) st.store().add_snapshot(StoredSnapshot{row.index + 1, *snap});
+      summary.regret_recommended.reset();
+      recommend();
+      if (summary.regret_recommended) st.store().set_meta(regret_key(row.index), exact(*summary.regret_recommended));
     });
-    writer.trial(row);
+    if (summary.regret_recommended) row.regret_recommended = *summary.regret_recommended;
     account(row);
+    writer.trial(row);
     if (ov.progress) {
       std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
                                      study.budget, t.phase, row.evaluation.ok ? row.evaluation.cost : NAN,
                                      summary.best_theta ? summary.best_cost : NAN);
-      if (summary.simple_regret) line += fmt::format("  regret {:.2e}", *summary.simple_regret);
+      if (summary.regret_recommended) line += fmt::format("  regret(rec) {:.2e}", *summary.regret_recommended);
       line += fmt::format("  fit {:.3f}s acq {:.3f}s eval {:.3f}s", t.fit_seconds, t.acquisition_seconds,
                           row.evaluation_seconds);
       std::fprintf(stderr, "%s\n", line.c_str());
@@ -222,13 +289,9 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       last_snapshot = snap->iteration;
     }
     summary.seconds = seconds_since(t_start);
-    if (const Algorithm* a = st.algorithm())
-      if (auto r = a->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
     writer.summary(summary, shown, optimum);
   }
-  if (!summary.recommended_theta)
-    if (const Algorithm* a = st.algorithm())
-      if (auto r = a->recommendation()) summary.recommended_theta = from_unit(*r, domain.box);
+  if (!summary.recommended_theta) recommend();
   if (st.replay_mismatches() > 0)
     log_warn("{} replayed trial(s) did not reproduce their stored point: this run is not bit-for-bit the run that "
              "would not have stopped",
@@ -269,8 +332,14 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
   }
   RunOverrides ov = overrides;
   if (!ov.output) {
-    if (auto out = store->meta(store_key::kOutput)) ov.output = *out;
-    else if (std::filesystem::is_directory(target)) ov.output = target;
+    // Where the run folder is now: a moved or copied folder is continued in place, never at the path stored
+    // when it was created (that may be the original, still in use, or gone).
+    namespace fs = std::filesystem;
+    const fs::path parent = fs::absolute(store_path).parent_path();
+    if (fs::is_directory(target)) ov.output = target;
+    else if (fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) ov.output = parent.string();
+    else if (auto out = store->meta(store_key::kOutput)) ov.output = *out;  // a study file kept apart (--study)
+    else ov.output = parent.string();
   }
   store.reset();
   ov.store = store_path;

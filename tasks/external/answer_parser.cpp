@@ -7,6 +7,8 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
+#include "varbo/numbers.hpp"
+
 namespace varbo::tasks {
 
 namespace {
@@ -20,11 +22,9 @@ std::string trim(const std::string& s) {
 
 // Strict: the whole text must be one number (strtod also accepts "nan"/"inf", rejected by the caller).
 bool parse_number(const std::string& text, double& out) {
-  if (text.empty()) return false;
-  char* end = nullptr;
-  errno = 0;
-  out = std::strtod(text.c_str(), &end);
-  return end != text.c_str() && *end == '\0' && errno != ERANGE;
+  const std::optional<double> v = varbo::parse_decimal(text);  // decimal only: "0x10" is not 16
+  if (v) out = *v;
+  return v.has_value();
 }
 
 std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {

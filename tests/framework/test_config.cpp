@@ -45,3 +45,29 @@ TEST_CASE("closest_match suggests near names only") {
   CHECK(closest_match("xii", {"xi", "kappa"}) == "xi");
   CHECK(closest_match("zzzzzz", {"xi", "kappa"}).empty());
 }
+
+namespace {
+std::string parse_error(const std::string& text) {
+  try {
+    ConfigNode::parse(text, "c.yaml");
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("what yaml-cpp accepts silently is an error: duplicate keys, a second document, unknown tags") {
+  // yaml-cpp keeps the first of two equal keys: `budget: 4` then `budget: 6` would run 4.
+  CHECK(parse_error("budget: 4\nbudget: 6\n") ==
+        "c.yaml:2:1: duplicate key 'budget' (first given at line 1); each key may appear once in a map");
+  CHECK(parse_error("algorithm:\n  type: bo\n  surrogate: {type: gp, restarts: 2, restarts: 3}\n")
+            .rfind("c.yaml:3:38: duplicate key 'restarts'", 0) == 0);
+  CHECK(parse_error("a: 1\n---\nb: 2\n").rfind("c.yaml:3:1: a second YAML document", 0) == 0);
+  CHECK(parse_error("a: !custom 1\n").rfind("c.yaml:1:4: unknown YAML tag '!custom'", 0) == 0);
+  CHECK(parse_error("a: !!binary aGk=\n").find("unknown YAML tag") != std::string::npos);
+  CHECK(parse_error("? [1, 2]\n: 3\n").find("a key must be a plain name") != std::string::npos);
+  // Still fine: one document with its start marker, core-schema tags, quoted values, the same key in two maps.
+  CHECK(parse_error("---\na: !!str 1\nb: \"x\"\nc: {k: 1}\nd: {k: 2}\n").empty());
+  CHECK(parse_error("").empty());
+}

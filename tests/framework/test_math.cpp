@@ -99,3 +99,20 @@ TEST_CASE("check_gradient detects a wrong gradient") {
   });
   CHECK(check_gradient(wrong, Vec::Constant(2, 2.0)).max_rel_error > 0.5);
 }
+
+#include "varbo/numbers.hpp"
+
+TEST_CASE("parse_decimal: decimal notation only") {
+  CHECK(varbo::parse_decimal("12") == 12.0);
+  CHECK(varbo::parse_decimal("-0.5") == -0.5);
+  CHECK(varbo::parse_decimal("+.25") == 0.25);
+  CHECK(varbo::parse_decimal("3.") == 3.0);
+  CHECK(varbo::parse_decimal("1.5e-3") == 1.5e-3);
+  CHECK(varbo::parse_decimal("2E+2") == 200.0);
+  CHECK(varbo::parse_decimal("1e-320").has_value());  // subnormal: read, not refused
+  CHECK(std::isinf(*varbo::parse_decimal("-Infinity")));
+  CHECK(std::isnan(*varbo::parse_decimal("nan")));  // read, for the caller's own "must be finite" message
+  for (const char* bad : {"", "0x10", "0X1p3", "1e999", "-1e400", " 1", "1 ", "1.2.3", "e5", ".", "-", "1e", "1e+",
+                          "1,5", "infinit", "nan(1)", "١"})
+    CHECK_MESSAGE(!varbo::parse_decimal(bad), "'" << bad << "'");
+}

@@ -86,9 +86,17 @@ TEST_CASE("a run writes the resolved config, trials, model snapshots and a summa
                                 test::registry());
   CHECK(s.evaluations == 10);
   CHECK(s.failed == 0);
-  REQUIRE(s.simple_regret.has_value());
-  CHECK(*s.simple_regret >= 0);
-  CHECK(*s.simple_regret == doctest::Approx(s.best_cost - 0.39788735772973816).epsilon(1e-12));
+  REQUIRE(s.regret_best_observed.has_value());
+  CHECK(*s.regret_best_observed >= 0);
+  CHECK(*s.regret_best_observed == doctest::Approx(s.best_cost - 0.39788735772973816).epsilon(1e-12));
+  // The recommended θ is scored by its noise-free cost (Branin, recomputed here independently).
+  REQUIRE(s.recommended_theta.has_value());
+  REQUIRE(s.regret_recommended.has_value());
+  const double a = (*s.recommended_theta)[0], b = (*s.recommended_theta)[1];
+  const double branin = std::pow(b - 5.1 / (4 * M_PI * M_PI) * a * a + 5 / M_PI * a - 6, 2) +
+                        10 * (1 - 1 / (8 * M_PI)) * std::cos(a) + 10;
+  CHECK(*s.regret_recommended == doctest::Approx(branin - 0.39788735772973816).epsilon(1e-12));
+  CHECK(s.recommendation_rule == "lowest_mean_evaluated");
   auto rows = test::read_rows(out + "/trials.csv");
   REQUIRE(rows.size() == 11);
   CHECK(rows[0][0] == "index");
@@ -96,6 +104,12 @@ TEST_CASE("a run writes the resolved config, trials, model snapshots and a summa
   CHECK(rows[0][2] == "x1");
   CHECK(rows[1][1] == "initial");
   CHECK(rows[10][1] == "ei");
+  // Per-row regrets where the optimum is known; the last row's are the summary's.
+  const int rr = test::column_of(rows[0], "regret_recommended"), rb = test::column_of(rows[0], "regret_best_observed");
+  REQUIRE(rr >= 0);
+  REQUIRE(rb >= 0);
+  CHECK(std::stod(rows[10][static_cast<std::size_t>(rr)]) == *s.regret_recommended);
+  CHECK(std::stod(rows[10][static_cast<std::size_t>(rb)]) == *s.regret_best_observed);
   // Resolved config parses back into the same study.
   StudyConfig again = parse_study(ConfigNode::load_file(out + "/config.resolved.yaml"), test::registry());
   CHECK(again.budget == 10);
@@ -155,4 +169,29 @@ TEST_CASE("a CRBO iteration (confidence region, hit-and-run, SLSQP polish) is th
   REQUIRE(ra.size() == 9);
   CHECK(ra[8][1] == "cb");
   CHECK(ra == rb);
+}
+
+TEST_CASE("noise-free runs: the recommended theta is never worse than the best observed by more than the fitted noise") {
+  // Issue 10's target: on noiseless problems the recommendation (lowest posterior mean among the evaluated
+  // points of a model that saw every observation) costs at most the fitted noise level more than the best
+  // observed point. Short runs of the default bo, several seeds and problems.
+  set_log_level(LogLevel::Error);
+  for (const std::string task : {"branin", "hartmann3", "{type: rosenbrock, dim: 2}"}) {
+    for (int seed = 1; seed <= 3; ++seed) {
+      CAPTURE(task);
+      CAPTURE(seed);
+      const std::string out = test::temp_folder("rec_noiseless");
+      RunSummary s = test::run_yaml("task: " + task + "\nbudget: 20\nseed: " + std::to_string(seed) +
+                                        "\noutput: " + out + "\nalgorithm: {type: bo}\n",
+                                    test::registry());
+      REQUIRE(s.regret_recommended.has_value());
+      REQUIRE(s.regret_best_observed.has_value());
+      // The fitted noise std of the last fit (model.yaml, cost units).
+      std::ifstream m(out + "/model.yaml");
+      double noise = 0;
+      for (std::string line; std::getline(m, line);)
+        if (const auto p = line.find("\"noise_std\": "); p != std::string::npos) noise = std::stod(line.substr(p + 13));
+      CHECK(*s.regret_recommended - *s.regret_best_observed <= noise);
+    }
+  }
 }

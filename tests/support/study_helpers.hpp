@@ -2,6 +2,7 @@
 // Helpers for tests that run whole studies in-process.
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -11,9 +12,12 @@
 
 namespace varbo::test {
 
-/// A fresh, empty folder under the system temp dir.
+/// A fresh, empty folder under the system temp dir, one set per build tree (the hash of the test program's
+/// folder), so that test suites of several checkouts running at once never share a folder.
 inline std::string temp_folder(const std::string& name) {
-  const auto p = std::filesystem::temp_directory_path() / ("varbo_test_" + name);
+  std::error_code ec;
+  const std::size_t tree = std::hash<std::string>{}(std::filesystem::canonical("/proc/self/exe", ec).parent_path().string());
+  const auto p = std::filesystem::temp_directory_path() / ("varbo_test_" + std::to_string(tree % 100000)) / name;
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p.string();
@@ -31,6 +35,7 @@ inline int column_of(const std::vector<std::string>& header, const std::string& 
 /// Runs a study given as YAML text against `registry`.
 inline RunSummary run_yaml(const std::string& yaml, const Registry& registry, RunOverrides ov = {}) {
   ov.progress = false;
+  if (!ov.resume) ov.overwrite = true;  // tests rerun studies into their scratch folders
   StudyConfig s = parse_study(ConfigNode::parse(yaml, "<test study>"), registry);
   return run_study(s, registry, ov);
 }

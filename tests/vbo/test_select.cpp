@@ -125,3 +125,25 @@ TEST_CASE("load_run_folder: missing files and bad rows name the file") {
   CHECK_THROWS_WITH_AS(load_run_folder(dir, test::registry()), doctest::Contains("config.resolved.yaml"), InputError);
   CHECK_THROWS_AS(load_run_folder(dir + "/nope", test::registry()), InputError);
 }
+
+TEST_CASE("select_among: the candidate minimizing E + kappa s, by brute force on the same model") {
+  const test::FakeTwoWells model;
+  const Domain domain{Box{Vec::Constant(1, 0.0), Vec::Constant(1, 10.0)}, {"theta"}};
+  Mat pts(7, 1);
+  pts << 0.05, 0.2, 0.26, 0.5, 0.74, 0.8, 0.95;
+  for (double kappa : {-1.5, 0.0, 1.5}) {
+    const RiskSelection s = select_among(model, domain, {kappa}, pts).front();
+    REQUIRE(s.ok);
+    Index best = 0;
+    for (Index i = 1; i < pts.rows(); ++i) {
+      const double xi = pts(i, 0), xb = pts(best, 0);
+      if (test::FakeTwoWells::mean(xi) + kappa * test::FakeTwoWells::std_dev(xi) <
+          test::FakeTwoWells::mean(xb) + kappa * test::FakeTwoWells::std_dev(xb))
+        best = i;
+    }
+    CHECK(s.x[0] == pts(best, 0));
+    CHECK(s.theta[0] == doctest::Approx(10.0 * pts(best, 0)).epsilon(1e-12));
+    CHECK(s.criterion == doctest::Approx(s.mean + kappa * s.std).epsilon(1e-12));
+  }
+  CHECK_THROWS_AS(select_among(model, domain, {0.0}, Mat(0, 1)), InputError);
+}

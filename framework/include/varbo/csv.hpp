@@ -9,10 +9,13 @@ namespace varbo {
 struct CsvTable {
   std::vector<std::string> columns;
   Mat values;  ///< rows × columns
+  std::vector<int> lines;  ///< the file's line number (1-based) of each row, for messages
   Index column(const std::string& name) const;  ///< -1 when absent
 };
 
-/// Reads a CSV file of numbers with one header line. Errors name the file, line and column.
+/// Reads a CSV file of numbers with one header line. Errors name the file, line and column: a cell that is not
+/// a decimal number (parse_decimal; nan and inf are read, for the caller to judge), a row of the wrong width, a
+/// column name given twice or empty.
 CsvTable read_csv(const std::string& filename);
 
 /// Every line of a CSV file split at commas, as text (header included); no quoting rules. Empty when the file

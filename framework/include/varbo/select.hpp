@@ -19,6 +19,9 @@ struct RiskSelection {
   double mean = 0;  ///< E[y] at θ, cost units
   double std = 0;   ///< s = sqrt(V[y]) at θ: latent and noise variance (Kuindersma 2013, section 2.2)
   double criterion = 0;  ///< E[y] + κ·s, the minimized value
+  /// sd of the latent cost at θ relative to σ_f: near 1 the model knows nothing there (far from the data), so
+  /// E and s are the prior's and the selection is an extrapolation.
+  double relative_latent_std = 0;
   bool ok = false;
   std::string message;
 };
@@ -43,5 +46,10 @@ class NegativeConfidenceBound final : public DifferentiableFunction {
 std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
                                            const std::vector<double>& kappas, const Optimizer& optimizer,
                                            const Rng& rng, const Mat& starts = Mat());
+
+/// For each κ, the row of `points` (unit cube, e.g. the evaluated θ) minimizing E + κ·s: the selection that
+/// never leaves the data (Kuindersma 2013, Alg. 2 picks among evaluated policies the same way).
+std::vector<RiskSelection> select_among(const Surrogate& model, const Domain& domain,
+                                        const std::vector<double>& kappas, const Mat& points);
 
 }  // namespace varbo

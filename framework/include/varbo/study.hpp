@@ -38,9 +38,11 @@ struct RunOverrides {
   /// Study store of the run (default: <output>/study.db). An existing store is continued (its configuration
   /// must match); a new one is created.
   std::optional<std::string> store;
-  /// Continue the run in `store` (or <output>/study.db) instead of starting afresh. Without it, a stale
-  /// <output>/study.db is replaced.
+  /// Continue the run in `store` (or <output>/study.db) instead of starting afresh. Without it, a
+  /// <output>/study.db holding trials is refused (InputError pointing at --resume and --overwrite).
   bool resume = false;
+  /// Replace the study of <output>/study.db even if it holds trials.
+  bool overwrite = false;
 };
 
 struct RunSummary {
@@ -49,8 +51,14 @@ struct RunSummary {
   Index failed = 0;
   std::optional<Vec> best_theta;        ///< user units, best observed cost
   double best_cost = 0;
-  std::optional<Vec> recommended_theta; ///< user units, lowest posterior mean among evaluated points
-  std::optional<double> simple_regret;  ///< min noiseless cost − known optimum
+  std::optional<Vec> recommended_theta; ///< user units, by the algorithm's recommendation rule
+  std::string recommendation_rule;      ///< e.g. "lowest_mean_evaluated" (bo's `recommendation`), if known
+  /// Where the optimum is known: noise-free cost of the recommended θ − f* (the regret of what a user
+  /// deploys; needs Task::noiseless_cost).
+  std::optional<double> regret_recommended;
+  /// Where the optimum is known: lowest noise-free cost among evaluated θ − f* (an oracle figure: on a noisy
+  /// task a user cannot know which evaluated θ that is).
+  std::optional<double> regret_best_observed;
   double seconds = 0;
   std::string report() const;
 };

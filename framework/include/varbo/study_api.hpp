@@ -45,6 +45,9 @@ class Study {
   /// Opens or creates a study with components from `registry` (which must outlive the Study). An existing
   /// store must hold the same task, algorithm, seed and initial point, else InputError.
   static Study attach(const std::string& store_path, const StudyConfig& config, const Registry& registry);
+  /// Builds the task and the algorithm once, touching no file: every configuration error (initial point,
+  /// dimension, a component's own checks) surfaces here, before a run folder or store is created.
+  static void validate(const StudyConfig& config, const Registry& registry);
 
   Study(Study&&) noexcept;
   Study& operator=(Study&&) noexcept;

@@ -16,7 +16,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 // Purposes of the random streams derived from the run seed: one per (purpose, evaluation index), so a
 // suggestion depends only on the seed, the data and its index.
-enum Stream : std::uint64_t { kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6 };
+enum Stream : std::uint64_t {
+  kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6, kRecommend = 7
+};
 
 std::vector<OptionSpec> phase_options() {
   return {
@@ -49,6 +51,12 @@ std::vector<OptionSpec> options() {
       opt::choice("batch_strategy", "kriging_believer", {"kriging_believer", "constant_liar_min", "constant_liar_mean"},
                   "how points of a batch and points pending elsewhere enter the model before they are observed "
                   "(Ginsbourger 2010): at the posterior mean, or at the min / mean of the observed costs"),
+      opt::choice("recommendation", recommendation_rule_names().front(), recommendation_rule_names(),
+                  "the θ to deploy, chosen on a model conditioned on all observations (refitted once the budget "
+                  "is spent): the evaluated θ with the lowest posterior mean; the posterior mean's minimum over "
+                  "the search region; the evaluated θ with the lowest E + κ·s (κ = recommendation_kappa, "
+                  "risk-averse for κ > 0); or the lowest observed cost"),
+      opt::real("recommendation_kappa", 1.0, "κ of the lowest_bound_evaluated recommendation rule"),
       opt::node("phases", "",
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
@@ -109,6 +117,9 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                                 : Mat(0, dim_);
   if (ctx.initial_point && design_.rows() > 0) design_.row(0) = ctx.initial_point->transpose();
   data_ = Dataset::empty(dim_);
+  recommender_ = std::make_unique<Recommender>(recommendation_rule(o.str("recommendation")),
+                                               o.real("recommendation_kappa"),
+                                               r.create<Surrogate>(o.component("surrogate"), ctx));
 }
 
 const Phase& BayesianOptimization::phase_at(Index evaluation) const {
@@ -297,13 +308,12 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
 
 std::optional<Vec> BayesianOptimization::recommendation() const {
   if (data_.size() == 0) return std::nullopt;
-  if (!model_ready_) {
-    Index best;
-    data_.y.minCoeff(&best);
-    return Vec(data_.X.row(best).transpose());
-  }
-  const Incumbent inc = find_incumbent(*surrogate_, data_, 0.0);
-  return Vec(data_.X.row(inc.index).transpose());
+  // The final recommendation (budget spent) refits the hyperparameters on all data; before that the
+  // recommendation model is only conditioned with the latest fitted ones (one O(N³) solve per trial).
+  const bool final = budget_ > 0 && told_ >= budget_;
+  Rng rrng = rng_.stream(kRecommend, static_cast<std::uint64_t>(told_));
+  return recommender_->recommend(model_ready_ ? surrogate_.get() : nullptr, data_, *region_, *optimizer_, rrng,
+                                 final);
 }
 
 std::optional<ModelSnapshot> BayesianOptimization::snapshot() const {

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "recommender.hpp"
 #include "varbo/registry.hpp"
 
 namespace varbo::bo {
@@ -29,6 +30,8 @@ class BayesianOptimization final : public Algorithm {
   void tell(const std::vector<Observation>& observations) override;
   /// Pending points enter the next batches as fantasies (batch_strategy) and shift the trial index.
   void set_pending(const std::vector<Vec>& pending) override;
+  /// The θ to deploy, by the `recommendation` rule, on a model conditioned on every observation (refitted
+  /// once the budget is spent); never the stale model of the last ask().
   std::optional<Vec> recommendation() const override;
   const Surrogate* model() const override { return model_ready_ ? surrogate_.get() : nullptr; }
   std::optional<ModelSnapshot> snapshot() const override;
@@ -63,6 +66,7 @@ class BayesianOptimization final : public Algorithm {
   Index fits_ = 0;
   bool model_ready_ = false;
   ModelSnapshot snapshot_;
+  std::unique_ptr<Recommender> recommender_;  ///< its own model: recommending changes no trial
 };
 
 }  // namespace varbo::bo

@@ -169,6 +169,7 @@ void CmaEs::update() {
 
 std::optional<Vec> CmaEs::recommendation() const {
   if (!std::isfinite(best_cost_)) return std::nullopt;
+  if (o_.recommend_mean) return Vec(Box::unit(d_).clamp(m_));
   return best_x_;
 }
 

@@ -19,6 +19,9 @@ struct CmaEsOptions {
   Index population = 0;     ///< λ; 0 = 4 + floor(3 ln d)
   double penalty = 10.0;    ///< boundary penalty factor (× the generation's cost range per unit distance²)
   std::uint64_t seed = 0;
+  /// Recommend the distribution mean m (clipped to the box) instead of the best observed candidate: under
+  /// noise the best observed cost is a lucky draw, while m averages the μ best of each generation.
+  bool recommend_mean = false;
 };
 
 class CmaEs final : public Algorithm {

@@ -12,7 +12,9 @@ VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's d
        opt::reals("x0", "", "initial mean in the unit cube (default: the task's initial point, else the centre)"),
        opt::integer("population", 0, "lambda; 0 = 4 + floor(3 ln d)").at_least(0),
        opt::real("penalty", 10.0, "boundary penalty factor, times the generation's cost range per unit distance^2")
-           .at_least(0)},
+           .at_least(0),
+       opt::choice("recommendation", "best_observed", {"best_observed", "mean"},
+                   "the θ to deploy: the best observed candidate, or the distribution mean (better under noise)")},
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Algorithm> {
         if (ctx.dim <= 0) throw ConfigError("algorithm 'cma_es' needs the problem dimension (got 0)");
         CmaEsOptions c;
@@ -20,6 +22,7 @@ VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's d
         c.population = o.integer("population");
         c.penalty = o.real("penalty");
         c.seed = ctx.seed;
+        c.recommend_mean = o.str("recommendation") == "mean";
         if (o.is_set("x0")) {
           const std::vector<double> v = o.reals("x0");
           if (static_cast<Index>(v.size()) != ctx.dim)

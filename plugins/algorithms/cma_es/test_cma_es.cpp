@@ -98,3 +98,14 @@ TEST_CASE("cma_es: registered; x0 and sigma0 options; wrong x0 is a ConfigError"
   CHECK_THROWS_AS(test::registry().create<Algorithm>("{type: cma_es, x0: [0.2, 0.2]}", ctx), ConfigError);
   CHECK_THROWS_AS(test::registry().create<Algorithm>("{type: cma_es, x0: [0.2, 0.2, 2.0]}", ctx), ConfigError);
 }
+
+TEST_CASE("cma_es: recommendation: mean recommends the distribution mean, clipped to the box") {
+  auto f = [](const Vec& x) { return (x - Vec::Constant(3, 0.4)).squaredNorm(); };
+  CmaEsOptions o;
+  o.seed = 2;
+  o.recommend_mean = true;
+  CmaEs es(3, o);
+  run(es, f, 60);
+  REQUIRE(es.recommendation());
+  CHECK((*es.recommendation() - Box::unit(3).clamp(es.mean())).norm() == 0.0);
+}

@@ -1,23 +1,44 @@
 #include "random_search.hpp"
 
+#include <algorithm>
+
 #include "varbo/errors.hpp"
 
 namespace varbo::random_search {
 
 RandomSearch::RandomSearch(const Options& o, const BuildContext& ctx) {
   if (ctx.dim < 1) throw ConfigError("random: the problem dimension must be at least 1");
-  auto sampler = ctx.registry->create<Sampler>(o.component("sampler"), ctx);
-  Rng rng = Rng(ctx.seed).stream(1);
-  // The whole budget at once, so a low-discrepancy sampler keeps its structure.
-  points_ = sampler->sample(BoxRegion(Box::unit(ctx.dim)), std::max<Index>(ctx.budget, 1), rng);
-  if (ctx.initial_point && points_.rows() > 0) points_.row(0) = ctx.initial_point->transpose();
+  sampler_ = ctx.registry->create<Sampler>(o.component("sampler"), ctx);
+  seed_ = ctx.seed;
+  dim_ = ctx.dim;
+  budget_ = std::max<Index>(ctx.budget, 1);
+  // Up to kBlock points: the whole budget in one draw, so a low-discrepancy sampler keeps its structure. A
+  // larger budget is drawn in blocks of kBlock (each its own random stream), one block in memory at a time.
+  block_ = std::min(budget_, kBlock);
+  initial_point_ = ctx.initial_point;
   data_ = Dataset::empty(ctx.dim);
+}
+
+std::optional<Vec> RandomSearch::point(Index k) {
+  const Index b = k / block_;
+  if (b != loaded_block_) {
+    Rng rng = Rng(seed_).stream(1);
+    if (budget_ > kBlock) rng = rng.stream(static_cast<std::uint64_t>(b));
+    points_ = sampler_->sample(BoxRegion(Box::unit(dim_)), std::min(block_, budget_ - b * block_), rng);
+    if (b == 0 && initial_point_ && points_.rows() > 0) points_.row(0) = initial_point_->transpose();
+    loaded_block_ = b;
+  }
+  if (k - b * block_ >= points_.rows()) return std::nullopt;  // the sampler gave fewer points than asked
+  return Vec(points_.row(k - b * block_).transpose());
 }
 
 std::vector<Suggestion> RandomSearch::ask(Index q) {
   std::vector<Suggestion> out;
-  for (Index j = 0; j < q && next_ + skip_ < points_.rows(); ++j, ++next_)
-    out.push_back(Suggestion{points_.row(next_ + skip_).transpose(), "random", 0, 0});
+  for (Index j = 0; j < q && next_ + skip_ < budget_; ++j, ++next_) {
+    std::optional<Vec> x = point(next_ + skip_);
+    if (!x) break;
+    out.push_back(Suggestion{*x, "random", 0, 0});
+  }
   return out;
 }
 

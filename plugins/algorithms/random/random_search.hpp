@@ -1,11 +1,16 @@
 #pragma once
 // The baseline every method must beat: points from a sampler, no model.
+#include <memory>
+
 #include "varbo/registry.hpp"
 
 namespace varbo::random_search {
 
 class RandomSearch final : public Algorithm {
  public:
+  /// Points are drawn a block at a time when first asked for, so a huge budget costs no memory up front.
+  static constexpr Index kBlock = 4096;
+
   RandomSearch(const Options& options, const BuildContext& ctx);
   std::vector<Suggestion> ask(Index q) override;
   void tell(const std::vector<Observation>& observations) override;
@@ -14,6 +19,15 @@ class RandomSearch final : public Algorithm {
   std::optional<Vec> recommendation() const override;
 
  private:
+  std::optional<Vec> point(Index k);  ///< the k-th point of the sequence (k < budget_)
+
+  std::unique_ptr<Sampler> sampler_;
+  std::uint64_t seed_ = 0;
+  Index dim_ = 0;
+  Index budget_ = 1;
+  Index block_ = 1;          ///< points per block: the whole budget when it is at most kBlock
+  Index loaded_block_ = -1;  ///< which block `points_` holds
+  std::optional<Vec> initial_point_;
   Mat points_;
   Index next_ = 0;
   Index skip_ = 0;

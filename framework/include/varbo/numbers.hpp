@@ -1,0 +1,16 @@
+#pragma once
+// One strict reading of a number typed by a user (command line, external command answers, CSV files,
+// configuration reals): decimal notation only. strtod alone also takes "0x10" (16), "1e999" (inf) and leading
+// blanks, which turn typos into silently wrong costs.
+#include <optional>
+#include <string>
+
+namespace varbo {
+
+/// The value of `text` when the whole text is a decimal number: optional sign, digits with an optional
+/// point, an optional exponent (e.g. 12, -0.5, .25, 3., 1.5e-3), or one of nan / inf / infinity (any case,
+/// with a sign) so that the caller can reject non-finite values with its own message. Nothing else: no
+/// hexadecimal, no blanks, no overflow (1e999); an underflow reads as the nearest representable value.
+std::optional<double> parse_decimal(const std::string& text);
+
+}  // namespace varbo

@@ -1,0 +1,52 @@
+#include "varbo/numbers.hpp"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+namespace varbo {
+
+namespace {
+bool is_digit(char c) { return c >= '0' && c <= '9'; }
+
+bool non_finite_word(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s == "nan" || s == "inf" || s == "infinity";
+}
+
+/// [+-]? (digits [. digits?] | . digits) ([eE] [+-]? digits)?
+bool decimal_syntax(const std::string& s) {
+  std::size_t i = 0;
+  const std::size_t n = s.size();
+  if (i < n && (s[i] == '+' || s[i] == '-')) ++i;
+  std::size_t digits = 0;
+  while (i < n && is_digit(s[i])) ++i, ++digits;
+  if (i < n && s[i] == '.') {
+    ++i;
+    while (i < n && is_digit(s[i])) ++i, ++digits;
+  }
+  if (digits == 0) return false;
+  if (i < n && (s[i] == 'e' || s[i] == 'E')) {
+    ++i;
+    if (i < n && (s[i] == '+' || s[i] == '-')) ++i;
+    std::size_t exp = 0;
+    while (i < n && is_digit(s[i])) ++i, ++exp;
+    if (exp == 0) return false;
+  }
+  return i == n;
+}
+}  // namespace
+
+std::optional<double> parse_decimal(const std::string& text) {
+  const std::size_t sign = !text.empty() && (text[0] == '+' || text[0] == '-') ? 1 : 0;
+  if (!decimal_syntax(text) && !non_finite_word(text.substr(sign))) return std::nullopt;
+  errno = 0;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size()) return std::nullopt;
+  if (errno == ERANGE && std::isinf(v)) return std::nullopt;  // overflow, not a typed "inf"
+  return v;
+}
+
+}  // namespace varbo

@@ -1,0 +1,93 @@
+#include "varbo/run_lock.hpp"
+
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+
+#include "varbo/errors.hpp"
+
+namespace varbo {
+
+namespace {
+
+std::string owner_line() {
+  char host[256] = "unknown";
+  gethostname(host, sizeof host - 1);
+  host[sizeof host - 1] = '\0';
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char when[32];
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return fmt::format("pid {} on host {}, started {}", static_cast<long>(getpid()), host, when);
+}
+
+}  // namespace
+
+std::string RunLock::owner_of(const std::string& lock_path) {
+  std::ifstream in(lock_path);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) {
+  // The holder removes the file when it ends; a process that opened the old file just before must not take
+  // a lock on a removed inode, hence the check that the locked file is still the one at `lock_path`.
+  for (int attempt = 0; attempt < 20; ++attempt) {
+    const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0)
+      throw InputError(fmt::format("{}: cannot create the lock file: {}", lock_path, std::strerror(errno)));
+    if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      const int err = errno;
+      ::close(fd);
+      if (err != EWOULDBLOCK)
+        throw InputError(fmt::format("{}: cannot lock: {}", lock_path, std::strerror(err)));
+      std::string owner = owner_of(lock_path);
+      if (owner.empty()) owner = "another process (starting up)";
+      throw InputError(fmt::format("{} is in use by another `varbo run` ({}); wait for it to end or stop it; "
+                                   "only one run may drive a study (lock file {})",
+                                   what, owner, lock_path));
+    }
+    struct stat held {}, named {};
+    if (fstat(fd, &held) != 0 || stat(lock_path.c_str(), &named) != 0 || held.st_ino != named.st_ino ||
+        held.st_dev != named.st_dev) {
+      ::close(fd);  // removed or replaced between open and flock: try the current file
+      continue;
+    }
+    const std::string line = owner_line() + "\n";
+    if (ftruncate(fd, 0) != 0 || ::write(fd, line.data(), line.size()) != static_cast<ssize_t>(line.size())) {
+      // The lock holds without the owner line; only the message of a second run is poorer.
+    }
+    return RunLock(fd, lock_path);
+  }
+  throw InputError(fmt::format("{}: the lock file keeps changing; is another run starting and stopping?", lock_path));
+}
+
+RunLock::RunLock(RunLock&& other) noexcept : fd_(other.fd_), path_(std::move(other.path_)) { other.fd_ = -1; }
+
+RunLock& RunLock::operator=(RunLock&& other) noexcept {
+  if (this != &other) {
+    this->~RunLock();
+    fd_ = other.fd_;
+    path_ = std::move(other.path_);
+    other.fd_ = -1;
+  }
+  return *this;
+}
+
+RunLock::~RunLock() {
+  if (fd_ < 0) return;
+  ::unlink(path_.c_str());  // while still holding the lock: see acquire()
+  ::close(fd_);
+  fd_ = -1;
+}
+
+}  // namespace varbo

@@ -1,0 +1,120 @@
+#include "recommender.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+
+namespace varbo::bo {
+
+const std::vector<std::string>& recommendation_rule_names() {
+  static const std::vector<std::string> names = {"lowest_mean_evaluated", "lowest_mean_domain",
+                                                 "lowest_bound_evaluated", "best_observed"};
+  return names;
+}
+
+RecommendationRule recommendation_rule(const std::string& name) {
+  const auto& n = recommendation_rule_names();
+  for (std::size_t i = 0; i < n.size(); ++i)
+    if (n[i] == name) return static_cast<RecommendationRule>(i);
+  throw ConfigError("bo: unknown recommendation rule '" + name + "'");
+}
+
+Recommender::Recommender(RecommendationRule rule, double kappa, std::unique_ptr<Surrogate> model)
+    : rule_(rule), kappa_(kappa), model_(std::move(model)) {}
+
+namespace {
+Index best_observed(const Dataset& data) {
+  Index best = 0;
+  data.y.minCoeff(&best);
+  return best;
+}
+}  // namespace
+
+bool Recommender::prepare_model(const Surrogate& fitted, const Dataset& data, Rng& rng, bool refit) {
+  try {
+    // Every hyperparameter but a constant mean, which follows the data it is conditioned on (setting it
+    // would fix it, e.g. the gp's `mean`, at the mean of the previous N − 1 costs).
+    Hyperparameters h;
+    for (const Hyperparameter& p : fitted.hyperparameters())
+      if (p.name != "mean") h.push_back(p);
+    model_->set_hyperparameters(h);
+    // Per-point state (VHGP's variational log Λ) covers the points of the latest fit; a point added since
+    // starts at the median of the others, a neutral value the conditioning (or refit) then uses.
+    for (auto [name, value] : fitted.state()) {
+      if (name != "log_lambda") continue;
+      if (value.size() == 0) continue;
+      if (value.size() != data.size()) {
+        Vec v(data.size());
+        const Index keep = std::min(value.size(), data.size());
+        Vec sorted = value;
+        std::sort(sorted.begin(), sorted.end());
+        v.setConstant(sorted[sorted.size() / 2]);
+        v.head(keep) = value.head(keep);
+        value = v;
+      }
+      model_->set_state(name, value);
+    }
+  } catch (const std::exception& e) {
+    log_warn("bo: recommendation model: {}", e.what());
+    return false;
+  }
+  const FitReport rep = refit ? model_->fit(data, rng) : model_->condition(data);
+  if (!rep.ok) log_warn("bo: recommendation model: {}", rep.report());
+  return model_->ready() && rep.ok;
+}
+
+Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const RegionConstraint& region,
+                           const Optimizer& optimizer, Rng& rng, bool refit) {
+  if (data.size() == 0) throw std::logic_error("Recommender::recommend without data");
+  if (cached_n_ == data.size() && cached_refit_ == refit && cached_.size() == data.dim()) return cached_;
+  const Vec observed = data.X.row(best_observed(data)).transpose();
+  ready_ = false;
+  Vec out = observed;
+  if (rule_ != RecommendationRule::BestObserved && data.size() >= 2) {
+    if (fitted && fitted->ready()) {
+      ready_ = prepare_model(*fitted, data, rng, refit);
+    } else if (refit) {
+      // The budget ended before the run fitted a model (e.g. all trials in the initial design): fit one now.
+      const FitReport rep = model_->fit(data, rng);
+      if (!rep.ok) log_warn("bo: recommendation model: {}", rep.report());
+      ready_ = rep.ok && model_->ready();
+    }
+  }
+  if (ready_) {
+    switch (rule_) {
+      case RecommendationRule::LowestMeanEvaluated:
+        out = data.X.row(find_incumbent(*model_, data, 0.0).index).transpose();
+        break;
+      case RecommendationRule::LowestBoundEvaluated:
+        out = data.X.row(find_incumbent(*model_, data, kappa_).index).transpose();
+        break;
+      case RecommendationRule::LowestMeanDomain: {
+        // Minimize the posterior mean over the search region, started at the evaluated points; the best
+        // evaluated point is kept when the optimizer finds nothing lower (it never recommends worse than
+        // the lowest-mean evaluated point under the model).
+        const Vec at_data = data.X.row(find_incumbent(*model_, data, 0.0).index).transpose();
+        const Surrogate& m = *model_;
+        FunctionRef neg_mean(data.dim(), [&m](const Vec& x, Vec* g) {
+          const Prediction p = m.predict(x, g != nullptr);
+          if (g) *g = -p.d_mean;
+          return -p.mean;
+        });
+        const OptimizeResult r = optimizer.maximize(neg_mean, region, data.X, rng);
+        out = at_data;
+        if (r.x.size() == data.dim() && r.x.allFinite() && std::isfinite(r.value) &&
+            -r.value < m.predict(at_data, false).mean)
+          out = Box::unit(data.dim()).clamp(r.x);
+        break;
+      }
+      case RecommendationRule::BestObserved: break;
+    }
+  }
+  cached_n_ = data.size();
+  cached_refit_ = refit;
+  cached_ = out;
+  return out;
+}
+
+}  // namespace varbo::bo

@@ -1,0 +1,55 @@
+#pragma once
+// What a BO run recommends: the θ a user deploys after the last trial. It is chosen on a model conditioned on
+// *all* observations (the fitted model of the last ask() saw N − 1 of them, and the last point still carries
+// the optimistic prediction that got it chosen), by one of the rules users expect.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "varbo/registry.hpp"
+
+namespace varbo::bo {
+
+enum class RecommendationRule {
+  LowestMeanEvaluated,  ///< the evaluated θ with the lowest posterior mean (default)
+  LowestMeanDomain,     ///< argmin of the posterior mean over the search region (optimized)
+  LowestBoundEvaluated, ///< the evaluated θ with the lowest E + κ·s (κ > 0: risk-averse, Kuindersma 2013 eq. 12)
+  BestObserved,         ///< the evaluated θ with the lowest observed cost (no model)
+};
+
+/// The option values of `recommendation`, in declaration order (the first is the default).
+const std::vector<std::string>& recommendation_rule_names();
+RecommendationRule recommendation_rule(const std::string& name);
+
+class Recommender {
+ public:
+  /// `model` is a second instance of the run's surrogate: it is conditioned (or refitted) on all data and
+  /// never touches the run's own model, so recommending changes no trial.
+  Recommender(RecommendationRule rule, double kappa, std::unique_ptr<Surrogate> model);
+
+  /// Recommended θ (unit cube) for `data`. `fitted` is the run's model after its latest fit (its
+  /// hyperparameters and state seed the recommendation model), or nullptr when there is none. With `refit`
+  /// the recommendation model's hyperparameters are optimized on all data (the run's final recommendation);
+  /// otherwise it is conditioned with the fitted hyperparameters. `region` and `optimizer` serve
+  /// LowestMeanDomain. Results are cached per data size and refit flag.
+  Vec recommend(const Surrogate* fitted, const Dataset& data, const RegionConstraint& region,
+                const Optimizer& optimizer, Rng& rng, bool refit);
+
+  RecommendationRule rule() const { return rule_; }
+  /// The recommendation model after the latest recommend() (nullptr if none was usable).
+  const Surrogate* model() const { return ready_ ? model_.get() : nullptr; }
+
+ private:
+  bool prepare_model(const Surrogate& fitted, const Dataset& data, Rng& rng, bool refit);
+
+  RecommendationRule rule_;
+  double kappa_;
+  std::unique_ptr<Surrogate> model_;
+  bool ready_ = false;
+  Index cached_n_ = -1;
+  bool cached_refit_ = false;
+  Vec cached_;
+};
+
+}  // namespace varbo::bo

@@ -1,0 +1,209 @@
+// `varbo run` as the one writer of its run folder and study (issue 11, item 3), and inputs that must be refused
+// before anything is created (item 5): each case runs the built executable.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "process.hpp"
+#include "study_helpers.hpp"
+#include "varbo/store.hpp"
+#include "varbo/study_api.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string slurp(const std::string& f) {
+  std::ifstream in(f);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string scratch(const std::string& name) { return test::temp_folder(name + "_" + std::to_string(getpid())); }
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+std::size_t trial_count(const std::string& db) { return open_sqlite_store(db)->trials().size(); }
+
+std::size_t csv_rows(const std::string& file) { return test::read_rows(file).size() - 1; }
+
+}  // namespace
+
+TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the owner; a killed owner frees it") {
+  const std::string dir = scratch("run_lock");
+  const std::string cfg = dir + "/slow.yaml", out = dir + "/run", log = dir + "/log.txt";
+  // Each trial takes 0.2 s: the first run is alive while the others start.
+  std::ofstream(cfg) << "task: {type: external, command: 'sleep 0.2; echo 1.5', dim: 1}\nbudget: 50\nseed: 1\n"
+                        "algorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  const pid_t first = test::spawn({V, "-q", "run", cfg, "-o", out, "--no-progress"}, dir + "/first.log");
+  // Wait until it holds the lock and has recorded a trial.
+  for (int i = 0; i < 3000 && !(fs::exists(out + "/study.db") && trial_count(out + "/study.db") >= 1); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(fs::exists(out + "/study.db.lock"));
+
+  const std::string second = dir + "/second.log";
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress"}, second).exit_code == 2);
+  CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress", "--overwrite"}, second).exit_code == 2);
+  const std::string msg = slurp(second);
+  CHECK(contains(msg, "in use by another `varbo run`"));
+  CHECK(contains(msg, "pid " + std::to_string(first)));  // the owner is named
+  CHECK(contains(msg, out + "/study.db.lock"));
+  // External workers are not locked out: the store stays readable while the run drives it.
+  CHECK(test::run({V, "-q", "status", out + "/study.db"}, dir + "/status.log").exit_code == 0);
+
+  kill(first, SIGKILL);  // the kernel releases the lock with the process
+  test::wait_for(first);
+  const std::size_t before = trial_count(out + "/study.db");
+  CHECK(before >= 1);
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress", "--budget", std::to_string(before + 1)}, log)
+            .exit_code == 0);
+  CHECK_FALSE(fs::exists(out + "/study.db.lock"));  // removed by a run that ends normally
+  fs::remove_all(dir);
+}
+
+TEST_CASE("run folder with trials: a plain run refuses (pointing at --resume and --overwrite); --overwrite replaces") {
+  const std::string dir = scratch("run_overwrite");
+  const std::string cfg = dir + "/c.yaml", out = dir + "/run", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 3\nseed: 2\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress"}).exit_code == 0);
+  REQUIRE(trial_count(out + "/study.db") == 3);
+  const std::string before = slurp(out + "/trials.csv");
+
+  CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress", "--budget", "2"}, log).exit_code == 2);
+  const std::string msg = slurp(log);
+  CHECK(contains(msg, "holds a study with 3 trial(s)"));
+  CHECK(contains(msg, "varbo run --resume " + out));
+  CHECK(contains(msg, "--overwrite"));
+  CHECK(trial_count(out + "/study.db") == 3);  // nothing touched
+  CHECK(slurp(out + "/trials.csv") == before);
+
+  CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress", "--budget", "2", "--overwrite"}).exit_code == 0);
+  CHECK(trial_count(out + "/study.db") == 2);
+  CHECK(csv_rows(out + "/trials.csv") == 2);
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--overwrite"}, log).exit_code == 2);  // contradictory
+  fs::remove_all(dir);
+}
+
+TEST_CASE("resuming a moved or copied run folder writes where the folder is now") {
+  const std::string dir = scratch("run_moved");
+  const std::string cfg = dir + "/c.yaml", a = dir + "/a", b = dir + "/b", c = dir + "/c";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 4\nseed: 3\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", a, "--no-progress"}).exit_code == 0);
+  fs::rename(a, b);
+  REQUIRE(test::run({V, "-q", "run", "--resume", b, "--budget", "6", "--no-progress"}).exit_code == 0);
+  CHECK_FALSE(fs::exists(a));  // not recreated at the stored path
+  CHECK(csv_rows(b + "/trials.csv") == 6);
+  fs::copy(b, c, fs::copy_options::recursive);
+  // The study file named directly: its folder is the run folder.
+  REQUIRE(test::run({V, "-q", "run", "--resume", c + "/study.db", "--budget", "8", "--no-progress"}).exit_code == 0);
+  CHECK(csv_rows(c + "/trials.csv") == 8);
+  CHECK(trial_count(c + "/study.db") == 8);
+  CHECK(csv_rows(b + "/trials.csv") == 6);  // the original is untouched
+  CHECK(trial_count(b + "/study.db") == 6);
+  CHECK(open_sqlite_store(c + "/study.db")->meta(store_key::kOutput) == fs::absolute(c).string());
+  fs::remove_all(dir);
+}
+
+TEST_CASE("rejected configurations leave no run folder; a missing file exits 2 with its path") {
+  const std::string dir = scratch("run_rejected");
+  const std::string V = VARBO_EXE, log = dir + "/log.txt";
+  struct Case {
+    std::string yaml, message;
+  };
+  const std::vector<Case> cases = {
+      {"task: {type: branin}\ninitial_point: [0.5]\n", "expected 2 values"},
+      {"task: {type: branin}\nalgorithm: {type: bo, region: confidence, acquisition_optimizer: ceres_lbfgs}\n",
+       "'algorithm.region': region 'confidence' needs 'optimizer:constraints', which "
+       "'algorithm.acquisition_optimizer' (ceres_lbfgs) does not provide"},
+      {"task: {type: branin}\nbudget: 4\nbudget: 6\n", "c.yaml:3:1: duplicate key 'budget' (first given at line 2)"},
+      {"task: {type: branin}\n---\nbudget: 6\n", "a second YAML document"},
+      {"task: {type: branin}\nbudget: !mytag 4\n", "unknown YAML tag '!mytag'"},
+      {"task: {type: branin, noise_std: 0x10}\n", "got '0x10'"},
+  };
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    INFO(cases[i].yaml);
+    const std::string cfg = dir + "/c.yaml", out = dir + "/out" + std::to_string(i);
+    std::ofstream(cfg, std::ios::trunc) << cases[i].yaml;
+    fs::remove(log);
+    CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress"}, log).exit_code == 2);
+    CHECK_MESSAGE(contains(slurp(log), cases[i].message), slurp(log));
+    CHECK_FALSE(fs::exists(out));
+  }
+  fs::remove(log);
+  CHECK(test::run({V, "run", dir + "/missing.yaml"}, log).exit_code == 2);
+  CHECK(contains(slurp(log), dir + "/missing.yaml"));
+  CHECK(test::run({V, "study", "create", dir + "/s.db", dir + "/missing.yaml"}, log).exit_code == 2);
+  CHECK_FALSE(fs::exists(dir + "/s.db"));
+  CHECK(test::run({V, "run", "--no-such-flag"}, log).exit_code == 2);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("study commands: a hexadecimal cost and a non-finite or negative --older-than are refused") {
+  const std::string dir = scratch("study_numbers");
+  const std::string cfg = dir + "/c.yaml", db = dir + "/s.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 8\nseed: 4\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "study", "create", db, cfg}).exit_code == 0);
+  REQUIRE(test::run({V, "suggest", db, "--batch", "2"}).exit_code == 0);
+  CHECK(test::run({V, "observe", db, "0", "0x10"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "0", "1e999"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "0", " 1"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "0", "1", "--component", "e=0x1p3"}, log).exit_code == 2);
+  CHECK(test::run({V, "observe", db, "new", "1", "--theta", "0x1,2"}, log).exit_code == 2);
+  CHECK(test::run({V, "abandon", db, "--older-than", "nan"}, log).exit_code == 2);
+  CHECK(test::run({V, "abandon", db, "--older-than", "-5"}, log).exit_code == 2);
+  CHECK(test::run({V, "abandon", db, "--older-than", "inf"}, log).exit_code == 2);
+  const std::string msg = slurp(log);
+  CHECK(contains(msg, "malformed number '0x10'"));
+  CHECK(contains(msg, "malformed number '1e999'"));
+  CHECK(contains(msg, "--older-than: expected a finite number of seconds ≥ 0, got 'nan'"));
+  {
+    auto store = open_sqlite_store(db);
+    REQUIRE(store->trials().size() == 2);
+    for (const auto& t : store->trials()) CHECK(t.state == TrialState::Pending);  // nothing written
+  }
+  CHECK(test::run({V, "observe", db, "0", "-1.5e-3"}, log).exit_code == 0);
+  CHECK(test::run({V, "abandon", db, "--older-than", "3600"}, log).exit_code == 0);
+  CHECK(open_sqlite_store(db)->trial(1)->state == TrialState::Pending);  // younger than an hour
+  fs::remove_all(dir);
+}
+
+TEST_CASE("random search with a huge budget draws its points lazily, deterministically by index") {
+  const std::string dir = scratch("random_huge");
+  Study s = Study::create_from_yaml(dir + "/s.db",
+                                    "task: {type: branin}\nbudget: 1000000000000\nseed: 5\nalgorithm: {type: random}\n");
+  const auto first = s.ask(3);
+  REQUIRE(first.size() == 3);
+  for (const auto& t : first) s.tell(t.id, 1.0);
+  // Across the first block boundary (4096 points), with and without a batch: same points either way.
+  Study big = Study::create_from_yaml(dir + "/t.db",
+                                      "task: {type: branin}\nbudget: 5000\nseed: 5\nalgorithm: {type: random}\n");
+  const auto batch = big.ask(4100);
+  REQUIRE(batch.size() == 4100);
+  for (int i = 1; i < 3; ++i) CHECK(batch[static_cast<std::size_t>(i)].x == first[static_cast<std::size_t>(i)].x);
+  CHECK(batch[4096].x != batch[0].x);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("an external command answering in hexadecimal is a failed trial, not a cost of 16") {
+  const std::string dir = scratch("external_hex");
+  const std::string cfg = dir + "/c.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: 'echo 0x10', dim: 1}\nbudget: 2\nseed: 1\n"
+                        "algorithm: {type: random}\n";
+  REQUIRE(test::run({VARBO_EXE, "-q", "run", cfg, "-o", out, "--no-progress"}).exit_code == 0);
+  const auto trials = open_sqlite_store(out + "/study.db")->trials();
+  REQUIRE(trials.size() == 2);
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Failed);
+    CHECK(contains(t.error, "0x10"));
+  }
+  fs::remove_all(dir);
+}
