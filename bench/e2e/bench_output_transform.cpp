@@ -57,6 +57,7 @@ Outcome run(const Problem& p, const std::string& surrogate, const std::string& t
   ov.progress = false;
   ov.output = out;
   ov.threads = threads;
+  ov.overwrite = true;  // a benchmark rewrites its scratch folders
   const RunSummary sum = run_study(s, reg, ov);
   BuildContext tctx;
   tctx.seed = s.seed;
