@@ -13,7 +13,7 @@ namespace varbo::acq {
 namespace {
 const Surrogate& require_model(const AcquisitionContext& context) {
   if (context.model == nullptr) throw std::logic_error("acquisition prepare(): context.model is null");
-  return *context.model;
+  return context.model->acquisition_model();  // warped units under an output transform
 }
 const Surrogate& prepared(const Surrogate* model) {
   if (model == nullptr) throw std::logic_error("acquisition evaluate() called before prepare()");

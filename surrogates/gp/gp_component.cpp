@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "gp_surrogate.hpp"
+#include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo::gp {
@@ -77,6 +78,8 @@ ComponentInfo gp_component() {
           opt::real("max_signal_std", 20.0, "upper bound of the signal std, relative to std(y)").above(0),
           opt::real("min_noise_std", 1e-6, "lower bound of the noise std, relative to std(y)").above(0),
           opt::real("max_noise_std", 2.0, "upper bound of the noise std, relative to std(y)").above(0),
+          opt::choice("output_transform", "none", transforms::output_transform_names(),
+                      transforms::output_transform_description()),
           opt::node("hyperparameters", "",
                     "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units: lengthscale "
                     "(number or list), lengthscale[i], signal_std, noise_std (cost units), mean (fixes the "
@@ -114,7 +117,8 @@ ComponentInfo gp_component() {
             node.fail(e.what());
           }
         }
-        return gp;
+        return transforms::with_output_transform(std::move(gp),
+                                                 transforms::parse_output_transform(o.str("output_transform")));
       }),
       {"surrogate:latent_variance"});
 }

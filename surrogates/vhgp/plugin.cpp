@@ -3,6 +3,7 @@
 #include <string>
 
 #include "kernel.hpp"
+#include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/plugin.hpp"
 #include "vhgp_surrogate.hpp"
@@ -83,7 +84,8 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
     const std::vector<double> v = o.reals("log_lambda");
     model->set_state("log_lambda", Eigen::Map<const varbo::Vec>(v.data(), static_cast<varbo::Index>(v.size())));
   }
-  return model;
+  return varbo::transforms::with_output_transform(
+      std::move(model), varbo::transforms::parse_output_transform(o.str("output_transform")));
 }
 
 }  // namespace
@@ -131,6 +133,8 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
                     "fixed_hyperparameters): {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
                     "signal_std_g, mu0}"),
           opt::reals("log_lambda", "", "initial variational parameters log Lambda, one per data point"),
+          opt::choice("output_transform", "none", varbo::transforms::output_transform_names(),
+                      varbo::transforms::output_transform_description()),
       },
       varbo::Factory<varbo::Surrogate>(make_vhgp), {"surrogate:latent_variance"}));
 }

@@ -48,6 +48,10 @@ class Surrogate {
   virtual std::vector<std::pair<std::string, Vec>> state() const { return {}; }
   virtual void set_state(const std::string& name, const Vec& value);
   virtual bool ready() const = 0;  ///< conditioned on data at least once
+  /// The model acquisitions score (EI, PI, CB, ERI and their incumbent): the surrogate itself, or, for a surrogate
+  /// that warps its costs (output_transform), the inner Gaussian model in warped units, where those formulas are
+  /// exact; a monotone warping keeps the order of means and quantiles (docs/output_transform.md).
+  virtual const Surrogate& acquisition_model() const { return *this; }
 };
 
 }  // namespace varbo
