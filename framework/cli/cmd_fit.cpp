@@ -117,7 +117,7 @@ Runner add_fit(CLI::App& app) {
       ->delimiter(',');
   cmd->add_flag("--no-optimize", a->no_optimize, "keep the hyperparameters given in the YAML; only condition");
   cmd->add_option("--seed", a->seed, "random seed for restarts");
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all)");
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);
     ConfigNode root = ConfigNode::load_file(a->surrogate);

@@ -187,7 +187,7 @@ Runner add_plot(CLI::App& app) {
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
   cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));
   cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all)");
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a, gp_opt, vh_opt]() {
     ThreadLimit limit(a->threads);
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");

@@ -50,7 +50,7 @@ Runner add_rescore(CLI::App& app) {
                   "evaluate the initial, learned and selected policies (and the continued one) with M fresh "
                   "rollouts under the new weights (new trials: not offline)");
   cmd->add_option("--seed", a->seed, "seed of the fit, the continuation and the rollouts (default: the run's)");
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all)");
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);
     Registry& registry = default_registry();

@@ -31,9 +31,9 @@ Runner add_run(CLI::App& app) {
       ->excludes(resume);
   cmd->add_option("--study", a->study,
                   "study file of the run (default: <output>/study.db); an existing one is continued");
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file");
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file")->check(CLI::NonNegativeNumber);
   cmd->add_option("--seed", a->seed, "random seed; overrides the file");
-  cmd->add_option("--budget", a->budget, "number of evaluations; overrides the file");
+  cmd->add_option("--budget", a->budget, "number of evaluations; overrides the file")->check(CLI::PositiveNumber);
   cmd->add_option("-o,--output", a->output, "run folder; overrides the file");
   cmd->add_flag("--no-progress", a->no_progress, "no per-trial progress lines");
   return [a]() {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -83,6 +84,11 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
 }
 
 ConfigNode ConfigNode::load_file(const std::string& filename) {
+  // Only a regular file (or a link to one): opening a FIFO or a device would block or read forever.
+  std::error_code ec;
+  const auto st = std::filesystem::status(filename, ec);
+  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    throw ConfigError(fmt::format("{}: not a regular file (expected a YAML configuration file)", filename));
   std::ifstream in(filename);
   if (!in) throw ConfigError(fmt::format("{}: cannot open configuration file", filename));
   std::stringstream ss;

@@ -4,6 +4,7 @@
 
 #include <cerrno>
 #include <cstdlib>
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 
@@ -49,6 +50,12 @@ CsvTable read_csv(const std::string& filename) {
   while (std::getline(in, line)) {
     ++lineno;
     if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
+    // A data file is text: a NUL byte means binary data, and an odd number of quotes a value that never ends
+    // (a quoted field cannot hold a line break here).
+    if (line.find('\0') != std::string::npos)
+      throw InputError(fmt::format("{}:{}: a NUL byte (binary data?); expected comma-separated text", filename, lineno));
+    if (std::count(line.begin(), line.end(), '"') % 2 != 0)
+      throw InputError(fmt::format("{}:{}: unterminated quote; expected comma-separated values", filename, lineno));
     auto cells = split_line(line);
     if (t.columns.empty()) {
       for (std::size_t c = 0; c < cells.size(); ++c) {

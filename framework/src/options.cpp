@@ -162,7 +162,8 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     }
     case OptionType::Real: {
       double v;
-      if (!n.is_scalar() || !parse_real(n.scalar(), v) || !in_range(s, v)) bad();
+      // Non-finite values (.inf, .nan) are never a setting: an infinite noise_std made every trial fail.
+      if (!n.is_scalar() || !parse_real(n.scalar(), v) || !std::isfinite(v) || !in_range(s, v)) bad();
       return YAML::Node(v);
     }
     case OptionType::String: {
