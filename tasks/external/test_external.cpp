@@ -22,9 +22,12 @@
 #include "subprocess.hpp"
 #include "varbo/errors.hpp"
 #include "study_helpers.hpp"
+#include "process_probe.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
+using test::alive;
+using test::pids_in;
 using namespace varbo::tasks;
 
 namespace {
@@ -50,22 +53,6 @@ double seconds_of(const std::function<void()>& f) {
   const auto t0 = std::chrono::steady_clock::now();
   f();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-// The pids a command wrote to `file`, one a line.
-std::vector<pid_t> pids_in(const std::string& file) {
-  std::vector<pid_t> out;
-  std::ifstream in(file);
-  for (long p; in >> p;) out.push_back(static_cast<pid_t>(p));
-  return out;
-}
-// Alive and not a zombie (a zombie has ended; only its parent's wait is missing).
-bool alive(pid_t pid) {
-  if (::kill(pid, 0) != 0) return false;
-  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
-  std::string s;
-  std::getline(f, s);
-  const auto p = s.rfind(')');
-  return p == std::string::npos || p + 2 >= s.size() || s[p + 2] != 'Z';
 }
 }  // namespace
 

@@ -21,9 +21,12 @@
 #include "study_helpers.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/store.hpp"
+#include "process_probe.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
+using test::alive;
+using test::pids_in;
 
 namespace {
 
@@ -66,22 +69,6 @@ int run_varbo(const std::vector<std::string>& args, const std::string& log, doub
   std::vector<std::string> all = {VARBO_EXE};
   all.insert(all.end(), args.begin(), args.end());
   return wait_exit(spawn(all, log), seconds);
-}
-
-std::vector<pid_t> pids_in(const std::string& file) {
-  std::vector<pid_t> out;
-  std::ifstream in(file);
-  for (long p; in >> p;) out.push_back(static_cast<pid_t>(p));
-  return out;
-}
-
-bool alive(pid_t pid) {
-  if (::kill(pid, 0) != 0) return false;
-  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
-  std::string s;
-  std::getline(f, s);
-  const auto p = s.rfind(')');
-  return p == std::string::npos || p + 2 >= s.size() || s[p + 2] != 'Z';
 }
 
 bool wait_for_lines(const std::string& file, std::size_t n, double seconds) {

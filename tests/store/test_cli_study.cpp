@@ -10,14 +10,9 @@
 #include "varbo_test.hpp"
 
 using namespace varbo;
+using test::slurp;
 
 namespace {
-std::string slurp(const std::string& f) {
-  std::ifstream in(f);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 }  // namespace
 
 TEST_CASE("CLI: create, suggest --json, observe, fail, malformed numbers, status, export") {

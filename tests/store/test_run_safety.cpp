@@ -13,16 +13,10 @@
 #include "varbo_test.hpp"
 
 using namespace varbo;
+using test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string slurp(const std::string& f) {
-  std::ifstream in(f);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::string scratch(const std::string& name) { return test::temp_folder(name + "_" + std::to_string(getpid())); }
 

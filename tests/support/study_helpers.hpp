@@ -12,6 +12,14 @@
 
 namespace varbo::test {
 
+/// The whole content of a file ("" if it cannot be read).
+inline std::string slurp(const std::string& file) {
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 /// A fresh, empty folder under the system temp dir, one set per build tree (the hash of the test program's
 /// folder), so that test suites of several checkouts running at once never share a folder.
 inline std::string temp_folder(const std::string& name) {
