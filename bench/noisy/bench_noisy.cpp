@@ -372,15 +372,15 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
 
   // Run: in this process, or in J forked workers taking every J-th job (results go to the run folders).
-  std::vector<std::size_t> todo;
+  std::vector<std::size_t> pending_jobs;
   for (std::size_t k = 0; k < all.size(); ++k)
-    if (!(reuse && reusable(all[k]))) todo.push_back(k);
+    if (!(reuse && reusable(all[k]))) pending_jobs.push_back(k);
   auto work = [&](int worker) {
-    for (std::size_t t = static_cast<std::size_t>(worker); t < todo.size(); t += static_cast<std::size_t>(jobs)) {
-      const Job& j = all[todo[t]];
+    for (std::size_t t = static_cast<std::size_t>(worker); t < pending_jobs.size(); t += static_cast<std::size_t>(jobs)) {
+      const Job& j = all[pending_jobs[t]];
       run_job(j, reg);
       const Result r = score(j, reg);
-      std::fprintf(stderr, "[%zu/%zu] %s %s s%ld: regret_recommended %s (%.1f s)%s%s\n", t + 1, todo.size(),
+      std::fprintf(stderr, "[%zu/%zu] %s %s s%ld: regret_recommended %s (%.1f s)%s%s\n", t + 1, pending_jobs.size(),
                    j.problem.id().c_str(), j.algorithm.name.c_str(), j.seed, fmt_g(r.regret_recommended).c_str(),
                    r.seconds, r.error.empty() ? "" : " error: ", r.error.c_str());
     }

@@ -26,6 +26,34 @@ double NegativeConfidenceBound::value(const Vec& x, Vec* grad) const {
   return -(p.mean + kappa_ * s);
 }
 
+namespace {
+// Fills the selection for κ at x (unit cube) from the model's prediction there.
+void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain, const Vec& x, const Prediction& p) {
+  r.x = x;
+  r.mean = p.mean;
+  r.std = p.total_std();
+  r.criterion = r.mean + r.kappa * r.std;
+  r.relative_latent_std = std::sqrt(std::max(0.0, p.latent_var) / std::max(model.signal_variance(), 1e-300));
+  r.theta = from_unit(r.x, domain.box);
+  r.ok = std::isfinite(r.criterion);
+}
+
+// One selection per κ; a non-finite κ gets a message, the others `choose`.
+template <class Choose>
+std::vector<RiskSelection> for_each_kappa(const std::vector<double>& kappas, Choose choose) {
+  std::vector<RiskSelection> out;
+  out.reserve(kappas.size());
+  for (double kappa : kappas) {
+    RiskSelection r;
+    r.kappa = kappa;
+    if (std::isfinite(kappa)) choose(r);
+    else r.message = "kappa is not finite";
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+}  // namespace
+
 std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
                                            const std::vector<double>& kappas, const Optimizer& optimizer,
                                            const Rng& rng, const Mat& starts) {
@@ -35,19 +63,10 @@ std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain&
   if (starts.size() > 0 && starts.cols() != d)
     throw InputError(fmt::format("select: starting points have {} columns, the domain {}", starts.cols(), d));
   const BoxRegion unit(Box::unit(d));
-  std::vector<RiskSelection> out;
-  out.reserve(kappas.size());
-  for (double kappa : kappas) {
-    RiskSelection r;
-    r.kappa = kappa;
-    if (!std::isfinite(kappa)) {
-      r.message = "kappa is not finite";
-      out.push_back(r);
-      continue;
-    }
-    const NegativeConfidenceBound f(model, d, kappa);
+  return for_each_kappa(kappas, [&](RiskSelection& r) {
+    const NegativeConfidenceBound f(model, d, r.kappa);
     // The stream depends only on κ's value: selecting [2, -2] or [-2] gives the same answer for -2.
-    Rng krng = rng.stream(0x5e1ec7, std::bit_cast<std::uint64_t>(kappa == 0.0 ? 0.0 : kappa));
+    Rng krng = rng.stream(0x5e1ec7, std::bit_cast<std::uint64_t>(r.kappa == 0.0 ? 0.0 : r.kappa));
     OptimizeResult res;
     try {
       res = optimizer.maximize(f, unit, starts, krng);
@@ -57,21 +76,12 @@ std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain&
     }
     if (res.x.size() != d || !res.x.allFinite()) {
       r.message = fmt::format("the optimizer found no point ({})", res.message);
-      out.push_back(r);
-      continue;
+      return;
     }
-    r.x = Box::unit(d).clamp(res.x);
-    const Prediction p = model.predict(r.x, false);
-    r.mean = p.mean;
-    r.std = p.total_std();
-    r.criterion = r.mean + kappa * r.std;
-    r.relative_latent_std = std::sqrt(std::max(0.0, p.latent_var) / std::max(model.signal_variance(), 1e-300));
-    r.theta = from_unit(r.x, domain.box);
-    r.ok = std::isfinite(r.criterion);
+    const Vec x = Box::unit(d).clamp(res.x);
+    describe_at(r, model, domain, x, model.predict(x, false));
     r.message = r.ok ? res.message : "non-finite prediction at the optimizer's point";
-    out.push_back(std::move(r));
-  }
-  return out;
+  });
 }
 
 }  // namespace varbo
@@ -87,33 +97,20 @@ std::vector<RiskSelection> select_among(const Surrogate& model, const Domain& do
                                  points.cols(), d));
   std::vector<Prediction> p;
   for (Index i = 0; i < points.rows(); ++i) p.push_back(model.predict(points.row(i).transpose(), false));
-  std::vector<RiskSelection> out;
-  for (double kappa : kappas) {
-    RiskSelection r;
-    r.kappa = kappa;
-    if (!std::isfinite(kappa)) {
-      r.message = "kappa is not finite";
-      out.push_back(r);
-      continue;
-    }
-    double best = std::numeric_limits<double>::infinity();
+  return for_each_kappa(kappas, [&](RiskSelection& r) {
+    Index best = -1;
+    double best_value = std::numeric_limits<double>::infinity();
     for (Index i = 0; i < points.rows(); ++i) {
       const Prediction& q = p[static_cast<std::size_t>(i)];
-      const double v = q.mean + kappa * q.total_std();
-      if (!(v < best)) continue;
-      best = v;
-      r.x = points.row(i).transpose();
-      r.mean = q.mean;
-      r.std = q.total_std();
-      r.criterion = v;
-      r.relative_latent_std = std::sqrt(std::max(0.0, q.latent_var) / std::max(model.signal_variance(), 1e-300));
+      const double v = q.mean + r.kappa * q.total_std();
+      if (v < best_value) best_value = v, best = i;
     }
-    r.ok = std::isfinite(best);
-    if (r.ok) r.theta = from_unit(r.x, domain.box);
-    else r.message = "no candidate has a finite E + kappa*s";
-    out.push_back(r);
-  }
-  return out;
+    if (best < 0) {
+      r.message = "no candidate has a finite E + kappa*s";
+      return;
+    }
+    describe_at(r, model, domain, points.row(best).transpose(), p[static_cast<std::size_t>(best)]);
+  });
 }
 
 }  // namespace varbo

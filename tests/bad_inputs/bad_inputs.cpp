@@ -378,7 +378,7 @@ TEST_CASE("bad-input corpus: clear errors, no crash, no hang, no partial state")
   std::sort(files.begin(), files.end());
   // VARBO_CASE=substring runs only the matching cases (and pending ones too, to check a fix).
   const char* only = std::getenv("VARBO_CASE");
-  std::vector<Case> todo;
+  std::vector<Case> selected_cases;
   int pending = 0;
   std::map<std::string, int> per_file;
   std::vector<std::string> pending_names;
@@ -394,23 +394,23 @@ TEST_CASE("bad-input corpus: clear errors, no crash, no hang, no partial state")
         pending_names.push_back(c.name + " (" + c.pending + ")");
         continue;
       }
-      todo.push_back(std::move(c));
+      selected_cases.push_back(std::move(c));
     }
   }
   // Cases are independent (own folder, own process group): a few at a time, as most of them wait on a child.
   const int jobs = std::max(1, std::atoi(std::getenv("VARBO_CASE_JOBS") ? std::getenv("VARBO_CASE_JOBS") : "8"));
-  std::vector<Result> results(todo.size());
+  std::vector<Result> results(selected_cases.size());
   std::atomic<std::size_t> next{0};
   std::vector<std::thread> workers;
   for (int w = 0; w < jobs; ++w)
     workers.emplace_back([&] {
-      for (std::size_t i; (i = next++) < todo.size();) results[i] = check_case(todo[i], root, vars);
+      for (std::size_t i; (i = next++) < selected_cases.size();) results[i] = check_case(selected_cases[i], root, vars);
     });
   for (auto& t : workers) t.join();
   int passed = 0, failed = 0;
   std::vector<std::pair<double, std::string>> slowest;
-  for (std::size_t i = 0; i < todo.size(); ++i) {
-    const Case& c = todo[i];
+  for (std::size_t i = 0; i < selected_cases.size(); ++i) {
+    const Case& c = selected_cases[i];
     slowest.emplace_back(results[i].seconds, c.name);
     if (results[i].bad.empty()) {
       ++passed;
