@@ -21,34 +21,6 @@ namespace varbo {
 
 namespace {
 
-std::vector<std::string> split_csv_line(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        cur += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        cur += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur += c;
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
-
 double to_number(const std::string& s, const std::string& where) {
   if (s == "nan" || s.empty()) return std::nan("");
   const std::optional<double> v = parse_decimal(s);
@@ -229,20 +201,6 @@ double BallRegion::constraint(const Vec& x, Vec* grad) const {
 }
 
 Mat BallRegion::seeds() const { return centre_.transpose(); }
-
-double RiskObjective::value(const Vec& x, Vec* grad) const {
-  const Prediction p = critic_.predict(x, grad != nullptr);
-  const double s = p.total_std();
-  if (grad) {
-    if (p.has_gradient()) {
-      // d r̃ = d V / (2 r̃)
-      *grad = -(p.d_mean + kappa_ * p.d_total_var() / (2 * std::max(s, 1e-300)));
-    } else {
-      grad->setZero(dim_);
-    }
-  }
-  return -(p.mean + kappa_ * s);
-}
 
 namespace {
 

@@ -18,6 +18,10 @@ struct CsvTable {
 /// column name given twice or empty.
 CsvTable read_csv(const std::string& filename);
 
+/// One CSV line split into cells with RFC 4180 quoting ("a,""b""" is one cell a,"b"); a trailing \r is dropped.
+/// For run-folder tables such as trials.csv, whose `error` column may hold commas and quotes.
+std::vector<std::string> split_csv_line(const std::string& line);
+
 /// Every line of a CSV file split at commas, as text (header included); no quoting rules. Empty when the file
 /// cannot be read. For run-folder tables such as trials.csv that mix text and numbers.
 std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename);

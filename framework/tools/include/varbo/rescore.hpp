@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "varbo/registry.hpp"
+#include "varbo/select.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo {
@@ -62,18 +63,11 @@ class BallRegion final : public RegionConstraint {
   Box box_;
 };
 
-/// −(J̃(θ) + κ r̃(θ)) with r̃ = the critic's predictive std of the cost, as a function to maximize; gradient
-/// from the prediction's gradients when the critic provides them.
-class RiskObjective final : public DifferentiableFunction {
+/// −(J̃(θ) + κ r̃(θ)) with r̃ = the critic's predictive std of the cost, as a function to maximize: the
+/// NegativeConfidenceBound of select.hpp with the critic's arguments in rescore's order.
+class RiskObjective final : public NegativeConfidenceBound {
  public:
-  RiskObjective(const Surrogate& critic, double kappa, Index dim) : critic_(critic), kappa_(kappa), dim_(dim) {}
-  Index dim() const override { return dim_; }
-  double value(const Vec& x, Vec* grad) const override;
-
- private:
-  const Surrogate& critic_;
-  double kappa_;
-  Index dim_;
+  RiskObjective(const Surrogate& critic, double kappa, Index dim) : NegativeConfidenceBound(critic, dim, kappa) {}
 };
 
 struct OfflineSelection {
