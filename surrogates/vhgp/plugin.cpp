@@ -54,6 +54,10 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.kernels.f = varbo::kernels::parse_kernel_type(o.str("kernel_f"));
   c.kernels.g = varbo::kernels::parse_kernel_type(o.str("kernel_g"));
   c.kernels.jitter = o.real("jitter");
+  const std::string noise_model = o.str("noise_model");
+  c.noise_model = noise_model == "heteroscedastic" ? NoiseModel::Heteroscedastic
+                  : noise_model == "homoscedastic" ? NoiseModel::Homoscedastic
+                                                   : NoiseModel::Auto;
   c.restarts = static_cast<int>(o.integer("restarts"));
   c.standardize = o.boolean("standardize");
   c.warm_start = o.boolean("warm_start");
@@ -105,6 +109,10 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
                                     "(as GPML covSEisoj); 0 for none")
               .at_least(0)
               .at_most(1),
+          opt::choice("noise_model", "auto", {"auto", "heteroscedastic", "homoscedastic"},
+                      "auto: the heteroscedastic fit unless its bound beats the constant-noise member of the model "
+                      "(a GP) by less than 1/2 (d+1) log N, the BIC penalty of g's hyperparameters; "
+                      "heteroscedastic: always the paper's model; homoscedastic: always constant noise"),
           opt::integer("restarts", 8, "optimizer starts per fit (warm start, GP initialization, random)").at_least(1),
           opt::integer("restart_evaluations", 40,
                        "objective evaluations per start before only the best `finalists` starts continue to "
