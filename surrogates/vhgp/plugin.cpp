@@ -105,8 +105,8 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::choice("kernel_f", "matern52_ard", {"se_ard", "matern52_ard"},
                       "covariance of the cost GP f (Matern-5/2 as the gp's; se_ard is the paper's)"),
           opt::choice("kernel_g", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the log-noise GP g"),
-          opt::real("jitter", 1e-6, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
-                                    "(as GPML covSEisoj); 0 for none")
+          opt::real("jitter", 1e-11, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
+                                     "(GPML covSEisoj uses 1e-6, which floors the noise sd at 1e-3 sigma_f); 0 for none")
               .at_least(0)
               .at_most(1),
           opt::choice("noise_model", "auto", {"auto", "heteroscedastic", "homoscedastic"},
@@ -129,7 +129,8 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::reals("prior_lengthscale_g", "[1.0, 1.6]", "[median, sd of log] of the g lengthscales (unit cube)"),
           opt::reals("prior_signal_std_f", "[1.0, 1.0]", "[median, sd of log] of sigma_f (standardized costs)"),
           opt::reals("prior_signal_std_g", "[1.0, 1.0]", "[median, sd of log] of sigma_g"),
-          opt::reals("prior_mu0", "[-2.302585, 2.0]", "[mean, sd] of mu0, the log noise variance (standardized)"),
+          opt::reals("prior_mu0", "[-9.210340372, 6.0]",
+                     "[mean, sd] of mu0, the log noise variance (standardized): noise sd median 0.01 std(y), as the gp's"),
           opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
           opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
           opt::boolean("lambda_warmup", false, "optimize log Lambda alone before each joint optimization (about twice the time)"),
