@@ -9,10 +9,10 @@ WORK=$(mktemp -d /tmp/varbo-sdk-work.XXXXXX)
 cmake --install "$BUILD_DIR" --prefix "$PREFIX" > "$WORK/install.log"
 cmake -S plugins/template -B "$WORK/template" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/configure.log"
 cmake --build "$WORK/template" > "$WORK/build.log"
-# The SDK a plugin builds against is the core only: neither the core nor the plugin may need SQLite or the
-# study library.
+# The SDK a plugin builds against is the core only: neither the core nor a template plugin may need SQLite or
+# the study library.
 CORE_LIB=$(find "$PREFIX" -name libvarbo_core.so | head -n 1)
-for lib in "$CORE_LIB" "$WORK/template/libvarbo_template.so"; do
+for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
   test -f "$lib"
   if readelf -d "$lib" | grep -E 'NEEDED.*(sqlite|varbo_study|varbo_tools)'; then
     echo "check_sdk: $lib depends on the study machinery" >&2
