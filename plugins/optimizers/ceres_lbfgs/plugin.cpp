@@ -14,7 +14,7 @@ VARBO_PLUGIN("ceres_lbfgs", "0.1.0", "L-BFGS line search from Ceres' GradientPro
            .above(0),
        opt::real("gradient_tolerance", 1e-10, "stop when the projected gradient norm falls below this").above(0),
        opt::real("parameter_tolerance", 1e-8, "stop when the relative step falls below this").above(0),
-       opt::real("relative_gradient_tolerance", 1e-5,
+       opt::real("relative_gradient_tolerance", 1e-4,
                  "a stop on function_tolerance or parameter_tolerance counts only when max |df/dx_i| <= this * "
                  "max(1, |f|); otherwise L-BFGS restarts from there (within max_iterations)")
            .above(0),
