@@ -12,7 +12,7 @@ struct LbfgsSettings {
   double parameter_tolerance = 1e-8;  ///< Ceres: stop when |Δx| / (|x| + tol) falls below this
   /// Converged only when also max_i |∂f/∂x_i| ≤ this · max(1, |f|): a Ceres stop on the function or parameter
   /// tolerance with a larger gradient restarts L-BFGS from there (within max_iterations). Ceres' relative
-  /// function rule alone stopped VHGP fits on 133 points 1.5e-3 below the optimum with |∇F| up to 13.
+  /// function rule alone stopped VHGP fits on 133 points well short of the optimum (bench/fit_convergence).
   double relative_gradient_tolerance = 1e-4;
   int lbfgs_rank = 20;                ///< number of correction pairs kept
 };
