@@ -56,6 +56,7 @@ for surrogate, data, extra, default in cases:
     print(f"{surrogate} on {os.path.basename(data)} (best objective {best:.6f}, seeds 1-{reps}):")
     for name in runs:
         print(f"  {name:20s} CPU median {statistics.median(cpu[name]):.3f} s; objective gap median "
-              f"{statistics.median(gap[name]):.2g}, max {max(gap[name]):.2g}")
+              f"{statistics.median(gap[name]):.2g}, max {max(gap[name]):.2g}; per seed "
+              + " ".join(f"{g:.2g}" for g in gap[name]))
     print(f"  CPU ratio default / function rule alone: "
           f"{statistics.median(cpu['default']) / statistics.median(cpu['function rule alone']):.2f}")

@@ -103,13 +103,16 @@ OptimizeResult CeresLbfgs::run_from(const DifferentiableFunction& f, const Vec& 
       break;
     }
     const bool improved = !usable || summary.final_cost < cost;
+    // A continuation round that gains less than 1e-3 of one step of the function rule has stalled.
+    const bool stalled =
+        usable && !(cost - summary.final_cost > 1e-3 * settings_.function_tolerance * std::max(1.0, std::abs(cost)));
     if (improved) {
       x = y;
       cost = summary.final_cost;
     }
     usable = true;
     message = round == 0 ? summary.message : summary.message + " (after " + std::to_string(round) + " restart(s))";
-    if (summary.termination_type != ceres::CONVERGENCE || !improved) break;
+    if (summary.termination_type != ceres::CONVERGENCE || !improved || stalled) break;
     double c = 0;
     Vec g(x.size());
     if (!negated->Evaluate(x.data(), &c, g.data())) break;
