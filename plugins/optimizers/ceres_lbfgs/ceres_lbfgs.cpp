@@ -85,7 +85,7 @@ OptimizeResult CeresLbfgs::run_from(const DifferentiableFunction& f, const Vec& 
   // gradient as well, max|∂f/∂x_i| ≤ g_tol = tol_rel·max(1, |f|).
   // Otherwise L-BFGS goes on from the point reached (a fresh curvature memory) with the function rule tightened
   // to kTightFunctionTolerance and Ceres' own gradient rule set to g_tol, so that it stops where we would; until
-  // the gradient is small, the iterations are spent, or a round no longer improves f.
+  // the gradient is small, the iterations are spent, or a round gains less than 1e-3 of one function-rule step.
   constexpr double kTightFunctionTolerance = 1e-12;
   constexpr int kMaxRounds = 10;
   Index iterations = 0;

@@ -20,7 +20,7 @@ struct LbfgsSettings {
 /// Maximizes f = minimizes −f from each row of `starts` in turn and keeps the best. The region's box is
 /// ignored (only used to pick a start when none is given) and its constraint cannot be honoured.
 /// Without an analytic gradient, central finite differences stand in. A start ends when Ceres stops and the
-/// gradient is small (relative_gradient_tolerance), or the iterations are spent, or a restart gains nothing.
+/// gradient is small (relative_gradient_tolerance), or the iterations are spent, or a restart stalls.
 class CeresLbfgs final : public Optimizer {
  public:
   explicit CeresLbfgs(LbfgsSettings settings = {}) : settings_(settings) {}
