@@ -411,7 +411,9 @@ TEST_CASE("full_fit_growth: warm-only refits between full fits, all restarts onc
   GpSettings s = settings_for(KernelType::Matern52);
   s.full_fit_growth = 1.25;
   GpSurrogate warm(2, s, lbfgs());
-  GpSurrogate full(2, settings_for(KernelType::Matern52), lbfgs());
+  GpSettings every = settings_for(KernelType::Matern52);
+  every.full_fit_growth = 1.0;
+  GpSurrogate full(2, every, lbfgs());
   const Dataset all = branin_like(40, 9);
   Rng rw(3), rf(3);
   std::vector<int> restarts;

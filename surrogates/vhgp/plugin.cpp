@@ -2,6 +2,7 @@
 #include <cmath>
 #include <string>
 
+#include "given_parameters.hpp"
 #include "kernel.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
@@ -25,13 +26,18 @@ double number(const ConfigNode& n) {
   }
 }
 
-/// `hyperparameters: {lengthscale_f: [0.2, 0.3] | 0.2, signal_std_f: 1.5, lengthscale_g: ..., mu0: -4}`
-varbo::Hyperparameters parse_hyperparameters(const ConfigNode& node) {
+/// `hyperparameters: {lengthscale_f: [0.2, 0.3] | 0.2, signal_std_f: 1.5, lengthscale_g: ..., mu0: -4}`; a
+/// lengthscale list has exactly one value per dimension (as the gp's `lengthscale`).
+varbo::Hyperparameters parse_hyperparameters(const ConfigNode& node, varbo::Index dim) {
   if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
   varbo::Hyperparameters h;
   for (const auto& key : node.keys()) {
     const ConfigNode v = node.child(key);
     if (v.is_sequence()) {
+      if (key != "lengthscale_f" && key != "lengthscale_g") v.fail("expected a number");
+      if (static_cast<varbo::Index>(v.size()) != dim)
+        v.fail("expected " + std::to_string(dim) + " lengthscales (one per dimension), got " +
+               std::to_string(v.size()));
       for (std::size_t i = 0; i < v.size(); ++i) h.push_back({key + "[" + std::to_string(i) + "]", number(v.item(i))});
     } else {
       h.push_back({key, number(v)});
@@ -76,20 +82,27 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   std::shared_ptr<const varbo::Optimizer> optimizer =
       ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);
   auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer));
+  // Every hyperparameter counts as missing until the YAML gives it (GivenParameters: conditioning without a fit
+  // needs them all).
+  std::vector<std::string> names;
+  for (const auto& h : model->hyperparameters()) names.push_back(h.name);
+  auto given = std::make_unique<GivenParameters>(std::move(model), std::move(names), o.node("hyperparameters"),
+                                                 o.node("log_lambda"), std::nullopt);
   if (o.is_set("hyperparameters")) {
     const ConfigNode node = o.node("hyperparameters");
+    const varbo::Hyperparameters values = parse_hyperparameters(node, ctx.dim);
     try {
-      model->set_hyperparameters(parse_hyperparameters(node));
+      given->set_hyperparameters(values);
     } catch (const varbo::ConfigError& e) {
       node.fail(e.what());
     }
   }
   if (o.is_set("log_lambda")) {
     const std::vector<double> v = o.reals("log_lambda");
-    model->set_state("log_lambda", Eigen::Map<const varbo::Vec>(v.data(), static_cast<varbo::Index>(v.size())));
+    given->set_state("log_lambda", Eigen::Map<const varbo::Vec>(v.data(), static_cast<varbo::Index>(v.size())));
   }
   return varbo::transforms::with_output_transform(
-      std::move(model), varbo::transforms::parse_output_transform(o.str("output_transform")));
+      std::move(given), varbo::transforms::parse_output_transform(o.str("output_transform")));
 }
 
 }  // namespace

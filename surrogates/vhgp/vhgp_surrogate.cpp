@@ -448,10 +448,13 @@ void VhgpSurrogate::set_hyperparameters(const Hyperparameters& values) {
 std::vector<std::pair<std::string, Vec>> VhgpSurrogate::state() const {
   std::vector<std::pair<std::string, Vec>> out = {{"log_lambda", params_ ? params_->log_lambda : Vec()}};
   if (bound_gradient_.size() > 0) out.emplace_back("bound_gradient", bound_gradient_);
+  // y_s = (y − mean)/scale: relates the model-unit quantities (bound_gradient) to the costs (read-only).
+  if (posterior_) out.emplace_back("standardization", (Vec(2) << scaling_.mean, scaling_.scale).finished());
   return out;
 }
 
 void VhgpSurrogate::set_state(const std::string& name, const Vec& value) {
+  if (name == "standardization") return;  // recomputed from the data on every fit/condition
   if (name != "log_lambda") Surrogate::set_state(name, value);
   if (!value.allFinite()) throw ConfigError("vhgp: state 'log_lambda' must be finite");
   CostParams c = params_ ? *params_ : defaults(scaling_);
