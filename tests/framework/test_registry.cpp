@@ -128,9 +128,9 @@ TEST_CASE("a factory's standard exception becomes a ConfigError at the component
         "s.yaml:1:4: key 'a': acquisition 'third/refuses' (from libvarbo_third.so) could not be created: "
         "value must be negative");
   CHECK(message([&] { r.create<Acquisition>(r.resolve(Kind::Acquisition, cfg.child("b")), BuildContext{}); }) ==
-        "s.yaml:2:36: key 'b.value': expected a prime");
+        "s.yaml:2:30: key 'b.value': expected a prime");
   CHECK(message([&] { r.create<Algorithm>(r.resolve(Kind::Algorithm, cfg.child("c")), BuildContext{}); }) ==
-        "s.yaml:3:33: key 'c.acquisition': acquisition 'third/refuses' (from libvarbo_third.so) could not be "
+        "s.yaml:3:31: key 'c.acquisition': acquisition 'third/refuses' (from libvarbo_third.so) could not be "
         "created: value must be negative");
   CHECK(message([&] { r.create<Acquisition>(r.resolve(Kind::Acquisition, cfg.child("d")), BuildContext{}); }) ==
         "s.yaml:4:4: key 'd': acquisition 'third/refuses' (from libvarbo_third.so) could not be created: "
