@@ -60,7 +60,7 @@ expect_config_error() {  # YAML_TASK_LINE EXPECTED_TEXT
   cat "$WORK/bad.out"
 }
 expect_config_error "{type: bowl, dim: 3, center: [0.1, 0.2]}" \
-  "bad.yaml:1:30: key 'task.center': expected 1 or 3 values, got 2"
+  "bad.yaml:1:36: key 'task.center': expected 1 or 3 values, got 2"
 expect_config_error "{type: bowl, noise: none, noise_std: 0.5}" \
   "bad.yaml:1:7: key 'task': task 'template_task/bowl' (from $WORK/template/libvarbo_template_task.so) could not be created: noise_std is set but noise is 'none'"
 

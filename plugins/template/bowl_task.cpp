@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <varbo/plugin.hpp>
 
 namespace {
@@ -23,7 +24,7 @@ class Bowl final : public varbo::Task {
 
   varbo::Domain domain() const override {
     std::vector<std::string> names;
-    for (varbo::Index i = 0; i < center_.size(); ++i) names.push_back("x" + std::to_string(i + 1));
+    for (varbo::Index i = 0; i < center_.size(); ++i) names.push_back(fmt::format("x{}", i + 1));  // fmt comes with varbo
     return {box_, names};
   }
 
@@ -77,7 +78,7 @@ std::unique_ptr<varbo::Task> make_bowl(const varbo::Options& o, const varbo::Bui
   if (o.is_set("center")) {  // an optional list: declared with an empty default, so it may be unset
     const std::vector<double> c = o.reals("center");
     if (c.size() != 1 && c.size() != static_cast<std::size_t>(dim))
-      o.node("center").fail("expected 1 or " + std::to_string(dim) + " values, got " + std::to_string(c.size()));
+      o.node("center").fail(fmt::format("expected 1 or {} values, got {}", dim, c.size()));
     for (long i = 0; i < dim; ++i) center(i) = c.size() == 1 ? c[0] : c[static_cast<std::size_t>(i)];
     if ((center.array() < bounds[0]).any() || (center.array() > bounds[1]).any())
       o.node("center").fail("the center lies outside the bounds");
