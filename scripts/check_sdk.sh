@@ -2,7 +2,8 @@
 # Installs varbo into a scratch prefix, builds the template plugins out of tree against the installed SDK
 # (find_package(varbo): an acquisition, a task and an algorithm without a surrogate), and runs short studies
 # with the installed executable using them: BO with the template acquisition, the template algorithm on the
-# template task (interrupted and resumed: same trials), and the template task's config errors (exit 2).
+# template task (stopped and resumed: same trials), and the template task's config errors (exit 2); the core and
+# the templates must not depend on SQLite or the study library.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
@@ -12,6 +13,16 @@ cmake --install "$BUILD_DIR" --prefix "$PREFIX" > "$WORK/install.log"
 cmake -S plugins/template -B "$WORK/template" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/configure.log"
 cmake --build "$WORK/template" > "$WORK/build.log"
 if grep -q "warning:" "$WORK/build.log"; then cat "$WORK/build.log"; echo "template plugins: compiler warnings"; exit 1; fi
+# The SDK a plugin builds against is the core only: neither the core nor a template plugin may need SQLite or
+# the study library.
+CORE_LIB=$(find "$PREFIX" -name libvarbo_core.so | head -n 1)
+for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
+  test -f "$lib"
+  if readelf -d "$lib" | grep -E 'NEEDED.*(sqlite|varbo_study|varbo_tools)'; then
+    echo "check_sdk: $lib depends on the study machinery" >&2
+    exit 1
+  fi
+done
 export VARBO_PLUGIN_PATH="$WORK/template"
 VARBO="$PREFIX/bin/varbo"
 for c in greedy_mean bowl one_plus_one; do "$VARBO" plugins --describe "$c"; done

@@ -99,8 +99,8 @@ Runner add_rescore(CLI::App& app) {
       while (std::filesystem::exists(fmt::format("{}/continue_{}", a->run, k))) ++k;
       const std::string folder = fmt::format("{}/continue_{}", a->run, k);
       const std::uint64_t seed = a->seed >= 0 ? static_cast<std::uint64_t>(a->seed) : run.study.seed + 1000 * k;
-      const RunSummary s = continue_with_rssgd(run, weights, costs, sel.back().theta, sel.back().kappa,
-                                               a->continue_steps, folder, seed, registry);
+      const RunSummary s = continue_run(run, weights, costs, sel.back().theta, sel.back().kappa,
+                                        a->continue_steps, folder, seed, registry);
       continued = s.recommended_theta;
       std::printf("continued %lld RSSGD steps at kappa %g in %s: theta %s\n", a->continue_steps, sel.back().kappa,
                   folder.c_str(), continued ? vec_text(*continued).c_str() : "(none)");

@@ -1,22 +1,51 @@
-# varbo_add_plugin(NAME <name> SOURCES ... [LIBRARIES ...])
-# Builds libvarbo_<name>.so: hidden visibility (only the extern "C" entry points are exported),
-# no undefined symbols, placed in the plugin directory of the build (or install) tree.
+# varbo_add_plugin(NAME <name> SOURCES <entry point sources>...
+#                  [IMPL_SOURCES <sources>...] [LIBRARIES <libs>...] [PRIVATE_LIBRARIES <libs>...])
+#
+# Builds libvarbo_<name>.so (target varbo_<name>): C and C++ symbols hidden (only the extern "C" entry points
+# of VARBO_PLUGIN are exported), no undefined symbols (-z defs), placed in the plugin directory of the build
+# (or install) tree. Links varbo::core, the SDK, and nothing else of varbo.
+#
+# IMPL_SOURCES: the plugin's implementation as a static, position-independent library varbo_<name>_impl with
+# the same hidden visibility, which the plugin and the plugin's tests link (the folder is on its include
+# path). LIBRARIES are linked PUBLIC to it (the tests see them too), PRIVATE_LIBRARIES privately. Without
+# IMPL_SOURCES both are linked to the plugin itself.
+#
 # Works in-tree and for third parties after find_package(varbo).
-function(varbo_add_plugin)
-  cmake_parse_arguments(P "" "NAME" "SOURCES;LIBRARIES" ${ARGN})
-  set(target varbo_${P_NAME})
-  add_library(${target} MODULE ${P_SOURCES})
-  set_target_properties(${target} PROPERTIES PREFIX "lib" OUTPUT_NAME "varbo_${P_NAME}"
-    CXX_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON INSTALL_RPATH "$ORIGIN/../..")
-  if(TARGET varbo_core)
-    target_link_libraries(${target} PRIVATE varbo_core ${P_LIBRARIES})
-  else()
-    target_link_libraries(${target} PRIVATE varbo::core ${P_LIBRARIES})
-  endif()
-  target_link_options(${target} PRIVATE -Wl,-z,defs)
+function(_varbo_plugin_defaults target)
+  set_target_properties(${target} PROPERTIES
+    C_VISIBILITY_PRESET hidden CXX_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON
+    POSITION_INDEPENDENT_CODE ON)
   if(DEFINED VARBO_WARNINGS)
     target_compile_options(${target} PRIVATE ${VARBO_WARNINGS})
   endif()
+endfunction()
+
+function(varbo_add_plugin)
+  cmake_parse_arguments(P "" "NAME" "SOURCES;IMPL_SOURCES;LIBRARIES;PRIVATE_LIBRARIES" ${ARGN})
+  if(NOT P_NAME OR NOT P_SOURCES)
+    message(FATAL_ERROR "varbo_add_plugin: NAME and SOURCES are required")
+  endif()
+  if(TARGET varbo_core)
+    set(core varbo_core)
+  else()
+    set(core varbo::core)
+  endif()
+  set(target varbo_${P_NAME})
+  add_library(${target} MODULE ${P_SOURCES})
+  _varbo_plugin_defaults(${target})
+  set_target_properties(${target} PROPERTIES PREFIX "lib" OUTPUT_NAME "varbo_${P_NAME}"
+    INSTALL_RPATH "$ORIGIN/../..")
+  if(P_IMPL_SOURCES)
+    set(impl varbo_${P_NAME}_impl)
+    add_library(${impl} STATIC ${P_IMPL_SOURCES})
+    _varbo_plugin_defaults(${impl})
+    target_include_directories(${impl} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR})
+    target_link_libraries(${impl} PUBLIC ${core} ${P_LIBRARIES} PRIVATE ${P_PRIVATE_LIBRARIES})
+    target_link_libraries(${target} PRIVATE ${impl})
+  else()
+    target_link_libraries(${target} PRIVATE ${core} ${P_LIBRARIES} ${P_PRIVATE_LIBRARIES})
+  endif()
+  target_link_options(${target} PRIVATE -Wl,-z,defs)
   if(DEFINED VARBO_PLUGIN_OUTPUT_DIR)
     set_target_properties(${target} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${VARBO_PLUGIN_OUTPUT_DIR})
     install(TARGETS ${target} LIBRARY DESTINATION ${VARBO_PLUGIN_INSTALL_DIR})

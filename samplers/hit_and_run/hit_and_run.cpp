@@ -15,9 +15,9 @@ namespace varbo {
 
 HitAndRunSampler::HitAndRunSampler(HitAndRunOptions options) : options_(options) {
   if (options_.chains < 1 || options_.burn_in < 0 || options_.thinning < 1 || !(options_.width > 0) ||
-      options_.max_doublings < 0 || options_.max_shrinks < 1)
-    throw ConfigError("hit_and_run: chains >= 1, burn_in >= 0, thinning >= 1, width > 0, max_doublings >= 0 "
-                      "and max_shrinks >= 1 are required");
+      options_.max_doublings < 0 || options_.max_shrinks < 1 || !(options_.refresh > 0 && options_.refresh <= 1))
+    throw ConfigError("hit_and_run: chains >= 1, burn_in >= 0, thinning >= 1, width > 0, max_doublings >= 0, "
+                      "max_shrinks >= 1 and 0 < refresh <= 1 are required");
 }
 
 namespace {
@@ -95,48 +95,80 @@ Mat HitAndRunSampler::sample(const RegionConstraint& region, Index n, Rng& rng) 
   return sample(region, n, rng, nullptr);
 }
 
-Mat HitAndRunSampler::sample(const RegionConstraint& region, Index n, Rng& rng, HitAndRunStats* stats) const {
+std::vector<Vec> HitAndRunSampler::starts_for(const RegionConstraint& region, const Rng& base) const {
   const Box& box = region.bounds();
   const Index d = box.dim();
-  if (n <= 0) return Mat(0, d);
-  // Starting points: the seeds that lie inside (the evaluated points, for CRBO).
+  // Every seed inside may start a chain (not only the first `chains` of them): a restarted chain draws one.
   const Mat seeds = region.seeds();
   std::vector<Vec> starts;
   for (Index i = 0; i < seeds.rows(); ++i)
     if (seeds.cols() == d && region.contains(seeds.row(i).transpose())) starts.push_back(seeds.row(i).transpose());
+  if (!starts.empty()) return starts;
+  const Vec centre = 0.5 * (box.lower + box.upper);
+  if (region.contains(centre)) {
+    starts.push_back(centre);
+  } else {
+    Rng search = base.stream(0xfeed);
+    for (int t = 0; t < 1000 && starts.empty(); ++t) {
+      const Vec x = box.lower + box.width().cwiseProduct(search.uniform_vec(d));
+      if (region.contains(x)) starts.push_back(x);
+    }
+  }
+  if (starts.empty())
+    throw NumericalError("hit_and_run: no feasible starting point (no seed, box centre or random box point "
+                         "inside the region)");
+  if (seeds.rows() > 0) log_warn("hit_and_run: none of the {} seeds lies inside the region", seeds.rows());
+  return starts;
+}
+
+Mat HitAndRunSampler::sample(const RegionConstraint& region, Index n, Rng& rng, HitAndRunStats* stats) const {
+  const Box& box = region.bounds();
+  const Index d = box.dim();
+  if (n <= 0) return Mat(0, d);
+  const std::lock_guard<std::mutex> lock(mutex_);
   const std::uint64_t draw = rng.next();  // one draw of the caller's stream per call: repeated calls differ
   const Rng base(draw);
-  if (starts.empty()) {
-    const Vec centre = 0.5 * (box.lower + box.upper);
-    if (region.contains(centre)) {
-      starts.push_back(centre);
-    } else {
-      Rng search = base.stream(0xfeed);
-      for (int t = 0; t < 1000 && starts.empty(); ++t) {
-        const Vec x = box.lower + box.width().cwiseProduct(search.uniform_vec(d));
-        if (region.contains(x)) starts.push_back(x);
-      }
-    }
-    if (starts.empty())
-      throw NumericalError("hit_and_run: no feasible starting point (no seed, box centre or random box point "
-                           "inside the region)");
-    if (seeds.rows() > 0) log_warn("hit_and_run: none of the {} seeds lies inside the region", seeds.rows());
-  }
+  if (!options_.keep_chains || (!chains_.empty() && chains_.front().size() != d)) chains_.clear();
+  if (previous_.cols() != d) previous_.resize(0, d);
 
-  const Index chains = std::min(options_.chains, n);
+  // The previous call's newest samples that are still inside: at most (1 − refresh)·n of them.
+  std::vector<Index> kept;
+  const Index keep_at_most = options_.keep_chains ? static_cast<Index>((1.0 - options_.refresh) * n) : 0;
+  for (Index i = 0; i < previous_.rows() && static_cast<Index>(kept.size()) < keep_at_most; ++i)
+    if (region.contains(previous_.row(i).transpose())) kept.push_back(i);
+  const Index n_new = n - static_cast<Index>(kept.size());
+
+  // Chains: as many as options_.chains (a chain produces at least one sample when n_new allows).
+  const Index chains = std::max<Index>(1, std::min(options_.chains, n_new));
+  if (static_cast<Index>(chains_.size()) < chains) chains_.resize(static_cast<std::size_t>(chains));
+  std::vector<bool> restart(static_cast<std::size_t>(chains));
+  bool any_restart = false;
+  for (Index c = 0; c < chains; ++c) {
+    const Vec& x = chains_[static_cast<std::size_t>(c)];
+    restart[static_cast<std::size_t>(c)] = x.size() != d || !region.contains(x);
+    any_restart = any_restart || restart[static_cast<std::size_t>(c)];
+  }
+  const std::vector<Vec> starts = any_restart ? starts_for(region, base) : std::vector<Vec>{};
+
   Mat out(n, d);
   std::vector<HitAndRunStats> chain_stats(static_cast<std::size_t>(chains));
-  // Chain c produces rows c, c + chains, c + 2·chains, ... : disjoint slots, so threads never interact.
+  // Chain c produces new rows c, c + chains, c + 2·chains, ... : disjoint slots, so threads never interact.
   parallel_for(chains, [&](Index c) {
+    const auto slot = static_cast<std::size_t>(c);
     Rng r = base.stream(1, static_cast<std::uint64_t>(c));
-    HitAndRunStats* s = &chain_stats[static_cast<std::size_t>(c)];
-    Vec x = starts[static_cast<std::size_t>(c) % starts.size()];
+    HitAndRunStats* s = &chain_stats[slot];
+    // A restarted chain starts at a seed; a kept one goes on from its last point. Either takes `burn_in` steps
+    // first: the same cost per call as restarting every chain, but a kept chain's steps add up across calls.
+    Vec x = restart[slot] ? starts[static_cast<std::size_t>(r.index(static_cast<Index>(starts.size())))] : chains_[slot];
     for (Index k = 0; k < options_.burn_in; ++k) x = step(region, x, r, s);
-    for (Index row = c; row < n; row += chains) {
+    for (Index row = c; row < n_new; row += chains) {
       for (Index k = 0; k < options_.thinning; ++k) x = step(region, x, r, s);
       out.row(row) = x.transpose();
     }
+    chains_[slot] = x;
   });
+  for (std::size_t j = 0; j < kept.size(); ++j) out.row(n_new + static_cast<Index>(j)) = previous_.row(kept[j]);
+  previous_ = out;
   if (stats) {
     for (const auto& s : chain_stats) {
       stats->steps += s.steps;

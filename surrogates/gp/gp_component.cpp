@@ -63,6 +63,10 @@ ComponentInfo gp_component() {
           opt::choice("kernel", "matern52_ard", {"se_ard", "matern52_ard"}, "covariance function"),
           opt::integer("restarts", 4, "optimizer runs per fit (the first warm-started from the previous fit)")
               .at_least(1),
+          opt::real("full_fit_growth", 1.0,
+                    "all restarts once N has grown by this factor since the last such fit (and always up to N = 20); "
+                    "in between only the warm start (1: all restarts at every fit)")
+              .at_least(1),
           opt::component("fit_optimizer", Kind::Optimizer, "{type: ceres_lbfgs, max_iterations: 100}",
                          "optimizer of the log posterior over log-hyperparameters"),
           opt::boolean("priors", true, "add the log-normal hyperpriors to the objective (false: plain ML-II)"),
@@ -96,6 +100,7 @@ ComponentInfo gp_component() {
           o.node("kernel").fail(e.what());
         }
         s.restarts = static_cast<int>(o.integer("restarts"));
+        s.full_fit_growth = o.real("full_fit_growth");
         s.priors.enabled = o.boolean("priors");
         s.priors.lengthscale = {std::log(o.real("lengthscale_prior_median")), o.real("lengthscale_prior_sd")};
         s.priors.signal_std = {std::log(o.real("signal_std_prior_median")), o.real("signal_std_prior_sd")};

@@ -150,7 +150,14 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
 
   // Start 0: warm start from the current hyperparameters; the others drawn from the hyperpriors (or
   // uniformly in the log box when the priors are off), each from its own stream: thread-count independent.
-  const Index restarts = std::max(1, settings_.restarts);
+  // Between full fits only the warm start runs (issue 13: most restarts of a refit on one more point end in
+  // the optimum the warm start reaches); below kAlwaysFullFit points the hyperparameters still move a lot.
+  constexpr Index kAlwaysFullFit = 20;
+  const bool warm_known = signal_known_ && noise_known_ && posterior_.has_value();
+  const bool full = !warm_known || n <= kAlwaysFullFit || settings_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
+                    n < last_full_fit_n_ ||
+                    static_cast<double>(n) >= settings_.full_fit_growth * static_cast<double>(last_full_fit_n_);
+  const Index restarts = full ? std::max(1, settings_.restarts) : 1;
   const std::uint64_t base = rng.next();
   std::vector<Rng> streams;
   Mat starts(restarts, d + 2);
@@ -207,12 +214,18 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     p = results[static_cast<std::size_t>(best)].x;
     post = build(data, s, p);
   }
+  if (!post && !full) {
+    // The warm start alone failed: a full fit before giving up.
+    last_full_fit_n_ = 0;
+    return fit(data, rng);
+  }
   if (post) {
     rep = report_for(*post, p);
     rep.optimized = true;
     store_natural(p, s);
     posterior_ = std::move(post);
     data_ = data;
+    if (full) last_full_fit_n_ = n;
   } else {
     // Keep the last good hyperparameters; condition them on the new data when that still works.
     rep = condition(data);

@@ -406,3 +406,34 @@ TEST_CASE("gp component: options, hyperparameters map, errors with positions") {
     CHECK(std::string(e.what()).find(":1:") != std::string::npos);  // file:line:col
   }
 }
+
+TEST_CASE("full_fit_growth: warm-only refits between full fits, all restarts once N has grown by the factor") {
+  GpSettings s = settings_for(KernelType::Matern52);
+  s.full_fit_growth = 1.25;
+  GpSurrogate warm(2, s, lbfgs());
+  GpSettings every = settings_for(KernelType::Matern52);
+  every.full_fit_growth = 1.0;
+  GpSurrogate full(2, every, lbfgs());
+  const Dataset all = branin_like(40, 9);
+  Rng rw(3), rf(3);
+  std::vector<int> restarts;
+  double worst_gap = 0;
+  for (Index n = 10; n <= 40; ++n) {
+    const Dataset d{all.X.topRows(n), all.y.head(n)};
+    const FitReport a = warm.fit(d, rw), b = full.fit(d, rf);
+    REQUIRE(a.ok);
+    REQUIRE(b.ok);
+    restarts.push_back(a.restarts);
+    // The warm-only fit may stop in another optimum than four restarts; on this smooth data it should not lose
+    // much log posterior per point.
+    worst_gap = std::max(worst_gap, (b.objective - a.objective) / static_cast<double>(n));
+  }
+  // N = 10..20: always full; then full at 25 (≥ 1.25·20), 32 (≥ 1.25·25 = 31.25), 40 (= 1.25·32); warm otherwise.
+  for (Index n = 10; n <= 40; ++n) {
+    CAPTURE(n);
+    const bool expect_full = n <= 20 || n == 25 || n == 32 || n == 40;
+    CHECK(restarts[static_cast<std::size_t>(n - 10)] == (expect_full ? 4 : 1));
+  }
+  MESSAGE("largest log-posterior gap per point, warm-only vs all restarts: ", worst_gap);
+  CHECK(worst_gap < 0.05);
+}

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 namespace varbo::vhgp {
 
@@ -32,8 +33,15 @@ double homoscedastic_log_likelihood(const Mat& X, const Vec& y, KernelType type,
   return value;
 }
 
+Vec homoscedastic_coordinates(const HomoscedasticFit& fit) {
+  Vec x(fit.theta_f.size() + 1);
+  x << fit.theta_f, 0.5 * fit.log_noise_var;
+  return x;
+}
+
 HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, double jitter,
-                                   const VhgpHyperprior& prior, const Optimizer& optimizer, Rng& rng) {
+                                   const VhgpHyperprior& prior, const Optimizer& optimizer, Rng& rng,
+                                   const Vec* warm, bool warm_only) {
   const Index dim = X.cols();
   const double var_y = std::max(y.squaredNorm() / std::max<Index>(y.size(), 1), 1e-12);
   FunctionRef objective(dim + 2, [&](const Vec& x, Vec* grad) {
@@ -59,11 +67,17 @@ HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, 
   HomoscedasticFit fit;
   // Several lengthscales: from ℓ = 0.5 alone, data with a short-period mean (the two-minima task at N = 20)
   // sometimes converged to the flat "everything is noise" optimum, and every VHGP start inherited it.
+  std::vector<Vec> starts;
+  if (warm != nullptr && warm->size() == dim + 2 && warm->allFinite()) starts.push_back(box.clamp(*warm));
+  if (starts.empty() || !warm_only) {
+    for (const double lengthscale : {0.5, 0.15, 0.05}) {
+      starts.push_back(start);
+      starts.back().head(dim).setConstant(std::log(lengthscale));
+    }
+  }
   OptimizeResult res;
   res.value = -std::numeric_limits<double>::infinity();
-  for (const double lengthscale : {0.5, 0.15, 0.05}) {
-    Vec x0 = start;
-    x0.head(dim).setConstant(std::log(lengthscale));
+  for (const Vec& x0 : starts) {
     OptimizeResult r;
     try {
       r = optimizer.maximize(objective, region, x0.transpose(), rng);

@@ -17,10 +17,15 @@ struct HomoscedasticFit {
 double homoscedastic_log_likelihood(const Mat& X, const Vec& y, KernelType type, double jitter, const Vec& x,
                                     Vec* grad);
 
-/// Maximizes the homoscedastic likelihood (+ the f and μ0 hyperpriors when enabled) from the authors' start:
-/// ℓ = ½ (half the unit range), σ_f² = var(y), σ_n² = var(y)/4.
+/// [θ_f ; log σ_n] of a fit, the optimizer's coordinates (a warm start for the next fit).
+Vec homoscedastic_coordinates(const HomoscedasticFit& fit);
+
+/// Maximizes the homoscedastic likelihood (+ the f and μ0 hyperpriors when enabled). Starts: `warm` (the
+/// previous solution, [θ_f ; log σ_n]) when given, and unless `warm_only`, the authors' start (σ_f² = var(y),
+/// σ_n² = var(y)/4) at ℓ = 0.5, 0.15, 0.05.
 HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, KernelType type, double jitter,
-                                   const VhgpHyperprior& prior, const Optimizer& optimizer, Rng& rng);
+                                   const VhgpHyperprior& prior, const Optimizer& optimizer, Rng& rng,
+                                   const Vec* warm = nullptr, bool warm_only = false);
 
 }  // namespace varbo::vhgp
 

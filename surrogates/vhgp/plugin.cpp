@@ -2,6 +2,7 @@
 #include <cmath>
 #include <string>
 
+#include "given_parameters.hpp"
 #include "kernel.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
@@ -25,13 +26,18 @@ double number(const ConfigNode& n) {
   }
 }
 
-/// `hyperparameters: {lengthscale_f: [0.2, 0.3] | 0.2, signal_std_f: 1.5, lengthscale_g: ..., mu0: -4}`
-varbo::Hyperparameters parse_hyperparameters(const ConfigNode& node) {
+/// `hyperparameters: {lengthscale_f: [0.2, 0.3] | 0.2, signal_std_f: 1.5, lengthscale_g: ..., mu0: -4}`; a
+/// lengthscale list has exactly one value per dimension (as the gp's `lengthscale`).
+varbo::Hyperparameters parse_hyperparameters(const ConfigNode& node, varbo::Index dim) {
   if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
   varbo::Hyperparameters h;
   for (const auto& key : node.keys()) {
     const ConfigNode v = node.child(key);
     if (v.is_sequence()) {
+      if (key != "lengthscale_f" && key != "lengthscale_g") v.fail("expected a number");
+      if (static_cast<varbo::Index>(v.size()) != dim)
+        v.fail("expected " + std::to_string(dim) + " lengthscales (one per dimension), got " +
+               std::to_string(v.size()));
       for (std::size_t i = 0; i < v.size(); ++i) h.push_back({key + "[" + std::to_string(i) + "]", number(v.item(i))});
     } else {
       h.push_back({key, number(v)});
@@ -54,6 +60,10 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.kernels.f = varbo::kernels::parse_kernel_type(o.str("kernel_f"));
   c.kernels.g = varbo::kernels::parse_kernel_type(o.str("kernel_g"));
   c.kernels.jitter = o.real("jitter");
+  const std::string noise_model = o.str("noise_model");
+  c.noise_model = noise_model == "heteroscedastic" ? NoiseModel::Heteroscedastic
+                  : noise_model == "homoscedastic" ? NoiseModel::Homoscedastic
+                                                   : NoiseModel::Auto;
   c.restarts = static_cast<int>(o.integer("restarts"));
   c.standardize = o.boolean("standardize");
   c.warm_start = o.boolean("warm_start");
@@ -72,20 +82,27 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   std::shared_ptr<const varbo::Optimizer> optimizer =
       ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);
   auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer));
+  // Every hyperparameter counts as missing until the YAML gives it (GivenParameters: conditioning without a fit
+  // needs them all).
+  std::vector<std::string> names;
+  for (const auto& h : model->hyperparameters()) names.push_back(h.name);
+  auto given = std::make_unique<GivenParameters>(std::move(model), std::move(names), o.node("hyperparameters"),
+                                                 o.node("log_lambda"), std::nullopt);
   if (o.is_set("hyperparameters")) {
     const ConfigNode node = o.node("hyperparameters");
+    const varbo::Hyperparameters values = parse_hyperparameters(node, ctx.dim);
     try {
-      model->set_hyperparameters(parse_hyperparameters(node));
+      given->set_hyperparameters(values);
     } catch (const varbo::ConfigError& e) {
       node.fail(e.what());
     }
   }
   if (o.is_set("log_lambda")) {
     const std::vector<double> v = o.reals("log_lambda");
-    model->set_state("log_lambda", Eigen::Map<const varbo::Vec>(v.data(), static_cast<varbo::Index>(v.size())));
+    given->set_state("log_lambda", Eigen::Map<const varbo::Vec>(v.data(), static_cast<varbo::Index>(v.size())));
   }
   return varbo::transforms::with_output_transform(
-      std::move(model), varbo::transforms::parse_output_transform(o.str("output_transform")));
+      std::move(given), varbo::transforms::parse_output_transform(o.str("output_transform")));
 }
 
 }  // namespace
@@ -101,10 +118,14 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::choice("kernel_f", "matern52_ard", {"se_ard", "matern52_ard"},
                       "covariance of the cost GP f (Matern-5/2 as the gp's; se_ard is the paper's)"),
           opt::choice("kernel_g", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the log-noise GP g"),
-          opt::real("jitter", 1e-6, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
-                                    "(as GPML covSEisoj); 0 for none")
+          opt::real("jitter", 1e-11, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
+                                     "(GPML covSEisoj uses 1e-6, which floors the noise sd at 1e-3 sigma_f); 0 for none")
               .at_least(0)
               .at_most(1),
+          opt::choice("noise_model", "auto", {"auto", "heteroscedastic", "homoscedastic"},
+                      "auto: the heteroscedastic fit unless its bound beats the constant-noise member of the model "
+                      "(a GP) by less than 1/2 (d+1) log N, the BIC penalty of g's hyperparameters; "
+                      "heteroscedastic: always the paper's model; homoscedastic: always constant noise"),
           opt::integer("restarts", 8, "optimizer starts per fit (warm start, GP initialization, random)").at_least(1),
           opt::integer("restart_evaluations", 40,
                        "objective evaluations per start before only the best `finalists` starts continue to "
@@ -121,7 +142,8 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
           opt::reals("prior_lengthscale_g", "[1.0, 1.6]", "[median, sd of log] of the g lengthscales (unit cube)"),
           opt::reals("prior_signal_std_f", "[1.0, 1.0]", "[median, sd of log] of sigma_f (standardized costs)"),
           opt::reals("prior_signal_std_g", "[1.0, 1.0]", "[median, sd of log] of sigma_g"),
-          opt::reals("prior_mu0", "[-2.302585, 2.0]", "[mean, sd] of mu0, the log noise variance (standardized)"),
+          opt::reals("prior_mu0", "[-9.210340372, 6.0]",
+                     "[mean, sd] of mu0, the log noise variance (standardized): noise sd median 0.01 std(y), as the gp's"),
           opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
           opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
           opt::boolean("lambda_warmup", false, "optimize log Lambda alone before each joint optimization (about twice the time)"),

@@ -192,13 +192,26 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   const bool full = !warm || n <= kAlwaysFullFit || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
                     n < last_full_fit_n_ ||
                     static_cast<double>(n) >= config_.full_fit_growth * static_cast<double>(last_full_fit_n_);
-  std::vector<VhgpParams> starts;
-  if (warm) starts.push_back(to_model(*params_, n, s));
-  Index n_restarts = 1;
-  if (full) {
+  const bool select = config_.noise_model == NoiseModel::Auto;
+  const bool heteroscedastic = config_.noise_model != NoiseModel::Homoscedastic;
+  // The homoscedastic fit: the GP start of a full fit (vhgp.md §8) and, when the noise model is selected, the
+  // nested model the heteroscedastic fit has to beat (then at every fit, warm-started: it is cheap).
+  HomoscedasticFit homo;
+  if (full || !heteroscedastic || select) {
     Rng init_rng = base.stream(0);
-    const HomoscedasticFit homo =
-        fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_, init_rng);
+    Vec warm_homo;
+    if (homoscedastic_.size() == dim_ + 2) {
+      warm_homo = homoscedastic_;
+      warm_homo.tail(2).array() -= std::log(s.scale);  // log σ_f and log σ_n of standardized costs
+    }
+    homo = fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_,
+                             init_rng, warm_homo.size() > 0 ? &warm_homo : nullptr, !full);
+  }
+  std::vector<VhgpParams> starts;
+  const std::optional<CostParams>& warm_source = heteroscedastic_ ? heteroscedastic_ : params_;
+  if (warm && heteroscedastic) starts.push_back(to_model(*warm_source, n, s));
+  Index n_restarts = heteroscedastic ? 1 : 0;
+  if (full && heteroscedastic) {
     VhgpParams gp_start;
     gp_start.log_lambda = Vec::Constant(n, kLogHalf);
     gp_start.theta_f = homo.theta_f;
@@ -302,18 +315,62 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
       best = static_cast<Index>(k);
   }
   report.restarts = static_cast<int>(results.size());
-  if (best < 0) {
+  std::optional<VhgpParams> chosen;
+  if (best >= 0) chosen = VhgpParams::unpack(results[static_cast<std::size_t>(best)].x, n, dim_);
+  const std::optional<VhgpParams> heteroscedastic_fit = chosen;
+  bool homoscedastic_chosen = false;
+  if ((select || !heteroscedastic) && homo.ok) {
+    // Model selection between nested models on the bound (a lower bound of the log evidence; the
+    // constant-noise member's bound is its exact log marginal likelihood): the heteroscedastic fit must
+    // beat it by the BIC penalty ½(D+1) log N of g's extra hyperparameters. Without it, noise-free and
+    // homoscedastic data got a noise process that fitted the noise to a few points and floored the
+    // posterior (docs/noisy.md).
+    const VhgpParams member =
+        homoscedastic_member(homoscedastic_coordinates(homo), chosen ? *chosen : to_model(defaults(s), n, s), n);
+    const BoundValue fh = bound.evaluate(member, false);
+    const double fv = chosen ? bound.evaluate(*chosen, false).F : -std::numeric_limits<double>::infinity();
+    const double penalty = 0.5 * static_cast<double>(dim_ + 1) * std::log(static_cast<double>(n));
+    if (fh.ok && (!heteroscedastic || !(fv > fh.F + penalty))) {
+      chosen = member;
+      homoscedastic_chosen = true;
+    }
+    if (select)
+      log_debug("vhgp: noise model on {} points: {} (bound heteroscedastic {:.6g}, homoscedastic {:.6g}, penalty {:.3g})",
+                n, homoscedastic_chosen ? "homoscedastic" : "heteroscedastic", fv, fh.ok ? fh.F : -std::numeric_limits<double>::infinity(), penalty);
+  }
+  if (!chosen) {
     report.ok = false;
     report.message = "every restart failed; " + std::string(posterior_ ? "kept the previous model" : "no model");
     log_warn("vhgp: fit on {} points: {}", n, report.message);
   } else {
-    report = condition_at(data, VhgpParams::unpack(results[static_cast<std::size_t>(best)].x, n, dim_), s, report);
-    if (report.ok && full) last_full_fit_n_ = n;
+    report = condition_at(data, *chosen, s, report);
+    if (report.ok) {
+      if (full) last_full_fit_n_ = n;
+      homoscedastic_selected_ = homoscedastic_chosen;
+      if (heteroscedastic_fit) heteroscedastic_ = to_cost(*heteroscedastic_fit, s);
+      if (homo.ok) {
+        homoscedastic_ = homoscedastic_coordinates(homo);
+        homoscedastic_.tail(2).array() += std::log(s.scale);
+      }
+    }
     if (report.ok && report.restarts_failed > 0)
       report.message = std::to_string(report.restarts_failed) + " restart(s) failed and were skipped";
+    if (report.ok && select)
+      report.message += std::string(report.message.empty() ? "" : "; ") +
+                        (homoscedastic_chosen ? "homoscedastic noise selected" : "heteroscedastic noise selected");
   }
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
+}
+
+VhgpParams VhgpSurrogate::homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const {
+  VhgpParams p;
+  p.theta_f = x.head(dim_ + 1);
+  p.theta_g = like.theta_g;
+  p.theta_g(dim_) = parameter_box(n, dim_).lower(n + 2 * dim_ + 1);  // σ_g at its lower bound: g ≡ μ0
+  p.mu0 = 2.0 * x(dim_ + 1);
+  p.log_lambda = Vec::Constant(n, kLogHalf);  // β = Λ − ½ = 0: every μ_i = μ0
+  return p;
 }
 
 LatentPrediction VhgpSurrogate::predict_latent(const Vec& x, bool with_gradient) const {
@@ -391,10 +448,13 @@ void VhgpSurrogate::set_hyperparameters(const Hyperparameters& values) {
 std::vector<std::pair<std::string, Vec>> VhgpSurrogate::state() const {
   std::vector<std::pair<std::string, Vec>> out = {{"log_lambda", params_ ? params_->log_lambda : Vec()}};
   if (bound_gradient_.size() > 0) out.emplace_back("bound_gradient", bound_gradient_);
+  // y_s = (y − mean)/scale: relates the model-unit quantities (bound_gradient) to the costs (read-only).
+  if (posterior_) out.emplace_back("standardization", (Vec(2) << scaling_.mean, scaling_.scale).finished());
   return out;
 }
 
 void VhgpSurrogate::set_state(const std::string& name, const Vec& value) {
+  if (name == "standardization") return;  // recomputed from the data on every fit/condition
   if (name != "log_lambda") Surrogate::set_state(name, value);
   if (!value.allFinite()) throw ConfigError("vhgp: state 'log_lambda' must be finite");
   CostParams c = params_ ? *params_ : defaults(scaling_);

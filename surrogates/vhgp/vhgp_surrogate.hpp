@@ -9,8 +9,18 @@
 
 namespace varbo::vhgp {
 
+/// Which member of the model family a fit may end in. The homoscedastic GP is the VHGP with a constant noise
+/// process (σ_g → 0, β = 0), so it is a nested model whose bound equals its log marginal likelihood.
+enum class NoiseModel {
+  Auto,            ///< the heteroscedastic fit unless its bound beats the homoscedastic one by less than the
+                   ///< BIC penalty ½(D+1) log N of g's D + 1 extra hyperparameters
+  Heteroscedastic, ///< always the heteroscedastic fit (the paper's model)
+  Homoscedastic,   ///< always the constant-noise member (a GP with the VHGP's f kernel and priors)
+};
+
 struct VhgpConfig {
   VhgpKernels kernels;
+  NoiseModel noise_model = NoiseModel::Auto;
   int restarts = 8;
   bool standardize = true;
   bool warm_start = true;
@@ -43,6 +53,8 @@ class VhgpSurrogate final : public Surrogate {
   /// The predictive of the latent quantities in model (standardized) units, for tests.
   LatentPrediction predict_latent(const Vec& x, bool with_gradient) const;
   const VhgpConfig& config() const { return config_; }
+  /// The last fit ended in the constant-noise member (noise_model auto or homoscedastic).
+  bool homoscedastic_selected() const { return homoscedastic_selected_; }
 
  private:
   /// Parameters in cost units (the canonical state): θ_f with log σ_f of costs, μ0 the log noise variance of
@@ -60,6 +72,9 @@ class VhgpSurrogate final : public Surrogate {
   /// Default hyperparameters when neither given nor fitted (cost units).
   CostParams defaults(const Scaling& s) const;
   FitReport condition_at(const Dataset& data, const VhgpParams& params, const Scaling& s, FitReport report);
+  /// The constant-noise member of the family at the homoscedastic fit `x` = [θ_f ; log σ_n] (model units):
+  /// σ_g at its lower bound, β = 0 (log Λ = log ½), μ0 = log σ_n²; g's lengthscales from `like` (irrelevant).
+  VhgpParams homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const;
 
   Index dim_;
   VhgpConfig config_;
@@ -70,6 +85,12 @@ class VhgpSurrogate final : public Surrogate {
   std::shared_ptr<const VhgpPosterior> posterior_;
   double bound_ = 0;
   Index last_full_fit_n_ = 0;  ///< N at the last full fit (0: none yet)
+  /// The best heteroscedastic solution of the last fit (cost units): the warm start of the next one, also when
+  /// the homoscedastic member was selected (whose σ_g at its bound is a poor start).
+  std::optional<CostParams> heteroscedastic_;
+  /// The last homoscedastic fit [θ_f (log σ_f of costs) ; log σ_n of costs]: its warm start.
+  Vec homoscedastic_;
+  bool homoscedastic_selected_ = false;
 };
 
 }  // namespace varbo::vhgp

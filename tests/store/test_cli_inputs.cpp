@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -93,5 +94,51 @@ TEST_CASE("varbo fit: past 500 points and without `restarts:`, one restart, said
   const Fit b = fit(dir, cheap + std::string("restarts: 2\n"), data);
   CHECK_FALSE(contains(b.output, "restart instead"));
   CHECK(contains(b.output, "\"n\": 501"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("varbo fit --no-optimize: a vhgp needs every hyperparameter and one log Lambda per point") {
+  // Issue 12, item 8: conditioning without a fit used to pad short lists (lengthscales 0.3, log Lambda log 1/2),
+  // drop extra log Lambda values and default a missing mu0, silently.
+  const std::string dir = test::temp_folder("fit_vhgp_given_" + std::to_string(getpid()));
+  const std::string data = "x1,x2,y\n0.1,0.2,1\n0.5,0.5,2\n0.9,0.7,1.5\n";
+  auto yaml = [](const std::string& lengthscales_f, const std::string& mu0, const std::string& log_lambda) {
+    return "type: vhgp\nhyperparameters: {lengthscale_f: " + lengthscales_f +
+           ", signal_std_f: 1.0, lengthscale_g: 0.4, signal_std_g: 0.8" + mu0 + "}\n" + log_lambda;
+  };
+  const std::string full_f = "[0.3, 0.5]", mu0 = ", mu0: -3", lambda3 = "log_lambda: [-0.7, -0.6, -0.8]\n";
+  struct Case {
+    std::string yaml, message;
+  };
+  const std::vector<Case> cases = {
+      {yaml("[0.3]", mu0, lambda3), "key 'hyperparameters.lengthscale_f': expected 2 lengthscales (one per dimension), got 1"},
+      {yaml("[0.3, 0.5, 0.7]", mu0, lambda3), "expected 2 lengthscales (one per dimension), got 3"},
+      {yaml(full_f, "", lambda3), "every hyperparameter must be given; missing: mu0"},
+      {yaml(full_f, mu0, "log_lambda: [-0.7, -0.6]\n"), "key 'log_lambda': the vhgp is conditioned without a fit"},
+      {yaml(full_f, mu0, "log_lambda: [-0.7, -0.6]\n"), "expected 3 values (one per data point), got 2"},
+      {yaml(full_f, mu0, "log_lambda: [-0.7, -0.6, -0.8, -0.9]\n"), "expected 3 values (one per data point), got 4"},
+      {yaml(full_f, mu0, ""), "log_lambda must be given: expected 3 values"},
+      {"type: vhgp\n", "missing: lengthscale_f[0], lengthscale_f[1], signal_std_f, lengthscale_g[0]"},
+  };
+  for (const auto& c : cases) {
+    INFO(c.yaml);
+    const Fit r = fit(dir, c.yaml, data, {"--no-optimize"});
+    CHECK(r.exit_code == 2);
+    CHECK_MESSAGE(contains(r.output, c.message), r.output);
+    CHECK_MESSAGE(contains(r.output, dir + "/s.yaml:"), r.output);  // the file is named
+  }
+  // Complete: conditions, and reports the standardization y_s = (y − mean)/scale it used (mean 1.5, sd 0.5).
+  const Fit ok = fit(dir, yaml(full_f, mu0, lambda3), data, {"--no-optimize"});
+  CHECK(ok.exit_code == 0);
+  const std::size_t at = ok.output.find("\"standardization\": [");
+  REQUIRE_MESSAGE(at != std::string::npos, ok.output);
+  char* end = nullptr;
+  const char* p = ok.output.c_str() + at + std::string("\"standardization\": [").size();
+  const double mean = std::strtod(p, &end);
+  const double scale = std::strtod(end + 1, nullptr);  // skip the comma
+  CHECK(mean == doctest::Approx(1.5).epsilon(1e-12));
+  CHECK(scale == doctest::Approx(0.5).epsilon(1e-12));
+  // A fit uses the given values only as a start: a short log Lambda list is padded there (documented).
+  CHECK(fit(dir, yaml(full_f, mu0, "log_lambda: [-0.7]\n"), data).exit_code == 0);
   fs::remove_all(dir);
 }

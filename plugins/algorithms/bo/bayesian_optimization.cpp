@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -76,6 +77,9 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   surrogate_ = r.create<Surrogate>(o.component("surrogate"), ctx);
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
   optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
+  // The recommender's own instance: an optimizer may carry state from call to call (hit_and_run's chains), and
+  // recommending must change no trial, also when a resumed run replays the trials without recommending.
+  recommend_optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
   std::shared_ptr<Acquisition> default_acq = r.create<Acquisition>(o.component("acquisition"), ctx);
   const double epsilon = o.real("epsilon");
   refit_every_ = o.integer("refit_every");
@@ -149,6 +153,21 @@ Mat BayesianOptimization::starts_near(const Mat& seeds, Rng& rng) const {
     if (region_->contains(moved)) out.row(n++) = moved.transpose();
   }
   return out.topRows(n);
+}
+
+std::optional<Vec> BayesianOptimization::best_feasible(const DifferentiableFunction& f, const Mat& starts) const {
+  std::optional<Vec> best;
+  double best_value = -std::numeric_limits<double>::infinity();
+  for (Index i = 0; i < starts.rows(); ++i) {
+    const Vec x = starts.row(i).transpose();
+    if (!region_->contains(x)) continue;
+    const double v = f.value(x, nullptr);
+    if (!best || (std::isfinite(v) && v > best_value)) {  // a feasible start even when no value is finite
+      best = x;
+      if (std::isfinite(v)) best_value = v;
+    }
+  }
+  return best;
 }
 
 Vec BayesianOptimization::random_point(Rng& rng) const {
@@ -312,7 +331,17 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : *phase.acquisition;
   AcquisitionFunction f(acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
-  OptimizeResult res = optimizer_->maximize(f, *region_, starts_near(region_->seeds(), orng), orng);
+  const Mat starts = starts_near(region_->seeds(), orng);
+  OptimizeResult res = optimizer_->maximize(f, *region_, starts, orng);
+  if (!res.success) {
+    // No finite value at a feasible point: the x of such a result is arbitrary (sample_polish's is the box
+    // centre, possibly outside the region). The best feasible start instead (issue 12, item 10).
+    const std::optional<Vec> start = best_feasible(f, starts);
+    log_warn("bo: trial {}: the acquisition optimizer failed ({}); {}", k, res.message,
+             start ? "suggesting the best feasible start instead" : "no feasible start either");
+    if (start) res.x = *start;
+    else res.x = Vec();  // chosen at random below
+  }
   s.acquisition_seconds = seconds_since(t_acq);
   if (res.x.size() != dim_ || !res.x.allFinite()) {
     log_warn("bo: acquisition optimization found no point at trial {} ({}); choosing at random", k, res.message);
@@ -393,7 +422,7 @@ std::optional<Vec> BayesianOptimization::recommendation() const {
   // recommendation model is only conditioned with the latest fitted ones (one O(N³) solve per trial).
   const bool final = budget_ > 0 && told_ >= budget_;
   Rng rrng = rng_.stream(kRecommend, static_cast<std::uint64_t>(told_));
-  return recommender_->recommend(model_ready_ ? surrogate_.get() : nullptr, data_, *region_, *optimizer_, rrng,
+  return recommender_->recommend(model_ready_ ? surrogate_.get() : nullptr, data_, *region_, *recommend_optimizer_, rrng,
                                  final);
 }
 

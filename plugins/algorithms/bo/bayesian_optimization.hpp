@@ -3,11 +3,13 @@
 // acquisition optimizer, with optional phases (random / acquisition with ε-random exploration), as in the
 // experiments of Kuindersma 2013 (section 5) and standard GP-BO (section 2).
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "failure_aware.hpp"
 #include "recommender.hpp"
+#include "varbo/function.hpp"
 #include "varbo/registry.hpp"
 
 namespace varbo::bo {
@@ -42,6 +44,8 @@ class BayesianOptimization final : public Algorithm {
   const Phase& phase_at(Index evaluation) const;
   Vec random_point(Rng& rng) const;
   Mat starts_near(const Mat& seeds, Rng& rng) const;
+  /// The start inside the region with the highest finite f (the first inside one if none is finite).
+  std::optional<Vec> best_feasible(const DifferentiableFunction& f, const Mat& starts) const;
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have
@@ -64,6 +68,7 @@ class BayesianOptimization final : public Algorithm {
   std::unique_ptr<Surrogate> surrogate_;
   std::unique_ptr<RegionConstraint> region_;
   std::unique_ptr<Optimizer> optimizer_;
+  std::unique_ptr<Optimizer> recommend_optimizer_;  ///< the recommender's own (see the constructor)
   std::vector<Phase> phases_;
   Index initial_points_ = 0;
   Index refit_every_ = 1;

@@ -1,10 +1,11 @@
 // libvarbo_rssgd: risk-sensitive stochastic gradient descent (Kuindersma 2013, Algorithm 3).
+#include "continuation.hpp"
 #include "rssgd.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/plugin.hpp"
 
 VARBO_PLUGIN("rssgd", "0.1.0", "Risk-sensitive stochastic gradient descent with a local surrogate critic") {
-  registry.add(varbo::make_component<varbo::Algorithm>(
+  varbo::ComponentInfo info = varbo::make_component<varbo::Algorithm>(
       "rssgd",
       "local policy search (Kuindersma 2013, Alg. 3): perturb θ by z ~ N(0, σ²), refit a critic surrogate on the "
       "observations within ε of θ, step θ -= (η/r̃θ)(Ĵθ+z − J̃θ + κ(r̃θ+z − r̃θ)) z; κ may follow a schedule",
@@ -25,5 +26,8 @@ VARBO_PLUGIN("rssgd", "0.1.0", "Risk-sensitive stochastic gradient descent with 
         if (o.is_set("history") && !o.str("history").empty()) history = rssgd::read_history(o.str("history"), ctx.dim);
         auto critic = ctx.registry->create<Surrogate>(o.component("critic"), ctx);
         return std::make_unique<rssgd::Rssgd>(std::move(s), std::move(critic), start, ctx.seed, std::move(history));
-      }));
+      });
+  // `varbo rescore` continues a run with rssgd through this extension (varbo/continuation.hpp).
+  info.extensions.push_back(std::make_shared<varbo::rssgd::Continuation>());
+  registry.add(std::move(info));
 }

@@ -3,8 +3,11 @@
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
+#include <limits>
+#include <string>
 
 namespace varbo::ceres_lbfgs {
 
@@ -64,7 +67,6 @@ class NegatedFunction final : public ceres::FirstOrderFunction {
 OptimizeResult CeresLbfgs::run_from(const DifferentiableFunction& f, const Vec& start) const {
   ceres::GradientProblemSolver::Options options;
   options.line_search_direction_type = ceres::LBFGS;
-  options.max_num_iterations = settings_.max_iterations;
   options.function_tolerance = settings_.function_tolerance;
   options.gradient_tolerance = settings_.gradient_tolerance;
   options.parameter_tolerance = settings_.parameter_tolerance;
@@ -74,20 +76,58 @@ OptimizeResult CeresLbfgs::run_from(const DifferentiableFunction& f, const Vec& 
 
   auto* negated = new NegatedFunction(f);  // owned by the problem
   ceres::GradientProblem problem(negated);
-  ceres::GradientProblemSolver::Summary summary;
   Vec x = start;
-  ceres::Solve(options, problem, x.data(), &summary);
-
   OptimizeResult r;
+  r.x = start;
+  // Ceres stops on any of its rules; its relative function rule (|Δf| < tol·|f|) fires early where |f| is large
+  // and the objective is flat along some directions (VHGP bounds on the 133 motorcycle points stopped 0.02–0.12
+  // below the optimum with max|∂F/∂log Λ_i| up to 1.9; bench/fit_convergence). Such a stop counts only with a small
+  // gradient as well, max|∂f/∂x_i| ≤ g_tol = tol_rel·max(1, |f|).
+  // Otherwise L-BFGS goes on from the point reached (a fresh curvature memory) with the function rule tightened
+  // to kTightFunctionTolerance and Ceres' own gradient rule set to g_tol, so that it stops where we would; until
+  // the gradient is small, the iterations are spent, or a round gains less than 1e-3 of one function-rule step.
+  constexpr double kTightFunctionTolerance = 1e-12;
+  constexpr int kMaxRounds = 10;
+  Index iterations = 0;
+  double cost = std::numeric_limits<double>::infinity();
+  std::string message;
+  bool usable = false;
+  for (int round = 0; round < kMaxRounds && iterations < settings_.max_iterations; ++round) {
+    options.max_num_iterations = static_cast<int>(settings_.max_iterations - iterations);
+    ceres::GradientProblemSolver::Summary summary;
+    Vec y = x;
+    ceres::Solve(options, problem, y.data(), &summary);
+    iterations += static_cast<Index>(summary.iterations.size());
+    if (!(summary.IsSolutionUsable() && std::isfinite(summary.final_cost) && y.allFinite())) {
+      if (round == 0) message = summary.message;
+      break;
+    }
+    const bool improved = !usable || summary.final_cost < cost;
+    // A continuation round that gains less than 1e-3 of one step of the function rule has stalled.
+    const bool stalled =
+        usable && !(cost - summary.final_cost > 1e-3 * settings_.function_tolerance * std::max(1.0, std::abs(cost)));
+    if (improved) {
+      x = y;
+      cost = summary.final_cost;
+    }
+    usable = true;
+    message = round == 0 ? summary.message : summary.message + " (after " + std::to_string(round) + " restart(s))";
+    if (summary.termination_type != ceres::CONVERGENCE || !improved || stalled) break;
+    double c = 0;
+    Vec g(x.size());
+    if (!negated->Evaluate(x.data(), &c, g.data())) break;
+    const double g_tol = settings_.relative_gradient_tolerance * std::max(1.0, std::abs(cost));
+    if (g.cwiseAbs().maxCoeff() <= g_tol) break;
+    options.function_tolerance = std::min(settings_.function_tolerance, kTightFunctionTolerance);
+    options.gradient_tolerance = std::max(settings_.gradient_tolerance, g_tol);
+  }
   r.evaluations = negated->evaluations();
-  r.iterations = static_cast<Index>(summary.iterations.size());
-  r.message = summary.message;
-  r.success = summary.IsSolutionUsable() && std::isfinite(summary.final_cost) && x.allFinite();
+  r.iterations = iterations;
+  r.message = message;
+  r.success = usable;
   if (r.success) {
     r.x = x;
-    r.value = -summary.final_cost;
-  } else {
-    r.x = start;
+    r.value = -cost;
   }
   return r;
 }

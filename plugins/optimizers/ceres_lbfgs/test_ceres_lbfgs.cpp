@@ -108,3 +108,47 @@ TEST_CASE("ceres_lbfgs is registered with its options") {
   CHECK(r.success);
   CHECK(r.value > neg_rosenbrock(start.row(0).transpose(), nullptr));
 }
+
+TEST_CASE("ceres_lbfgs: a stop on the relative function rule counts only with a small gradient (issue 12, item 9)") {
+  // −(10⁴ + Rosenbrock): |f| is large, so Ceres' rule |Δf| < 1e-6·|f| (= 0.01 here) stops in the curved valley long
+  // before the minimum (1, 1); progress along the valley is slow. Known optimum: f* = −10⁴ at (1, 1).
+  FunctionRef f(2, [](const Vec& x, Vec* g) {
+    const double a = 1 - x(0), b = x(1) - x(0) * x(0);
+    if (g) {
+      g->resize(2);
+      (*g)(0) = -(-2 * a - 400 * x(0) * b);
+      (*g)(1) = -(200 * b);
+    }
+    return -(1e4 + a * a + 100 * b * b);
+  });
+  BoxRegion box(Box::unit(2));
+  Mat start(1, 2);
+  start << -1.2, 1.0;
+  auto gradient_norm = [&](const Vec& x) {
+    Vec g;
+    f.value(x, &g);
+    return g.cwiseAbs().maxCoeff();
+  };
+  ceres_lbfgs::LbfgsSettings old_rule;
+  old_rule.relative_gradient_tolerance = 1e300;  // the function rule alone, as before
+  Rng r1(1), r2(1);
+  const OptimizeResult before = CeresLbfgs(old_rule).maximize(f, box, start, r1);
+  const OptimizeResult after = CeresLbfgs().maximize(f, box, start, r2);
+  REQUIRE(before.success);
+  REQUIRE(after.success);
+  MESSAGE("function rule alone: x = " << before.x.transpose() << ", |g| " << gradient_norm(before.x) << "; with the "
+          "gradient rule: x = " << after.x.transpose() << ", |g| " << gradient_norm(after.x) << " after "
+          << after.iterations << " iterations");
+  const double tolerance = ceres_lbfgs::LbfgsSettings{}.relative_gradient_tolerance;
+  CHECK(gradient_norm(before.x) > tolerance * 1e4);  // the early stop this guards against
+  CHECK(gradient_norm(after.x) <= tolerance * std::abs(after.value));
+  CHECK(after.value > before.value);
+  // The same mechanism with a tight tolerance (max |g| ≤ 1e-3 here) reaches the minimum.
+  ceres_lbfgs::LbfgsSettings tight;
+  tight.relative_gradient_tolerance = 1e-7;
+  Rng r3(1);
+  const OptimizeResult converged = CeresLbfgs(tight).maximize(f, box, start, r3);
+  REQUIRE(converged.success);
+  CHECK(gradient_norm(converged.x) <= 1e-7 * std::abs(converged.value));
+  CHECK((converged.x - Vec::Constant(2, 1.0)).norm() < 0.01);
+}

@@ -13,13 +13,17 @@ struct CsvTable {
   Index column(const std::string& name) const;  ///< -1 when absent
 };
 
-/// Reads a CSV file of numbers with one header line. Errors name the file, line and column: a cell that is not
+/// Reads a CSV file of numbers with one header line (cells split by split_csv_line, surrounding spaces dropped). Errors name the file, line and column: a cell that is not
 /// a decimal number (parse_decimal; nan and inf are read, for the caller to judge), a row of the wrong width, a
 /// column name given twice or empty.
 CsvTable read_csv(const std::string& filename);
 
-/// Every line of a CSV file split at commas, as text (header included); no quoting rules. Empty when the file
-/// cannot be read. For run-folder tables such as trials.csv that mix text and numbers.
+/// One CSV line split into cells with RFC 4180 quoting ("a,""b""" is one cell a,"b"); a trailing \r is dropped.
+/// For run-folder tables such as trials.csv, whose `error` column may hold commas and quotes.
+std::vector<std::string> split_csv_line(const std::string& line);
+
+/// Every line of a CSV file split by split_csv_line, as text (header included). Empty when the file cannot be
+/// read. For run-folder tables such as trials.csv that mix text and numbers.
 std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename);
 
 /// A CSV cell of free text (a name, an error message): printable() — valid UTF-8 on one line, control

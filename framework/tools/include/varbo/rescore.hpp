@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "varbo/registry.hpp"
+#include "varbo/select.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo {
@@ -62,18 +63,11 @@ class BallRegion final : public RegionConstraint {
   Box box_;
 };
 
-/// −(J̃(θ) + κ r̃(θ)) with r̃ = the critic's predictive std of the cost, as a function to maximize; gradient
-/// from the prediction's gradients when the critic provides them.
-class RiskObjective final : public DifferentiableFunction {
+/// −(J̃(θ) + κ r̃(θ)) with r̃ = the critic's predictive std of the cost, as a function to maximize: the
+/// NegativeConfidenceBound of select.hpp with the critic's arguments in rescore's order.
+class RiskObjective final : public NegativeConfidenceBound {
  public:
-  RiskObjective(const Surrogate& critic, double kappa, Index dim) : critic_(critic), kappa_(kappa), dim_(dim) {}
-  Index dim() const override { return dim_; }
-  double value(const Vec& x, Vec* grad) const override;
-
- private:
-  const Surrogate& critic_;
-  double kappa_;
-  Index dim_;
+  RiskObjective(const Surrogate& critic, double kappa, Index dim) : NegativeConfidenceBound(critic, dim, kappa) {}
 };
 
 struct OfflineSelection {
@@ -106,7 +100,8 @@ std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec&
                                              const OfflineSelectionSettings& settings, const Registry& registry,
                                              LocalModel* model = nullptr);
 
-/// Default settings from the run: its rssgd critic and ε when the run used rssgd, else {type: vhgp} and 0.2625.
+/// Default settings from the run: the local model of the run's algorithm when it offers RunContinuation
+/// (varbo/continuation.hpp: rssgd's critic and ε), else that of the first loaded algorithm that offers it.
 OfflineSelectionSettings offline_settings_from(const ComponentRun& run, const Registry& registry);
 
 /// Mean and std of the cost over `rollouts` fresh episodes of `theta` (user units), streams derived from `seed`.
@@ -118,9 +113,18 @@ struct PolicyStats {
 PolicyStats evaluate_policy(Task& task, const Vec& theta, Index rollouts, std::uint64_t seed);
 
 /// Writes `folder`/study.yaml (the run's resolved config with the new weights, initial_point = `start`,
-/// budget `steps`, an rssgd algorithm at risk `kappa` with the re-scored trials as history) and runs it.
-RunSummary continue_with_rssgd(const ComponentRun& run, const Weights& weights, const Vec& costs, const Vec& start,
-                               double kappa, Index steps, const std::string& folder, std::uint64_t seed,
-                               const Registry& registry);
+/// budget `steps`, and the algorithm block of the continuing algorithm — the run's own when it offers
+/// RunContinuation, else the first loaded one that does (rssgd) — at risk `kappa` with the re-scored trials as
+/// history) and runs it.
+RunSummary continue_run(const ComponentRun& run, const Weights& weights, const Vec& costs, const Vec& start,
+                        double kappa, Index steps, const std::string& folder, std::uint64_t seed,
+                        const Registry& registry);
+
+/// The former name of continue_run (the built-in continuing algorithm is rssgd).
+inline RunSummary continue_with_rssgd(const ComponentRun& run, const Weights& weights, const Vec& costs,
+                                      const Vec& start, double kappa, Index steps, const std::string& folder,
+                                      std::uint64_t seed, const Registry& registry) {
+  return continue_run(run, weights, costs, start, kappa, steps, folder, seed, registry);
+}
 
 }  // namespace varbo

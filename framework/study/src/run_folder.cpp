@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
@@ -18,32 +19,6 @@ namespace fs = std::filesystem;
 namespace varbo {
 
 namespace {
-
-/// One CSV line with RFC 4180 quoting (the `error` column may hold commas and quotes).
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> cells(1);
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        cells.back() += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        cells.back() += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      cells.emplace_back();
-    } else if (c != '\r') {
-      cells.back() += c;
-    }
-  }
-  return cells;
-}
 
 double parse_number(const std::string& text, const std::string& where) {
   const std::optional<double> v = parse_decimal(text);
@@ -94,7 +69,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   std::ifstream in(csv);
   std::string line;
   if (!std::getline(in, line)) throw InputError(fmt::format("{}: empty file (expected a header line)", csv));
-  const std::vector<std::string> header = split_csv(line);
+  const std::vector<std::string> header = split_csv_line(line);
   auto column = [&](const std::string& name) {
     for (std::size_t i = 0; i < header.size(); ++i)
       if (header[i] == name) return i;
@@ -110,7 +85,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   while (std::getline(in, line)) {
     ++lineno;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    const std::vector<std::string> cells = split_csv(line);
+    const std::vector<std::string> cells = split_csv_line(line);
     if (cells.size() != header.size())
       throw InputError(fmt::format("{}:{}: expected {} values (as in the header), found {}", csv, lineno,
                                    header.size(), cells.size()));

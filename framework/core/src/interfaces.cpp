@@ -6,6 +6,7 @@
 
 #include "varbo/acquisition.hpp"
 #include "varbo/algorithm.hpp"
+#include "varbo/continuation.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/function.hpp"
 #include "varbo/optimizer.hpp"
@@ -24,6 +25,8 @@ Sampler::~Sampler() = default;
 Optimizer::~Optimizer() = default;
 Task::~Task() = default;
 Algorithm::~Algorithm() = default;
+ComponentExtension::~ComponentExtension() = default;
+RunContinuation::~RunContinuation() = default;
 
 void Surrogate::set_state(const std::string& name, const Vec&) {
   throw ConfigError("this surrogate has no state named '" + name + "'");

@@ -6,7 +6,6 @@
 #include <cstdlib>
 #include <algorithm>
 #include <fstream>
-#include <sstream>
 
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
@@ -20,24 +19,29 @@ Index CsvTable::column(const std::string& name) const {
   return -1;
 }
 
-static std::vector<std::string> split_line(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> cells(1);
+  bool quoted = false;
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        cells.back() += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        cells.back() += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      cells.emplace_back();
     } else if (c != '\r') {
-      cur += c;
+      cells.back() += c;
     }
   }
-  out.push_back(cur);
-  for (auto& s : out) {
-    const auto b = s.find_first_not_of(" \t\"");
-    const auto e = s.find_last_not_of(" \t\"");
-    s = (b == std::string::npos) ? std::string() : s.substr(b, e - b + 1);
-  }
-  return out;
+  return cells;
 }
 
 CsvTable read_csv(const std::string& filename) {
@@ -56,7 +60,11 @@ CsvTable read_csv(const std::string& filename) {
       throw InputError(fmt::format("{}:{}: a NUL byte (binary data?); expected comma-separated text", filename, lineno));
     if (std::count(line.begin(), line.end(), '"') % 2 != 0)
       throw InputError(fmt::format("{}:{}: unterminated quote; expected comma-separated values", filename, lineno));
-    auto cells = split_line(line);
+    auto cells = split_csv_line(line);
+    for (auto& c : cells) {  // spaces around a value are not part of it
+      const auto b = c.find_first_not_of(" \t");
+      c = b == std::string::npos ? std::string() : c.substr(b, c.find_last_not_of(" \t") - b + 1);
+    }
     if (t.columns.empty()) {
       for (std::size_t c = 0; c < cells.size(); ++c) {
         if (cells[c].empty())
@@ -95,13 +103,7 @@ std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename
   std::ifstream in(filename);
   std::vector<std::vector<std::string>> rows;
   std::string line;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string c;
-    while (std::getline(ss, c, ',')) cells.push_back(c);
-    rows.push_back(std::move(cells));
-  }
+  while (std::getline(in, line)) rows.push_back(split_csv_line(line));
   return rows;
 }
 

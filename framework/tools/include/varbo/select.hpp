@@ -26,8 +26,10 @@ struct RiskSelection {
   std::string message;
 };
 
-/// The utility −(E[y] + κ·s) to maximize (eq. 20), with its analytic gradient (unit-cube coordinates).
-class NegativeConfidenceBound final : public DifferentiableFunction {
+/// The utility −(E[y] + κ·s) to maximize (eq. 20), with its analytic gradient (unit-cube coordinates); the one
+/// implementation behind `varbo select` and `varbo rescore` (RiskObjective). A model that gives no gradient
+/// where one is asked for is a NumericalError (a zero gradient would stop a gradient search at its start).
+class NegativeConfidenceBound : public DifferentiableFunction {
  public:
   NegativeConfidenceBound(const Surrogate& model, Index dim, double kappa) : model_(model), dim_(dim), kappa_(kappa) {}
   Index dim() const override { return dim_; }

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "varbo/continuation.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -19,34 +20,6 @@ namespace fs = std::filesystem;
 namespace varbo {
 
 namespace {
-
-std::vector<std::string> split_csv_line(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  bool quoted = false;
-  for (std::size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        cur += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        cur += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      out.push_back(cur);
-      cur.clear();
-    } else if (c != '\r') {
-      cur += c;
-    }
-  }
-  out.push_back(cur);
-  return out;
-}
 
 double to_number(const std::string& s, const std::string& where) {
   if (s == "nan" || s.empty()) return std::nan("");
@@ -229,39 +202,31 @@ double BallRegion::constraint(const Vec& x, Vec* grad) const {
 
 Mat BallRegion::seeds() const { return centre_.transpose(); }
 
-double RiskObjective::value(const Vec& x, Vec* grad) const {
-  const Prediction p = critic_.predict(x, grad != nullptr);
-  const double s = p.total_std();
-  if (grad) {
-    if (p.has_gradient()) {
-      // d r̃ = d V / (2 r̃)
-      *grad = -(p.d_mean + kappa_ * p.d_total_var() / (2 * std::max(s, 1e-300)));
-    } else {
-      grad->setZero(dim_);
-    }
-  }
-  return -(p.mean + kappa_ * s);
+namespace {
+
+/// The algorithm that continues `run`: its own when it offers RunContinuation, else the first loaded one that does.
+const ComponentInfo& continuing_algorithm(const ComponentRun& run, const Registry& registry) {
+  const ComponentInfo& own = *run.study.algorithm.info;
+  if (own.extension<RunContinuation>()) return own;
+  for (const ComponentInfo* c : registry.components(Kind::Algorithm))
+    if (c->extension<RunContinuation>()) return *c;
+  throw ConfigError("rescore: no loaded algorithm offers to continue a run (the RunContinuation extension of "
+                    "varbo/continuation.hpp)");
 }
 
+}  // namespace
+
 OfflineSelectionSettings offline_settings_from(const ComponentRun& run, const Registry& registry) {
+  const ComponentInfo& alg = continuing_algorithm(run, registry);
+  const bool own = &alg == run.study.algorithm.info;
+  const LocalModelSpec m =
+      alg.extension<RunContinuation>()->local_model(own ? &run.study.algorithm.options : nullptr, registry);
   OfflineSelectionSettings s;
   s.seed = run.study.seed;
-  const ResolvedComponent& alg = run.study.algorithm;
-  if (alg.info->name == "rssgd" && declares_option(*alg.info, "critic")) {
-    s.critic = alg.options.component("critic");
-    const double eps = alg.options.real("epsilon");
-    double sigma = alg.options.real("sigma");
-    if (alg.options.is_set("sigma_diag"))
-      for (double v : alg.options.reals("sigma_diag")) sigma = std::max(sigma, v);
-    s.radius = eps > 0 ? eps : 3.5 * sigma;
-    s.min_points = alg.options.integer("min_local_points");
-  } else {
-    s.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse("{type: vhgp}", "<rescore default critic>"));
-  }
-  // SLSQP polish (paper: SQP) of quasi-random candidates inside the ball.
-  s.optimizer =
-      registry.resolve(Kind::Optimizer, ConfigNode::parse("{type: multistart, candidates: 500, polish: 5}",
-                                                          "<rescore default optimizer>"));
+  s.critic = m.critic;
+  s.optimizer = m.optimizer;
+  s.radius = m.radius;
+  s.min_points = m.min_points;
   return s;
 }
 
@@ -334,9 +299,11 @@ PolicyStats evaluate_policy(Task& task, const Vec& theta, Index rollouts, std::u
   return s;
 }
 
-RunSummary continue_with_rssgd(const ComponentRun& run, const Weights& weights, const Vec& costs, const Vec& start,
-                               double kappa, Index steps, const std::string& folder, std::uint64_t seed,
-                               const Registry& registry) {
+RunSummary continue_run(const ComponentRun& run, const Weights& weights, const Vec& costs, const Vec& start,
+                        double kappa, Index steps, const std::string& folder, std::uint64_t seed,
+                        const Registry& registry) {
+  const ComponentInfo& continuing = continuing_algorithm(run, registry);
+  const bool own = &continuing == run.study.algorithm.info;
   if (!declares_option(*run.study.task.info, "weights"))
     throw ConfigError(fmt::format("task '{}' has no `weights:` option, so a continued run cannot use new weights",
                                   run.study.task.info->name));
@@ -360,13 +327,11 @@ RunSummary continue_with_rssgd(const ComponentRun& run, const Weights& weights, 
   cfg["budget"] = steps;
   cfg["seed"] = seed;
   cfg["output"] = fs::absolute(folder).string();
-  YAML::Node alg = run.study.algorithm.info->name == "rssgd" ? YAML::Node(cfg["algorithm"]) : YAML::Node(YAML::NodeType::Map);
-  if (run.study.algorithm.info->name != "rssgd") alg["type"] = "rssgd";
-  alg.remove("phases");
-  alg.remove("start");
-  alg["kappa"] = kappa;
-  alg["history"] = history;
-  alg["evaluate_initial"] = false;  // the history already holds the neighbourhood; every trial is a step
+  YAML::Node alg = own ? YAML::Node(cfg["algorithm"]) : YAML::Node(YAML::NodeType::Map);
+  if (!own)  // the short name when it reaches this component, else the full one
+    alg["type"] = registry.try_find(Kind::Algorithm, continuing.name) == &continuing ? continuing.name
+                                                                                     : continuing.full_name();
+  continuing.extension<RunContinuation>()->continue_from(alg, history, kappa);
   cfg["algorithm"] = alg;
   cfg["description"] = fmt::format("continuation of {} with new weights, kappa {}", run.folder, kappa);
   const std::string file = folder + "/study.yaml";

@@ -19,7 +19,7 @@ double NegativeConfidenceBound::value(const Vec& x, Vec* grad) const {
   // s = sqrt(c*² + exp(μ* + σ*²/2)) (section 2.2); ds/dx = dV/dx / (2 s).
   const double s = p.total_std();
   if (grad != nullptr) {
-    if (!p.has_gradient()) throw NumericalError("select: the model gave no gradient");
+    if (!p.has_gradient()) throw NumericalError("-(E + kappa s): the model gave no gradient");
     const Vec d_std = p.d_total_var() / (2.0 * std::max(s, 1e-300));
     *grad = -(p.d_mean + kappa_ * d_std);
   }

@@ -44,6 +44,14 @@ template <> constexpr Kind kind_of<Optimizer>() { return Kind::Optimizer; }
 template <> constexpr Kind kind_of<Task>() { return Kind::Task; }
 template <> constexpr Kind kind_of<Algorithm>() { return Kind::Algorithm; }
 
+/// Base of the optional interfaces a component offers beyond its kind's, e.g. RunContinuation
+/// (varbo/continuation.hpp). The host asks for one with ComponentInfo::extension<T>(), so the framework
+/// never needs to know which concrete component offers it.
+class ComponentExtension {
+ public:
+  virtual ~ComponentExtension();
+};
+
 /// A component as declared by its plugin. `provides`/`needs` are capability tags (docs/plugins.md);
 /// the all-combinations suite skips only combinations whose tags do not match.
 struct ComponentInfo {
@@ -54,9 +62,17 @@ struct ComponentInfo {
   std::vector<std::string> provides;
   std::vector<std::string> needs;
   AnyFactory factory;
+  std::vector<std::shared_ptr<const ComponentExtension>> extensions;  ///< optional interfaces (see above)
   std::string plugin;       ///< plugin name (filled by the registry)
   std::string library;      ///< file it came from (filled by the registry)
   std::string full_name() const { return plugin.empty() ? name : plugin + "/" + name; }
+  /// The extension of type T this component offers, or nullptr.
+  template <class T>
+  const T* extension() const {
+    for (const auto& e : extensions)
+      if (const T* t = dynamic_cast<const T*>(e.get())) return t;
+    return nullptr;
+  }
 };
 
 template <class T>
