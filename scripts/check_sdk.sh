@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
-# Installs varbo into a scratch prefix, builds the template plugin out of tree against the installed SDK
-# (find_package(varbo)), and runs a short study with the installed executable using that plugin.
+# Installs varbo into a scratch prefix, builds the template plugins out of tree against the installed SDK
+# (find_package(varbo): an acquisition, a task and an algorithm without a surrogate), and runs short studies
+# with the installed executable using them: BO with the template acquisition, the template algorithm on the
+# template task (stopped and resumed: same trials), and the template task's config errors (exit 2); the core and
+# the templates must not depend on SQLite or the study library.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
@@ -9,6 +12,7 @@ WORK=$(mktemp -d /tmp/varbo-sdk-work.XXXXXX)
 cmake --install "$BUILD_DIR" --prefix "$PREFIX" > "$WORK/install.log"
 cmake -S plugins/template -B "$WORK/template" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/configure.log"
 cmake --build "$WORK/template" > "$WORK/build.log"
+if grep -q "warning:" "$WORK/build.log"; then cat "$WORK/build.log"; echo "template plugins: compiler warnings"; exit 1; fi
 # The SDK a plugin builds against is the core only: neither the core nor a template plugin may need SQLite or
 # the study library.
 CORE_LIB=$(find "$PREFIX" -name libvarbo_core.so | head -n 1)
@@ -20,19 +24,57 @@ for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
   fi
 done
 export VARBO_PLUGIN_PATH="$WORK/template"
-"$PREFIX/bin/varbo" plugins --describe greedy_mean
-cat > "$WORK/study.yaml" <<YAML
+VARBO="$PREFIX/bin/varbo"
+for c in greedy_mean bowl one_plus_one; do "$VARBO" plugins --describe "$c"; done
+
+# 1. The template acquisition in BO on a built-in task.
+cat > "$WORK/acq.yaml" <<YAML
 task: {type: branin}
 budget: 8
 seed: 3
-output: $WORK/run
+output: $WORK/acq
 algorithm:
   type: bo
   initial_points: 4
   acquisition: {type: greedy_mean, weight: 1.0}
 YAML
-"$PREFIX/bin/varbo" run "$WORK/study.yaml" --no-progress
-test "$(wc -l < "$WORK/run/trials.csv")" -eq 9
+"$VARBO" run "$WORK/acq.yaml" --no-progress
+test "$(wc -l < "$WORK/acq/trials.csv")" -eq 9
+
+# 2. The template algorithm on the template task: 12 trials at once, and 5 then resumed to 12, give the same
+# trials (an algorithm is rebuilt by replaying its trials, so ask() must depend only on the seed and the trials).
+cat > "$WORK/es.yaml" <<YAML
+task: {type: bowl, dim: 3, center: [0.3, -0.2, 0.5], noise: student_t, noise_std: 0.001}
+budget: 12
+seed: 5
+algorithm: {type: one_plus_one, sigma: 0.3}
+YAML
+"$VARBO" run "$WORK/es.yaml" -o "$WORK/es_full" --no-progress
+"$VARBO" run "$WORK/es.yaml" -o "$WORK/es_part" --budget 5 --no-progress
+"$VARBO" run --resume "$WORK/es_part" --budget 12 --no-progress
+trials() { cut -d, -f1-6 "$1/trials.csv"; }   # index, phase, θ (3), cost: not the timings
+test "$(trials "$WORK/es_full" | wc -l)" -eq 13
+diff <(trials "$WORK/es_full") <(trials "$WORK/es_part")
+grep -q '"recommended_theta"' "$WORK/es_full/summary.json"
+
+# 3. Config errors of the template task: at the key (o.node("center").fail), or, for a standard exception
+# thrown by the factory, at the component, naming it; both exit 2 and create no run folder.
+expect_config_error() {  # YAML_TASK_LINE EXPECTED_TEXT
+  printf 'task: %s\nbudget: 3\nalgorithm: one_plus_one\n' "$1" > "$WORK/bad.yaml"
+  set +e
+  "$VARBO" run "$WORK/bad.yaml" -o "$WORK/bad_run" > "$WORK/bad.out" 2>&1
+  local rc=$?
+  set -e
+  if [ "$rc" -ne 2 ] || ! grep -qF "$2" "$WORK/bad.out" || [ -e "$WORK/bad_run" ]; then
+    cat "$WORK/bad.out"; echo "expected exit 2 with '$2' and no run folder, got exit $rc"; exit 1
+  fi
+  cat "$WORK/bad.out"
+}
+expect_config_error "{type: bowl, dim: 3, center: [0.1, 0.2]}" \
+  "bad.yaml:1:36: key 'task.center': expected 1 or 3 values, got 2"
+expect_config_error "{type: bowl, noise: none, noise_std: 0.5}" \
+  "bad.yaml:1:7: key 'task': task 'template_task/bowl' (from $WORK/template/libvarbo_template_task.so) could not be created: noise_std is set but noise is 'none'"
+
 if [ -d examples/embedding ]; then
   cmake -S examples/embedding -B "$WORK/embedding" -G Ninja -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/embed.log"
   cmake --build "$WORK/embedding" >> "$WORK/embed.log"

@@ -1,5 +1,7 @@
-// Template for a third-party plugin: one acquisition, "greedy_mean", utility = −(E[y] + weight·s).
-// Copy this folder, rename, and build it against an installed varbo (see CMakeLists.txt).
+// Template for a third-party acquisition, "greedy_mean", utility = −(E[y] + weight·s).
+// Copy this file, rename the plugin and the component, and build it against an installed varbo (CMakeLists.txt).
+// Threads: prepare() is called from one thread after each fit; evaluate() from many threads at once while the
+// acquisition is optimized, so it reads only what prepare() stored (varbo/acquisition.hpp).
 #include <varbo/plugin.hpp>
 
 namespace {

@@ -1,4 +1,7 @@
 // Registry: lookup by short and full name, unknown and ambiguous names, capability matching.
+#include <new>
+#include <stdexcept>
+
 #include "varbo/errors.hpp"
 #include "varbo/registry.hpp"
 #include "varbo_test.hpp"
@@ -82,4 +85,55 @@ TEST_CASE("capability tags decide compatibility") {
   CHECK(compatible({&region, &good}, &why));
   CHECK_FALSE(compatible({&region, &plain}, &why));
   CHECK(why == "acquisition 'r' requires 'optimizer:constraints'");
+}
+
+TEST_CASE("a factory's standard exception becomes a ConfigError at the component; varbo errors and bad_alloc pass") {
+  Registry r;
+  r.set_origin("third", "libvarbo_third.so");
+  r.add(make_component<Acquisition>("refuses", "throws std::invalid_argument", {opt::real("value", 1.0, "v")},
+                                    Factory<Acquisition>([](const Options&, const BuildContext&)
+                                                             -> std::unique_ptr<Acquisition> {
+                                      throw std::invalid_argument("value must be negative");
+                                    })));
+  r.add(make_component<Acquisition>("says_where", "throws a ConfigError at its key", {opt::real("value", 1.0, "v")},
+                                    Factory<Acquisition>([](const Options& o, const BuildContext&)
+                                                             -> std::unique_ptr<Acquisition> {
+                                      o.node("value").fail("expected a prime");
+                                    })));
+  r.add(make_component<Acquisition>("out_of_memory", "throws std::bad_alloc", {},
+                                    Factory<Acquisition>([](const Options&, const BuildContext&)
+                                                             -> std::unique_ptr<Acquisition> {
+                                      throw std::bad_alloc();
+                                    })));
+  // A component whose factory creates another (as bo creates its acquisition): the inner one is named.
+  r.add(make_component<Algorithm>(
+      "outer", "creates an acquisition", {opt::component("acquisition", Kind::Acquisition, "refuses", "inner")},
+      Factory<Algorithm>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Algorithm> {
+        ctx.registry->create<Acquisition>(o.component("acquisition"), ctx);
+        return nullptr;
+      })));
+  r.set_origin("", "");
+  auto message = [&](auto&& make) {
+    try {
+      make();
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no ConfigError)");
+  };
+  const ConfigNode cfg = ConfigNode::parse("a: {type: refuses, value: 3}\nb: {type: says_where, value: 4}\n"
+                                           "c: {type: outer, acquisition: {type: refuses}}\nd: refuses\n",
+                                           "s.yaml");
+  CHECK(message([&] { r.create<Acquisition>(r.resolve(Kind::Acquisition, cfg.child("a")), BuildContext{}); }) ==
+        "s.yaml:1:4: key 'a': acquisition 'third/refuses' (from libvarbo_third.so) could not be created: "
+        "value must be negative");
+  CHECK(message([&] { r.create<Acquisition>(r.resolve(Kind::Acquisition, cfg.child("b")), BuildContext{}); }) ==
+        "s.yaml:2:30: key 'b.value': expected a prime");
+  CHECK(message([&] { r.create<Algorithm>(r.resolve(Kind::Algorithm, cfg.child("c")), BuildContext{}); }) ==
+        "s.yaml:3:31: key 'c.acquisition': acquisition 'third/refuses' (from libvarbo_third.so) could not be "
+        "created: value must be negative");
+  CHECK(message([&] { r.create<Acquisition>(r.resolve(Kind::Acquisition, cfg.child("d")), BuildContext{}); }) ==
+        "s.yaml:4:4: key 'd': acquisition 'third/refuses' (from libvarbo_third.so) could not be created: "
+        "value must be negative");
+  CHECK_THROWS_AS(r.create<Acquisition>("out_of_memory", BuildContext{}), std::bad_alloc);
 }

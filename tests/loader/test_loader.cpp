@@ -59,6 +59,23 @@ TEST_CASE("a good plugin registers its components and reports its info") {
   CHECK(a->evaluate(Vec::Zero(2), nullptr) == 42.0);
 }
 
+TEST_CASE("a plugin factory throwing a standard exception is a config error naming the component and file") {
+  Registry r;
+  PluginLoader l(r);
+  l.load_file(fixture("good"));
+  std::string m = "(no error)";
+  try {
+    r.create<Acquisition>(r.resolve(Kind::Acquisition, ConfigNode::parse("acquisition: {type: fixture_refusing, weight: 2}\n",
+                                                                         "/tmp/s.yaml").child("acquisition")),
+                          BuildContext{});
+  } catch (const ConfigError& e) {
+    m = e.what();
+  }
+  CHECK(contains(m, "/tmp/s.yaml:1:14: key 'acquisition': acquisition 'fixture/fixture_refusing'"));
+  CHECK(contains(m, "(from " + fixture("good") + ")"));
+  CHECK(contains(m, "could not be created: weight must be positive, got 2"));
+}
+
 TEST_CASE("an ABI mismatch names the file and both versions") {
   const std::string m = error_loading<PluginVersionError>(fixture("abi"));
   CHECK(contains(m, fixture("abi")));

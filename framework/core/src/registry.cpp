@@ -128,6 +128,13 @@ ResolvedComponent Registry::resolve(Kind kind, const ConfigNode& node) const {
   return rc;
 }
 
+void throw_factory_error(const ResolvedComponent& c, const std::exception& e) {
+  const ComponentInfo& info = *c.info;
+  const std::string origin = info.library.empty() ? std::string() : fmt::format(" (from {})", info.library);
+  c.source.fail(fmt::format("{} '{}'{} could not be created: {}", kind_name(info.kind), info.full_name(), origin,
+                            e.what()));
+}
+
 bool compatible(const std::vector<const ComponentInfo*>& parts, std::string* why) {
   for (std::size_t i = 0; i < parts.size(); ++i) {
     for (const auto& req : parts[i]->needs) {

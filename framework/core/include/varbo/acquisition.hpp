@@ -13,6 +13,8 @@ struct AcquisitionContext {
   Rng* rng = nullptr;  ///< for randomized acquisitions (a fresh stream per iteration)
 };
 
+/// Threads: prepare() is called from one thread; evaluate() from many threads at once (optimizers evaluate
+/// candidates and polish starts in parallel), so it must only read what prepare() set.
 class Acquisition {
  public:
   virtual ~Acquisition();

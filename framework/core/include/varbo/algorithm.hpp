@@ -32,6 +32,9 @@ struct ModelSnapshot {
   std::string region_state;
 };
 
+/// Threads: every method is called from one thread, never concurrently (an algorithm may use parallel_for
+/// inside). Determinism: ask() must depend only on the seed (BuildContext::seed) and the ask/tell sequence,
+/// because `--resume` and `varbo study` rebuild an algorithm by replaying its trials (ask(1) then tell(...)).
 class Algorithm {
  public:
   virtual ~Algorithm();

@@ -5,6 +5,7 @@
 
 namespace varbo {
 
+/// Threads: value() is const and may be called from several threads at once.
 class DifferentiableFunction {
  public:
   virtual ~DifferentiableFunction();

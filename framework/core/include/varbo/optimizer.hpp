@@ -16,6 +16,8 @@ struct OptimizeResult {
   std::string message;
 };
 
+/// Threads: maximize() may run on several threads at once on one instance (a surrogate's fit restarts share
+/// its optimizer), and it may itself call f.value() from several threads: keep per-call state local.
 class Optimizer {
  public:
   virtual ~Optimizer();

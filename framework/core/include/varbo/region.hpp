@@ -5,6 +5,8 @@
 
 namespace varbo {
 
+/// Threads: update() is called from one thread; the const methods (bounds, constraint, contains, seeds) from
+/// many threads at once (parallel samplers and optimizers).
 class RegionConstraint {
  public:
   virtual ~RegionConstraint();

@@ -2,12 +2,14 @@
 // The registry of components. Plugins add ComponentInfo entries; configs resolve and create them by name.
 #include <functional>
 #include <memory>
+#include <new>
 #include <optional>
 #include <string>
 #include <variant>
 #include <vector>
 #include "varbo/acquisition.hpp"
 #include "varbo/algorithm.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/optimizer.hpp"
 #include "varbo/options.hpp"
 #include "varbo/region.hpp"
@@ -96,6 +98,11 @@ struct ResolvedComponent {
   YAML::Node resolved() const;  ///< {type: name, ...options with defaults}
 };
 
+/// A factory that refused its options with a standard exception: throws ConfigError at the component's
+/// position in the config, naming the component, its plugin and the exception's message (exit 2, not an
+/// "internal error").
+[[noreturn]] void throw_factory_error(const ResolvedComponent& c, const std::exception& e);
+
 class Registry {
  public:
   Registry() = default;
@@ -120,7 +127,15 @@ class Registry {
       throw std::logic_error("Registry::create: component kind mismatch");
     BuildContext local = ctx;
     local.registry = this;
-    return std::get<Factory<T>>(c.info->factory)(c.options, local);
+    try {
+      return std::get<Factory<T>>(c.info->factory)(c.options, local);
+    } catch (const Error&) {
+      throw;  // already says where (ConfigError from o.node("key").fail(...), a nested component, ...)
+    } catch (const std::bad_alloc&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw_factory_error(c, e);  // e.g. std::invalid_argument from a third-party factory
+    }
   }
   /// Convenience: resolve YAML text such as "{type: ei, xi: 0.1}" and create.
   template <class T>

@@ -4,6 +4,8 @@
 
 namespace varbo {
 
+/// Threads: sample() may run on several threads at once on one instance (e.g. inside an optimizer shared by a
+/// surrogate's parallel fit restarts); keep per-call state local and draw only from `rng`.
 class Sampler {
  public:
   virtual ~Sampler();

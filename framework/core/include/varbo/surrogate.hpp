@@ -29,6 +29,8 @@ struct FitReport {
   std::string report() const;
 };
 
+/// Threads: fit(), condition() and the setters are called from one thread; the const methods (predict() above
+/// all) are called from many threads at once while an acquisition is optimized, so they must not modify state.
 class Surrogate {
  public:
   virtual ~Surrogate();

@@ -32,6 +32,11 @@ struct Optimum {
   std::vector<Vec> thetas;  ///< user units
 };
 
+/// Threads: the runner calls evaluate() (and noiseless_cost()) on one thread, one trial after another: a Task
+/// instance is never entered concurrently, so evaluate() may keep state (a simulator, a device handle, a
+/// counter) without locks. Parallel trials are separate processes (`varbo study` workers, docs/studies.md),
+/// each with its own instance. A failure is reported as Evaluation{ok = false, error}; an exception thrown by
+/// evaluate() is also recorded as a failed trial (its what() as the reason), never a crash.
 class Task {
  public:
   virtual ~Task();
