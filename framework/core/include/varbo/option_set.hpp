@@ -17,7 +17,7 @@
 //
 // Field types: bool; any integer type (read through `long`, refused with file:line:col when the value does
 // not fit the field); double; std::string (empty = no default); a choice into std::string or into an enum
-// through a {name, value} mapping; std::vector<double> (empty = no default); and std::optional of a real,
+// (or a bool) through a {name, value} mapping; std::vector<double> (empty = no default); and std::optional of a real,
 // an integer or a list (nullopt = no default) for options whose absence means something. A field of a member
 // struct is bound with opt::nested(&Outer::inner, &Inner::field).
 #include <functional>
@@ -167,7 +167,7 @@ using if_integer_field = std::enable_if_t<is_setting_integer<field_type<F>>, int
 template <class F>
 using if_optional_integer_field = std::enable_if_t<optional_integer<field_type<F>>::value, int>;
 template <class F>
-using if_enum_field = std::enable_if_t<std::is_enum_v<field_type<F>>, int>;
+using if_mapped_field = std::enable_if_t<std::is_enum_v<field_type<F>> || std::is_same_v<field_type<F>, bool>, int>;
 }  // namespace detail
 
 /// Bound builders: the default is the field's value in a default-constructed settings struct.
@@ -249,9 +249,9 @@ BoundOption<detail::settings_of<F>> choice(std::string name, F field, std::vecto
           [key, field](const Options& o, detail::settings_of<F>& s) { detail::field_of(s, field) = o.str(key); }};
 }
 
-/// A choice read into an enum: `mapping` gives each accepted name and its value, in the order shown; the
-/// default is the name of the field's value in S{}.
-template <class F, detail::if_enum_field<F> = 0>
+/// A choice read into an enum (or a bool): `mapping` gives each accepted name and its value, in the order
+/// shown; the default is the name of the field's value in S{}.
+template <class F, detail::if_mapped_field<F> = 0>
 BoundOption<detail::settings_of<F>> choice(std::string name, F field,
                                            std::vector<std::pair<std::string, detail::field_type<F>>> mapping,
                                            std::string description) {
