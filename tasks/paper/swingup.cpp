@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "varbo/option_set.hpp"
+
 namespace varbo::tasks {
 
 namespace {
