@@ -176,7 +176,7 @@ TEST_CASE("bounds and choices of bound options are validated with the usual mess
   CHECK(error_of("restarts: 0\n") == "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '0'");
   CHECK(error_of("restarts: 65\n") == "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '65'");
   CHECK(error_of("xi: -1\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got '-1'");
-  CHECK(error_of("radius: 0\n") == "c.yaml:1:9: key 'radius': expected a real number in (0, inf), got '0'");
+  CHECK(error_of("radius: 0\n") == "c.yaml:1:9: key 'radius': expected a real number in (0, inf], got '0'");
   CHECK(error_of("method: bfgs\n").find("c.yaml:1:9: key 'method': expected one of: lbfgs, slsqp, cobyla") == 0);
   CHECK(spec("restarts").expected() == "an integer in [1, 64]");
 }
