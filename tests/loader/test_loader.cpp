@@ -168,6 +168,22 @@ TEST_CASE("a plugin built for another ABI or build is refused from its metadata 
   CHECK(std::string(std::getenv("VARBO_FIXTURE_STATIC_INIT_RAN")) == "fixture+");
 }
 
+TEST_CASE("a metadata-only scan lists plugins without running any of their code") {
+  unsetenv("VARBO_FIXTURE_STATIC_INIT_RAN");
+  const std::string copy = scratch("libvarbo_fixture_copy_metadata_only.so", read_bytes(fixture("good")));
+  Registry r;
+  PluginLoader l(r);
+  l.set_metadata_only(true);
+  l.load_file(copy);
+  REQUIRE(l.loaded().size() == 1);
+  CHECK(l.loaded()[0].name == "fixture");
+  CHECK(l.loaded()[0].version == "9.9.9");
+  CHECK(l.loaded()[0].fingerprint == host_fingerprint());
+  CHECK(r.all().empty());  // nothing registered
+  CHECK(std::getenv("VARBO_FIXTURE_STATIC_INIT_RAN") == nullptr);
+  CHECK(contains(error_loading<PluginVersionError>(fixture("abi")), "built for plugin ABI 999"));
+}
+
 TEST_CASE("the metadata section is read from the file and matches what the plugin reports") {
   Registry r;
   PluginLoader l(r);

@@ -95,6 +95,10 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
                  path, name, l.builtin ? "the built-in" : "a", l.path);
       return;
     }
+  if (metadata_only_) {
+    loaded_.push_back(LoadedLibrary{path, name, info.version, fp, info.description, builtin});
+    return;
+  }
 
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr) {
