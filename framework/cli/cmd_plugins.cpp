@@ -115,6 +115,7 @@ Runner add_plugins(CLI::App& app) {
                   l.builtin ? "" : "  (third-party)");
     for (const auto& s : loader.skipped()) std::printf("  SKIPPED %s\n", s.reason.c_str());
     if (a->libraries) {
+      std::printf("\ndescriptions (from each library's .varbo_meta section)\n");
       for (const auto& l : loader.loaded()) std::printf("  %-22s %s\n", l.name.c_str(), l.description.c_str());
       return 0;
     }
