@@ -43,11 +43,16 @@ Runner add_plugins(CLI::App& app) {
     std::string describe;
     std::vector<std::string> load;
     bool brief = false;
+    bool libraries = false;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("--describe", a->describe, "show one component (name or plugin/name), or 'study' for top-level keys");
+  auto* describe_opt = cmd->add_option("--describe", a->describe, "show one component (name or plugin/name), or 'study' for top-level keys");
   cmd->add_option("--load", a->load, "also load these plugin files or folders (a file named must load; a folder's broken libraries are listed as skipped)");
   cmd->add_flag("--brief", a->brief, "names only");
+  cmd->add_flag("--libraries", a->libraries,
+                "only the plugin libraries, from their metadata sections: no plugin code runs (components are "
+                "not listed)")
+      ->excludes(describe_opt);
   return [a]() {
     Registry registry;
     PluginLoader loader(registry);
@@ -55,6 +60,7 @@ Runner add_plugins(CLI::App& app) {
       if (std::error_code ec; !std::filesystem::exists(p, ec))
         throw InputError(fmt::format("--load {}: {}; expected a plugin file (libvarbo_NAME.so) or a folder of them",
                                      p, ec ? ec.message() : "does not exist"));
+    loader.set_metadata_only(a->libraries);
     loader.load_default(a->load);  // built-ins first, so --load cannot replace them
     if (a->describe == "study") {
       std::printf("study file (top-level keys)\n");
@@ -102,11 +108,17 @@ Runner add_plugins(CLI::App& app) {
       }
       return 0;
     }
-    std::printf("plugin libraries (%zu loaded, %zu skipped)\n", loader.loaded().size(), loader.skipped().size());
+    std::printf("plugin libraries (%zu %s, %zu skipped)\n", loader.loaded().size(),
+                a->libraries ? "found; metadata only, none loaded" : "loaded", loader.skipped().size());
     for (const auto& l : loader.loaded())
       std::printf("  %-22s %-8s %s%s\n", l.name.c_str(), l.version.c_str(), l.path.c_str(),
                   l.builtin ? "" : "  (third-party)");
     for (const auto& s : loader.skipped()) std::printf("  SKIPPED %s\n", s.reason.c_str());
+    if (a->libraries) {
+      std::printf("\ndescriptions (from each library's .varbo_meta section)\n");
+      for (const auto& l : loader.loaded()) std::printf("  %-22s %s\n", l.name.c_str(), l.description.c_str());
+      return 0;
+    }
     for (const auto* c : loader.shadowed())
       std::printf("  NOTE %s '%s' of plugin '%s' has a built-in name: reachable only as '%s'\n",
                   kind_name(c->kind).c_str(), c->name.c_str(), c->plugin.c_str(), c->full_name().c_str());

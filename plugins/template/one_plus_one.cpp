@@ -15,19 +15,41 @@
 #include <string>
 #include <vector>
 
+#include <varbo/option_set.hpp>
 #include <varbo/plugin.hpp>
 
 namespace {
 
+// The settings, with their defaults written once: the options below are bound to these fields (Ceres-style
+// options struct), so `varbo plugins --describe one_plus_one` shows exactly these values.
+struct OnePlusOneSettings {
+  enum class Start { Center, Random, InitialPoint };
+  double sigma = 0.2;             ///< initial step size, fractions of the box
+  Start start = Start::Center;    ///< the first trial
+};
+
+const varbo::OptionSet<OnePlusOneSettings>& one_plus_one_options() {
+  using S = OnePlusOneSettings;
+  namespace opt = varbo::opt;
+  // A function-local static: built on first use, not by a static initializer when the library is loaded.
+  static const varbo::OptionSet<S> set{
+      opt::real("sigma", &S::sigma, "initial step size, in fractions of the box").above(0).at_most(0.5),
+      opt::choice("start", &S::start,
+                  {{"center", S::Start::Center}, {"random", S::Start::Random}, {"initial_point", S::Start::InitialPoint}},
+                  "first trial: the middle of the box, a random point, or the task's initial point")};
+  return set;
+}
+
 class OnePlusOne final : public varbo::Algorithm {
  public:
-  OnePlusOne(const varbo::Options& o, const varbo::BuildContext& ctx)
-      : dim_(ctx.dim), sigma_(o.real("sigma")), rng_(varbo::Rng(ctx.seed).stream(0x1a1)) {
-    const std::string start = o.str("start");  // opt::choice is read with str()
-    if (start == "initial_point" && !ctx.initial_point)
+  OnePlusOne(const OnePlusOneSettings& s, const varbo::Options& o, const varbo::BuildContext& ctx)
+      : dim_(ctx.dim), sigma_(s.sigma), rng_(varbo::Rng(ctx.seed).stream(0x1a1)) {
+    using Start = OnePlusOneSettings::Start;
+    // o.node("key").fail(...) reports a bad value at its file:line:col.
+    if (s.start == Start::InitialPoint && !ctx.initial_point)
       o.node("start").fail("the task and the study give no initial point; use start: center or random");
-    if (start == "initial_point") start_ = *ctx.initial_point;
-    else if (start == "random") start_ = rng_.uniform_vec(dim_);
+    if (s.start == Start::InitialPoint) start_ = *ctx.initial_point;
+    else if (s.start == Start::Random) start_ = rng_.uniform_vec(dim_);
     else start_ = varbo::Vec::Constant(dim_, 0.5);
   }
 
@@ -87,10 +109,8 @@ class OnePlusOne final : public varbo::Algorithm {
 VARBO_PLUGIN("template_algorithm", "1.0.0", "Example third-party algorithm without a surrogate") {
   registry.add(varbo::make_component<varbo::Algorithm>(
       "one_plus_one", "(1+1) evolution strategy with the 1/5 success rule; no model (template plugin)",
-      {varbo::opt::real("sigma", 0.2, "initial step size, in fractions of the box").above(0).at_most(0.5),
-       varbo::opt::choice("start", "center", {"center", "random", "initial_point"},
-                          "first trial: the middle of the box, a random point, or the task's initial point")},
+      one_plus_one_options().specs(),
       varbo::Factory<varbo::Algorithm>([](const varbo::Options& o, const varbo::BuildContext& ctx) {
-        return std::make_unique<OnePlusOne>(o, ctx);
+        return std::make_unique<OnePlusOne>(one_plus_one_options().read(o), o, ctx);
       })));
 }

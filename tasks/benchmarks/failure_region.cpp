@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "varbo/option_set.hpp"
+
 namespace varbo::tasks {
 
 bool FailureRegion::contains(const Vec& u) const {
@@ -16,21 +18,29 @@ std::string FailureRegion::describe() const {
   return fmt::format("box {} to {} (box fractions)", v(lower), v(upper));
 }
 
-std::vector<OptionSpec> failure_region_options() {
-  return {
-      opt::choice("shape", "ball", {"ball", "box"}, "ball: |u − center| < radius; box: lower < u < upper"),
+namespace {
+// The corners and the centre are vectors of the problem's dimension: read by hand below.
+const OptionSet<FailureRegion>& failure_region_option_set() {
+  using Shape = FailureRegion::Shape;
+  static const OptionSet<FailureRegion> set{
+      opt::choice("shape", &FailureRegion::shape, {{"ball", Shape::Ball}, {"box", Shape::Box}},
+                  "ball: |u − center| < radius; box: lower < u < upper"),
       opt::reals("center", "", "ball centre, one fraction of the box per dimension"),
-      opt::real("radius", 0.0, "ball radius in box fractions (Euclidean)").at_least(0),
+      opt::real("radius", &FailureRegion::radius, "ball radius in box fractions (Euclidean)").at_least(0),
       opt::reals("lower", "", "box: lower corner, one fraction per dimension"),
       opt::reals("upper", "", "box: upper corner, one fraction per dimension"),
   };
+  return set;
 }
+}  // namespace
+
+std::vector<OptionSpec> failure_region_options() { return failure_region_option_set().specs(); }
 
 std::optional<FailureRegion> parse_failure_region(const Options& o, Index dim) {
   if (!o.is_set("failure_region")) return std::nullopt;
   const ConfigNode node = o.node("failure_region");
   if (!node.is_map()) node.fail("expected a map: {shape: ball, center: [...], radius: r} or {shape: box, lower: [...], upper: [...]}");
-  const Options fo = validate_options(node, failure_region_options(), "failure_region", nullptr, {});
+  const Options fo = validate_options(node, failure_region_option_set().specs(), "failure_region", nullptr, {});
   auto vec = [&](const char* key) {
     if (!fo.is_set(key)) node.fail(fmt::format("failure_region of shape {} needs '{}'", fo.str("shape"), key));
     const std::vector<double> v = fo.reals(key);
@@ -38,14 +48,11 @@ std::optional<FailureRegion> parse_failure_region(const Options& o, Index dim) {
       fo.node(key).fail(fmt::format("expected {} values (one per dimension), got {}", dim, v.size()));
     return Vec(Eigen::Map<const Vec>(v.data(), dim));
   };
-  FailureRegion r;
-  if (fo.str("shape") == "ball") {
-    r.shape = FailureRegion::Shape::Ball;
+  FailureRegion r = failure_region_option_set().read(fo);
+  if (r.shape == FailureRegion::Shape::Ball) {
     r.center = vec("center");
-    r.radius = fo.real("radius");
     if (!(r.radius > 0)) node.fail("failure_region: a ball needs radius > 0");
   } else {
-    r.shape = FailureRegion::Shape::Box;
     r.lower = vec("lower");
     r.upper = vec("upper");
     if (!(r.lower.array() < r.upper.array()).all()) fo.node("upper").fail("expected upper > lower in every dimension");

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "transport_task.hpp"
+#include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
 
 namespace {
@@ -28,6 +29,35 @@ std::map<std::string, double> parse_weights(const ConfigNode& node) {
   }
   return w;
 }
+
+using transport::TransportSettings;
+// `weights` stays a map option read by hand (its default YAML is the one place the default weights are shown).
+const OptionSet<TransportSettings>& transport_options() {
+  static const OptionSet<TransportSettings> set{
+      opt::node("weights", "{tracking: 0.25, sway: 2.0, energy: 0.002}",
+                "weight of each cost component (unlisted components: 1); the cost is their weighted sum"),
+      opt::real("distance", &TransportSettings::distance, "transport distance D, m").above(0),
+      opt::real("horizon", &TransportSettings::horizon, "episode length T, s").above(0),
+      opt::real("dt", &TransportSettings::dt, "fixed RK4 step and disturbance hold, s").above(0).at_most(0.05),
+      opt::real("load_mass", opt::nested(&TransportSettings::gantry, &transport::GantryParams::load_mass), "mean load mass m, kg")
+          .above(0),
+      opt::real("load_mass_std", &TransportSettings::load_mass_std, "per-episode std of the load mass, kg").at_least(0),
+      opt::real("rod_length", opt::nested(&TransportSettings::gantry, &transport::GantryParams::rod_length), "mean rod length l, m")
+          .above(0),
+      opt::real("rod_length_std", &TransportSettings::rod_length_std, "per-episode std of the rod length, m")
+          .at_least(0),
+      opt::real("force_noise_std", &TransportSettings::force_noise_std,
+                "std of the force disturbance held over each step, N")
+          .at_least(0),
+      opt::real("initial_swing_std", &TransportSettings::initial_swing_std, "std of the load's initial angle, rad")
+          .at_least(0),
+      opt::real("cart_mass", opt::nested(&TransportSettings::gantry, &transport::GantryParams::cart_mass), "cart mass M, kg")
+          .above(0),
+      opt::real("force_limit", opt::nested(&TransportSettings::gantry, &transport::GantryParams::force_limit),
+                "servo force limit, N")
+          .above(0)};
+  return set;
+}
 }  // namespace
 
 VARBO_PLUGIN("cartpole_transport", "0.1.0", "Gantry crane transporting a swinging load; tracking/sway/energy costs") {
@@ -36,33 +66,10 @@ VARBO_PLUGIN("cartpole_transport", "0.1.0", "Gantry crane transporting a swingin
       "cart with a load on a rod, PD servo tracking a cubic reference through 3 waypoints with 4 segment "
       "durations (7 parameters); random load mass and rod length, force disturbances; cost = "
       "w_tracking*int(x_load-D)^2 + w_sway*int(phi^2) + w_energy*int(F^2) over T",
-      {opt::node("weights", "{tracking: 0.25, sway: 2.0, energy: 0.002}",
-                 "weight of each cost component (unlisted components: 1); the cost is their weighted sum"),
-       opt::real("distance", 1.5, "transport distance D, m").above(0),
-       opt::real("horizon", 6.0, "episode length T, s").above(0),
-       opt::real("dt", 0.01, "fixed RK4 step and disturbance hold, s").above(0).at_most(0.05),
-       opt::real("load_mass", 1.0, "mean load mass m, kg").above(0),
-       opt::real("load_mass_std", 0.3, "per-episode std of the load mass, kg").at_least(0),
-       opt::real("rod_length", 0.7, "mean rod length l, m").above(0),
-       opt::real("rod_length_std", 0.2, "per-episode std of the rod length, m").at_least(0),
-       opt::real("force_noise_std", 1.0, "std of the force disturbance held over each step, N").at_least(0),
-       opt::real("initial_swing_std", 0.1, "std of the load's initial angle, rad").at_least(0),
-       opt::real("cart_mass", 1.0, "cart mass M, kg").above(0),
-       opt::real("force_limit", 20.0, "servo force limit, N").above(0)},
+      transport_options().specs(),
       Factory<Task>([](const Options& o, const BuildContext&) {
-        transport::TransportSettings s;
+        transport::TransportSettings s = transport_options().read(o);
         s.weights = parse_weights(o.node("weights"));
-        s.distance = o.real("distance");
-        s.horizon = o.real("horizon");
-        s.dt = o.real("dt");
-        s.gantry.load_mass = o.real("load_mass");
-        s.load_mass_std = o.real("load_mass_std");
-        s.gantry.rod_length = o.real("rod_length");
-        s.rod_length_std = o.real("rod_length_std");
-        s.force_noise_std = o.real("force_noise_std");
-        s.initial_swing_std = o.real("initial_swing_std");
-        s.gantry.cart_mass = o.real("cart_mass");
-        s.gantry.force_limit = o.real("force_limit");
         return std::make_unique<transport::TransportTask>(s);
       })));
 }

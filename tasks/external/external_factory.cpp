@@ -5,27 +5,37 @@
 #include <set>
 
 #include "external_task.hpp"
+#include "varbo/option_set.hpp"
 
 namespace varbo::tasks {
 
-std::vector<OptionSpec> external_options() {
-  return {
-      opt::string("command", "", "shell command evaluating one θ (run with /bin/sh -c)").must(),
+namespace {
+// The box, names and dimension come from several options that must agree: they are read by hand below.
+const OptionSet<ExternalTaskSettings>& external_option_set() {
+  using S = ExternalTaskSettings;
+  static const OptionSet<S> set{
+      opt::string("command", &S::command, "shell command evaluating one θ (run with /bin/sh -c)").must(),
       opt::integer("dim", 0, "number of parameters (0: taken from lower/upper or names)").at_least(0).at_most(10000),
       opt::reals("bounds", "", "[lo, hi] for every dimension (default [0, 1] unless lower/upper are given)"),
       opt::reals("lower", "", "lower bound per dimension (with upper)"),
       opt::reals("upper", "", "upper bound per dimension (with lower)"),
       opt::node("names", "", "list of parameter names (default x1, x2, ...)"),
-      opt::choice("input", "json", {"json", "args"},
+      opt::choice("input", &S::input, {{"json", InputMode::Json}, {"args", InputMode::Args}},
                   "json: {\"theta\": [...], \"names\": [...], \"trial\": k} on stdin; args: θ appended as arguments"),
-      opt::real("timeout", 600, "seconds before the command and every process it started are killed (a failed trial)").above(0),
-      opt::string("workdir", "", "working directory of the command (default: inherited)"),
+      opt::real("timeout", opt::nested(&S::process, &ProcessOptions::timeout_seconds),
+                "seconds before the command and every process it started are killed (a failed trial)")
+          .above(0),
+      opt::string("workdir", opt::nested(&S::process, &ProcessOptions::working_directory),
+                  "working directory of the command (default: inherited)"),
   };
+  return set;
 }
+}  // namespace
+
+std::vector<OptionSpec> external_options() { return external_option_set().specs(); }
 
 std::unique_ptr<Task> make_external_task(const Options& o) {
-  ExternalTaskSettings s;
-  s.command = o.str("command");
+  ExternalTaskSettings s = external_option_set().read(o);
   if (s.command.find_first_not_of(" \t\n") == std::string::npos) o.node("command").fail("expected a non-empty command");
 
   // Every source of the dimension must agree.
@@ -86,9 +96,6 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
   if (names.empty())
     for (Index i = 0; i < dim; ++i) names.push_back(fmt::format("x{}", i + 1));
   s.names = std::move(names);
-  s.input = o.str("input") == "args" ? InputMode::Args : InputMode::Json;
-  s.process.timeout_seconds = o.real("timeout");
-  if (o.is_set("workdir")) s.process.working_directory = o.str("workdir");
   return std::make_unique<ExternalTask>(std::move(s));
 }
 

@@ -20,17 +20,7 @@ VARBO_PLUGIN("tasks_paper", "0.1.0",
       "pendulum_swingup",
       "bang-bang pendulum swing-up, theta = switching times [t1, t2], cost = int 0.01 alpha + 0.0001 u^2 dt "
       "until within goal_tolerance of upright or T; tau_max ~ N(tau_mean, tau_std^2) per episode",
-      {opt::real("tau_mean", 4.0, "mean of the per-episode maximum torque, Nm").above(0),
-       opt::real("tau_std", 0.3, "std of the per-episode maximum torque, Nm").at_least(0),
-       opt::real("horizon", 3.5, "episode length T, s").above(0),
-       opt::real("t_max", 1.5, "upper bound of both switching times, s").above(0),
-       opt::real("dt", 1e-3, "RK4 step, s (cost converged to ~1e-7 relative at 1e-3)").above(0).at_most(0.05),
-       opt::real("goal_tolerance", 0.1, "episode ends within this angle of upright, rad").above(0),
-       opt::real("mass", 1.0, "pendulum mass, kg").above(0),
-       opt::real("length", 1.0, "pendulum length, m").above(0),
-       opt::real("gravity", 9.81, "gravitational acceleration, m/s^2").above(0),
-       opt::real("angle_weight", 0.01, "weight of the angle-from-upright integral").at_least(0),
-       opt::real("effort_weight", 1e-4, "weight of the squared-torque integral").at_least(0)},
+      tasks::swingup_options(),
       Factory<Task>([](const Options& o, const BuildContext&) {
         return std::make_unique<tasks::SwingupTask>(tasks::swingup_settings(o));
       })));

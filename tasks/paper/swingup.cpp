@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "varbo/option_set.hpp"
+
 namespace varbo::tasks {
 
 namespace {
@@ -107,20 +109,28 @@ Evaluation SwingupTask::evaluate(const Vec& theta, Rng& rng) {
   return e;
 }
 
-SwingupSettings swingup_settings(const Options& o) {
-  SwingupSettings s;
-  s.tau_mean = o.real("tau_mean");
-  s.tau_std = o.real("tau_std");
-  s.horizon = o.real("horizon");
-  s.t_max = o.real("t_max");
-  s.dt = o.real("dt");
-  s.goal_tolerance = o.real("goal_tolerance");
-  s.pendulum.mass = o.real("mass");
-  s.pendulum.length = o.real("length");
-  s.pendulum.gravity = o.real("gravity");
-  s.angle_weight = o.real("angle_weight");
-  s.effort_weight = o.real("effort_weight");
-  return s;
+namespace {
+const OptionSet<SwingupSettings>& swingup_option_set() {
+  using S = SwingupSettings;
+  static const OptionSet<S> set{
+      opt::real("tau_mean", &S::tau_mean, "mean of the per-episode maximum torque, Nm").above(0),
+      opt::real("tau_std", &S::tau_std, "std of the per-episode maximum torque, Nm").at_least(0),
+      opt::real("horizon", &S::horizon, "episode length T, s").above(0),
+      opt::real("t_max", &S::t_max, "upper bound of both switching times, s").above(0),
+      opt::real("dt", &S::dt, "RK4 step, s (cost converged to ~1e-7 relative at 1e-3)").above(0).at_most(0.05),
+      opt::real("goal_tolerance", &S::goal_tolerance, "episode ends within this angle of upright, rad").above(0),
+      opt::real("mass", opt::nested(&S::pendulum, &PendulumParams::mass), "pendulum mass, kg").above(0),
+      opt::real("length", opt::nested(&S::pendulum, &PendulumParams::length), "pendulum length, m").above(0),
+      opt::real("gravity", opt::nested(&S::pendulum, &PendulumParams::gravity), "gravitational acceleration, m/s^2")
+          .above(0),
+      opt::real("angle_weight", &S::angle_weight, "weight of the angle-from-upright integral").at_least(0),
+      opt::real("effort_weight", &S::effort_weight, "weight of the squared-torque integral").at_least(0)};
+  return set;
 }
+}  // namespace
+
+std::vector<OptionSpec> swingup_options() { return swingup_option_set().specs(); }
+
+SwingupSettings swingup_settings(const Options& o) { return swingup_option_set().read(o); }
 
 }  // namespace varbo::tasks

@@ -36,6 +36,8 @@ double bang_bang_torque(double t, double t1, double t2, double tau);
 SwingupResult simulate_swingup(double t1, double t2, double tau_max, const SwingupSettings& s);
 
 /// The settings named by the `pendulum_swingup` options (the plugin's and a run's config.resolved.yaml).
+/// The options of `pendulum_swingup`, bound to SwingupSettings (whose initializers are the defaults).
+std::vector<OptionSpec> swingup_options();
 SwingupSettings swingup_settings(const Options& o);
 
 class SwingupTask : public Task {

@@ -4,29 +4,56 @@
 #include "gp_sample.hpp"
 #include "inverted_pendulum.hpp"
 #include "policy_task.hpp"
+#include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
 
 using namespace varbo;
 
 namespace {
-std::vector<OptionSpec> policy_options(long features, double width) {
-  return {opt::integer("features", features, "random tanh features m; the policy has d = m + 1 parameters")
-              .at_least(1),
-          opt::integer("seed", 0, "seed of the fixed random features (episodes use the trial's stream)").at_least(0),
-          opt::real("width", width, "domain theta0 +- width per parameter (user units)").above(0),
-          opt::real("initial_scale", 1.0, "theta0 = initial_scale * (LQR projected onto the features)"),
-          opt::integer("steps", 0, "episode length T (0 = the task's default)").at_least(0),
-          opt::integer("rollouts", 1, "episodes averaged per evaluation (10 estimates the expected return)")
-              .at_least(1)};
+using tasks::PolicyTaskSettings;
+// The two policy tasks differ only in the default number of features.
+struct CartPoleBalanceOptions {
+  PolicyTaskSettings policy{129};
+  Index steps = 0;  ///< episode length T; 0 = the task's default
+};
+struct PendulumStabilizeOptions {
+  PolicyTaskSettings policy{64};
+  Index steps = 0;
+};
+
+template <class S>
+const OptionSet<S>& policy_options() {
+  static const OptionSet<S> set{
+      opt::integer("features", opt::nested(&S::policy, &PolicyTaskSettings::features),
+                   "random tanh features m; the policy has d = m + 1 parameters")
+          .at_least(1),
+      opt::integer("seed", opt::nested(&S::policy, &PolicyTaskSettings::seed),
+                   "seed of the fixed random features (episodes use the trial's stream)")
+          .at_least(0),
+      opt::real("width", opt::nested(&S::policy, &PolicyTaskSettings::width),
+                "domain theta0 +- width per parameter (user units)")
+          .above(0),
+      opt::real("initial_scale", opt::nested(&S::policy, &PolicyTaskSettings::initial_scale),
+                "theta0 = initial_scale * (LQR projected onto the features)"),
+      opt::integer("steps", &S::steps, "episode length T (0 = the task's default)").at_least(0),
+      opt::integer("rollouts", opt::nested(&S::policy, &PolicyTaskSettings::rollouts),
+                   "episodes averaged per evaluation (10 estimates the expected return)")
+          .at_least(1)};
+  return set;
 }
-tasks::PolicyTaskSettings policy_settings(const Options& o) {
-  tasks::PolicyTaskSettings s;
-  s.features = o.integer("features");
-  s.seed = static_cast<std::uint64_t>(o.integer("seed"));
-  s.width = o.real("width");
-  s.initial_scale = o.real("initial_scale");
-  s.rollouts = o.integer("rollouts");
-  return s;
+
+const OptionSet<tasks::GpSampleSettings>& gp_sample_options() {
+  using S = tasks::GpSampleSettings;
+  static const OptionSet<S> set{
+      opt::integer("dim", &S::dim, "dimension d").at_least(1),
+      opt::integer("seed", &S::seed, "seed of the sample (features, optimum search, initial point)").at_least(0),
+      opt::real("noise_std", &S::noise_std, "observation noise std (paper: 1e-3)").at_least(0),
+      opt::integer("features", &S::features, "random Fourier features").at_least(1),
+      opt::real("lengthscale", &S::lengthscale, "Matern lengthscale (user units)").above(0),
+      opt::real("start_distance", &S::start_distance, "distance of the initial point from the optimum").at_least(0),
+      opt::integer("search_points", &S::search_points, "dense-search points for the optimum (0 = 20000*d)")
+          .at_least(0)};
+  return set;
 }
 }  // namespace
 
@@ -36,22 +63,9 @@ VARBO_PLUGIN("tasks_policy", "0.1.0",
       "gp_sample",
       "cost = -f, f a Matern-5/2 GP sample (sigma_f^2 = 1, l = 0.3) on [-1,1]^d conditioned on f(0) = 3, explicit "
       "via random Fourier features; optimum by dense search + L-BFGS; initial point at distance 0.3 from it",
-      {opt::integer("dim", 2, "dimension d").at_least(1),
-       opt::integer("seed", 0, "seed of the sample (features, optimum search, initial point)").at_least(0),
-       opt::real("noise_std", 1e-3, "observation noise std (paper: 1e-3)").at_least(0),
-       opt::integer("features", 1000, "random Fourier features").at_least(1),
-       opt::real("lengthscale", 0.3, "Matern lengthscale (user units)").above(0),
-       opt::real("start_distance", 0.3, "distance of the initial point from the optimum").at_least(0),
-       opt::integer("search_points", 0, "dense-search points for the optimum (0 = 20000*d)").at_least(0)},
+      gp_sample_options().specs(),
       Factory<Task>([](const Options& o, const BuildContext&) {
-        tasks::GpSampleSettings s;
-        s.dim = o.integer("dim");
-        s.seed = static_cast<std::uint64_t>(o.integer("seed"));
-        s.noise_std = o.real("noise_std");
-        s.features = o.integer("features");
-        s.lengthscale = o.real("lengthscale");
-        s.start_distance = o.real("start_distance");
-        s.search_points = o.integer("search_points");
+        const tasks::GpSampleSettings s = gp_sample_options().read(o);
         return std::make_unique<tasks::GpSampleTask>(s);
       })));
 
@@ -60,10 +74,11 @@ VARBO_PLUGIN("tasks_policy", "0.1.0",
       "gym CartPole-v1 dynamics, continuous force |u| <= 10 N, policy linear in m random tanh features (d = m+1, "
       "default 130); reward (1-|x|)/T per step (Froehlich 2021 sec. 5.2), T = 500, stop at |x| > 2.4 or 12 deg; "
       "cost = -return; theta0 = poorly tuned LQR projected on the features",
-      policy_options(129, 1.0), Factory<Task>([](const Options& o, const BuildContext&) {
+      policy_options<CartPoleBalanceOptions>().specs(), Factory<Task>([](const Options& o, const BuildContext&) {
+        const auto s = policy_options<CartPoleBalanceOptions>().read(o);
         tasks::CartPoleParams p;
-        if (o.integer("steps") > 0) p.steps = o.integer("steps");
-        return std::make_unique<tasks::PolicyTask>(std::make_unique<tasks::CartPole>(p), policy_settings(o));
+        if (s.steps > 0) p.steps = s.steps;
+        return std::make_unique<tasks::PolicyTask>(std::make_unique<tasks::CartPole>(p), s.policy);
       })));
 
   registry.add(make_component<Task>(
@@ -71,9 +86,10 @@ VARBO_PLUGIN("tasks_policy", "0.1.0",
       "gym Pendulum dynamics (|u| <= 2 Nm), start near upright, policy linear in m random tanh features (d = m+1, "
       "default 65); reward (1-|alpha|/2deg)/T per step (Froehlich 2021 sec. 5.2), T = 200; cost = -return; "
       "theta0 = sluggish LQR projected on the features",
-      policy_options(64, 1.0), Factory<Task>([](const Options& o, const BuildContext&) {
+      policy_options<PendulumStabilizeOptions>().specs(), Factory<Task>([](const Options& o, const BuildContext&) {
+        const auto s = policy_options<PendulumStabilizeOptions>().read(o);
         tasks::InvertedPendulumParams p;
-        if (o.integer("steps") > 0) p.steps = o.integer("steps");
-        return std::make_unique<tasks::PolicyTask>(std::make_unique<tasks::InvertedPendulum>(p), policy_settings(o));
+        if (s.steps > 0) p.steps = s.steps;
+        return std::make_unique<tasks::PolicyTask>(std::make_unique<tasks::InvertedPendulum>(p), s.policy);
       })));
 }

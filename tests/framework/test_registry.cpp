@@ -32,9 +32,7 @@ ComponentInfo constant(const std::string& name) {
 
 TEST_CASE("components resolve by short name and by plugin/name; options are validated") {
   Registry r;
-  r.set_origin("p1", "libp1.so");
-  r.add(constant("const"));
-  r.set_origin("", "");
+  PluginRegistrar(r, "p1", "libp1.so").add(constant("const"));
   auto a = r.create<Acquisition>("{type: const, value: 3}", BuildContext{});
   CHECK(a->evaluate(Vec::Zero(1), nullptr) == 3.0);
   auto b = r.create<Acquisition>("p1/const", BuildContext{});
@@ -58,14 +56,13 @@ TEST_CASE("an unknown name lists the known ones and suggests the nearest") {
 
 TEST_CASE("a short name shared by two plugins is ambiguous; full names still work") {
   Registry r;
-  r.set_origin("a", "liba.so");
-  r.add(constant("c"));
-  r.set_origin("b", "libb.so");
-  r.add(constant("c"));
+  PluginRegistrar(r, "a", "liba.so").add(constant("c"));
+  PluginRegistrar b(r, "b", "libb.so");
+  b.add(constant("c"));
   CHECK_THROWS_WITH_AS(r.find(Kind::Acquisition, "c"), "acquisition name 'c' is ambiguous; use one of: a/c, b/c",
                        UnknownComponentError);
   CHECK(r.find(Kind::Acquisition, "b/c").plugin == "b");
-  CHECK_THROWS_AS(r.add(constant("c")), PluginLoadError);  // duplicate b/c
+  CHECK_THROWS_AS(b.add(constant("c")), PluginLoadError);  // duplicate b/c
 }
 
 TEST_CASE("a factory of the wrong kind is refused at registration") {
@@ -89,30 +86,29 @@ TEST_CASE("capability tags decide compatibility") {
 
 TEST_CASE("a factory's standard exception becomes a ConfigError at the component; varbo errors and bad_alloc pass") {
   Registry r;
-  r.set_origin("third", "libvarbo_third.so");
-  r.add(make_component<Acquisition>("refuses", "throws std::invalid_argument", {opt::real("value", 1.0, "v")},
+  PluginRegistrar third(r, "third", "libvarbo_third.so");
+  third.add(make_component<Acquisition>("refuses", "throws std::invalid_argument", {opt::real("value", 1.0, "v")},
                                     Factory<Acquisition>([](const Options&, const BuildContext&)
                                                              -> std::unique_ptr<Acquisition> {
                                       throw std::invalid_argument("value must be negative");
                                     })));
-  r.add(make_component<Acquisition>("says_where", "throws a ConfigError at its key", {opt::real("value", 1.0, "v")},
+  third.add(make_component<Acquisition>("says_where", "throws a ConfigError at its key", {opt::real("value", 1.0, "v")},
                                     Factory<Acquisition>([](const Options& o, const BuildContext&)
                                                              -> std::unique_ptr<Acquisition> {
                                       o.node("value").fail("expected a prime");
                                     })));
-  r.add(make_component<Acquisition>("out_of_memory", "throws std::bad_alloc", {},
+  third.add(make_component<Acquisition>("out_of_memory", "throws std::bad_alloc", {},
                                     Factory<Acquisition>([](const Options&, const BuildContext&)
                                                              -> std::unique_ptr<Acquisition> {
                                       throw std::bad_alloc();
                                     })));
   // A component whose factory creates another (as bo creates its acquisition): the inner one is named.
-  r.add(make_component<Algorithm>(
+  third.add(make_component<Algorithm>(
       "outer", "creates an acquisition", {opt::component("acquisition", Kind::Acquisition, "refuses", "inner")},
       Factory<Algorithm>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Algorithm> {
         ctx.registry->create<Acquisition>(o.component("acquisition"), ctx);
         return nullptr;
       })));
-  r.set_origin("", "");
   auto message = [&](auto&& make) {
     try {
       make();
@@ -136,4 +132,18 @@ TEST_CASE("a factory's standard exception becomes a ConfigError at the component
         "s.yaml:4:4: key 'd': acquisition 'third/refuses' (from libvarbo_third.so) could not be created: "
         "value must be negative");
   CHECK_THROWS_AS(r.create<Acquisition>("out_of_memory", BuildContext{}), std::bad_alloc);
+}
+
+TEST_CASE("a plugin's registrar records its components under its own name and file, whatever they claim") {
+  Registry r;
+  PluginRegistrar mine(r, "mine", "libvarbo_mine.so");
+  ComponentInfo forged = constant("forged");
+  forged.plugin = "acquisitions";  // pretends to be a built-in plugin's component
+  forged.library = "/usr/lib/varbo/plugins/libvarbo_acquisitions.so";
+  mine.add(forged);
+  const ComponentInfo& c = r.find(Kind::Acquisition, "forged");
+  CHECK(c.plugin == "mine");
+  CHECK(c.library == "libvarbo_mine.so");
+  CHECK(c.full_name() == "mine/forged");
+  CHECK(r.try_find(Kind::Acquisition, "acquisitions/forged") == nullptr);
 }

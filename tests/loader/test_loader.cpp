@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <map>
 
 #include "varbo/errors.hpp"
@@ -144,10 +145,70 @@ TEST_CASE("a section header table past the end of the file is refused") {
                  "the section header table (offset"));
 }
 
-TEST_CASE("a plugin whose info gives a NULL name is refused with the file named") {
-  const std::string m = error_loading<PluginLoadError>(fixture("nullname"));
-  CHECK(m == fixture("nullname") + ": not loaded: its plugin info gives no name (NULL) (VARBO_PLUGIN(\"name\", ...) "
+TEST_CASE("a plugin whose metadata gives an empty name is refused with the file named") {
+  const std::string m = error_loading<PluginLoadError>(fixture("emptyname"));
+  CHECK(m == fixture("emptyname") + ": not loaded: its plugin info gives an empty name (VARBO_PLUGIN(\"name\", ...) "
              "names it)");
+}
+
+TEST_CASE("a plugin built for another ABI or build is refused from its metadata and runs none of its code") {
+  // Every fixture's static initializer sets this variable when dlopen runs it.
+  unsetenv("VARBO_FIXTURE_STATIC_INIT_RAN");
+  CHECK(contains(error_loading<PluginVersionError>(fixture("abi")), "built for plugin ABI 999"));
+  CHECK(contains(error_loading<PluginVersionError>(fixture("build")), "built with [abi=1 compiler=othercc-99"));
+  CHECK(contains(error_loading<PluginLoadError>(fixture("emptyname")), "empty name"));
+  CHECK(std::getenv("VARBO_FIXTURE_STATIC_INIT_RAN") == nullptr);
+  // The check is not vacuous: loading a good plugin does run its initializers (a fresh copy: dlopen runs
+  // them once per library, and other tests load the fixture itself).
+  const std::string copy = scratch("libvarbo_fixture_copy_static_init.so", read_bytes(fixture("good")));
+  Registry r;
+  PluginLoader l(r);
+  l.load_file(copy);
+  REQUIRE(std::getenv("VARBO_FIXTURE_STATIC_INIT_RAN") != nullptr);
+  CHECK(std::string(std::getenv("VARBO_FIXTURE_STATIC_INIT_RAN")) == "fixture+");
+}
+
+TEST_CASE("a metadata-only scan lists plugins without running any of their code") {
+  unsetenv("VARBO_FIXTURE_STATIC_INIT_RAN");
+  const std::string copy = scratch("libvarbo_fixture_copy_metadata_only.so", read_bytes(fixture("good")));
+  Registry r;
+  PluginLoader l(r);
+  l.set_metadata_only(true);
+  l.load_file(copy);
+  REQUIRE(l.loaded().size() == 1);
+  CHECK(l.loaded()[0].name == "fixture");
+  CHECK(l.loaded()[0].version == "9.9.9");
+  CHECK(l.loaded()[0].fingerprint == host_fingerprint());
+  CHECK(r.all().empty());  // nothing registered
+  CHECK(std::getenv("VARBO_FIXTURE_STATIC_INIT_RAN") == nullptr);
+  CHECK(contains(error_loading<PluginVersionError>(fixture("abi")), "built for plugin ABI 999"));
+}
+
+TEST_CASE("the metadata section is read from the file and matches what the plugin reports") {
+  Registry r;
+  PluginLoader l(r);
+  l.load_file(fixture("good"));
+  REQUIRE(l.loaded().size() == 1);
+  CHECK(l.loaded()[0].description == "loader test fixture");
+  // A corrupt magic in the section is refused before dlopen, naming the file and the section.
+  std::vector<char> bytes = read_bytes(fixture("good"));
+  const std::string magic = VARBO_PLUGIN_META_MAGIC;
+  auto at = std::search(bytes.begin(), bytes.end(), magic.begin(), magic.end());
+  REQUIRE(at != bytes.end());
+  *at = 'X';
+  const std::string bad = scratch("libvarbo_badmeta.so", bytes);
+  CHECK(contains(error_loading<PluginLoadError>(bad), bad + ": malformed plugin metadata (.varbo_meta section): "
+                                                           "wrong magic bytes"));
+}
+
+TEST_CASE("a plugin cannot register under another plugin's name") {
+  Registry r;
+  PluginLoader l(r);
+  l.load_file(fixture("good"));
+  const ComponentInfo& c = r.find(Kind::Acquisition, "fixture_impostor");
+  CHECK(c.plugin == "fixture");
+  CHECK(c.library == fixture("good"));
+  CHECK(r.try_find(Kind::Acquisition, "acquisitions/fixture_impostor") == nullptr);
 }
 
 TEST_CASE("a plugin name with the qualification separator is refused") {
@@ -253,7 +314,7 @@ TEST_CASE("scanning a folder loads the good library once and records every bad o
   Registry r;
   PluginLoader l(r);
   l.load_directory(VARBO_FIXTURE_DIR);
-  // Sorted: abi, build, clash, foreign, good, nullname, slashname, text, throws. clash and good load; "throws"
+  // Sorted: abi, build, clash, emptyname, foreign, good, slashname, text, throws. clash and good load; "throws"
   // carries the same plugin name as good, so it is shadowed (first wins) and never runs; six are skipped.
   CHECK(l.loaded().size() == 2);
   CHECK(l.skipped().size() == 6);

@@ -9,9 +9,11 @@
 #include <cstring>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <set>
 
 #include "elf_check.hpp"
+#include "plugin_meta.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/plugin.hpp"
@@ -52,41 +54,40 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
   // Size, class, machine and every segment are checked first: dlopen maps a truncated file and dies with
   // SIGBUS on the first page past its end, and says "No such file or directory" for another architecture.
   detail::check_elf_file(path);
-  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (handle == nullptr) {
-    const char* err = dlerror();
-    throw PluginLoadError(fmt::format("{}: cannot load: {}", path, err ? err : "unknown dlopen error"));
-  }
-  // Never dlclose: components and their vtables may be referenced for the life of the process.
-  auto info_fn = reinterpret_cast<varbo_plugin_info_fn>(dlsym(handle, "varbo_plugin_info_v1"));
-  auto reg_fn = reinterpret_cast<varbo_plugin_register_fn>(dlsym(handle, "varbo_plugin_register_v1"));
-  if (info_fn == nullptr || reg_fn == nullptr)
+  // Then the plugin's identity, read from its ".varbo_meta" section without loading it: a plugin built for
+  // another ABI, API or build runs no code at all, not even its static initializers (varbo/plugin.hpp).
+  const std::optional<detail::PluginMeta> meta = detail::read_plugin_meta(path);
+  if (!meta)
     throw PluginLoadError(fmt::format(
-        "{}: not a varbo plugin (no varbo_plugin_info_v1/varbo_plugin_register_v1 entry points; "
-        "build it with VARBO_PLUGIN and varbo_add_plugin)",
-        path));
-  const varbo_plugin_info* info = info_fn();
-  if (info == nullptr || info->struct_size < sizeof(varbo_plugin_info))
-    throw PluginVersionError(fmt::format("{}: plugin info block is missing or too small (older plugin ABI)", path));
-  if (info->abi_version != VARBO_ABI_VERSION)
+        "{}: not a varbo plugin of ABI {} (no {} section; a plugin built for ABI 3 or older has none either: "
+        "build it with VARBO_PLUGIN and varbo_add_plugin against this varbo SDK)",
+        path, VARBO_ABI_VERSION, VARBO_PLUGIN_META_SECTION));
+  const varbo_plugin_meta& info = meta->block;
+  const std::string shown_name = meta->complete() ? info.name : "?";
+  if (info.abi_version != VARBO_ABI_VERSION)
     throw PluginVersionError(fmt::format("{}: plugin '{}' was built for plugin ABI {}, host is ABI {}; rebuild it "
                                          "against this varbo SDK",
-                                         path, info->name ? info->name : "?", info->abi_version, VARBO_ABI_VERSION));
-  if (info->api_version != VARBO_API_VERSION)
-    throw PluginVersionError(fmt::format("{}: plugin '{}' uses API version {}, host is {}", path,
-                                         info->name ? info->name : "?", info->api_version, VARBO_API_VERSION));
-  const std::string fp = info->fingerprint ? info->fingerprint : "";
+                                         path, shown_name, info.abi_version, VARBO_ABI_VERSION));
+  if (!meta->complete())
+    throw PluginVersionError(fmt::format("{}: plugin metadata block of {} bytes (section of {}) or with unterminated "
+                                         "strings, host expects {} bytes; rebuild it against this varbo SDK",
+                                         path, info.struct_size, meta->section_size, sizeof(varbo_plugin_meta)));
+  if (info.api_version != VARBO_API_VERSION)
+    throw PluginVersionError(fmt::format("{}: plugin '{}' uses API version {}, host is {}", path, shown_name,
+                                         info.api_version, VARBO_API_VERSION));
+  const std::string fp = info.fingerprint;
   if (fp != host_fingerprint())
     throw PluginVersionError(fmt::format("{}: plugin '{}' was built with [{}], host is [{}]; rebuild it with the "
-                                         "same compiler, standard library and Eigen",
-                                         path, info->name ? info->name : "?", fp, host_fingerprint()));
-  if (const std::string why = bad_plugin_name(info->name); !why.empty())
+                                         "same compiler, standard library, Eigen, yaml-cpp and fmt",
+                                         path, shown_name, fp, host_fingerprint()));
+  if (const std::string why = bad_plugin_name(info.name); !why.empty())
     throw PluginLoadError(fmt::format("{}: not loaded: {} (VARBO_PLUGIN(\"name\", ...) names it)", path, why));
-  const std::string name = info->name;
+  const std::string name = info.name;
   for (const auto& l : loaded_)
     if (l.name == name) {
       // First wins, and built-in folders are searched first: a third-party library cannot replace a plugin
       // shipped with varbo. Two installs of varbo's own plugins (build tree and prefix) are routine: quiet.
+      // Decided from the metadata, so the shadowed library is never loaded.
       if (builtin && l.builtin)
         log_debug("plugin '{}' from {} shadowed by {}", name, path, l.path);
       else
@@ -94,14 +95,34 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
                  path, name, l.builtin ? "the built-in" : "a", l.path);
       return;
     }
-  registry_.set_origin(name, path);
+  if (metadata_only_) {
+    loaded_.push_back(LoadedLibrary{path, name, info.version, fp, info.description, builtin});
+    return;
+  }
+
+  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (handle == nullptr) {
+    const char* err = dlerror();
+    throw PluginLoadError(fmt::format("{}: cannot load: {}", path, err ? err : "unknown dlopen error"));
+  }
+  // Never dlclose: components and their vtables may be referenced for the life of the process.
+  auto reg_fn = reinterpret_cast<varbo_plugin_register_fn>(dlsym(handle, VARBO_PLUGIN_REGISTER_SYMBOL));
+  const auto* loaded_meta = static_cast<const varbo_plugin_meta*>(dlsym(handle, VARBO_PLUGIN_META_SYMBOL));
+  if (reg_fn == nullptr || loaded_meta == nullptr)
+    throw PluginLoadError(fmt::format("{}: not a varbo plugin (no {}/{} entry points; build it with VARBO_PLUGIN "
+                                      "and varbo_add_plugin)",
+                                      path, VARBO_PLUGIN_META_SYMBOL, VARBO_PLUGIN_REGISTER_SYMBOL));
+  // The library dlopen mapped is the one whose metadata was checked (not replaced in between).
+  if (std::memcmp(loaded_meta, &info, sizeof info) != 0)
+    throw PluginLoadError(fmt::format("{}: the loaded library's metadata differs from the file's (was it replaced "
+                                      "while loading?)",
+                                      path));
+  PluginRegistrar registrar(registry_, name, path);
   char error[1024] = {0};
-  const int rc = reg_fn(&registry_, error, sizeof error);
-  registry_.set_origin("", "");
+  const int rc = reg_fn(&registrar, error, sizeof error);
   error[sizeof error - 1] = '\0';
   if (rc != 0) throw PluginLoadError(fmt::format("{}: plugin '{}' failed to register: {}", path, name, error));
-  loaded_.push_back(LoadedLibrary{path, name, info->version ? info->version : "", fp,
-                                  info->description ? info->description : "", builtin});
+  loaded_.push_back(LoadedLibrary{path, name, info.version, fp, info.description, builtin});
 }
 
 void PluginLoader::skip(const std::string& path, const std::string& reason) {

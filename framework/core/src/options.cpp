@@ -1,6 +1,7 @@
 #include "varbo/options.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cerrno>
 #include <cmath>
@@ -9,6 +10,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/option_set.hpp"
 #include "varbo/registry.hpp"
 
 namespace varbo {
@@ -111,6 +113,13 @@ OptionSpec node(std::string name, std::string def_yaml, std::string d) {
   return make(std::move(name), OptionType::Node, std::move(def_yaml), std::move(d));
 }
 }  // namespace opt
+
+namespace detail {
+std::string reals_yaml(const std::vector<double>& values) {
+  if (values.empty()) return "";
+  return fmt::format("[{}]", fmt::join(values, ", "));
+}
+}  // namespace detail
 
 static bool parse_real(const std::string& text, double& out) {
   // YAML spellings of infinity.
@@ -278,6 +287,12 @@ ConfigNode Options::node(const std::string& name) const {
 }
 
 bool Options::is_set(const std::string& name) const { return values_.count(name) > 0; }
+bool Options::declared(const std::string& name) const {
+  for (const auto& n : order_)
+    if (n == name) return true;
+  return false;
+}
+
 bool Options::given(const std::string& name) const {
   auto it = given_.find(name);
   return it != given_.end() && it->second;

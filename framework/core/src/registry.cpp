@@ -18,15 +18,14 @@ YAML::Node ResolvedComponent::resolved() const {
   return out;
 }
 
-void Registry::set_origin(std::string plugin, std::string library) {
-  current_plugin_ = std::move(plugin);
-  current_library_ = std::move(library);
+void PluginRegistrar::add(ComponentInfo info) {
+  info.plugin = plugin_;
+  info.library = library_;
+  registry_.add(std::move(info));
 }
 
 void Registry::add(ComponentInfo info) {
   if (info.name.empty()) throw PluginLoadError("a component has an empty name");
-  if (info.plugin.empty()) info.plugin = current_plugin_;
-  if (info.library.empty()) info.library = current_library_;
   if (static_cast<std::size_t>(info.factory.index()) != static_cast<std::size_t>(info.kind))
     throw PluginLoadError(fmt::format("component '{}' declares kind {} but its factory makes another kind",
                                       info.name, kind_name(info.kind)));

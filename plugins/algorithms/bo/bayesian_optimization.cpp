@@ -8,6 +8,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
+#include "varbo/option_set.hpp"
 
 namespace varbo::bo {
 
@@ -21,15 +22,19 @@ enum Stream : std::uint64_t {
   kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6, kRecommend = 7
 };
 
-std::vector<OptionSpec> phase_options() {
-  return {
-      opt::integer("evaluations", 0, "trials in this phase (0 = until the budget is spent)").at_least(0),
-      opt::boolean("random", false, "choose points with the initial-design sampler instead of the acquisition"),
+// epsilon's -1 ("the algorithm's") is not a value of Phase::epsilon: declared here only.
+const OptionSet<Phase>& phase_options() {
+  static const OptionSet<Phase> set{
+      opt::integer("evaluations", &Phase::evaluations, "trials in this phase (0 = until the budget is spent)")
+          .at_least(0),
+      opt::boolean("random", &Phase::random,
+                   "choose points with the initial-design sampler instead of the acquisition"),
       opt::component("acquisition", Kind::Acquisition, "", "acquisition of this phase (default: the algorithm's)"),
       opt::real("epsilon", -1, "probability of a random point instead (default: the algorithm's epsilon)")
           .at_least(-1)
           .at_most(1),
   };
+  return set;
 }
 }  // namespace
 
@@ -102,10 +107,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
     for (std::size_t i = 0; i < list.size(); ++i) {
       ConfigNode item = list.item(i);
       if (!item.is_map()) item.fail("expected a map: {evaluations: n, random: bool, acquisition: ..., epsilon: p}");
-      Options po = validate_options(item, phase_options(), fmt::format("phase {}", i + 1), &r, {});
-      Phase p;
-      p.evaluations = po.integer("evaluations");
-      p.random = po.boolean("random");
+      Options po = validate_options(item, phase_options().specs(), fmt::format("phase {}", i + 1), &r, {});
+      Phase p = phase_options().read(po);
       p.epsilon = po.real("epsilon") < 0 ? epsilon : po.real("epsilon");
       if (p.random && po.given("acquisition")) item.fail("a random phase takes no acquisition");
       if (!p.random)

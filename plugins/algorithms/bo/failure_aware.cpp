@@ -6,36 +6,37 @@
 #include <cmath>
 
 #include "varbo/errors.hpp"
+#include "varbo/option_set.hpp"
 
 namespace varbo::bo {
 
-std::vector<OptionSpec> failure_model_options() {
-  return {
-      opt::choice("enabled", "auto", {"auto", "on", "off"},
+namespace {
+using Enabled = FailureModelSettings::Enabled;
+const OptionSet<FailureModelSettings>& failure_model_set() {
+  static const OptionSet<FailureModelSettings> set{
+      opt::choice("enabled", &FailureModelSettings::enabled,
+                  {{"auto", Enabled::Auto}, {"on", Enabled::On}, {"off", Enabled::Off}},
                   "weight the acquisition by P(success | θ) from a GP classifier of the trials: auto = from the "
                   "first failed trial on (a run without failures is unchanged), on = always, off = failed trials "
                   "are ignored"),
-      opt::real("min_probability", 0.5,
+      opt::real("min_probability", &FailureModelSettings::min_probability,
                 "never suggest a θ whose modelled probability of success is below this, or below 0.8 × the "
                 "success rate where nothing is known if that is lower (a failed θ and its neighbourhood are excluded "
                 "until successes nearby say success is likely there)")
           .at_least(0)
           .below(1),
   };
+  return set;
 }
+}  // namespace
+
+std::vector<OptionSpec> failure_model_options() { return failure_model_set().specs(); }
 
 FailureModelSettings parse_failure_model(const Options& o, const Registry* registry) {
-  FailureModelSettings s;
-  if (!o.is_set("failure_model")) return s;
+  if (!o.is_set("failure_model")) return FailureModelSettings{};
   const ConfigNode node = o.node("failure_model");
   if (!node.is_map()) node.fail("expected a map: {enabled: auto|on|off, min_probability: p}");
-  const Options fo = validate_options(node, failure_model_options(), "failure_model", registry, {});
-  const std::string e = fo.str("enabled");
-  s.enabled = e == "on"    ? FailureModelSettings::Enabled::On
-              : e == "off" ? FailureModelSettings::Enabled::Off
-                           : FailureModelSettings::Enabled::Auto;
-  s.min_probability = fo.real("min_probability");
-  return s;
+  return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 
 Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double fallback) {

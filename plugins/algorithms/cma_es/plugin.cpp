@@ -1,28 +1,36 @@
 // Plugin `cma_es`: CMA-ES as an ask/tell algorithm (Hansen 2016 defaults), a baseline for CRBO.
 #include "cma_es.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
+
+namespace {
+using varbo::CmaEsOptions;
+namespace opt = varbo::opt;
+const varbo::OptionSet<CmaEsOptions>& cma_es_options() {
+  static const varbo::OptionSet<CmaEsOptions> set{
+      opt::real("sigma0", &CmaEsOptions::sigma0, "initial step size (unit cube)").above(0),
+      opt::reals("x0", "", "initial mean in the unit cube (default: the task's initial point, else the centre)"),
+      opt::integer("population", &CmaEsOptions::population, "lambda; 0 = 4 + floor(3 ln d)").at_least(0),
+      opt::real("penalty", &CmaEsOptions::penalty,
+                "boundary penalty factor, times the generation's cost range per unit distance^2")
+          .at_least(0),
+      opt::choice("recommendation", &CmaEsOptions::recommend_mean, {{"best_observed", false}, {"mean", true}},
+                  "the θ to deploy: the best observed candidate, or the distribution mean (better under noise)")};
+  return set;
+}
+}  // namespace
 
 VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's default parameters") {
   using namespace varbo;
   registry.add(make_component<Algorithm>(
       "cma_es",
       "CMA-ES (Hansen 2016 defaults) in the unit cube; out-of-box candidates are clipped and penalized",
-      {opt::real("sigma0", 0.3, "initial step size (unit cube)").above(0),
-       opt::reals("x0", "", "initial mean in the unit cube (default: the task's initial point, else the centre)"),
-       opt::integer("population", 0, "lambda; 0 = 4 + floor(3 ln d)").at_least(0),
-       opt::real("penalty", 10.0, "boundary penalty factor, times the generation's cost range per unit distance^2")
-           .at_least(0),
-       opt::choice("recommendation", "best_observed", {"best_observed", "mean"},
-                   "the θ to deploy: the best observed candidate, or the distribution mean (better under noise)")},
+      cma_es_options().specs(),
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Algorithm> {
         if (ctx.dim <= 0) throw ConfigError("algorithm 'cma_es' needs the problem dimension (got 0)");
-        CmaEsOptions c;
-        c.sigma0 = o.real("sigma0");
-        c.population = o.integer("population");
-        c.penalty = o.real("penalty");
+        CmaEsOptions c = cma_es_options().read(o);
         c.seed = ctx.seed;
-        c.recommend_mean = o.str("recommendation") == "mean";
         if (o.is_set("x0")) {
           const std::vector<double> v = o.reals("x0");
           if (static_cast<Index>(v.size()) != ctx.dim)

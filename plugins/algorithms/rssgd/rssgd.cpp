@@ -8,6 +8,7 @@
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
+#include "varbo/option_set.hpp"
 
 namespace varbo::rssgd {
 
@@ -15,43 +16,56 @@ namespace {
 // Purposes of the random streams: one stream per (purpose, step), so a step depends only on the seed and data.
 enum Stream : std::uint64_t { kPerturb = 1, kFit = 2 };
 
-std::vector<OptionSpec> phase_options() {
-  return {opt::integer("steps", 0, "updates in this phase (0 = for the rest of the run)").at_least(0),
-          opt::real("kappa", 0.0, "risk factor κ in this phase (> 0 risk-averse, < 0 risk-seeking)")};
+const OptionSet<KappaPhase>& phase_options() {
+  static const OptionSet<KappaPhase> set{
+      opt::integer("steps", &KappaPhase::steps, "updates in this phase (0 = for the rest of the run)").at_least(0),
+      opt::real("kappa", &KappaPhase::kappa, "risk factor κ in this phase (> 0 risk-averse, < 0 risk-seeking)")};
+  return set;
 }
-}  // namespace
 
-std::vector<OptionSpec> options() {
-  return {
+// sigma and epsilon are declared here only: Settings holds what they become (a per-dimension σ, the radius).
+const OptionSet<Settings>& option_set() {
+  static const OptionSet<Settings> set{
       opt::real("sigma", 0.075, "perturbation std σ in the unit cube: z ~ N(0, σ²I) (paper: 0.075)").above(0),
       opt::reals("sigma_diag", "",
                  "per-dimension perturbation stds (unit cube), z ~ N(0, diag(σ_i²)); overrides sigma (natural "
                  "gradient, section 4.1.1)"),
-      opt::real("eta", 0.5, "step size η (paper: 0.5)").above(0),
-      opt::real("step_min", 0.01, "lower bound of the scaled step η/r̃_θ (paper: 0.01)").above(0),
-      opt::real("step_max", 0.5, "upper bound of the scaled step η/r̃_θ (paper: 0.5)").above(0),
+      opt::real("eta", opt::nested(&Settings::step, &StepSize::eta), "step size η (paper: 0.5)").above(0),
+      opt::real("step_min", opt::nested(&Settings::step, &StepSize::min),
+                "lower bound of the scaled step η/r̃_θ (paper: 0.01)")
+          .above(0),
+      opt::real("step_max", opt::nested(&Settings::step, &StepSize::max),
+                "upper bound of the scaled step η/r̃_θ (paper: 0.5)")
+          .above(0),
       opt::real("epsilon", -1, "radius ε of the local data ball in the unit cube (-1 = 3.5·max σ, as the paper)")
           .at_least(-1),
-      opt::integer("neighbors", 0, "> 0: use the k nearest observations instead of the ε-ball").at_least(0),
-      opt::integer("min_local_points", 3,
+      opt::integer("neighbors", opt::nested(&Settings::neighborhood, &Neighborhood::k_nearest),
+                   "> 0: use the k nearest observations instead of the ε-ball")
+          .at_least(0),
+      opt::integer("min_local_points", &Settings::min_fit_points,
                    "fit the critic on at least this many nearest observations; with fewer data no update is made")
           .at_least(2),
-      opt::real("kappa", 0.0, "risk factor κ of eq. (19) (> 0 risk-averse, < 0 risk-seeking)"),
+      opt::real("kappa", &Settings::kappa, "risk factor κ of eq. (19) (> 0 risk-averse, < 0 risk-seeking)"),
       opt::node("phases", "",
                 "κ schedule: list of {steps: n, kappa: k}; the last phase may have steps: 0 (until the end); "
                 "overrides kappa"),
       opt::component("critic", Kind::Surrogate, "{type: vhgp, restarts: 2}",
                      "local model of the cost distribution, refit on the local data every step"),
-      opt::boolean("evaluate_initial", true, "execute θ0 itself in the first trial (gives the critic a point at θ)"),
+      opt::boolean("evaluate_initial", &Settings::evaluate_initial,
+                   "execute θ0 itself in the first trial (gives the critic a point at θ)"),
       opt::reals("start", "", "θ0 in the unit cube (default: the study's initial_point, else the cube's centre)"),
       opt::string("history", "",
                   "CSV of earlier observations (columns x1..xd in the unit cube and cost), e.g. written by "
                   "`varbo rescore --continue`"),
   };
+  return set;
 }
+}  // namespace
+
+std::vector<OptionSpec> options() { return option_set().specs(); }
 
 Settings settings_from(const Options& o, Index dim) {
-  Settings s;
+  Settings s = option_set().read(o);
   s.sigma = Vec::Constant(dim, o.real("sigma"));
   if (o.is_set("sigma_diag")) {
     const std::vector<double> v = o.reals("sigma_diag");
@@ -61,25 +75,19 @@ Settings settings_from(const Options& o, Index dim) {
       if (!(x > 0)) o.node("sigma_diag").fail("every perturbation std must be > 0");
     s.sigma = Eigen::Map<const Vec>(v.data(), dim);
   }
-  s.step.eta = o.real("eta");
-  s.step.min = o.real("step_min");
-  s.step.max = o.real("step_max");
   if (s.step.min > s.step.max) o.node("step_min").fail("step_min must not exceed step_max");
   const double eps = o.real("epsilon");
   s.neighborhood.radius = eps > 0 ? eps : 3.5 * s.sigma.maxCoeff();  // paper: ε = 3.5σ
-  s.neighborhood.k_nearest = o.integer("neighbors");
-  s.neighborhood.min_points = o.integer("min_local_points");
-  s.min_fit_points = o.integer("min_local_points");
-  s.kappa = o.real("kappa");
-  s.evaluate_initial = o.boolean("evaluate_initial");
+  s.neighborhood.min_points = s.min_fit_points;
   if (o.is_set("phases")) {
     ConfigNode list = o.node("phases");
     if (!list.is_sequence() || list.size() == 0) list.fail("expected a non-empty list of {steps: n, kappa: k}");
     for (std::size_t i = 0; i < list.size(); ++i) {
       ConfigNode item = list.item(i);
       if (!item.is_map()) item.fail("expected a map {steps: n, kappa: k}");
-      Options po = validate_options(item, phase_options(), fmt::format("rssgd phase {}", i + 1), nullptr, {});
-      KappaPhase p{po.integer("steps"), po.real("kappa")};
+      const Options po =
+          validate_options(item, phase_options().specs(), fmt::format("rssgd phase {}", i + 1), nullptr, {});
+      const KappaPhase p = phase_options().read(po);
       if (p.steps == 0 && i + 1 < list.size())
         item.child("steps").fail("only the last phase may run until the end (steps: 0)");
       s.schedule.push_back(p);

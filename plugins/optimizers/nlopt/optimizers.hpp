@@ -6,6 +6,12 @@
 
 namespace varbo::nlopt_plugin {
 
+/// The `nlopt` component's settings: a stand-alone local run gets a fixed method, more evaluations and tighter
+/// tolerances than a multistart polish (LocalSettings' own defaults).
+struct NloptSettings {
+  LocalSettings local{LocalMethod::Slsqp, 500, 1e-8, 1e-10};
+};
+
 /// Runs a local NLopt method from every start row (in parallel) and keeps the best feasible result.
 class NloptOptimizer final : public Optimizer {
  public:
@@ -18,8 +24,8 @@ class NloptOptimizer final : public Optimizer {
 };
 
 struct MultistartSettings {
-  Index candidates = 1000;  ///< scrambled Sobol points in the box (those outside the region are dropped)
-  Index polish = 5;         ///< best candidates refined by the local method
+  Index candidates = 2000;  ///< scrambled Sobol points in the box (those outside the region are dropped)
+  Index polish = 10;        ///< best candidates refined by the local method
   LocalSettings local;
 };
 
@@ -34,6 +40,10 @@ class MultistartOptimizer final : public Optimizer {
 
  private:
   MultistartSettings settings_;
+};
+
+struct RandomSearchSettings {
+  Index samples = 2000;  ///< uniform points drawn in the box
 };
 
 /// Uniform points in the box (plus the given starts); keeps the best feasible one.

@@ -17,6 +17,10 @@ struct SkippedLibrary {
 class PluginLoader {
  public:
   explicit PluginLoader(Registry& registry) : registry_(registry) {}
+  /// Metadata only: every check that needs no plugin code (ELF, the .varbo_meta section: ABI, API,
+  /// fingerprint, name, duplicates) is made and loaded() lists the libraries that pass, but none is dlopen'ed,
+  /// so no plugin code runs and no component is registered (`varbo plugins --libraries`).
+  void set_metadata_only(bool on) { metadata_only_ = on; }
   /// Loads one third-party library; throws PluginLoadError (or PluginVersionError) naming the file and the
   /// reason. The file is checked (regular file, ELF64 for this machine, every segment inside the file) before
   /// dlopen sees it.
@@ -44,6 +48,7 @@ class PluginLoader {
   void skip(const std::string& path, const std::string& reason);
 
   Registry& registry_;
+  bool metadata_only_ = false;
   std::vector<LoadedLibrary> loaded_;
   std::vector<SkippedLibrary> skipped_;
   std::vector<const ComponentInfo*> shadowed_;

@@ -39,7 +39,8 @@ struct OptionSpec {
   std::string expected() const;
 };
 
-/// Builders: opt::real("xi", 0.01, "exploration ...").at_least(0)
+/// Builders: opt::real("xi", 0.01, "exploration ...").at_least(0). Plugins bind options to the fields of a
+/// settings struct instead (varbo/option_set.hpp), so the default is written once.
 namespace opt {
 OptionSpec boolean(std::string name, bool def, std::string description);
 OptionSpec integer(std::string name, long def, std::string description);
@@ -68,6 +69,7 @@ class Options {
   ConfigNode node(const std::string& name) const;  ///< for OptionType::Node and positions in messages
   bool is_set(const std::string& name) const;      ///< has a value (given or defaulted)
   bool given(const std::string& name) const;       ///< given explicitly by the user
+  bool declared(const std::string& name) const;    ///< among the specs these options were validated with
   const ConfigNode& source() const { return source_; }
   /// The options with every default filled in, as YAML.
   YAML::Node resolved() const;

@@ -109,7 +109,8 @@ class Registry {
   Registry(const Registry&) = delete;
   Registry& operator=(const Registry&) = delete;
 
-  /// Adds a component (plugin and library fields are filled from the current loading context).
+  /// Adds a component with the origin (plugin, library) it carries; plugins add through their
+  /// PluginRegistrar, which sets both.
   void add(ComponentInfo info);
   /// Looks up by full name "plugin/name" or unique short name. Unknown names throw UnknownComponentError
   /// listing the known ones; `where` gives the position for the message.
@@ -143,12 +144,27 @@ class Registry {
     return create<T>(resolve(kind_of<T>(), ConfigNode::parse(yaml, "<inline>")), ctx);
   }
 
-  /// Set by the loader while a plugin registers.
-  void set_origin(std::string plugin, std::string library);
-
  private:
   std::vector<std::unique_ptr<ComponentInfo>> items_;
-  std::string current_plugin_, current_library_;
+};
+
+/// The handle a plugin registers through (the `registry` of VARBO_PLUGIN): it can only add components, and
+/// every component it adds is recorded under the plugin's own name and library file, whatever the
+/// ComponentInfo says. A plugin never sees the Registry, so it cannot register under another plugin's name or
+/// touch other plugins' components.
+class PluginRegistrar {
+ public:
+  PluginRegistrar(Registry& registry, std::string plugin, std::string library)
+      : registry_(registry), plugin_(std::move(plugin)), library_(std::move(library)) {}
+  PluginRegistrar(const PluginRegistrar&) = delete;
+  PluginRegistrar& operator=(const PluginRegistrar&) = delete;
+
+  void add(ComponentInfo info);
+  const std::string& plugin() const { return plugin_; }
+
+ private:
+  Registry& registry_;
+  std::string plugin_, library_;
 };
 
 /// True when every `needs` tag of each component is in the union of the others' `provides`.
