@@ -1,5 +1,6 @@
 #include "gp_component.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gp_surrogate.hpp"
@@ -28,7 +29,7 @@ void check_range(const Options& o, const std::string& lo, const std::string& hi)
 
 }  // namespace
 
-Hyperparameters parse_hyperparameters(const ConfigNode& node, Index dim) {
+Hyperparameters parse_hyperparameters(const ConfigNode& node, const std::vector<std::string>& names) {
   Hyperparameters h;
   if (!node.defined()) return h;
   if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
@@ -37,15 +38,20 @@ Hyperparameters parse_hyperparameters(const ConfigNode& node, Index dim) {
     if (name != "mean" && !(v > 0)) n.fail("expected a positive value for " + name);
     h.push_back({name, v});
   };
+  auto is_name = [&names](const std::string& n) { return std::find(names.begin(), names.end(), n) != names.end(); };
   for (const auto& key : node.keys()) {
     const ConfigNode v = node.child(key);
-    if (key == "lengthscale" && v.is_sequence()) {
-      if (static_cast<Index>(v.size()) != dim)
-        v.fail("expected " + std::to_string(dim) + " lengthscales (one per dimension), got " +
-               std::to_string(v.size()));
-      for (std::size_t i = 0; i < v.size(); ++i) add("lengthscale[" + std::to_string(i) + "]", v.item(i));
-    } else if (key == "lengthscale") {
-      for (Index i = 0; i < dim; ++i) add("lengthscale[" + std::to_string(i) + "]", v);
+    std::size_t count = 0;
+    while (!is_name(key) && is_name(key + "[" + std::to_string(count) + "]")) ++count;
+    if (count > 0 && v.is_sequence()) {
+      if (v.size() != count) {
+        const bool ell = key.size() >= 11 && key.compare(key.size() - 11, 11, "lengthscale") == 0;
+        v.fail("expected " + std::to_string(count) + (ell ? " lengthscales (one per dimension)" : " values for " + key) +
+               ", got " + std::to_string(v.size()));
+      }
+      for (std::size_t i = 0; i < v.size(); ++i) add(key + "[" + std::to_string(i) + "]", v.item(i));
+    } else if (count > 0) {
+      for (std::size_t i = 0; i < count; ++i) add(key + "[" + std::to_string(i) + "]", v);
     } else {
       add(key, v);
     }
@@ -56,11 +62,14 @@ Hyperparameters parse_hyperparameters(const ConfigNode& node, Index dim) {
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
       "gp",
-      "Gaussian process with constant mean, standardized costs, SE-ARD or Matern-5/2-ARD kernel and "
+      "Gaussian process with constant mean, standardized costs, any `kernel` (default Matern-5/2 ARD) and "
       "Gaussian noise. Hyperparameters maximize the log marginal likelihood plus independent log-normal "
       "hyperpriors (Kuindersma 2013, eq. 13), with parallel random restarts of `fit_optimizer`.",
       {
-          opt::choice("kernel", "matern52_ard", {"se_ard", "matern52_ard"}, "covariance function"),
+          opt::component("kernel", Kind::Kernel, "matern52_ard",
+                         "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
+                         "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
+                         "lengthscales and amplitudes take the priors and bounds below"),
           opt::integer("restarts", 4, "optimizer runs per fit (the first warm-started from the previous fit)")
               .at_least(1),
           opt::real("full_fit_growth", 1.0,
@@ -94,11 +103,19 @@ ComponentInfo gp_component() {
         check_range(o, "min_signal_std", "max_signal_std");
         check_range(o, "min_noise_std", "max_noise_std");
         GpSettings s;
-        try {
-          s.kernel = kernels::parse_kernel_type(o.str("kernel"));
-        } catch (const std::invalid_argument& e) {
-          o.node("kernel").fail(e.what());
-        }
+        if (ctx.registry == nullptr) throw std::logic_error("gp: BuildContext without registry");
+        // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
+        const Registry* registry = ctx.registry;
+        const ResolvedComponent kernel = o.component("kernel");
+        const std::uint64_t seed = ctx.seed;
+        s.kernel = [registry, kernel, seed](Index dim) {
+          BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)
+          c.registry = registry;
+          c.dim = dim;
+          c.seed = seed;
+          return registry->create<Kernel>(kernel, c);
+        };
+        if (ctx.dim > 0) s.kernel(ctx.dim);
         s.restarts = static_cast<int>(o.integer("restarts"));
         s.full_fit_growth = o.real("full_fit_growth");
         s.priors.enabled = o.boolean("priors");
@@ -111,13 +128,14 @@ ComponentInfo gp_component() {
         s.max_signal_std = o.real("max_signal_std");
         s.min_noise_std = o.real("min_noise_std");
         s.max_noise_std = o.real("max_noise_std");
-        if (ctx.registry == nullptr) throw std::logic_error("gp: BuildContext without registry");
         std::shared_ptr<const Optimizer> optimizer = ctx.registry->create<Optimizer>(o.component("fit_optimizer"), ctx);
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));
         if (o.is_set("hyperparameters")) {
           const ConfigNode node = o.node("hyperparameters");
           try {
-            gp->set_hyperparameters(parse_hyperparameters(node, ctx.dim));
+            std::vector<std::string> names;
+            for (const auto& h : gp->hyperparameters()) names.push_back(h.name);
+            gp->set_hyperparameters(parse_hyperparameters(node, names));
           } catch (const ConfigError& e) {
             node.fail(e.what());
           }

@@ -1,6 +1,6 @@
 // Runs a short seeded study on Branin for EVERY compatible combination of the loaded components:
 // surrogate × acquisition × region × acquisition optimizer × initial-design sampler, and separately
-// surrogate × fit optimizer. The lists come from the registry at run time, so a new plugin adds its
+// surrogate × fit optimizer and surrogate × kernel. The lists come from the registry at run time, so a new plugin adds its
 // combinations with no edit here; only combinations whose capability tags don't match are skipped.
 #include <cmath>
 #include <fmt/format.h>
@@ -180,4 +180,33 @@ TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitte
     }
   }
   CHECK(ran > 0);
+}
+
+TEST_CASE("every surrogate with a kernel option runs with every kernel, the same with 1 and 2 threads") {
+  set_log_level(LogLevel::Error);
+  Registry& r = test::registry();
+  const std::string out = test::temp_folder("kernel_combinations");
+  const auto kernels = r.components(Kind::Kernel);
+  REQUIRE(!kernels.empty());
+  int ran = 0;
+  for (const auto* s : r.components(Kind::Surrogate)) {
+    if (!has_option(*s, "kernel")) continue;
+    for (const auto* k : kernels) {
+      // A composite gets two plain terms; any other kernel its defaults.
+      const std::string kernel = has_option(*k, "terms")
+                                     ? fmt::format("{{type: {}, terms: [se_ard, constant]}}", k->full_name())
+                                     : fmt::format("{{type: {}}}", k->full_name());
+      INFO(s->name << " with kernel " << kernel);
+      const std::string surrogate = surrogate_yaml(*s);
+      const std::string algo = fmt::format("{{type: bo, initial_points: 5, surrogate: {}, kernel: {}}}}}",
+                                           surrogate.substr(0, surrogate.size() - 1), kernel);
+      CHECK(same_with_1_and_2_threads(algo, out, 8));
+      const Outcome res = run_combination(algo, out + "/one", 8);
+      CHECK(res.rows == 8);
+      CHECK(res.finite);
+      ++ran;
+    }
+  }
+  MESSAGE(fmt::format("ran {} surrogate x kernel combinations", ran));
+  CHECK(ran >= static_cast<int>(kernels.size()));
 }
