@@ -38,7 +38,8 @@ class Composite : public Kernel {
   }
 
  protected:
-  /// The terms' parameter tables, prefixed; `scales` decides which amplitudes keep scales_with_output.
+  /// The terms' parameter tables, prefixed. In a product only the first term that scales with the costs keeps
+  /// scales_with_output (k scales by s² once, not once per factor).
   void declare_from_terms(bool only_first_scales) {
     std::vector<KernelParameter> all;
     bool scaled = false;
@@ -46,7 +47,7 @@ class Composite : public Kernel {
       bool term_scales = false;
       for (KernelParameter p : terms_[i]->parameters()) {
         p.name = "terms[" + std::to_string(i) + "]." + p.name;
-        if (only_first_scales && p.scales_with_output && p.role == KernelParameterRole::Amplitude) {
+        if (only_first_scales && p.scales_with_output) {  // an amplitude or a white term's noise_std
           if (scaled) p.scales_with_output = false;
           term_scales = true;
         }
