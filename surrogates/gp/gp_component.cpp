@@ -1,9 +1,9 @@
 #include "gp_component.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 #include "gp_surrogate.hpp"
+#include "hyperparameter_map.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
 
@@ -11,53 +11,12 @@ namespace varbo::gp {
 
 namespace {
 
-double finite_number(const ConfigNode& n) {
-  double v = 0;
-  try {
-    v = n.yaml().as<double>();
-  } catch (const YAML::Exception&) {
-    n.fail("expected a number, got '" + (n.is_scalar() ? n.scalar() : std::string("a non-scalar")) + "'");
-  }
-  if (!std::isfinite(v)) n.fail("expected a finite number");
-  return v;
-}
-
 void check_range(const Options& o, const std::string& lo, const std::string& hi) {
   if (!(o.real(lo) < o.real(hi)))
     o.node(hi).fail("gp: expected " + hi + " > " + lo + " (" + std::to_string(o.real(lo)) + ")");
 }
 
 }  // namespace
-
-Hyperparameters parse_hyperparameters(const ConfigNode& node, const std::vector<std::string>& names) {
-  Hyperparameters h;
-  if (!node.defined()) return h;
-  if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
-  auto add = [&h](const std::string& name, const ConfigNode& n) {
-    const double v = finite_number(n);
-    if (name != "mean" && !(v > 0)) n.fail("expected a positive value for " + name);
-    h.push_back({name, v});
-  };
-  auto is_name = [&names](const std::string& n) { return std::find(names.begin(), names.end(), n) != names.end(); };
-  for (const auto& key : node.keys()) {
-    const ConfigNode v = node.child(key);
-    std::size_t count = 0;
-    while (!is_name(key) && is_name(key + "[" + std::to_string(count) + "]")) ++count;
-    if (count > 0 && v.is_sequence()) {
-      if (v.size() != count) {
-        const bool ell = key.size() >= 11 && key.compare(key.size() - 11, 11, "lengthscale") == 0;
-        v.fail("expected " + std::to_string(count) + (ell ? " lengthscales (one per dimension)" : " values for " + key) +
-               ", got " + std::to_string(v.size()));
-      }
-      for (std::size_t i = 0; i < v.size(); ++i) add(key + "[" + std::to_string(i) + "]", v.item(i));
-    } else if (count > 0) {
-      for (std::size_t i = 0; i < count; ++i) add(key + "[" + std::to_string(i) + "]", v);
-    } else {
-      add(key, v);
-    }
-  }
-  return h;
-}
 
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
@@ -135,7 +94,7 @@ ComponentInfo gp_component() {
           try {
             std::vector<std::string> names;
             for (const auto& h : gp->hyperparameters()) names.push_back(h.name);
-            gp->set_hyperparameters(parse_hyperparameters(node, names));
+            gp->set_hyperparameters(kernels::parse_hyperparameter_map(node, names, {"mean"}));
           } catch (const ConfigError& e) {
             node.fail(e.what());
           }
