@@ -56,8 +56,9 @@ ComponentInfo gp_component() {
           opt::choice("output_transform", "none", transforms::output_transform_names(),
                       transforms::output_transform_description()),
           opt::node("hyperparameters", "",
-                    "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units: lengthscale "
-                    "(number or list), lengthscale[i], signal_std, noise_std (cost units), mean (fixes the "
+                    "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units, by the kernel's "
+                    "names (composites: terms[i].<name>): lengthscale (number or list), lengthscale[i], signal_std, "
+                    "noise_std (cost units), mean (fixes the "
                     "constant mean; otherwise it is the data mean)"),
       },
       Factory<Surrogate>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Surrogate> {
