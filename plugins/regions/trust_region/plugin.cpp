@@ -16,7 +16,11 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
        opt::integer("failure_tolerance", 0, "consecutive failures that halve L; 0 = ceil(max(4/q, d/q))").at_least(0),
        opt::integer("batch_size", 1, "q, for the default failure tolerance").at_least(1),
        opt::real("improvement", 1e-3, "a success improves the best cost by more than this fraction of |best|")
-           .at_least(0)},
+           .at_least(0),
+       opt::real("restart_length", 0.8,
+                 "L after a restart; the data are kept and the box re-centres on the incumbent, so a value ≥ 2 "
+                 "(the whole unit cube) makes the search after a collapse global")
+           .above(0)},
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<RegionConstraint> {
         if (ctx.dim <= 0) throw ConfigError("region 'trust_region' needs the problem dimension (got 0)");
         TrustRegionOptions t;
@@ -27,6 +31,7 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
         t.failure_tolerance = static_cast<int>(o.integer("failure_tolerance"));
         t.batch_size = static_cast<int>(o.integer("batch_size"));
         t.improvement = o.real("improvement");
+        t.restart_length = o.real("restart_length");
         return std::make_unique<TrustRegion>(ctx.dim, t);
       }));
 }

@@ -94,3 +94,23 @@ TEST_CASE("trust_region: registered as a box region") {
   r->update(nullptr, data, rng);
   CHECK((r->bounds().upper - r->bounds().lower).isApprox(Vec::Constant(3, 0.4)));
 }
+
+TEST_CASE("trust_region: restart_length sets L after a collapse; 2 makes the box the whole unit cube") {
+  TrustRegionOptions o;
+  o.restart_length = 2.0;
+  o.failure_tolerance = 1;
+  TrustRegion tr(2, o);
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.9, 0.95).finished(), 1.0);  // the incumbent, near a corner
+  // Each failure halves L (τ_fail = 1): 0.8 → 0.4 → ... → 0.00625 < 0.5^7 restarts on the 7th.
+  for (int k = 0; k < 7; ++k) observe(tr, data, (Vec(2) << 0.1 * k, 0.1).finished(), 5.0);
+  CHECK(tr.restarts() == 1);
+  CHECK(tr.length() == 2.0);
+  CHECK(tr.bounds().lower.isApprox(Vec::Zero(2)));
+  CHECK(tr.bounds().upper.isApprox(Vec::Ones(2)));
+  CHECK(tr.center().isApprox((Vec(2) << 0.9, 0.95).finished()));
+  // The next failure halves it back to a box of side 1 around the incumbent, clipped.
+  observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 5.0);
+  CHECK(tr.length() == 1.0);
+  CHECK(tr.bounds().lower.isApprox((Vec(2) << 0.4, 0.45).finished()));
+}

@@ -55,8 +55,8 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
     if (length_ < options_.length_min) {
       ++restarts_;
       log_info("trust_region: side length {:.3g} < {:.3g}: restart {} (L reset to {}, data kept)", length_,
-               options_.length_min, restarts_, options_.length_init);
-      length_ = options_.length_init;
+               options_.length_min, restarts_, options_.restart_length);
+      length_ = options_.restart_length;
       successes_ = failures_ = 0;
     }
   }

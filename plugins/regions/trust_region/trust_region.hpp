@@ -16,6 +16,7 @@ struct TrustRegionOptions {
   int failure_tolerance = 0;                ///< τ_fail; 0 = ceil(max(4/q, d/q))
   int batch_size = 1;                       ///< q, only used for the default τ_fail
   double improvement = 1e-3;                ///< success: new best < old best − improvement·|old best|
+  double restart_length = 0.8;              ///< L after a restart (≥ 2: the whole unit cube from any centre)
 };
 
 class TrustRegion final : public RegionConstraint {
