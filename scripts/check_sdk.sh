@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs varbo into a scratch prefix, builds the template plugins out of tree against the installed SDK
-# (find_package(varbo): an acquisition, a task and an algorithm without a surrogate), and runs short studies
+# (find_package(varbo): an acquisition, a task, an algorithm without a surrogate and a kernel), and runs short studies
 # with the installed executable using them: BO with the template acquisition, the template algorithm on the
 # template task (stopped and resumed: same trials), and the template task's config errors (exit 2); the core and
 # the templates must not depend on SQLite or the study library.
@@ -25,7 +25,7 @@ for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
 done
 export VARBO_PLUGIN_PATH="$WORK/template"
 VARBO="$PREFIX/bin/varbo"
-for c in greedy_mean bowl one_plus_one; do "$VARBO" plugins --describe "$c"; done
+for c in greedy_mean bowl one_plus_one periodic; do "$VARBO" plugins --describe "$c"; done
 
 # 1. The template acquisition in BO on a built-in task.
 cat > "$WORK/acq.yaml" <<YAML
@@ -40,6 +40,20 @@ algorithm:
 YAML
 "$VARBO" run "$WORK/acq.yaml" --no-progress
 test "$(wc -l < "$WORK/acq/trials.csv")" -eq 9
+
+# 1b. The template kernel inside a built-in surrogate, composed with a built-in kernel.
+cat > "$WORK/kernel.yaml" <<YAML
+task: {type: branin}
+budget: 8
+seed: 3
+output: $WORK/kernel
+algorithm:
+  type: bo
+  initial_points: 4
+  surrogate: {type: gp, restarts: 2, kernel: {type: sum, terms: [{type: periodic, period_median: 0.8}, se_ard]}}
+YAML
+"$VARBO" run "$WORK/kernel.yaml" --no-progress
+test "$(wc -l < "$WORK/kernel/trials.csv")" -eq 9
 
 # 2. The template algorithm on the template task: 12 trials at once, and 5 then resumed to 12, give the same
 # trials (an algorithm is rebuilt by replaying its trials, so ask() must depend only on the seed and the trials).

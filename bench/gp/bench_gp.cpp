@@ -88,7 +88,7 @@ void BM_LogPosterior(benchmark::State& state) {
   const Dataset data = make_data(n, d, 6);
   const Vec r = (data.y.array() - data.y.mean()) / std::sqrt((data.y.array() - data.y.mean()).square().mean());
   gp::GpSurrogate gp(d, gp::GpSettings{}, make_optimizer());
-  const gp::LogPosterior f(gp.settings().kernel, data.X, r, gp.settings().priors, gp.log_box(d));
+  const gp::LogPosterior f(gp.kernel(), data.X, r, gp.settings().priors, gp.log_box(d));
   Vec p = Vec::Constant(d + 2, std::log(0.5));
   p(d) = 0.0;
   p(d + 1) = std::log(0.01);

@@ -71,7 +71,7 @@ Runner add_plugins(CLI::App& app) {
       // Resolve exactly as a config does (built-in first), and say what else carries the name.
       bool any = false;
       for (Kind k : {Kind::Task, Kind::Algorithm, Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler,
-                     Kind::Optimizer}) {
+                     Kind::Optimizer, Kind::Kernel}) {
         const ComponentInfo* chosen = registry.try_find(k, a->describe);
         std::vector<const ComponentInfo*> same;
         for (const auto* c : registry.components(k))
@@ -123,7 +123,7 @@ Runner add_plugins(CLI::App& app) {
       std::printf("  NOTE %s '%s' of plugin '%s' has a built-in name: reachable only as '%s'\n",
                   kind_name(c->kind).c_str(), c->name.c_str(), c->plugin.c_str(), c->full_name().c_str());
     for (Kind k : {Kind::Task, Kind::Algorithm, Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler,
-                   Kind::Optimizer}) {
+                   Kind::Optimizer, Kind::Kernel}) {
       auto comps = registry.components(k);
       std::printf("\n%ss (%zu)\n", kind_name(k).c_str(), comps.size());
       for (const auto* c : comps) {

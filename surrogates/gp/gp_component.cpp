@@ -3,23 +3,13 @@
 #include <cmath>
 
 #include "gp_surrogate.hpp"
+#include "hyperparameter_map.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo::gp {
 
 namespace {
-
-double finite_number(const ConfigNode& n) {
-  double v = 0;
-  try {
-    v = n.yaml().as<double>();
-  } catch (const YAML::Exception&) {
-    n.fail("expected a number, got '" + (n.is_scalar() ? n.scalar() : std::string("a non-scalar")) + "'");
-  }
-  if (!std::isfinite(v)) n.fail("expected a finite number");
-  return v;
-}
 
 void check_range(const Options& o, const std::string& lo, const std::string& hi) {
   if (!(o.real(lo) < o.real(hi)))
@@ -28,39 +18,17 @@ void check_range(const Options& o, const std::string& lo, const std::string& hi)
 
 }  // namespace
 
-Hyperparameters parse_hyperparameters(const ConfigNode& node, Index dim) {
-  Hyperparameters h;
-  if (!node.defined()) return h;
-  if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
-  auto add = [&h](const std::string& name, const ConfigNode& n) {
-    const double v = finite_number(n);
-    if (name != "mean" && !(v > 0)) n.fail("expected a positive value for " + name);
-    h.push_back({name, v});
-  };
-  for (const auto& key : node.keys()) {
-    const ConfigNode v = node.child(key);
-    if (key == "lengthscale" && v.is_sequence()) {
-      if (static_cast<Index>(v.size()) != dim)
-        v.fail("expected " + std::to_string(dim) + " lengthscales (one per dimension), got " +
-               std::to_string(v.size()));
-      for (std::size_t i = 0; i < v.size(); ++i) add("lengthscale[" + std::to_string(i) + "]", v.item(i));
-    } else if (key == "lengthscale") {
-      for (Index i = 0; i < dim; ++i) add("lengthscale[" + std::to_string(i) + "]", v);
-    } else {
-      add(key, v);
-    }
-  }
-  return h;
-}
-
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
       "gp",
-      "Gaussian process with constant mean, standardized costs, SE-ARD or Matern-5/2-ARD kernel and "
+      "Gaussian process with constant mean, standardized costs, any `kernel` (default Matern-5/2 ARD) and "
       "Gaussian noise. Hyperparameters maximize the log marginal likelihood plus independent log-normal "
       "hyperpriors (Kuindersma 2013, eq. 13), with parallel random restarts of `fit_optimizer`.",
       {
-          opt::choice("kernel", "matern52_ard", {"se_ard", "matern52_ard"}, "covariance function"),
+          opt::component("kernel", Kind::Kernel, "matern52_ard",
+                         "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
+                         "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
+                         "lengthscales and amplitudes take the priors and bounds below"),
           opt::integer("restarts", 4, "optimizer runs per fit (the first warm-started from the previous fit)")
               .at_least(1),
           opt::real("full_fit_growth", GpSettings{}.full_fit_growth,
@@ -88,8 +56,9 @@ ComponentInfo gp_component() {
           opt::choice("output_transform", "none", transforms::output_transform_names(),
                       transforms::output_transform_description()),
           opt::node("hyperparameters", "",
-                    "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units: lengthscale "
-                    "(number or list), lengthscale[i], signal_std, noise_std (cost units), mean (fixes the "
+                    "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units, by the kernel's "
+                    "names (composites: terms[i].<name>): lengthscale (number or list), lengthscale[i], signal_std, "
+                    "noise_std (cost units), mean (fixes the "
                     "constant mean; otherwise it is the data mean)"),
       },
       Factory<Surrogate>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Surrogate> {
@@ -97,11 +66,19 @@ ComponentInfo gp_component() {
         check_range(o, "min_signal_std", "max_signal_std");
         check_range(o, "min_noise_std", "max_noise_std");
         GpSettings s;
-        try {
-          s.kernel = kernels::parse_kernel_type(o.str("kernel"));
-        } catch (const std::invalid_argument& e) {
-          o.node("kernel").fail(e.what());
-        }
+        if (ctx.registry == nullptr) throw std::logic_error("gp: BuildContext without registry");
+        // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
+        const Registry* registry = ctx.registry;
+        const ResolvedComponent kernel = o.component("kernel");
+        const std::uint64_t seed = ctx.seed;
+        s.kernel = [registry, kernel, seed](Index dim) {
+          BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)
+          c.registry = registry;
+          c.dim = dim;
+          c.seed = seed;
+          return registry->create<Kernel>(kernel, c);
+        };
+        if (ctx.dim > 0) s.kernel(ctx.dim);
         s.restarts = static_cast<int>(o.integer("restarts"));
         s.full_fit_growth = o.real("full_fit_growth");
         s.prior_mean = o.str("prior_mean") == "max" ? GpSettings::PriorMean::Max : GpSettings::PriorMean::DataMean;
@@ -115,13 +92,14 @@ ComponentInfo gp_component() {
         s.max_signal_std = o.real("max_signal_std");
         s.min_noise_std = o.real("min_noise_std");
         s.max_noise_std = o.real("max_noise_std");
-        if (ctx.registry == nullptr) throw std::logic_error("gp: BuildContext without registry");
         std::shared_ptr<const Optimizer> optimizer = ctx.registry->create<Optimizer>(o.component("fit_optimizer"), ctx);
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));
         if (o.is_set("hyperparameters")) {
           const ConfigNode node = o.node("hyperparameters");
           try {
-            gp->set_hyperparameters(parse_hyperparameters(node, ctx.dim));
+            std::vector<std::string> names;
+            for (const auto& h : gp->hyperparameters()) names.push_back(h.name);
+            gp->set_hyperparameters(kernels::parse_hyperparameter_map(node, names, {"mean"}));
           } catch (const ConfigError& e) {
             node.fail(e.what());
           }

@@ -4,6 +4,4 @@
 
 namespace varbo::gp {
 ComponentInfo gp_component();
-/// Reads `hyperparameters: {lengthscale: 0.3 | [..], lengthscale[0]: .., signal_std: .., noise_std: .., mean: ..}`.
-Hyperparameters parse_hyperparameters(const ConfigNode& node, Index dim);
 }  // namespace varbo::gp

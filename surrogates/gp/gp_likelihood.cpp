@@ -30,14 +30,14 @@ Mat inverse_from_cholesky(const Eigen::LLT<Mat>& llt) {
   return Li.transpose().triangularView<Eigen::Upper>() * Li;
 }
 
-LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_params, const Mat& X, const Vec& r,
+LogMarginal log_marginal_likelihood(const Kernel& form, const Vec& log_params, const Mat& X, const Vec& r,
                                     bool with_gradient) {
-  const Index n = X.rows(), d = X.cols();
+  const Index n = X.rows(), m = form.num_params();
   LogMarginal out;
-  kernels::ArdKernel kernel(type, d);
-  kernel.set_log_params(log_params.head(d + 1));
-  const double noise_var = std::exp(2.0 * log_params(d + 1));
-  Mat K = kernel.matrix(X);
+  const std::unique_ptr<Kernel> kernel = form.clone();  // one copy per evaluation: thread-safe, N² work dominates
+  kernel->set_log_params(log_params.head(m));
+  const double noise_var = std::exp(2.0 * log_params(m));
+  Mat K = kernel->matrix(X);
   K.diagonal().array() += noise_var;
   RobustCholesky chol = robust_cholesky(K);
   if (!chol.ok) {
@@ -54,38 +54,39 @@ LogMarginal log_marginal_likelihood(kernels::KernelType type, const Vec& log_par
   // R&W eq. (5.9): W = αα' − K⁻¹, ∂/∂p_j = ½ tr(W ∂K/∂p_j).
   Mat W = inverse_from_cholesky(chol.llt);
   W = alpha * alpha.transpose() - W;
-  out.gradient.resize(d + 2);
-  out.gradient.head(d + 1) = kernel.contract_gradient(X, W);
+  out.gradient.resize(m + 1);
+  out.gradient.head(m) = kernel->contract_gradient(X, W);
   // ∂K/∂log σ_n = 2σ_n² I (the jitter does not depend on σ_n).
-  out.gradient(d + 1) = noise_var * W.trace();
+  out.gradient(m) = noise_var * W.trace();
   out.ok = out.gradient.allFinite();
   return out;
 }
 
-double HyperPriors::log_density(const Vec& log_params, Vec* grad) const {
-  const Index d = log_params.size() - 2;
+double HyperPriors::log_density(const Kernel& kernel, const Vec& log_params, Vec* grad) const {
+  const Index m = kernel.num_params();
   if (grad) grad->setZero(log_params.size());
   if (!enabled) return 0.0;
-  // Kuindersma 2013, eq. (13): Σ_k log N(log ψ_k | μ_k, σ_k²).
-  double total = 0.0;
-  for (Index j = 0; j < d + 2; ++j) {
-    const LogNormalPrior& prior = j < d ? lengthscale : (j == d ? signal_std : noise_std);
-    double dj = 0.0;
-    total += prior.log_density(log_params(j), grad ? &dj : nullptr);
-    if (grad) (*grad)(j) = dj;
+  // Kuindersma 2013, eq. (13): Σ_k log N(log ψ_k | μ_k, σ_k²), the kernel's terms first.
+  Vec kernel_grad;
+  double total = kernel.log_prior(log_params.head(m), grad ? &kernel_grad : nullptr);
+  double dn = 0.0;
+  total += noise_std.log_density(log_params(m), grad ? &dn : nullptr);
+  if (grad) {
+    grad->head(m) = kernel_grad;
+    (*grad)(m) = dn;
   }
   return total;
 }
 
-LogPosterior::LogPosterior(kernels::KernelType type, Mat X, Vec r, HyperPriors priors, Box box)
-    : type_(type), X_(std::move(X)), r_(std::move(r)), priors_(priors), box_(std::move(box)) {}
+LogPosterior::LogPosterior(const Kernel& kernel, Mat X, Vec r, HyperPriors priors, Box box)
+    : kernel_(kernel.clone()), X_(std::move(X)), r_(std::move(r)), priors_(priors), box_(std::move(box)) {}
 
 double LogPosterior::value(const Vec& p, Vec* grad) const {
   if (!p.allFinite()) return std::numeric_limits<double>::quiet_NaN();
-  const LogMarginal lml = log_marginal_likelihood(type_, p, X_, r_, grad != nullptr);
+  const LogMarginal lml = log_marginal_likelihood(*kernel_, p, X_, r_, grad != nullptr);
   if (!lml.ok) return std::numeric_limits<double>::quiet_NaN();
   Vec prior_grad;
-  double v = lml.value + priors_.log_density(p, grad ? &prior_grad : nullptr);
+  double v = lml.value + priors_.log_density(*kernel_, p, grad ? &prior_grad : nullptr);
   if (grad) *grad = lml.gradient + prior_grad;
   // Outside the box: −½ c · excess², c large enough to dominate the likelihood's slope there.
   constexpr double c = 1e3;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "kernel_library.hpp"
 #include "varbo/config.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -13,8 +14,6 @@ namespace varbo::gp {
 
 namespace {
 constexpr double kLog2Pi = 1.8378770664093454836;
-
-std::string lengthscale_name(Index i) { return "lengthscale[" + std::to_string(i) + "]"; }
 
 Vec clamp_to(const Box& box, const Vec& p) { return p.cwiseMax(box.lower).cwiseMin(box.upper); }
 }  // namespace
@@ -26,22 +25,55 @@ GpSurrogate::GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const O
 }
 
 void GpSurrogate::ensure_dim(Index d) {
-  if (log_lengthscale_.size() == d) return;
+  if (kernel_ && kernel_->dim() == d) return;
   dim_ = d;
-  // Start at the median of the lengthscale prior (whether or not the prior is used in the objective).
-  log_lengthscale_ = Vec::Constant(d, settings_.priors.lengthscale.mean);
+  if (d < 1) {
+    kernel_.reset();  // no kernel before the dimension is known (a surrogate built with dim 0)
+    kernel_log_.resize(0);
+    kernel_known_.clear();
+    return;
+  }
+  kernel_ = settings_.kernel ? settings_.kernel(d) : kernels::make_stationary_ard(kernels::KernelType::Matern52, d);
+  if (!kernel_ || kernel_->dim() != d) throw std::invalid_argument("gp: the kernel does not have the data's dimension");
+  const GpSettings& s = settings_;
+  kernel_->set_role_defaults(KernelParameterRole::Lengthscale, s.priors.lengthscale, s.min_lengthscale,
+                             s.max_lengthscale);
+  kernel_->set_role_defaults(KernelParameterRole::Amplitude, s.priors.signal_std, s.min_signal_std, s.max_signal_std);
+  kernel_->set_role_defaults(KernelParameterRole::Noise, s.priors.noise_std, s.min_noise_std, s.max_noise_std);
+  // Start at the prior medians (whether or not the priors are used in the objective); values that scale with the
+  // costs stay unknown until given or fitted, since their median is relative to std(y).
+  const Index m = kernel_->num_params();
+  kernel_log_.resize(m);
+  kernel_known_.assign(static_cast<std::size_t>(m), 0);
+  for (Index j = 0; j < m; ++j) {
+    const KernelParameter& p = kernel_->parameters()[static_cast<std::size_t>(j)];
+    kernel_log_(j) = p.prior.mean;
+    kernel_known_[static_cast<std::size_t>(j)] = !p.scales_with_output;
+  }
+}
+
+double GpSurrogate::log_scale_of(Index j, double y_scale) const {
+  return kernel_->parameters()[static_cast<std::size_t>(j)].scales_with_output ? std::log(y_scale) : 0.0;
+}
+
+Vec GpSurrogate::natural_kernel_log() const {
+  Vec n = kernel_log_;
+  for (Index j = 0; j < n.size(); ++j)
+    if (!kernel_known_[static_cast<std::size_t>(j)]) n(j) = kernel_->parameters()[static_cast<std::size_t>(j)].prior.mean;
+  return n;
 }
 
 Box GpSurrogate::log_box(Index d) const {
+  if (!kernel_ || kernel_->dim() != d) throw std::invalid_argument("gp: log_box for another dimension");
+  const Box k = kernel_->log_box();
+  const Index m = k.dim();
   Box b;
-  b.lower.resize(d + 2);
-  b.upper.resize(d + 2);
-  b.lower.head(d).setConstant(std::log(settings_.min_lengthscale));
-  b.upper.head(d).setConstant(std::log(settings_.max_lengthscale));
-  b.lower(d) = std::log(settings_.min_signal_std);
-  b.upper(d) = std::log(settings_.max_signal_std);
-  b.lower(d + 1) = std::log(settings_.min_noise_std);
-  b.upper(d + 1) = std::log(settings_.max_noise_std);
+  b.lower.resize(m + 1);
+  b.upper.resize(m + 1);
+  b.lower.head(m) = k.lower;
+  b.upper.head(m) = k.upper;
+  b.lower(m) = std::log(settings_.min_noise_std);
+  b.upper(m) = std::log(settings_.max_noise_std);
   return b;
 }
 
@@ -67,33 +99,38 @@ double GpSurrogate::mean_standardized(const Standardization& s) const {
 }
 
 Vec GpSurrogate::log_params(double y_scale) const {
-  const Index d = log_lengthscale_.size();
-  Vec p(d + 2);
-  p.head(d) = log_lengthscale_;
-  const double log_scale = std::log(y_scale);
-  p(d) = signal_known_ ? log_signal_std_ - log_scale : settings_.priors.signal_std.mean;
-  p(d + 1) = noise_known_ ? log_noise_std_ - log_scale : settings_.priors.noise_std.mean;
+  const Index m = kernel_log_.size();
+  Vec p(m + 1);
+  for (Index j = 0; j < m; ++j) {
+    const KernelParameter& k = kernel_->parameters()[static_cast<std::size_t>(j)];
+    if (!kernel_known_[static_cast<std::size_t>(j)])
+      p(j) = k.prior.mean;
+    else
+      p(j) = k.scales_with_output ? kernel_log_(j) - std::log(y_scale) : kernel_log_(j);
+  }
+  p(m) = noise_known_ ? log_noise_std_ - std::log(y_scale) : settings_.priors.noise_std.mean;
   return p;
 }
 
 void GpSurrogate::store_natural(const Vec& p, const Standardization& s) {
-  const Index d = p.size() - 2;
-  log_lengthscale_ = p.head(d);
-  log_signal_std_ = p(d) + std::log(s.scale);
-  log_noise_std_ = p(d + 1) + std::log(s.scale);
-  signal_known_ = noise_known_ = true;
+  const Index m = kernel_log_.size();
+  for (Index j = 0; j < m; ++j) kernel_log_(j) = p(j) + log_scale_of(j, s.scale);
+  kernel_known_.assign(static_cast<std::size_t>(m), 1);
+  log_noise_std_ = p(m) + std::log(s.scale);
+  noise_known_ = true;
   if (!mean_fixed_) mean_ = s.shift + s.scale * mean_standardized(s);
 }
 
 std::optional<GpSurrogate::Posterior> GpSurrogate::build(const Dataset& data, const Standardization& s,
                                                           const Vec& p) const {
-  const Index d = data.dim(), n = data.size();
-  Posterior post{kernels::ArdKernel(settings_.kernel, d), std::exp(2.0 * p(d + 1)), mean_standardized(s),
-                 data.X, Vec(), Eigen::LLT<Mat>(), 0.0, 0.0, s};
-  post.kernel.set_log_params(p.head(d + 1));
+  const Index n = data.size(), m = kernel_ ? kernel_->num_params() : 0;
+  std::unique_ptr<Kernel> kernel = kernel_ ? kernel_->clone() : nullptr;  // none before the dimension is known
+  if (kernel) kernel->set_log_params(p.head(m));
+  Posterior post{std::move(kernel), std::exp(2.0 * p(m)), mean_standardized(s),
+                 data.X, Vec(), Eigen::LLT<Mat>(Mat(0, 0)), 0.0, 0.0, s};  // an initialized (empty) factor
   if (n == 0) return post;
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, post.mean);
-  Mat K = post.kernel.matrix(data.X);
+  Mat K = post.kernel->matrix(data.X);
   K.diagonal().array() += post.noise_var;
   RobustCholesky chol = robust_cholesky(K);
   if (!chol.ok) return std::nullopt;
@@ -112,7 +149,7 @@ FitReport GpSurrogate::report_for(const Posterior& post, const Vec& p) const {
   // In cost units: y = shift + scale·y_std, so log p(y) = log p(y_std) − N log scale.
   const Index n = post.X.rows();
   rep.log_likelihood = post.log_likelihood - static_cast<double>(n) * std::log(post.stdz.scale);
-  rep.log_prior = settings_.priors.log_density(p, nullptr);
+  rep.log_prior = settings_.priors.log_density(*kernel_, p, nullptr);
   rep.objective = rep.log_likelihood + rep.log_prior;
   if (post.jitter > 0) rep.message = "jitter " + std::to_string(post.jitter) + " added to the diagonal";
   return rep;
@@ -147,7 +184,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   const Standardization s = standardization(data.y);
   const Box box = log_box(d);
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, mean_standardized(s));
-  const LogPosterior objective(settings_.kernel, data.X, r, settings_.priors, box);
+  const LogPosterior objective(*kernel_, data.X, r, settings_.priors, box);
   const BoxRegion region(box);
 
   // Start 0: warm start from the current hyperparameters; the others drawn from the hyperpriors (or
@@ -155,24 +192,28 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   // Between full fits only the warm start runs (issue 13: most restarts of a refit on one more point end in
   // the optimum the warm start reaches); below kAlwaysFullFit points the hyperparameters still move a lot.
   constexpr Index kAlwaysFullFit = 20;
-  const bool warm_known = signal_known_ && noise_known_ && posterior_.has_value();
+  bool kernel_known = true;
+  for (const char k : kernel_known_) kernel_known = kernel_known && k;
+  const bool warm_known = kernel_known && noise_known_ && posterior_.has_value();
   const bool full = !warm_known || n <= kAlwaysFullFit || settings_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
                     n < last_full_fit_n_ ||
                     static_cast<double>(n) >= settings_.full_fit_growth * static_cast<double>(last_full_fit_n_);
   const Index restarts = full ? std::max(1, settings_.restarts) : 1;
   const std::uint64_t base = rng.next();
   std::vector<Rng> streams;
-  Mat starts(restarts, d + 2);
+  const Index m = kernel_->num_params(), np = m + 1;
+  Mat starts(restarts, np);
   for (Index k = 0; k < restarts; ++k) {
     streams.push_back(rng.stream(base, static_cast<std::uint64_t>(k)));
-    Vec p(d + 2);
+    Vec p(np);
     if (k == 0) {
       p = log_params(s.scale);
     } else {
       Rng& g = streams.back();
       const HyperPriors& pr = settings_.priors;
-      for (Index j = 0; j < d + 2; ++j) {
-        const LogNormalPrior& prior = j < d ? pr.lengthscale : (j == d ? pr.signal_std : pr.noise_std);
+      for (Index j = 0; j < np; ++j) {
+        const LogNormalPrior& prior =
+            j < m ? kernel_->parameters()[static_cast<std::size_t>(j)].prior : pr.noise_std;
         p(j) = pr.enabled ? prior.mean + prior.sd * g.normal() : g.uniform(box.lower(j), box.upper(j));
       }
     }
@@ -184,7 +225,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     OptimizeResult& res = results[static_cast<std::size_t>(k)];
     try {
       res = optimizer_->maximize(objective, region, starts.row(k), streams[static_cast<std::size_t>(k)]);
-      if (res.success && res.x.size() == d + 2 && res.x.allFinite()) {
+      if (res.success && res.x.size() == np && res.x.allFinite()) {
         // The optimizer may ignore the box (ceres_lbfgs): clamp and score the point actually used.
         res.x = clamp_to(box, res.x);
         res.value = objective.value(res.x, nullptr);
@@ -256,16 +297,16 @@ Prediction GpSurrogate::predict(const Vec& x, bool with_gradient) const {
   }
   const Posterior& post = *posterior_;
   const double scale = post.stdz.scale;
-  const Vec k = post.kernel.cross_vec(x, post.X);
+  const Vec k = post.kernel->cross_vec(x, post.X);
   const Vec v = post.llt.matrixL().solve(k);
   // R&W eqs. (2.25)–(2.26), standardized, then mapped back to cost units.
-  const double var_std = post.kernel.variance() - v.squaredNorm();
+  const double var_std = post.kernel->diagonal(x) - v.squaredNorm();
   pr.mean = post.stdz.shift + scale * (post.mean + k.dot(post.alpha));
   pr.latent_var = scale * scale * std::max(var_std, 0.0);
   pr.log_noise_mean = std::log(post.noise_var) + 2.0 * std::log(scale);
   pr.log_noise_var = 0.0;
   if (with_gradient) {
-    const Mat G = post.kernel.cross_gradient_x(x, post.X);  // D × N, column i = ∂k(x, X_i)/∂x
+    const Mat G = post.kernel->cross_gradient_x(x, post.X);  // D × N, column i = ∂k(x, X_i)/∂x
     pr.d_mean = scale * (G * post.alpha);
     // ∂/∂x (σ² − k'K⁻¹k) = −2 G K⁻¹k
     pr.d_latent_var = var_std > 0 ? Vec(-2.0 * scale * scale * (G * post.llt.matrixU().solve(v))) : Vec::Zero(d);
@@ -276,13 +317,21 @@ Prediction GpSurrogate::predict(const Vec& x, bool with_gradient) const {
 }
 
 double GpSurrogate::signal_variance() const {
-  return signal_known_ ? std::exp(2.0 * log_signal_std_) : std::exp(2.0 * settings_.priors.signal_std.mean);
+  if (!kernel_) return std::exp(2.0 * settings_.priors.signal_std.mean);
+  // k(c, c) at the centre c of the cube in natural units (σ_f² for a stationary kernel).
+  const std::unique_ptr<Kernel> k = kernel_->clone();
+  k->set_log_params(natural_kernel_log());
+  return k->diagonal(Vec::Constant(kernel_->dim(), 0.5));
 }
 
 Hyperparameters GpSurrogate::hyperparameters() const {
   Hyperparameters h;
-  for (Index i = 0; i < log_lengthscale_.size(); ++i) h.push_back({lengthscale_name(i), std::exp(log_lengthscale_(i))});
-  h.push_back({"signal_std", std::sqrt(signal_variance())});
+  const Vec n = kernel_ ? natural_kernel_log() : Vec();
+  for (Index j = 0; j < n.size(); ++j) {
+    const KernelParameter& p = kernel_->parameters()[static_cast<std::size_t>(j)];
+    // sqrt(exp(2 log σ)) for amplitudes: the same bits as σ_f = sqrt(signal_variance()) of the fixed-kernel gp.
+    h.push_back({p.name, p.role == KernelParameterRole::Amplitude ? std::sqrt(std::exp(2.0 * n(j))) : std::exp(n(j))});
+  }
   h.push_back({"noise_std", std::exp(noise_known_ ? log_noise_std_ : settings_.priors.noise_std.mean)});
   h.push_back({"mean", mean_});
   return h;
@@ -306,18 +355,18 @@ void GpSurrogate::set_hyperparameters(const Hyperparameters& values) {
                         std::to_string(h.value));
   }
   for (const auto& h : values) {
-    if (h.name == "signal_std") {
-      log_signal_std_ = std::log(h.value);
-      signal_known_ = true;
-    } else if (h.name == "noise_std") {
+    if (h.name == "noise_std") {
       log_noise_std_ = std::log(h.value);
       noise_known_ = true;
     } else if (h.name == "mean") {
       mean_ = h.value;
       mean_fixed_ = true;
     } else {
-      for (Index i = 0; i < log_lengthscale_.size(); ++i)
-        if (h.name == lengthscale_name(i)) log_lengthscale_(i) = std::log(h.value);
+      for (Index j = 0; j < kernel_log_.size(); ++j)
+        if (h.name == kernel_->parameters()[static_cast<std::size_t>(j)].name) {
+          kernel_log_(j) = std::log(h.value);
+          kernel_known_[static_cast<std::size_t>(j)] = 1;
+        }
     }
   }
   if (data_) {

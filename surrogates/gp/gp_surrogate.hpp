@@ -1,19 +1,25 @@
 #pragma once
-// Homoscedastic GP surrogate: constant mean, standardized costs, ARD kernel, Gaussian noise;
+// Homoscedastic GP surrogate: constant mean, standardized costs, any Kernel (default Matérn-5/2 ARD), Gaussian noise;
 // hyperparameters by maximum a posteriori (log marginal likelihood + log-normal hyperpriors,
 // Kuindersma 2013 eq. (13)) with parallel random restarts of a pluggable Optimizer.
+#include <functional>
 #include <memory>
 #include <optional>
 
 #include "gp_likelihood.hpp"
-#include "kernel.hpp"
+#include "varbo/kernel.hpp"
 #include "varbo/optimizer.hpp"
 #include "varbo/surrogate.hpp"
 
 namespace varbo::gp {
 
+/// Builds the kernel for a dimension (the `kernel:` component; the surrogate learns its dimension from the data).
+using KernelMaker = std::function<std::unique_ptr<Kernel>(Index dim)>;
+
 struct GpSettings {
-  kernels::KernelType kernel = kernels::KernelType::Matern52;
+  KernelMaker kernel;          ///< null: matern52_ard
+  // The priors and boxes of lengthscales, signal_std (every Amplitude) and noise_std below reach the kernel as
+  // its role defaults (Kernel::set_role_defaults); noise_std's also applies to white-noise kernel terms.
   int restarts = 4;            ///< optimizer runs per fit, the first warm-started from the previous fit
   /// All restarts when N has grown by this factor since the last such fit (and always up to N = 20); in
   /// between only the warm start runs. ≤ 1: every fit runs all restarts. With the trust-region default of `bo`,
@@ -48,8 +54,9 @@ class GpSurrogate final : public Surrogate {
   bool ready() const override { return posterior_.has_value(); }
 
   const GpSettings& settings() const { return settings_; }
-  /// Fit box in standardized log space: [log ℓ_1..D, log σ_f, log σ_n].
+  /// Fit box in standardized log space: [kernel θ (log ℓ_1..D, log σ_f for ARD kernels), log σ_n].
   Box log_box(Index dim) const;
+  const Kernel& kernel() const { return *kernel_; }
   /// Current log-parameters in standardized units for data with standard deviation `y_scale`.
   Vec log_params(double y_scale) const;
 
@@ -61,7 +68,7 @@ class GpSurrogate final : public Surrogate {
   };
   /// The conditioned model, all in standardized units.
   struct Posterior {
-    kernels::ArdKernel kernel;
+    std::shared_ptr<const Kernel> kernel;  ///< with the standardized values of the fit
     double noise_var = 0;
     double mean = 0;             ///< constant prior mean (standardized)
     Mat X;
@@ -83,10 +90,17 @@ class GpSurrogate final : public Surrogate {
   Index dim_;
   GpSettings settings_;
   std::shared_ptr<const Optimizer> optimizer_;
+  /// Log kernel values in natural units: known ones as stored, unknown ones (amplitudes before the first fit)
+  /// at their prior median.
+  Vec natural_kernel_log() const;
+  double log_scale_of(Index j, double y_scale) const;
+
+  std::unique_ptr<Kernel> kernel_;  ///< the form, with the role defaults of settings_ (values unused)
   // Hyperparameters in natural units (unit cube, cost units): the state that survives between fits.
-  Vec log_lengthscale_;
-  double log_signal_std_ = 0, log_noise_std_ = 0, mean_ = 0;
-  bool signal_known_ = false, noise_known_ = false, mean_fixed_ = false;
+  Vec kernel_log_;                 ///< log kernel values, natural units
+  std::vector<char> kernel_known_; ///< per kernel value: given or fitted (parameters without scale: from the start)
+  double log_noise_std_ = 0, mean_ = 0;
+  bool noise_known_ = false, mean_fixed_ = false;
   std::optional<Posterior> posterior_;
   std::optional<Dataset> data_;
   Index last_full_fit_n_ = 0;  ///< N at the last fit with all restarts (0: none yet)

@@ -7,6 +7,7 @@
 #include "gp_component.hpp"
 #include "gp_likelihood.hpp"
 #include "gp_surrogate.hpp"
+#include "kernel_library.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/parallel.hpp"
 #include "varbo_test.hpp"
@@ -38,7 +39,7 @@ std::shared_ptr<const Optimizer> lbfgs() { return std::make_shared<ceres_lbfgs::
 
 GpSettings settings_for(KernelType type, int restarts = 4) {
   GpSettings s;
-  s.kernel = type;
+  s.kernel = [type](Index d) { return kernels::make_stationary_ard(type, d); };
   s.restarts = restarts;
   return s;
 }
@@ -85,7 +86,7 @@ TEST_CASE("log marginal likelihood equals log N(y | 0, K + σ²I) computed direc
                         0.5 * static_cast<double>(n) * std::log(2 * M_PI);
   Vec p(4);
   p << std::log(l0), std::log(l1), std::log(sf), std::log(sn);
-  const LogMarginal lml = log_marginal_likelihood(KernelType::SquaredExponential, p, X, r, false);
+  const LogMarginal lml = log_marginal_likelihood(*kernels::make_stationary_ard(KernelType::SquaredExponential, d), p, X, r, false);
   REQUIRE(lml.ok);
   CHECK(lml.jitter == 0.0);
   CHECK(lml.value == doctest::Approx(direct).epsilon(1e-10));
@@ -113,7 +114,7 @@ TEST_CASE("log marginal likelihood gradient w.r.t. every log-hyperparameter matc
     const Mat X = random_points(n, d, rng);
     const Vec r = rng.normal_vec(n);
     FunctionRef f(d + 2, [&](const Vec& p, Vec* g) {
-      const LogMarginal l = log_marginal_likelihood(type, p, X, r, g != nullptr);
+      const LogMarginal l = log_marginal_likelihood(*kernels::make_stationary_ard(type, d), p, X, r, g != nullptr);
       if (g) *g = l.gradient;
       return l.value;
     });
@@ -139,12 +140,16 @@ TEST_CASE("hyperprior: value is Σ log N(log ψ | μ, s²) and its gradient matc
   };
   const double expected = lnn(-1.0, std::log(0.5), 1.0) + lnn(0.2, std::log(0.5), 1.0) + lnn(0.3, 0.0, 0.8) +
                           lnn(-3.0, std::log(0.01), 1.5);
-  CHECK(pr.log_density(p, nullptr) == doctest::Approx(expected).epsilon(1e-14));
-  FunctionRef f(4, [&](const Vec& x, Vec* g) { return pr.log_density(x, g); });
+  // The kernel carries the lengthscale and signal priors (as gp sets them through the role defaults).
+  const auto k = kernels::make_stationary_ard(KernelType::SquaredExponential, 2);
+  k->set_role_defaults(KernelParameterRole::Lengthscale, pr.lengthscale, 0.01, 50.0);
+  k->set_role_defaults(KernelParameterRole::Amplitude, pr.signal_std, 0.05, 20.0);
+  CHECK(pr.log_density(*k, p, nullptr) == doctest::Approx(expected).epsilon(1e-14));
+  FunctionRef f(4, [&](const Vec& x, Vec* g) { return pr.log_density(*k, x, g); });
   CHECK(check_gradient(f, p).max_rel_error < 1e-6);
   pr.enabled = false;
   Vec g;
-  CHECK(pr.log_density(p, &g) == 0.0);
+  CHECK(pr.log_density(*k, p, &g) == 0.0);
   CHECK(g.cwiseAbs().maxCoeff() == 0.0);
 }
 
@@ -155,7 +160,7 @@ TEST_CASE("fit objective (likelihood + prior − box penalty) gradient matches f
   const Vec r = rng.normal_vec(n);
   GpSurrogate gp(d, settings_for(KernelType::Matern52), lbfgs());
   const Box box = gp.log_box(d);
-  const LogPosterior f(KernelType::Matern52, X, r, gp.settings().priors, box);
+  const LogPosterior f(gp.kernel(), X, r, gp.settings().priors, box);
   Vec inside(4), outside(4);
   inside << std::log(0.2), std::log(0.6), 0.1, std::log(0.05);
   outside << std::log(0.005), std::log(80.0), 0.1, std::log(3.0);  // three coordinates beyond the box

@@ -12,12 +12,28 @@ namespace {
 //   ρ'(r²)       dρ/d(r²), so that ∂k/∂log ℓ_d = σ² ρ' · (−2 s_d) with s_d = (x_d − x'_d)²/ℓ_d²
 //                and ∂k/∂x_d = σ² ρ' · 2 (x_d − x'_d)/ℓ_d².
 // Writing Matérn-5/2 through dρ/d(r²) removes the 1/r of dρ/dr, so coincident points need no special case.
+// Matérn-1/2 is the exception: dρ/d(r²) = −e^{−r}/(2r) is unbounded at r = 0, where it only ever multiplies a
+// zero difference; it is set to 0 there (a subgradient for ∂k/∂x, the exact value for ∂k/∂log ℓ).
 constexpr double kSqrt5 = 2.23606797749978969641;
+constexpr double kSqrt3 = 1.73205080756887729353;
 
 inline double correlation(KernelType type, double r2) {
   if (type == KernelType::SquaredExponential) return std::exp(-0.5 * r2);  // Rasmussen & Williams eq. (4.9)
   const double r = std::sqrt(r2);
+  if (type == KernelType::Matern12) return std::exp(-r);                    // R&W eq. (4.14) with ν = 1/2
+  if (type == KernelType::Matern32) return (1.0 + kSqrt3 * r) * std::exp(-kSqrt3 * r);  // R&W eq. (4.17), ν = 3/2
   return (1.0 + kSqrt5 * r + (5.0 / 3.0) * r2) * std::exp(-kSqrt5 * r);   // R&W eq. (4.17), ν = 5/2
+}
+
+/// dρ/d(r²) at r = 0 (0 for Matérn-1/2, see above).
+inline double slope_at_zero(KernelType type) {
+  switch (type) {
+    case KernelType::SquaredExponential: return -0.5;
+    case KernelType::Matern52: return -5.0 / 6.0;
+    case KernelType::Matern32: return -1.5;
+    case KernelType::Matern12: return 0.0;
+  }
+  return 0.0;
 }
 
 /// ρ and dρ/d(r²) together (one exp).
@@ -28,6 +44,17 @@ inline void correlation_and_slope(KernelType type, double r2, double& rho, doubl
     return;
   }
   const double r = std::sqrt(r2);
+  if (type == KernelType::Matern12) {
+    rho = std::exp(-r);
+    slope = r > 0.0 ? -0.5 * rho / r : 0.0;
+    return;
+  }
+  if (type == KernelType::Matern32) {
+    const double e = std::exp(-kSqrt3 * r);
+    rho = (1.0 + kSqrt3 * r) * e;
+    slope = -1.5 * e;  // dρ/dr = −3 r e^{−√3 r}
+    return;
+  }
   const double e = std::exp(-kSqrt5 * r);
   rho = (1.0 + kSqrt5 * r + (5.0 / 3.0) * r2) * e;
   // dρ/dr = −(5/3) r (1 + √5 r) e^{−√5 r};  dρ/d(r²) = dρ/dr / (2r)
@@ -60,11 +87,20 @@ Mat squared_distances_sym(const Mat& A) {
 KernelType parse_kernel_type(const std::string& name) {
   if (name == "se_ard") return KernelType::SquaredExponential;
   if (name == "matern52_ard") return KernelType::Matern52;
-  throw std::invalid_argument("unknown kernel '" + name + "' (expected se_ard or matern52_ard)");
+  if (name == "matern32_ard") return KernelType::Matern32;
+  if (name == "matern12_ard") return KernelType::Matern12;
+  throw std::invalid_argument("unknown kernel '" + name +
+                              "' (expected se_ard, matern12_ard, matern32_ard or matern52_ard)");
 }
 
 std::string kernel_type_name(KernelType type) {
-  return type == KernelType::SquaredExponential ? "se_ard" : "matern52_ard";
+  switch (type) {
+    case KernelType::SquaredExponential: return "se_ard";
+    case KernelType::Matern52: return "matern52_ard";
+    case KernelType::Matern32: return "matern32_ard";
+    case KernelType::Matern12: return "matern12_ard";
+  }
+  return "?";
 }
 
 ArdKernel::ArdKernel(KernelType type, Index dim) : type_(type), dim_(dim), log_params_(Vec::Zero(dim + 1)) {
@@ -120,11 +156,12 @@ Vec ArdKernel::contract_gradient(const Mat& X, const Mat& W) const {
   const Vec inv_ell = (-log_params_.head(dim_)).array().exp();
   const double s2 = variance();
   const Mat A = scaled(X, inv_ell);  // a_id = x_id / ℓ_d
+  if (type_ == KernelType::Matern12) return contract_gradient_direct(A, W);
   // M_ik = W_ik σ² ρ'(r²_ik) (symmetric);  trace term Σ W∘K for log σ.
   Mat M(n, n);
   double wk = 0.0;
   for (Index j = 0; j < n; ++j) {
-    M(j, j) = W(j, j) * s2 * (type_ == KernelType::SquaredExponential ? -0.5 : -5.0 / 6.0);
+    M(j, j) = W(j, j) * s2 * slope_at_zero(type_);
     wk += W(j, j) * s2;
     for (Index i = j + 1; i < n; ++i) {
       double rho, slope;
@@ -146,6 +183,25 @@ Vec ArdKernel::contract_gradient(const Mat& X, const Mat& W) const {
   }
   // ∂K/∂log σ = 2K, so g_σ = ½ Σ W∘2K = Σ W∘K.
   g(dim_) = wk;
+  return g;
+}
+
+Vec ArdKernel::contract_gradient_direct(const Mat& A, const Mat& W) const {
+  // Pair by pair: the fast form below cancels Σ a² M against a'Ma, which loses every digit when M_ik ~ 1/r_ik
+  // is huge for nearly coincident points (Matérn-1/2).
+  const Index n = A.rows();
+  const double s2 = variance();
+  Vec g = Vec::Zero(num_params());
+  for (Index j = 0; j < n; ++j) {
+    g(dim_) += W(j, j) * s2;
+    for (Index i = j + 1; i < n; ++i) {
+      double rho, slope;
+      correlation_and_slope(type_, (A.row(i) - A.row(j)).squaredNorm(), rho, slope);
+      const double w = W(i, j) + W(j, i);  // ½ (W_ij + W_ji) counted for both (i, j) and (j, i)
+      g.head(dim_) -= (w * s2 * slope) * (A.row(i) - A.row(j)).transpose().array().square().matrix();
+      g(dim_) += w * s2 * rho;
+    }
+  }
   return g;
 }
 

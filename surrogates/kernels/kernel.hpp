@@ -1,5 +1,6 @@
 #pragma once
-// Stationary ARD covariance functions shared by the GP and VHGP surrogates (and tasks that sample GPs).
+// Stationary ARD covariance functions: the computational engine of the se_ard and matern*_ard kernel components
+// (kernel_components.hpp), also used directly by the VHGP bound and bo's feasibility model.
 // k(x, x') = σ² ρ(r),  r² = Σ_d (x_d − x'_d)² / ℓ_d²,  hyperparameters kept in log space:
 //   log_params = [log ℓ_1, ..., log ℓ_D, log σ]
 #include <functional>
@@ -8,8 +9,8 @@
 
 namespace varbo::kernels {
 
-enum class KernelType { SquaredExponential, Matern52 };
-/// "se_ard" | "matern52_ard" (throws std::invalid_argument otherwise).
+enum class KernelType { SquaredExponential, Matern52, Matern12, Matern32 };
+/// "se_ard" | "matern12_ard" | "matern32_ard" | "matern52_ard" (throws std::invalid_argument otherwise).
 KernelType parse_kernel_type(const std::string& name);
 std::string kernel_type_name(KernelType type);
 
@@ -37,6 +38,7 @@ class ArdKernel {
   Mat cross_gradient_x(const Vec& x, const Mat& X) const;
 
  private:
+  Vec contract_gradient_direct(const Mat& A, const Mat& W) const;
   KernelType type_;
   Index dim_;
   Vec log_params_;

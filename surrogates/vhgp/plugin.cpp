@@ -3,6 +3,7 @@
 #include <string>
 
 #include "given_parameters.hpp"
+#include "hyperparameter_map.hpp"
 #include "kernel.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
@@ -14,38 +15,6 @@ namespace {
 using varbo::ConfigNode;
 using varbo::Options;
 
-double number(const ConfigNode& n) {
-  if (!n.is_scalar()) n.fail("expected a number");
-  try {
-    std::size_t used = 0;
-    const double v = std::stod(n.scalar(), &used);
-    if (used != n.scalar().size() || !std::isfinite(v)) throw std::invalid_argument("x");
-    return v;
-  } catch (const std::exception&) {
-    n.fail("expected a finite number, got '" + n.scalar() + "'");
-  }
-}
-
-/// `hyperparameters: {lengthscale_f: [0.2, 0.3] | 0.2, signal_std_f: 1.5, lengthscale_g: ..., mu0: -4}`; a
-/// lengthscale list has exactly one value per dimension (as the gp's `lengthscale`).
-varbo::Hyperparameters parse_hyperparameters(const ConfigNode& node, varbo::Index dim) {
-  if (!node.is_map()) node.fail("expected a map of hyperparameter names to values");
-  varbo::Hyperparameters h;
-  for (const auto& key : node.keys()) {
-    const ConfigNode v = node.child(key);
-    if (v.is_sequence()) {
-      if (key != "lengthscale_f" && key != "lengthscale_g") v.fail("expected a number");
-      if (static_cast<varbo::Index>(v.size()) != dim)
-        v.fail("expected " + std::to_string(dim) + " lengthscales (one per dimension), got " +
-               std::to_string(v.size()));
-      for (std::size_t i = 0; i < v.size(); ++i) h.push_back({key + "[" + std::to_string(i) + "]", number(v.item(i))});
-    } else {
-      h.push_back({key, number(v)});
-    }
-  }
-  return h;
-}
-
 varbo::LogNormalPrior prior_from(const Options& o, const std::string& name, bool median_is_positive) {
   const std::vector<double> v = o.reals(name);
   if (v.size() != 2 || !(v[1] > 0) || (median_is_positive && !(v[0] > 0)))
@@ -54,11 +23,23 @@ varbo::LogNormalPrior prior_from(const Options& o, const std::string& name, bool
   return varbo::LogNormalPrior{median_is_positive ? std::log(v[0]) : v[0], v[1]};
 }
 
+/// The VHGP bound is written for one stationary ARD kernel per process (vhgp_bound.cpp): any kernel component
+/// resolves here, but only those four are accepted (composites: see README.md, "Kernels").
+varbo::kernels::KernelType ard_kernel(const Options& o, const std::string& key) {
+  const varbo::ResolvedComponent& k = o.component(key);
+  try {
+    return varbo::kernels::parse_kernel_type(k.info->name);
+  } catch (const std::invalid_argument&) {
+    o.node(key).fail("vhgp: kernel '" + k.info->name +
+                     "' is not supported here; expected se_ard, matern12_ard, matern32_ard or matern52_ard");
+  }
+}
+
 std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::BuildContext& ctx) {
   using namespace varbo::vhgp;
   VhgpConfig c;
-  c.kernels.f = varbo::kernels::parse_kernel_type(o.str("kernel_f"));
-  c.kernels.g = varbo::kernels::parse_kernel_type(o.str("kernel_g"));
+  c.kernels.f = ard_kernel(o, "kernel_f");
+  c.kernels.g = ard_kernel(o, "kernel_g");
   c.kernels.jitter = o.real("jitter");
   const std::string noise_model = o.str("noise_model");
   c.noise_model = noise_model == "heteroscedastic" ? NoiseModel::Heteroscedastic
@@ -86,11 +67,12 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   // needs them all).
   std::vector<std::string> names;
   for (const auto& h : model->hyperparameters()) names.push_back(h.name);
+  const std::vector<std::string> known = names;
   auto given = std::make_unique<GivenParameters>(std::move(model), std::move(names), o.node("hyperparameters"),
                                                  o.node("log_lambda"), std::nullopt);
   if (o.is_set("hyperparameters")) {
     const ConfigNode node = o.node("hyperparameters");
-    const varbo::Hyperparameters values = parse_hyperparameters(node, ctx.dim);
+    const varbo::Hyperparameters values = varbo::kernels::parse_hyperparameter_map(node, known, {"mu0"});
     try {
       given->set_hyperparameters(values);
     } catch (const varbo::ConfigError& e) {
@@ -115,9 +97,11 @@ VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-
       "Variational heteroscedastic GP: cost GP f and log-noise GP g, marginal variational bound maximized jointly "
       "over log Lambda and hyperparameters with restarts (Kuindersma 2013, eq. 6-7, 13)",
       {
-          opt::choice("kernel_f", "matern52_ard", {"se_ard", "matern52_ard"},
-                      "covariance of the cost GP f (Matern-5/2 as the gp's; se_ard is the paper's)"),
-          opt::choice("kernel_g", "se_ard", {"se_ard", "matern52_ard"}, "covariance of the log-noise GP g"),
+          opt::component("kernel_f", Kind::Kernel, "matern52_ard",
+                         "covariance of the cost GP f: se_ard, matern12_ard, matern32_ard or matern52_ard (Matern-5/2 "
+                         "as the gp's; se_ard is the paper's)"),
+          opt::component("kernel_g", Kind::Kernel, "se_ard",
+                         "covariance of the log-noise GP g: se_ard, matern12_ard, matern32_ard or matern52_ard"),
           opt::real("jitter", 1e-11, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
                                      "(GPML covSEisoj uses 1e-6, which floors the noise sd at 1e-3 sigma_f); 0 for none")
               .at_least(0)

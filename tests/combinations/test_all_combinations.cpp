@@ -1,6 +1,6 @@
 // Runs a short seeded study on Branin for EVERY compatible combination of the loaded components:
 // surrogate × acquisition × region × acquisition optimizer × initial-design sampler, and separately
-// surrogate × fit optimizer. The lists come from the registry at run time, so a new plugin adds its
+// surrogate × fit optimizer and surrogate × kernel. The lists come from the registry at run time, so a new plugin adds its
 // combinations with no edit here; only combinations whose capability tags don't match are skipped.
 #include <cmath>
 #include <fmt/format.h>
@@ -180,4 +180,47 @@ TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitte
     }
   }
   CHECK(ran > 0);
+}
+
+TEST_CASE("every kernel option of every surrogate runs with every kernel, the same with 1 and 2 threads") {
+  // Found by option kind (gp's `kernel`, vhgp's `kernel_f` and `kernel_g`), so a new surrogate or kernel adds its
+  // combinations with no edit here. A surrogate may refuse a kernel it cannot use (vhgp takes the stationary ARD
+  // kernels only): then building it must fail with a ConfigError that names the kernel, never run wrongly.
+  set_log_level(LogLevel::Error);
+  Registry& r = test::registry();
+  const std::string out = test::temp_folder("kernel_combinations");
+  const auto kernels = r.components(Kind::Kernel);
+  REQUIRE(!kernels.empty());
+  int ran = 0, refused = 0;
+  for (const auto* s : r.components(Kind::Surrogate))
+    for (const auto& option : s->options) {
+      if (option.type != OptionType::Component || option.component_kind != Kind::Kernel) continue;
+      for (const auto* k : kernels) {
+        // A composite gets two plain terms; any other kernel its defaults.
+        const std::string kernel = has_option(*k, "terms")
+                                       ? fmt::format("{{type: {}, terms: [se_ard, constant]}}", k->full_name())
+                                       : fmt::format("{{type: {}}}", k->full_name());
+        INFO(s->name << " with " << option.name << ": " << kernel);
+        const std::string surrogate = surrogate_yaml(*s);
+        const std::string with_kernel =
+            fmt::format("{}, {}: {}}}", surrogate.substr(0, surrogate.size() - 1), option.name, kernel);
+        BuildContext ctx;
+        ctx.dim = 2;
+        try {
+          r.create<Surrogate>(with_kernel, ctx);
+        } catch (const ConfigError& e) {
+          CHECK(std::string(e.what()).find(k->name) != std::string::npos);
+          ++refused;
+          continue;
+        }
+        const std::string algo = fmt::format("{{type: bo, initial_points: 5, surrogate: {}}}", with_kernel);
+        CHECK(same_with_1_and_2_threads(algo, out, 8));  // also: 8 trials recorded
+        const auto rows = test::read_rows(out + "/t1/trials.csv");
+        const int cost = test::column_of(rows[0], "cost");
+        for (std::size_t i = 1; i < rows.size(); ++i) CHECK(std::isfinite(std::stod(rows[i][static_cast<std::size_t>(cost)])));
+        ++ran;
+      }
+    }
+  MESSAGE(fmt::format("ran {} surrogate x kernel combinations, {} refused by the surrogate", ran, refused));
+  CHECK(ran >= static_cast<int>(kernels.size()));
 }

@@ -24,16 +24,17 @@ std::string kind_name(Kind kind) {
     case Kind::Optimizer: return "optimizer";
     case Kind::Task: return "task";
     case Kind::Algorithm: return "algorithm";
+    case Kind::Kernel: return "kernel";
   }
   return "?";
 }
 
 Kind kind_from_name(const std::string& name) {
   for (Kind k : {Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Sampler, Kind::Optimizer, Kind::Task,
-                 Kind::Algorithm})
+                 Kind::Algorithm, Kind::Kernel})
     if (kind_name(k) == name) return k;
   throw ConfigError("unknown component kind '" + name +
-                    "'; known: surrogate, acquisition, region, sampler, optimizer, task, algorithm");
+                    "'; known: surrogate, acquisition, region, sampler, optimizer, task, algorithm, kernel");
 }
 
 std::string type_name(OptionType type) {

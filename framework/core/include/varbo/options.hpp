@@ -10,7 +10,7 @@
 
 namespace varbo {
 
-enum class Kind { Surrogate, Acquisition, Region, Sampler, Optimizer, Task, Algorithm };
+enum class Kind { Surrogate, Acquisition, Region, Sampler, Optimizer, Task, Algorithm, Kernel };
 std::string kind_name(Kind kind);
 Kind kind_from_name(const std::string& name);  // throws ConfigError
 

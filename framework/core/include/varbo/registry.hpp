@@ -10,6 +10,7 @@
 #include "varbo/acquisition.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/kernel.hpp"
 #include "varbo/optimizer.hpp"
 #include "varbo/options.hpp"
 #include "varbo/region.hpp"
@@ -33,7 +34,8 @@ struct BuildContext {
 template <class T>
 using Factory = std::function<std::unique_ptr<T>(const Options&, const BuildContext&)>;
 using AnyFactory = std::variant<Factory<Surrogate>, Factory<Acquisition>, Factory<RegionConstraint>,
-                                Factory<Sampler>, Factory<Optimizer>, Factory<Task>, Factory<Algorithm>>;
+                                Factory<Sampler>, Factory<Optimizer>, Factory<Task>, Factory<Algorithm>,
+                                Factory<Kernel>>;
 
 template <class T> constexpr Kind kind_of();
 template <> constexpr Kind kind_of<Surrogate>() { return Kind::Surrogate; }
@@ -43,6 +45,7 @@ template <> constexpr Kind kind_of<Sampler>() { return Kind::Sampler; }
 template <> constexpr Kind kind_of<Optimizer>() { return Kind::Optimizer; }
 template <> constexpr Kind kind_of<Task>() { return Kind::Task; }
 template <> constexpr Kind kind_of<Algorithm>() { return Kind::Algorithm; }
+template <> constexpr Kind kind_of<Kernel>() { return Kind::Kernel; }
 
 /// Base of the optional interfaces a component offers beyond its kind's, e.g. RunContinuation
 /// (varbo/continuation.hpp). The host asks for one with ComponentInfo::extension<T>(), so the framework
