@@ -87,7 +87,7 @@ std::optional<GpSurrogate::Posterior> GpSurrogate::build(const Dataset& data, co
                                                           const Vec& p) const {
   const Index d = data.dim(), n = data.size();
   Posterior post{kernels::ArdKernel(settings_.kernel, d), std::exp(2.0 * p(d + 1)), mean_standardized(s),
-                 data.X, Vec(), Eigen::LLT<Mat>(), 0.0, 0.0, s};
+                 data.X, Vec(), Eigen::LLT<Mat>(), 0.0, 0.0, s, p};
   post.kernel.set_log_params(p.head(d + 1));
   if (n == 0) return post;
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, post.mean);

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "varbo/region.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo {
 
@@ -18,7 +19,7 @@ struct TrustRegionOptions {
   double improvement = 1e-3;                ///< success: new best < old best − improvement·|old best|
 };
 
-class TrustRegion final : public RegionConstraint {
+class TrustRegion final : public RegionConstraint, public ComponentState {
  public:
   TrustRegion(Index dim, TrustRegionOptions options);
   /// Compares the best cost in `data` with the best at the previous update (only when new points arrived),
@@ -29,6 +30,9 @@ class TrustRegion final : public RegionConstraint {
   const Box& bounds() const override { return box_; }
   Mat seeds() const override;
   std::string state() const override;
+  /// Exact snapshot (trust_region_state.cpp): centre, L, best, counters.
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
 
   double length() const { return length_; }
   int successes() const { return successes_; }
