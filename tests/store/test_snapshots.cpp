@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "process.hpp"
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/store.hpp"
@@ -96,6 +97,7 @@ TEST_CASE("snapshots: one process per ask and per tell gives the uninterrupted r
     CHECK(v.divergence == "");
     CHECK(v.replayed == c.budget);
     CHECK(v.states_compared >= 1);
+    CHECK(test::run({VARBO_EXE, "study", "verify", db}).exit_code == 0);
   }
 }
 
@@ -163,4 +165,5 @@ TEST_CASE("snapshots: a corrupt saved state falls back to replay with a warning,
   CHECK(s.replayed() == 6);  // the corrupt state was not used: a full replay
   const VerifyReport v = s.verify();
   CHECK(v.divergence.find("differs from the replayed one") != std::string::npos);  // the planted state
+  CHECK(test::run({VARBO_EXE, "study", "verify", db}).exit_code == 1);
 }

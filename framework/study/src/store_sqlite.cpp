@@ -73,6 +73,14 @@ CREATE TABLE IF NOT EXISTS algorithm_states (
   state TEXT NOT NULL,
   created_at REAL NOT NULL
 );
+CREATE TABLE IF NOT EXISTS workers (
+  id TEXT PRIMARY KEY,
+  host TEXT NOT NULL,
+  pid INTEGER NOT NULL,
+  started_at REAL NOT NULL,
+  heartbeat_at REAL NOT NULL,
+  state TEXT NOT NULL
+);
 )SQL";
 
 std::string vec_text(const Vec& v) {
@@ -324,6 +332,32 @@ class SqliteStore final : public StudyStore {
       a.state = s.text(2);
       a.created_at = s.real(3);
       out.push_back(std::move(a));
+    }
+    return out;
+  }
+
+  void put_worker(const WorkerRecord& w) override {
+    Statement s(db_,
+                "INSERT INTO workers (id, host, pid, started_at, heartbeat_at, state) VALUES (?, ?, ?, ?, ?, ?) "
+                "ON CONFLICT(id) DO UPDATE SET heartbeat_at = excluded.heartbeat_at, state = excluded.state",
+                path_);
+    s.bind(1, w.id).bind(2, w.host).bind(3, static_cast<std::int64_t>(w.pid)).bind(4, w.started_at);
+    s.bind(5, w.heartbeat_at).bind(6, w.state);
+    s.step();
+  }
+
+  std::vector<WorkerRecord> workers() const override {
+    std::vector<WorkerRecord> out;
+    Statement s(db_, "SELECT id, host, pid, started_at, heartbeat_at, state FROM workers ORDER BY started_at", path_);
+    while (s.step()) {
+      WorkerRecord w;
+      w.id = s.text(0);
+      w.host = s.text(1);
+      w.pid = static_cast<long>(s.integer(2));
+      w.started_at = s.real(3);
+      w.heartbeat_at = s.real(4);
+      w.state = s.text(5);
+      out.push_back(std::move(w));
     }
     return out;
   }

@@ -261,6 +261,56 @@ struct Study::Impl {
     for (; i < fresh.size(); ++i) replay_one(fresh[i]);
   }
 
+  /// Pending trials of workers silent for longer than heartbeat_timeout are abandoned (their results will
+  /// not come: the worker died, on this machine or another). Trials of processes that never sent a heartbeat
+  /// (`varbo suggest`) are left alone.
+  void abandon_silent_workers() {
+    if (!(config.heartbeat_timeout > 0)) return;
+    const double now = unix_time();
+    std::vector<WorkerRecord> silent;
+    for (const auto& w : store->workers())
+      if (w.state == "running" && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
+    if (silent.empty()) return;
+    for (TrialRecord t : store->pending_trials()) {
+      for (const auto& w : silent) {
+        if (t.worker != w.id) continue;
+        t.state = TrialState::Abandoned;
+        t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id,
+                              now - w.heartbeat_at, config.heartbeat_timeout);
+        t.finished_at = now;
+        store->update_trial(t);
+        log_warn("{}: trial {} {}", store->location(), t.id, t.error);
+        dirty = true;
+      }
+    }
+  }
+
+  /// With retry_abandoned: new pending trials at the θ of abandoned trials not retried yet (phase "retry"),
+  /// at most `q`. The meta key retried/<id> links an abandoned trial to its retry.
+  std::vector<TrialRecord> retries(Index q) {
+    std::vector<TrialRecord> out;
+    if (!config.retry_abandoned) return out;
+    for (const auto& a : store->trials()) {
+      if (static_cast<Index>(out.size()) >= q) break;
+      if (a.state != TrialState::Abandoned || a.phase == "manual") continue;
+      const std::string key = fmt::format("retried/{}", a.id);
+      if (store->meta(key)) continue;
+      TrialRecord r;
+      r.state = TrialState::Pending;
+      r.phase = "retry";
+      r.x = a.x;
+      r.theta = a.theta;
+      r.worker = worker;
+      r.created_at = unix_time();
+      r.finished_before = store->next_finish_seq();
+      r.batch_size = 0;  // not suggested by the algorithm: a replay need not reproduce it
+      r.id = store->add_trial(r);
+      store->set_meta(key, std::to_string(r.id));
+      out.push_back(r);
+    }
+    return out;
+  }
+
   TrialRecord pending_trial(const std::int64_t id, const char* verb) const {
     auto t = store->trial(id);
     if (!t)
@@ -375,12 +425,18 @@ std::vector<TrialRecord> Study::ask(Index q) {
   std::vector<TrialRecord> out;
   m.store->transaction([&] {
     out.clear();
+    m.abandon_silent_workers();
     // The budget first: a spent budget costs no model work.
     std::vector<Vec> pending;
     for (const auto& t : m.store->pending_trials()) pending.push_back(t.x);
     const Index remaining =
         m.config.budget - static_cast<Index>(m.store->next_finish_seq()) - static_cast<Index>(pending.size());
     if (remaining <= 0) return;
+    out = m.retries(std::min(q, remaining));
+    if (!out.empty()) {
+      m.dirty = true;  // the retried points are pending now: the next ask rebuilds
+      return;
+    }
     try {
       m.sync();
       m.save_state();  // the state after every finished result, for the next process that opens the study
@@ -420,7 +476,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
     if (out.size() == 1 && pending.empty()) m.save_state(out[0].id);
   });
   // Committed: the live algorithm stays usable only after a plain ask(1) with nothing pending.
-  const bool serial = out.size() == 1 && out[0].pending_before == 0;
+  const bool serial = out.size() == 1 && out[0].pending_before == 0 && out[0].batch_size == 1;
   if (serial) {
     m.outstanding = out[0].id;
     m.dirty = false;
@@ -612,6 +668,19 @@ std::vector<StoredSnapshot> Study::model_snapshots() const { return impl_->store
 const Algorithm* Study::algorithm() const { return impl_->alg.get(); }
 Task& Study::task() { return *impl_->task; }
 void Study::set_worker(const std::string& name) { impl_->worker = name; }
+const Registry& Study::registry() const { return *impl_->registry; }
+
+void Study::heartbeat(const std::string& state) {
+  Impl& m = *impl_;
+  WorkerRecord w;
+  w.id = m.worker;
+  const auto [host, pid] = worker_host_pid(m.worker);
+  w.host = host;
+  w.pid = pid;
+  w.started_at = w.heartbeat_at = unix_time();
+  w.state = state;
+  m.store->transaction([&] { m.store->put_worker(w); });
+}
 Index Study::replay_mismatches() const { return impl_->mismatches; }
 Index Study::replayed() const { return impl_->replayed; }
 

@@ -128,14 +128,8 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   const std::string host = me.substr(0, me.rfind(':'));
   const std::vector<std::int64_t> interrupted = st.abandon_where(
       [&](const TrialRecord& t) {
-        const auto colon = t.worker.rfind(':');
-        if (colon == std::string::npos || t.worker.substr(0, colon) != host) return false;
-        long pid = 0;
-        try {
-          pid = std::stol(t.worker.substr(colon + 1));
-        } catch (const std::exception&) {
-          return false;
-        }
+        const auto [worker_host, pid] = worker_host_pid(t.worker);
+        if (worker_host != host) return false;
         return pid > 0 && (kill(static_cast<pid_t>(pid), 0) != 0 || pid == static_cast<long>(getpid()));
       },
       "interrupted: the run stopped before the result was recorded");

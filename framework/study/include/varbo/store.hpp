@@ -64,6 +64,16 @@ struct AlgorithmSnapshot {
   double created_at = 0;
 };
 
+/// A process working on a study (`varbo worker`, or any Study that sends heartbeats), across machines.
+struct WorkerRecord {
+  std::string id;            ///< host:pid:nonce
+  std::string host;
+  long pid = 0;
+  double started_at = 0;     ///< unix seconds
+  double heartbeat_at = 0;   ///< latest sign of life
+  std::string state = "running";  ///< running | stopped
+};
+
 class StudyStore {
  public:
   /// Schema version written into the `meta` table; opening a store with a newer version is an error.
@@ -103,6 +113,10 @@ class StudyStore {
   virtual void add_algorithm_state(const AlgorithmSnapshot& snapshot) = 0;
   /// The algorithm states kept, newest first.
   virtual std::vector<AlgorithmSnapshot> algorithm_states() const = 0;
+
+  /// Inserts or replaces the worker's row.
+  virtual void put_worker(const WorkerRecord& worker) = 0;
+  virtual std::vector<WorkerRecord> workers() const = 0;
 };
 
 /// Creates a new SQLite store at `path` holding the `meta` entries; an existing file is an InputError. The
@@ -123,6 +137,10 @@ inline constexpr const char* kOutput = "output";          ///< run folder of `va
 
 /// "host:pid" of this process.
 std::string default_worker_name();
+/// "host:pid:nonce" (16 random hex digits): a worker id unique across machines and pid reuse.
+std::string new_worker_id();
+/// The host and pid of a worker name "host:pid" or "host:pid:nonce"; pid 0 when the name has another form.
+std::pair<std::string, long> worker_host_pid(const std::string& worker);
 /// Seconds since the epoch.
 double unix_time();
 

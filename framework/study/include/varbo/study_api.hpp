@@ -114,6 +114,12 @@ class Study {
   Task& task();
   /// Name recorded as the worker of trials asked by this object (default "host:pid").
   void set_worker(const std::string& name);
+  /// Records a sign of life of this object's worker (its row in the store's workers table; `state` running or
+  /// stopped). A worker that sent heartbeats and then stays silent longer than the study's heartbeat_timeout has
+  /// its pending trials abandoned by the next ask() of any process (docs/studies.md, "Workers").
+  void heartbeat(const std::string& state = "running");
+  /// The components the study was built from (plugins loaded by open/create, or the registry given to attach).
+  const Registry& registry() const;
   /// Number of finished trials whose replayed suggestion differed from the stored one (should be 0 for a
   /// serial study: a non-zero count means something is not deterministic).
   Index replay_mismatches() const;
