@@ -2,7 +2,12 @@
 // θ after 30/60/100 evaluations (noise-free tasks: the best observed cost − f*) and of the recommended θ after
 // 100 (summary.json's regret_recommended: what a user deploys), and the median wall time of one iteration (fit + acquisition optimization) at N = 50/100/200.
 //
-//   build/bin/bench_bo_table [--seeds 10] [--threads 2] [--algorithm '{type: bo, ...}'] [--skip-timing]
+//   build/bin/bench_bo_table [--seeds 10] [--first-seed 1] [--threads 2] [--algorithm '{type: bo, ...}']
+//                            [--problems Branin,Ackley-5,...] [--wide] [--per-seed] [--skip-timing | --timing-only]
+//
+// --problems keeps the problems whose name starts with one of the given prefixes; --wide adds the issue-13
+// problems (Ackley-10, Levy-10, Rosenbrock-4, Styblinski-Tang-8, Ackley-20); --per-seed prints each seed's
+// recommended regret (to count runs stuck in a local minimum).
 //
 // Prints Markdown tables (the README's benchmark section is produced by this program).
 #include <fmt/format.h>
@@ -54,8 +59,9 @@ RunSummary run(const std::string& yaml, const Registry& reg, const std::string& 
 }  // namespace
 
 int main(int argc, char** argv) {
-  int seeds = 10, threads = 0;
-  bool timing = true, regret = true;
+  int seeds = 10, first_seed = 1, threads = 0;
+  bool timing = true, regret = true, wide = false, per_seed = false;
+  std::vector<std::string> only;
   std::string algorithm = bench::kTableAlgorithm;
   // Timing uses EI at every iteration (the full acquisition optimization), unless --algorithm is given.
   std::string timing_algorithm =
@@ -66,29 +72,53 @@ int main(int argc, char** argv) {
     if (a == "--seeds" && i + 1 < argc) seeds = std::atoi(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--algorithm" && i + 1 < argc) algorithm = timing_algorithm = argv[++i];
+    else if (a == "--first-seed" && i + 1 < argc) first_seed = std::atoi(argv[++i]);
+    else if (a == "--problems" && i + 1 < argc) {
+      std::stringstream list(argv[++i]);
+      for (std::string name; std::getline(list, name, ',');) only.push_back(name);
+    } else if (a == "--wide") wide = true;
+    else if (a == "--per-seed") per_seed = true;
     else if (a == "--skip-timing") timing = false;
     else if (a == "--timing-only") regret = false;
     else {
-      std::fprintf(stderr, "usage: %s [--seeds N] [--threads N] [--algorithm YAML] [--skip-timing | --timing-only]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed K] [--threads N] [--algorithm YAML] [--problems P1,P2] "
+                           "[--wide] [--per-seed] [--skip-timing | --timing-only]\n", argv[0]);
       return 2;
     }
   }
   set_log_level(LogLevel::Error);
   Registry& reg = default_registry();
   const std::string tmp = (std::filesystem::temp_directory_path() / "varbo_bench_bo").string();
-  const std::vector<Problem> problems = {{"Branin", "{type: branin}"},
+  std::vector<Problem> problems = {{"Branin", "{type: branin}"},
                                          {"Hartmann-3", "{type: hartmann3}"},
                                          {"Hartmann-6", "{type: hartmann6}"},
                                          {"Ackley-5 [-5,10]^5", "{type: ackley, dim: 5, bounds: [-5, 10]}"}};
+  if (wide) {
+    problems.push_back({"Ackley-10 [-5,10]^10", "{type: ackley, dim: 10, bounds: [-5, 10]}"});
+    problems.push_back({"Levy-10", "{type: levy, dim: 10}"});
+    problems.push_back({"Rosenbrock-4", "{type: rosenbrock, dim: 4}"});
+    problems.push_back({"Styblinski-Tang-8", "{type: styblinski_tang, dim: 8}"});
+    problems.push_back({"Ackley-20 [-5,10]^20", "{type: ackley, dim: 20, bounds: [-5, 10]}"});
+  }
+  if (!only.empty())
+    problems.erase(std::remove_if(problems.begin(), problems.end(),
+                                  [&](const Problem& p) {
+                                    return std::none_of(only.begin(), only.end(), [&](const std::string& o) {
+                                      return p.name.rfind(o, 0) == 0;
+                                    });
+                                  }),
+                   problems.end());
   const std::vector<int> checkpoints = {30, 60, 100};
-  std::printf("algorithm: %s\nseeds: %d, threads: %d\n\n", algorithm.c_str(), seeds, threads);
+  std::printf("algorithm: %s\nseeds: %d-%d, threads: %d\n\n", algorithm.c_str(), first_seed, first_seed + seeds - 1,
+              threads);
   if (regret) {
   std::printf("| problem | best observed @30: median [q1, q3] | @60 | @100 | recommended @100 | s/run (median) |\n");
   std::printf("|---|---|---|---|---|---|\n");
   for (const Problem& p : problems) {
     std::vector<std::vector<double>> regret(checkpoints.size());
     std::vector<double> times, recommended;
-    for (int seed = 1; seed <= seeds; ++seed) {
+    std::string seed_list;
+    for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
       const std::string out = fmt::format("{}/{}_{}", tmp, p.name.substr(0, 5), seed);
       const std::string yaml =
           fmt::format("task: {}\nbudget: 100\nseed: {}\nalgorithm: {}\n", p.task, seed, algorithm);
@@ -104,7 +134,10 @@ int main(int argc, char** argv) {
         return 1;
       }
       const double fstar = summary["known_optimum"].get<double>();
-      if (summary.contains("regret_recommended")) recommended.push_back(summary["regret_recommended"].get<double>());
+      if (summary.contains("regret_recommended")) {
+        recommended.push_back(summary["regret_recommended"].get<double>());
+        seed_list += fmt::format(" {}:{:.2g}", seed, recommended.back());
+      }
       double best = INFINITY;
       std::size_t next = 0;
       for (std::size_t r = 1; r < rows.size(); ++r) {
@@ -118,6 +151,7 @@ int main(int argc, char** argv) {
     else std::printf(" %.2g [%.2g, %.2g] |", quantile(recommended, 0.5), quantile(recommended, 0.25),
                      quantile(recommended, 0.75));
     std::printf(" %.1f |\n", quantile(times, 0.5));
+    if (per_seed) std::printf("<!-- %s recommended regret per seed:%s -->\n", p.name.c_str(), seed_list.c_str());
     std::fflush(stdout);
   }
   }

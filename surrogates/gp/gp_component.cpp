@@ -69,6 +69,9 @@ ComponentInfo gp_component() {
               .at_least(1),
           opt::component("fit_optimizer", Kind::Optimizer, "{type: ceres_lbfgs, max_iterations: 100}",
                          "optimizer of the log posterior over log-hyperparameters"),
+          opt::choice("prior_mean", "data_mean", {"data_mean", "max"},
+                      "constant prior mean: the mean of the costs, or the largest cost (pessimistic: unexplored "
+                      "regions look no better than the worst trial; De Ath et al. 2020)"),
           opt::boolean("priors", true, "add the log-normal hyperpriors to the objective (false: plain ML-II)"),
           opt::real("lengthscale_prior_median", 0.5, "median of the lengthscale prior (unit cube)").above(0),
           opt::real("lengthscale_prior_sd", 1.0, "sd of log lengthscale").above(0),
@@ -101,6 +104,7 @@ ComponentInfo gp_component() {
         }
         s.restarts = static_cast<int>(o.integer("restarts"));
         s.full_fit_growth = o.real("full_fit_growth");
+        s.prior_mean = o.str("prior_mean") == "max" ? GpSettings::PriorMean::Max : GpSettings::PriorMean::DataMean;
         s.priors.enabled = o.boolean("priors");
         s.priors.lengthscale = {std::log(o.real("lengthscale_prior_median")), o.real("lengthscale_prior_sd")};
         s.priors.signal_std = {std::log(o.real("signal_std_prior_median")), o.real("signal_std_prior_sd")};

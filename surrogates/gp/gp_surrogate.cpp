@@ -54,6 +54,7 @@ GpSurrogate::Standardization GpSurrogate::standardization(const Vec& y) {
   const double sd = std::sqrt(var);
   // Constant (or single) costs carry no scale: keep 1 so the model stays well defined.
   s.scale = (std::isfinite(sd) && sd > 1e-12 * std::max(1.0, std::abs(s.shift))) ? sd : 1.0;
+  s.top = (y.maxCoeff() - s.shift) / s.scale;
   return s;
 }
 
@@ -61,7 +62,8 @@ double GpSurrogate::mean_standardized(const Standardization& s) const {
   // The constant mean is not optimized: after standardization the data mean (0) is the natural choice
   // (a fitted constant is poorly identified against σ_f and drifts with long lengthscales); a user
   // value given through `hyperparameters: {mean: ...}` is kept fixed instead.
-  return mean_fixed_ ? (mean_ - s.shift) / s.scale : 0.0;
+  if (mean_fixed_) return (mean_ - s.shift) / s.scale;
+  return settings_.prior_mean == GpSettings::PriorMean::Max ? s.top : 0.0;
 }
 
 Vec GpSurrogate::log_params(double y_scale) const {
@@ -80,7 +82,7 @@ void GpSurrogate::store_natural(const Vec& p, const Standardization& s) {
   log_signal_std_ = p(d) + std::log(s.scale);
   log_noise_std_ = p(d + 1) + std::log(s.scale);
   signal_known_ = noise_known_ = true;
-  if (!mean_fixed_) mean_ = s.shift;
+  if (!mean_fixed_) mean_ = s.shift + s.scale * mean_standardized(s);
 }
 
 std::optional<GpSurrogate::Posterior> GpSurrogate::build(const Dataset& data, const Standardization& s,

@@ -20,6 +20,12 @@ struct GpSettings {
   /// between only the warm start runs. ≤ 1: every fit runs all restarts. 1.25 kept the plain default's regret
   /// for 10–60 % less time, but lost Ackley-5 in the README table's protocol (README, "Benchmarks"): off.
   double full_fit_growth = 1.0;
+  /// The constant prior mean where no data are: the data mean, or the largest cost seen (a pessimistic
+  /// mean, De Ath, Fieldsend & Everson 2020, "What do you mean? The role of the mean function in Bayesian
+  /// optimisation": unexplored regions then look no better than the worst trial, so EI refines rather than
+  /// visiting every corner of the box; docs/defaults.md).
+  enum class PriorMean { DataMean, Max };
+  PriorMean prior_mean = PriorMean::DataMean;
   HyperPriors priors;          ///< on ℓ (unit cube) and σ_f, σ_n relative to the standard deviation of y
   // Box of the fit in natural units; σ bounds are relative to the standard deviation of y.
   double min_lengthscale = 0.01, max_lengthscale = 50.0;
@@ -54,6 +60,7 @@ class GpSurrogate final : public Surrogate, public ComponentState {
   struct Standardization {
     double shift = 0;  ///< cost = shift + scale · standardized
     double scale = 1;
+    double top = 0;    ///< the largest cost, standardized
   };
   /// The conditioned model, all in standardized units.
   struct Posterior {

@@ -437,3 +437,34 @@ TEST_CASE("full_fit_growth: warm-only refits between full fits, all restarts onc
   MESSAGE("largest log-posterior gap per point, warm-only vs all restarts: ", worst_gap);
   CHECK(worst_gap < 0.05);
 }
+
+TEST_CASE("prior_mean max: the constant mean is the largest cost (De Ath et al. 2020)") {
+  // The same posterior as a model whose mean is fixed at max(y) (the path checked by hand above), and far from
+  // the data the prediction reverts to the worst cost instead of the data mean.
+  const Dataset data = branin_like(12, 5);
+  GpSettings s = settings_for(KernelType::Matern52);
+  s.prior_mean = GpSettings::PriorMean::Max;
+  GpSurrogate pessimistic(2, s, lbfgs());
+  GpSurrogate fixed(2, settings_for(KernelType::Matern52), lbfgs());
+  const Hyperparameters h{{"lengthscale[0]", 0.2}, {"lengthscale[1]", 0.3}, {"signal_std", 40.0}, {"noise_std", 0.5}};
+  pessimistic.set_hyperparameters(h);
+  Hyperparameters hm = h;
+  hm.push_back({"mean", data.y.maxCoeff()});
+  fixed.set_hyperparameters(hm);
+  REQUIRE(pessimistic.condition(data).ok);
+  REQUIRE(fixed.condition(data).ok);
+  for (const Vec& x : {(Vec(2) << 0.3, 0.6).finished(), (Vec(2) << 0.9, 0.1).finished()}) {
+    const Prediction a = pessimistic.predict(x, true), b = fixed.predict(x, true);
+    CHECK(a.mean == doctest::Approx(b.mean).epsilon(1e-10));
+    CHECK(a.latent_var == doctest::Approx(b.latent_var).epsilon(1e-10));
+    CHECK((a.d_mean - b.d_mean).norm() <= 1e-8 * (1 + b.d_mean.norm()));
+  }
+  CHECK(hp(pessimistic, "mean") == doctest::Approx(data.y.maxCoeff()).epsilon(1e-12));
+  // Far outside the data (lengthscales ≤ 0.3, 30 units away) the correlation is ~e^{-170}.
+  const Vec far = Vec::Constant(2, 30.0);
+  CHECK(pessimistic.predict(far, false).mean == doctest::Approx(data.y.maxCoeff()).epsilon(1e-9));
+  GpSurrogate plain(2, settings_for(KernelType::Matern52), lbfgs());
+  plain.set_hyperparameters(h);
+  REQUIRE(plain.condition(data).ok);
+  CHECK(plain.predict(far, false).mean == doctest::Approx(data.y.mean()).epsilon(1e-9));
+}

@@ -22,6 +22,10 @@ enum class RecommendationRule {
 const std::vector<std::string>& recommendation_rule_names();
 RecommendationRule recommendation_rule(const std::string& name);
 
+/// The rule `lowest_mean_evaluated`: the index of the evaluated point with the lowest posterior mean, ties
+/// within a tenth of the noise std broken by the lowest observed cost (recommender.cpp says why).
+Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data);
+
 class Recommender {
  public:
   /// `model` is a second instance of the run's surrogate: it is conditioned (or refitted) on all data and

@@ -6,6 +6,7 @@
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
 #include "varbo/registry.hpp"
+#include "recommender.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -148,4 +149,47 @@ TEST_CASE("recommendation: lowest_mean_domain finds the posterior mean's minimum
   const Vec r = *dom->recommendation(), e = *at_data->recommendation();
   CHECK(quadratic(r) <= quadratic(e));
   CHECK(quadratic(r) < 1e-3);  // (the best of 12 LHS points in 2-D is typically ~1e-2 away)
+}
+
+namespace {
+// A model with scripted means at the data points (by row) and a constant noise std.
+class ScriptedModel final : public Surrogate {
+ public:
+  ScriptedModel(Dataset data, Vec means, double noise_std) : data_(std::move(data)), means_(std::move(means)), sn_(noise_std) {}
+  FitReport fit(const Dataset&, Rng&) override { return {}; }
+  FitReport condition(const Dataset&) override { return {}; }
+  Prediction predict(const Vec& x, bool) const override {
+    Prediction p;
+    for (Index i = 0; i < data_.size(); ++i)
+      if ((data_.X.row(i).transpose() - x).norm() == 0) p.mean = means_(i);
+    p.log_noise_mean = 2 * std::log(sn_);
+    return p;
+  }
+  double signal_variance() const override { return 1; }
+  Hyperparameters hyperparameters() const override { return {}; }
+  void set_hyperparameters(const Hyperparameters&) override {}
+  bool ready() const override { return true; }
+
+ private:
+  Dataset data_;
+  Vec means_;
+  double sn_;
+};
+}  // namespace
+
+TEST_CASE("recommendation: lowest_mean_evaluated breaks ties within a tenth of the noise std by the observed cost") {
+  Dataset data = Dataset::empty(1);
+  for (double x : {0.1, 0.2, 0.3, 0.4}) data.add(Vec::Constant(1, x), 0.0);
+  data.y << 5.0, 1.0 + 2e-9, 1.0, 0.2;  // row 2 is the best of the near-equal pair; row 3 the lowest cost
+  // A deterministic cost (noise 1e-6): the means of rows 1 and 2 differ by less than the noise and in the wrong
+  // order; the tie goes to the lower cost. Row 3's mean is far above: not tied, however low its cost.
+  const Vec means = (Vec(4) << 5.0, 1.0 - 3e-8, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 1e-6), data) == 2);
+  // With a mean gap of 2 noise std the model does order them: the lowest mean wins.
+  const Vec apart = (Vec(4) << 5.0, 1.0 - 2e-6, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, apart, 1e-6), data) == 1);
+  // A noisy cost (noise 0.5): only means within 0.05 tie; row 3 (mean 1.5, cost 0.2) is not recommended.
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 0.5), data) == 2);
+  const Vec lucky = (Vec(4) << 5.0, 1.0, 1.06, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, lucky, 0.5), data) == 1);
 }
