@@ -521,11 +521,17 @@ class SqliteStore final : public StudyStore {
   /// A version-1 store gains the algorithm_states table (older varbo versions then refuse it as newer).
   void upgrade() {
     const auto v = meta("schema_version");
-    if (v && std::stoi(*v) >= kSchemaVersion) return;
+    if (v && std::stoi(*v) >= kSchemaVersion && has_table("algorithm_states") && has_table("workers")) return;
     transaction([&] {
       exec(kAlgorithmStates);
       set_meta("schema_version", std::to_string(kSchemaVersion));
     });
+  }
+
+  bool has_table(const std::string& name) const {
+    Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", path_);
+    s.bind(1, name);
+    return s.step();
   }
 
   std::string path_;
