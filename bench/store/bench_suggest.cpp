@@ -3,10 +3,12 @@
 // trials (or the --at list) three `varbo suggest` + `varbo observe` processes continue it. Printed per N: the
 // median wall time of the embedded ask(1) over the iterations just before N (one BO iteration: fit +
 // acquisition + store), the median wall time of the `varbo suggest` process (start-up, plugins, opening the
-// study, restoring the saved state, then one iteration), and their ratio.
+// study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
+// all threads; for the process, its rusage), which a loaded machine distorts less than wall time.
 //
 //   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200] [--dir /tmp/x]
 #include <fmt/format.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -25,6 +27,14 @@ namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// CPU seconds (user + system) of this process (who = RUSAGE_SELF, all threads) or of its waited-for children.
+double cpu_seconds(int who) {
+  rusage u{};
+  getrusage(who, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 double median(std::vector<double> v) {
@@ -81,24 +91,31 @@ int main(int argc, char** argv) {
     varbo::Rng r = noise.stream(static_cast<std::uint64_t>(t.id));
     return study.task().evaluate(t.theta, r).cost;
   };
-  std::printf("| N | one BO iteration (embedded ask), s | `varbo suggest`, s | ratio |\n|---|---|---|---|\n");
+  std::printf("| N | one BO iteration (embedded ask): wall, CPU s | `varbo suggest` process: wall, CPU s | ratio wall, "
+              "CPU |\n|---|---|---|---|\n");
   long finished = 0;
   for (const long n : at) {
-    std::vector<double> iteration;
+    std::vector<double> iteration, iteration_cpu;
     while (finished < n) {
       const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_seconds(RUSAGE_SELF);
       const varbo::TrialRecord t = study.ask(1).at(0);
-      const double s = seconds_since(t0);
-      if (finished >= n - kIterations) iteration.push_back(s);
+      const double s = seconds_since(t0), c = cpu_seconds(RUSAGE_SELF) - c0;
+      if (finished >= n - kIterations) {
+        iteration.push_back(s);
+        iteration_cpu.push_back(c);
+      }
       study.tell(t.id, evaluate(t));
       ++finished;
     }
-    std::vector<double> suggest;
+    std::vector<double> suggest, suggest_cpu;
     for (int r = 0; r < kRepeats; ++r) {
       const std::string out = dir + "/suggest.json";
       const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_seconds(RUSAGE_CHILDREN);
       run(fmt::format("'{}' -q suggest '{}' --json > '{}'", varbo, db, out));
       suggest.push_back(seconds_since(t0));
+      suggest_cpu.push_back(cpu_seconds(RUSAGE_CHILDREN) - c0);
       // The trial's id is the number of trials so far; its θ is read back from the store.
       const auto trials = study.trials();
       const varbo::TrialRecord& t = trials.back();
@@ -107,7 +124,8 @@ int main(int argc, char** argv) {
       (void)slurp(out);
     }
     const double it = median(iteration), sg = median(suggest);
-    std::printf("| %ld | %.3f | %.3f | %.2f× |\n", n, it, sg, sg / it);
+    const double itc = median(iteration_cpu), sgc = median(suggest_cpu);
+    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× |\n", n, it, itc, sg, sgc, sg / it, sgc / itc);
     std::fflush(stdout);
   }
   return 0;

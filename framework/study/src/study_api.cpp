@@ -201,15 +201,21 @@ struct Study::Impl {
     const auto told = static_cast<std::int64_t>(told_ids.size());
     const std::int64_t reach = told + (asked_for ? 1 : 0);
     if (reach <= saved_reach) return;
-    const std::optional<std::string> text = resumable->save_state();
-    if (!text) return;
-    AlgorithmSnapshot s;
-    s.finished = told;
-    s.outstanding = asked_for.value_or(-1);
-    s.state = *text;
-    s.created_at = unix_time();
-    store->add_algorithm_state(s);
-    saved_reach = reach;
+    // A state that cannot be saved costs the next process a replay, never this suggestion or result.
+    try {
+      const std::optional<std::string> text = resumable->save_state();
+      if (!text) return;
+      AlgorithmSnapshot s;
+      s.finished = told;
+      s.outstanding = asked_for.value_or(-1);
+      s.state = *text;
+      s.created_at = unix_time();
+      store->add_algorithm_state(s);
+      saved_reach = reach;
+    } catch (const std::exception& e) {
+      log_warn("{}: the algorithm state after {} result(s) was not saved ({}); the next process replays instead",
+               store->location(), told, e.what());
+    }
   }
 
   /// ask(1) then tell(t): the step of an uninterrupted serial run that produced t.
