@@ -122,3 +122,26 @@ TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs 
   CHECK(retried);
   CHECK(complete == 4);
 }
+
+TEST_CASE("workers: bad input is an error naming the problem, exit 2, nothing written") {
+  const std::string dir = test::temp_folder("workers_bad");
+  const std::string db = make_study(dir, 3, "");
+  const std::string log = dir + "/log.txt";
+  CHECK(test::run({VARBO_EXE, "worker", dir + "/missing.db", "--command", "echo 1"}, log).exit_code == 2);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", "echo 1", "--timeout", "0"}, log).exit_code == 2);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", "echo 1", "--timeout", "1s"}, log).exit_code == 2);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", ""}, log).exit_code == 2);
+  const std::string errors = test::slurp(log);
+  CHECK(errors.find("missing.db") != std::string::npos);
+  CHECK(errors.find("--timeout") != std::string::npos);
+  CHECK(errors.find("--command") != std::string::npos);
+  CHECK(open_sqlite_store(db)->trials().empty());
+  // A command that fails: a failed trial, recorded; the worker goes on until the budget is used.
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", "exit 3"}, log).exit_code == 0);
+  const auto trials = open_sqlite_store(db)->trials();
+  REQUIRE(trials.size() == 3);
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Failed);
+    CHECK(t.error.find("exit status 3") != std::string::npos);
+  }
+}
