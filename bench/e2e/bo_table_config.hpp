@@ -7,12 +7,10 @@
 
 namespace varbo::bench {
 
-// The defaults (Latin hypercube design, gp Matérn-5/2 ARD, EI, multistart) with the last 20 evaluations
-// minimizing the posterior mean (cb with κ = 0): EI keeps spending evaluations on corners of the box while the
-// incumbent could still be refined (Ackley-5: median regret 1.2 without that phase, 0.11 with it).
-inline constexpr const char* kTableAlgorithm =
-    "{type: bo, initial_points: 10, surrogate: {type: gp}, acquisition: {type: ei}, acquisition_optimizer: "
-    "{type: multistart}, phases: [{evaluations: 70}, {acquisition: {type: cb, kappa: 0}}]}";
+// The plain default: what a user gets from `algorithm: {type: bo}` (issue 13). Until 2026-12 the table added 10
+// initial points and a final 20-evaluation exploitation phase; the trust-region default made that phase
+// unnecessary (docs/defaults.md).
+inline constexpr const char* kTableAlgorithm = "{type: bo}";
 
 /// Quantile by linear interpolation between order statistics (NaN for an empty sample).
 inline double quantile(std::vector<double> v, double q) {

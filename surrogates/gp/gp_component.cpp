@@ -63,7 +63,7 @@ ComponentInfo gp_component() {
           opt::choice("kernel", "matern52_ard", {"se_ard", "matern52_ard"}, "covariance function"),
           opt::integer("restarts", 4, "optimizer runs per fit (the first warm-started from the previous fit)")
               .at_least(1),
-          opt::real("full_fit_growth", 1.0,
+          opt::real("full_fit_growth", GpSettings{}.full_fit_growth,
                     "all restarts once N has grown by this factor since the last such fit (and always up to N = 20); "
                     "in between only the warm start (1: all restarts at every fit)")
               .at_least(1),
