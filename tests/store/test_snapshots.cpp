@@ -23,10 +23,11 @@ struct Case {
 
 // Branin (noise-free): bo fits a GP at every trial after the design; rssgd fits its critic at every update (a gp:
 // vhgp offers no snapshot yet, so a study with a vhgp surrogate or critic is replayed).
-// The bo cases cover the trust region (a region with state) and failed trials (the failure model).
+// The bo cases cover the default trust region (a region with state), the box, and failed trials (the failure
+// model).
 const Case kCases[] = {
-    {"bo", "{type: bo, initial_points: 4}", 12},
-    {"bo_trust_region", "{type: bo, initial_points: 4, region: trust_region}", 11},
+    {"bo", "{type: bo, initial_points: 4}", 12},  // the defaults: trust_region, gp with full_fit_growth
+    {"bo_box", "{type: bo, initial_points: 4, region: box}", 11},
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
     {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},  // vhgp critics are replayed
