@@ -56,6 +56,21 @@ Runner add_status(CLI::App& app) {
           std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), t.worker.c_str(),
                       now - t.created_at, theta_text(t.theta, names).c_str());
     }
+    // Workers that send heartbeats (`varbo worker`): a running one silent past heartbeat_timeout is presumed dead,
+    // and the next ask abandons its pending trials.
+    const auto workers = s.store().workers();
+    if (!workers.empty()) {
+      std::printf("  workers (heartbeat_timeout %g s):\n    %-40s %-8s %14s  %s\n", s.config().heartbeat_timeout, "id",
+                  "state", "heartbeat [s]", "pending");
+      for (const auto& w : workers) {
+        long pending = 0;
+        for (const auto& t : trials) pending += t.state == TrialState::Pending && t.worker == w.id;
+        const bool silent = w.state == "running" && s.config().heartbeat_timeout > 0 &&
+                            now - w.heartbeat_at > s.config().heartbeat_timeout;
+        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", w.id.c_str(), silent ? "silent" : w.state.c_str(),
+                    now - w.heartbeat_at, pending, silent && pending ? " (abandoned at the next ask)" : "");
+      }
+    }
     std::printf("  recent:\n    %-6s %-10s %-10s %14s  %s\n", "id", "state", "phase", "cost", "theta");
     const std::size_t first = trials.size() > 10 ? trials.size() - 10 : 0;
     for (std::size_t i = first; i < trials.size(); ++i) {

@@ -25,7 +25,23 @@ Runner add_study(CLI::App& app) {
   auto a = std::make_shared<Args>();
   create->add_option("store", a->store, "the study file to create (SQLite)")->required();
   create->add_option("config", a->config, "study configuration (YAML)")->required();
-  return [a]() {
+  auto* verify = cmd->add_subcommand("verify", "Replay the whole study and report the first divergence from the stored "
+                                               "trials and saved algorithm states (exit 1 if any)");
+  verify->add_option("store", a->store, "study file")->required();
+  return [a, verify]() {
+    if (verify->parsed()) {
+      Study s = Study::open(a->store);
+      const VerifyReport r = s.verify();
+      if (!r.divergence.empty()) {
+        std::printf("%s: DIVERGES after replaying %ld trial(s): %s\n", a->store.c_str(), static_cast<long>(r.replayed),
+                    r.divergence.c_str());
+        return 1;
+      }
+      std::printf("%s: ok: %ld finished trial(s) replayed, every serial trial reproduced, %ld saved algorithm "
+                  "state(s) equal to the replay\n",
+                  a->store.c_str(), static_cast<long>(r.replayed), static_cast<long>(r.states_compared));
+      return 0;
+    }
     Study s = Study::create(a->store, a->config);
     std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", a->store.c_str(),
                 s.config().task.info->name.c_str(), s.config().algorithm.info->name.c_str(),

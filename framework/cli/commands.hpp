@@ -17,6 +17,7 @@ Runner add_observe(CLI::App& app);
 Runner add_fail(CLI::App& app);
 Runner add_abandon(CLI::App& app);
 Runner add_status(CLI::App& app);
+Runner add_worker(CLI::App& app);  // cmd_worker.cpp
 Runner add_export(CLI::App& app);
 Runner add_select(CLI::App& app);
 Runner add_plot(CLI::App& app);

@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   reg(&varbo::cli::add_fail);
   reg(&varbo::cli::add_abandon);
   reg(&varbo::cli::add_status);
+  reg(&varbo::cli::add_worker);
   reg(&varbo::cli::add_export);
   reg(&varbo::cli::add_select);
   reg(&varbo::cli::add_plot);

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "varbo/sampler.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo {
 
@@ -37,7 +38,7 @@ struct HitAndRunStats {
   Index evaluations = 0;    ///< region.contains calls
 };
 
-class HitAndRunSampler final : public Sampler {
+class HitAndRunSampler final : public Sampler, public ComponentState {
  public:
   explicit HitAndRunSampler(HitAndRunOptions options);
   /// n points inside `region`. A chain continues from its point of the previous call when that is still inside;
@@ -48,6 +49,9 @@ class HitAndRunSampler final : public Sampler {
   Mat sample(const RegionConstraint& region, Index n, Rng& rng) const override;
   Mat sample(const RegionConstraint& region, Index n, Rng& rng, HitAndRunStats* stats) const;
   const HitAndRunOptions& options() const { return options_; }
+  /// Exact snapshot of what the chains carry between calls (hit_and_run_state.cpp).
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
 
   /// One hit-and-run move from x (inside region) — exposed for tests.
   Vec step(const RegionConstraint& region, const Vec& x, Rng& rng, HitAndRunStats* stats) const;

@@ -127,7 +127,7 @@ std::optional<GpSurrogate::Posterior> GpSurrogate::build(const Dataset& data, co
   std::unique_ptr<Kernel> kernel = kernel_ ? kernel_->clone() : nullptr;  // none before the dimension is known
   if (kernel) kernel->set_log_params(p.head(m));
   Posterior post{std::move(kernel), std::exp(2.0 * p(m)), mean_standardized(s),
-                 data.X, Vec(), Eigen::LLT<Mat>(Mat(0, 0)), 0.0, 0.0, s};  // an initialized (empty) factor
+                 data.X, Vec(), Eigen::LLT<Mat>(Mat(0, 0)), 0.0, 0.0, s, p};  // an initialized (empty) factor
   if (n == 0) return post;
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, post.mean);
   Mat K = post.kernel->matrix(data.X);

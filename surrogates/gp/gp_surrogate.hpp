@@ -9,6 +9,7 @@
 #include "gp_likelihood.hpp"
 #include "varbo/kernel.hpp"
 #include "varbo/optimizer.hpp"
+#include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
 
 namespace varbo::gp {
@@ -41,7 +42,7 @@ struct GpSettings {
   double min_noise_std = 1e-6, max_noise_std = 2.0;
 };
 
-class GpSurrogate final : public Surrogate {
+class GpSurrogate final : public Surrogate, public ComponentState {
  public:
   GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const Optimizer> fit_optimizer);
 
@@ -52,6 +53,9 @@ class GpSurrogate final : public Surrogate {
   Hyperparameters hyperparameters() const override;
   void set_hyperparameters(const Hyperparameters& values) override;
   bool ready() const override { return posterior_.has_value(); }
+  /// Exact snapshot (gp_state.cpp): log-parameters, flags, and the data and parameters of the posterior.
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
 
   const GpSettings& settings() const { return settings_; }
   /// Fit box in standardized log space: [kernel θ (log ℓ_1..D, log σ_f for ARD kernels), log σ_n].
@@ -77,6 +81,7 @@ class GpSurrogate final : public Surrogate {
     double log_likelihood = 0;   ///< log N(y_std | m, K + σ_n² I)
     double jitter = 0;
     Standardization stdz;
+    Vec log_params;              ///< p it was built with (for exact snapshots)
   };
 
   static Standardization standardization(const Vec& y);

@@ -2,8 +2,8 @@
 //  - `varbo run` killed with SIGKILL at seeded random moments, resumed each time: the final trials equal an
 //    uninterrupted run's and no trial completed before a kill is lost or changed;
 //  - 4 processes × 50 suggest/observe cycles on one store: every observation present exactly once;
-//  - fault injection: SIGKILL at random instants of `varbo run`, `varbo suggest`, `varbo observe` and worker
-//    loops (VARBO_FAULT_KILLS kills: 120 in the long label, 10 in the default suite as `store_faults`), the
+//  - fault injection: SIGKILL at random instants of `varbo run`, `varbo suggest`, `varbo observe`, `varbo worker`
+//    and worker loops (VARBO_FAULT_KILLS kills: 120 in the long label, 10 in the default suite as `store_faults`), the
 //    store checked after every kill: intact, no trial lost, changed or duplicated.
 #include <sqlite3.h>
 
@@ -304,6 +304,11 @@ TEST_CASE("fault injection: SIGKILL of run, suggest, observe and worker loops at
   std::ofstream(study_cfg) << "task: {type: branin}\nbudget: 24\nseed: 6\nthreads: 1\n"
                               "algorithm: {type: bo, initial_points: 6, surrogate: {type: gp, restarts: 1}}\n";
 
+  // The command of `varbo worker`: |θ|² of the θ on its stdin (the external task's JSON), printed exactly.
+  const std::string norm_script = dir + "/norm.sh";
+  std::ofstream(norm_script) << "#!/bin/sh\ntheta=$(sed 's/.*\"theta\": *\\[\\([^]]*\\)\\].*/\\1/')\n"
+                             << "echo \"$theta\" | awk -F, '{printf \"%.17g\\n\", $1*$1 + $2*$2}'\n";
+  const std::string norm_command = "sh " + norm_script;
   Rng rng(20261201);
   std::map<std::string, int> kills, ended;
   int total = 0, runs_done = 0, studies = 0;
@@ -381,6 +386,16 @@ TEST_CASE("fault injection: SIGKILL of run, suggest, observe and worker loops at
       }
       if (after->state == TrialState::Complete) owned.erase(owned.begin() + static_cast<std::ptrdiff_t>(k));
       check_store(db, seen_study, true);
+    } else if (u < 0.9) {  // `varbo worker`: suggest, run the command, record, repeat
+      const auto r = test::run_and_kill({V, "-q", "worker", db, "--command", norm_command}, rng.uniform(0.0, 1.5), log);
+      count("varbo worker", r);
+      check_store(db, seen_study, true);
+      if (!r.killed) {  // the budget is used: start over on a new study
+        REQUIRE(r.exit_code == 0);
+        REQUIRE(test::run({V, "abandon", db}, log).exit_code == 0);
+        check_store(db, seen_study, true);
+        new_study();
+      }
     } else {  // a worker looping open / ask / tell
       const auto r = test::run_and_kill({STORE_WORKER_EXE, db, "1000", "loop" + std::to_string(step)},
                                         rng.uniform(0.0, 1.0), log);
@@ -394,12 +409,13 @@ TEST_CASE("fault injection: SIGKILL of run, suggest, observe and worker loops at
     }
   }
   MESSAGE(total << " kills: run " << kills["run"] << ", suggest " << kills["suggest"] << ", observe "
-                << kills["observe"] << ", worker " << kills["worker"] << "; ended normally: run " << ended["run"]
+                << kills["observe"] << ", worker " << kills["worker"] << ", varbo worker " << kills["varbo worker"]
+                << "; ended normally: run " << ended["run"]
                 << ", suggest " << ended["suggest"] << ", observe " << ended["observe"] << ", worker " << ended["worker"]
                 << "; " << runs_done << " runs completed, " << studies << " studies");
   CHECK(total >= target);
   if (target >= 100)  // the long version: every kind of process was killed, repeatedly
-    for (const char* what : {"run", "suggest", "observe", "worker"}) CHECK_MESSAGE(kills[what] >= 5, what);
+    for (const char* what : {"run", "suggest", "observe", "worker", "varbo worker"}) CHECK_MESSAGE(kills[what] >= 5, what);
   // Whatever was left: a pending trial of a killed suggest or worker is abandoned (the documented recovery) and
   // both stores continue: the run to its budget, equal to the uninterrupted one; the study with a new trial.
   if (std::filesystem::exists(cut + "/study.db")) {

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -64,6 +65,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   run.domain = task->domain();
   const Index d = run.domain.box.dim();
   run.names = run.domain.names;
+  run.initial_point = run.study.initial_point ? run.study.initial_point : task->initial_point();
   for (Index i = static_cast<Index>(run.names.size()); i < d; ++i) run.names.push_back(fmt::format("x{}", i + 1));
 
   std::ifstream in(csv);
@@ -79,7 +81,13 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   for (const auto& n : run.names) xcols.push_back(column(n));
   const std::size_t cost_col = column("cost"), ok_col = column("ok"), phase_col = column("phase");
 
-  std::vector<Vec> thetas;
+  // Cost components sit between `ok` and the timings (fit_seconds), in the task's order.
+  std::size_t comp_end = header.size();
+  for (std::size_t i = ok_col + 1; i < header.size(); ++i)
+    if (header[i] == "fit_seconds") comp_end = i;
+  for (std::size_t i = ok_col + 1; i < comp_end; ++i) run.components.push_back(header[i]);
+
+  std::vector<Vec> thetas, values;
   std::vector<double> costs;
   int lineno = 1;
   while (std::getline(in, line)) {
@@ -96,6 +104,12 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
     for (Index j = 0; j < d; ++j) t[j] = parse_number(cells[xcols[static_cast<std::size_t>(j)]], where);
     const double y = parse_number(cells[cost_col], where);
     if (!t.allFinite() || !std::isfinite(y)) continue;
+    Vec v(static_cast<Index>(run.components.size()));
+    for (Index j = 0; j < v.size(); ++j) {
+      const std::string& cell = cells[ok_col + 1 + static_cast<std::size_t>(j)];
+      v[j] = (cell.empty() || cell == "nan") ? std::nan("") : parse_number(cell, where);  // "nan": not reported
+    }
+    values.push_back(v);
     thetas.push_back(t);
     costs.push_back(y);
     run.phases.push_back(cells[phase_col]);
@@ -104,7 +118,9 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   run.theta.resize(n, d);
   run.cost.resize(n);
   run.data = Dataset::empty(d);
+  run.component_values.resize(n, static_cast<Index>(run.components.size()));
   for (Index i = 0; i < n; ++i) {
+    run.component_values.row(i) = values[static_cast<std::size_t>(i)].transpose();
     run.theta.row(i) = thetas[static_cast<std::size_t>(i)].transpose();
     run.cost[i] = costs[static_cast<std::size_t>(i)];
     // The same clamp as the runner: a θ written in user units maps back into the unit cube.

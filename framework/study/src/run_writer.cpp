@@ -45,18 +45,18 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
 }
 
 void RunWriter::trial(const TrialRow& r) {
-  trials_ << r.index << "," << r.phase;
-  for (Index i = 0; i < r.theta.size(); ++i) trials_ << "," << exact(r.theta[i]);
-  trials_ << "," << (r.evaluation.ok ? exact(r.evaluation.cost) : std::string("nan")) << ","
-          << (r.evaluation.ok ? 1 : 0);
+  const TrialRecord& t = r.trial;
+  trials_ << r.index << "," << t.phase;
+  for (Index i = 0; i < t.theta.size(); ++i) trials_ << "," << exact(t.theta[i]);
+  trials_ << "," << (r.ok() ? exact(t.cost) : std::string("nan")) << "," << (r.ok() ? 1 : 0);
   for (const auto& c : components_) {
     std::string v = "nan";
-    for (const auto& kv : r.evaluation.components)
+    for (const auto& kv : t.components)
       if (kv.first == c) v = exact(kv.second);
     trials_ << "," << v;
   }
   if (!warned_extra_) {
-    for (const auto& kv : r.evaluation.components) {
+    for (const auto& kv : t.components) {
       bool known = false;
       for (const auto& c : components_) known = known || c == kv.first;
       if (!known) {
@@ -65,8 +65,8 @@ void RunWriter::trial(const TrialRow& r) {
       }
     }
   }
-  trials_ << "," << fmt::format("{:.6f},{:.6f},{:.6f}", r.fit_seconds, r.acquisition_seconds, r.evaluation_seconds)
-          << "," << csv_escape(r.evaluation.error);
+  trials_ << "," << fmt::format("{:.6f},{:.6f},{:.6f}", t.fit_seconds, t.acquisition_seconds, t.evaluation_seconds)
+          << "," << csv_escape(t.error);
   if (with_regret_) trials_ << "," << exact(r.regret_best_observed) << "," << exact(r.regret_recommended);
   trials_ << "\n";
   trials_.flush();

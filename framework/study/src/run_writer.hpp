@@ -7,17 +7,17 @@
 #include <vector>
 
 #include "varbo/algorithm.hpp"
+#include "varbo/store.hpp"
 #include "varbo/study.hpp"
 #include "varbo/task.hpp"
 
 namespace varbo {
 
+/// A line of trials.csv: the stored trial (the one representation from ask to row) and what the run adds.
 struct TrialRow {
-  Index index = 0;
-  std::string phase;
-  Vec theta;  ///< user units
-  Evaluation evaluation;
-  double fit_seconds = 0, acquisition_seconds = 0, evaluation_seconds = 0;
+  Index index = 0;     ///< position in finish order
+  TrialRecord trial;   ///< as stored: phase, θ, state, cost, components, error, timings
+  bool ok() const { return trial.state == TrialState::Complete; }
   /// Where the optimum is known: after this trial, the noise-free cost of the best observed θ − f*, and of
   /// the θ the algorithm recommends − f* (NaN when the task cannot evaluate it without noise).
   double regret_best_observed = std::numeric_limits<double>::quiet_NaN();

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <random>
 
 #include "varbo/errors.hpp"
 #include "varbo/store.hpp"
@@ -33,6 +34,23 @@ std::string default_worker_name() {
   char host[256] = {0};
   if (gethostname(host, sizeof(host) - 1) != 0) host[0] = 0;
   return fmt::format("{}:{}", host[0] ? host : "localhost", static_cast<long>(getpid()));
+}
+
+std::string new_worker_id() {
+  std::random_device rd;
+  const std::uint64_t nonce = (static_cast<std::uint64_t>(rd()) << 32) ^ rd();
+  return fmt::format("{}:{:016x}", default_worker_name(), nonce);
+}
+
+std::pair<std::string, long> worker_host_pid(const std::string& worker) {
+  // host:pid or host:pid:nonce; a host name holds no ':' (an IPv6 literal would, and is not a host name here).
+  const auto first = worker.find(':');
+  if (first == std::string::npos) return {worker, 0};
+  const auto second = worker.find(':', first + 1);
+  const std::string pid = worker.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1);
+  if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos || pid.size() > 9)
+    return {worker.substr(0, first), 0};
+  return {worker.substr(0, first), std::stol(pid)};
 }
 
 double unix_time() {

@@ -63,6 +63,26 @@ CREATE TABLE snapshots (
 );
 )SQL";
 
+// Schema version 2: the algorithm's saved state (docs/studies.md, "Snapshots"). Created by new stores and
+// added to version-1 stores when they are opened.
+const char* kAlgorithmStates = R"SQL(
+CREATE TABLE IF NOT EXISTS algorithm_states (
+  id INTEGER PRIMARY KEY,
+  finished INTEGER NOT NULL,
+  outstanding INTEGER NOT NULL DEFAULT -1,
+  state TEXT NOT NULL,
+  created_at REAL NOT NULL
+);
+CREATE TABLE IF NOT EXISTS workers (
+  id TEXT PRIMARY KEY,
+  host TEXT NOT NULL,
+  pid INTEGER NOT NULL,
+  started_at REAL NOT NULL,
+  heartbeat_at REAL NOT NULL,
+  state TEXT NOT NULL
+);
+)SQL";
+
 std::string vec_text(const Vec& v) {
   nlohmann::json a = nlohmann::json::array();
   for (Index i = 0; i < v.size(); ++i) a.push_back(v[i]);  // dumped with 17 significant digits: exact
@@ -171,11 +191,13 @@ class SqliteStore final : public StudyStore {
         exec("PRAGMA journal_mode=WAL");  // persistent: every later connection uses WAL too
         transaction([&] {
           exec(kSchema);
+          exec(kAlgorithmStates);
           set_meta("format", kFormat);
           set_meta("schema_version", std::to_string(kSchemaVersion));
         });
       } else {
         check_format();
+        upgrade();
       }
       exec("PRAGMA synchronous=NORMAL");  // WAL + NORMAL: a commit survives a process crash (not a power loss)
       exec("PRAGMA foreign_keys=ON");
@@ -288,6 +310,56 @@ class SqliteStore final : public StudyStore {
         .bind(5, h.dump())
         .bind(6, snap.snapshot.region_state);
     s.step();
+  }
+
+  void add_algorithm_state(const AlgorithmSnapshot& snap) override {
+    Statement s(db_, "INSERT INTO algorithm_states (finished, outstanding, state, created_at) VALUES (?, ?, ?, ?)",
+                path_);
+    s.bind(1, snap.finished).bind(2, snap.outstanding).bind(3, snap.state).bind(4, snap.created_at);
+    s.step();
+    Statement prune(db_, "DELETE FROM algorithm_states WHERE finished < ?", path_);
+    prune.bind(1, snap.finished - 2);
+    prune.step();
+  }
+
+  std::vector<AlgorithmSnapshot> algorithm_states() const override {
+    std::vector<AlgorithmSnapshot> out;
+    Statement s(db_, "SELECT finished, outstanding, state, created_at FROM algorithm_states ORDER BY id DESC", path_);
+    while (s.step()) {
+      AlgorithmSnapshot a;
+      a.finished = s.integer(0);
+      a.outstanding = s.integer(1);
+      a.state = s.text(2);
+      a.created_at = s.real(3);
+      out.push_back(std::move(a));
+    }
+    return out;
+  }
+
+  void put_worker(const WorkerRecord& w) override {
+    Statement s(db_,
+                "INSERT INTO workers (id, host, pid, started_at, heartbeat_at, state) VALUES (?, ?, ?, ?, ?, ?) "
+                "ON CONFLICT(id) DO UPDATE SET heartbeat_at = excluded.heartbeat_at, state = excluded.state",
+                path_);
+    s.bind(1, w.id).bind(2, w.host).bind(3, static_cast<std::int64_t>(w.pid)).bind(4, w.started_at);
+    s.bind(5, w.heartbeat_at).bind(6, w.state);
+    s.step();
+  }
+
+  std::vector<WorkerRecord> workers() const override {
+    std::vector<WorkerRecord> out;
+    Statement s(db_, "SELECT id, host, pid, started_at, heartbeat_at, state FROM workers ORDER BY started_at", path_);
+    while (s.step()) {
+      WorkerRecord w;
+      w.id = s.text(0);
+      w.host = s.text(1);
+      w.pid = static_cast<long>(s.integer(2));
+      w.started_at = s.real(3);
+      w.heartbeat_at = s.real(4);
+      w.state = s.text(5);
+      out.push_back(std::move(w));
+    }
+    return out;
   }
 
   std::vector<StoredSnapshot> snapshots() const override {
@@ -444,6 +516,22 @@ class SqliteStore final : public StudyStore {
       throw InputError(fmt::format("{}: written by a newer varbo (store schema version {}; this varbo reads up to "
                                    "version {}); upgrade varbo to open it",
                                    path_, version, kSchemaVersion));
+  }
+
+  /// A version-1 store gains the algorithm_states table (older varbo versions then refuse it as newer).
+  void upgrade() {
+    const auto v = meta("schema_version");
+    if (v && std::stoi(*v) >= kSchemaVersion && has_table("algorithm_states") && has_table("workers")) return;
+    transaction([&] {
+      exec(kAlgorithmStates);
+      set_meta("schema_version", std::to_string(kSchemaVersion));
+    });
+  }
+
+  bool has_table(const std::string& name) const {
+    Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", path_);
+    s.bind(1, name);
+    return s.step();
   }
 
   std::string path_;

@@ -1,4 +1,5 @@
-// varbo::Study: ask/tell on a study store, with the algorithm rebuilt by replaying the stored trials.
+// varbo::Study: ask/tell on a study store. The algorithm is rebuilt from its latest saved state (when it offers
+// AlgorithmState, varbo/state.hpp) plus a replay of the trials finished since; else by replaying every trial.
 #include "varbo/study_api.hpp"
 
 #include <fmt/format.h>
@@ -8,10 +9,12 @@
 #include <filesystem>
 #include <sstream>
 
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
+#include "varbo/state.hpp"
 
 namespace fs = std::filesystem;
 
@@ -25,6 +28,12 @@ std::string emit(const YAML::Node& n) {
   YAML::Emitter em;
   em << n;
   return em.c_str();
+}
+
+std::string join_numbers(const Vec& v) {
+  std::string s = "[";
+  for (Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + exact(v[i]);
+  return s + "]";
 }
 
 std::vector<std::string> lines_of(const std::string& s) {
@@ -74,6 +83,10 @@ struct Study::Impl {
   std::optional<std::int64_t> outstanding;
   bool dirty = true;
   Index mismatches = 0;
+  Index replayed = 0;         ///< trials replayed (ask + tell) since this object was opened
+  /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
+  /// saved only when the live algorithm is further.
+  std::int64_t saved_reach = -1;
 
   /// Builds the task (for its domain) and checks the initial point, as `varbo run` does.
   void init(const StudyConfig& c, const Registry& reg) {
@@ -111,15 +124,103 @@ struct Study::Impl {
     return registry->create<Algorithm>(config.algorithm, actx);
   }
 
+  static std::vector<Observation> observations_of(const std::vector<TrialRecord>& trials, std::size_t n) {
+    std::vector<Observation> out;
+    for (std::size_t i = 0; i < n; ++i) out.push_back(observation_of(trials[i]));
+    return out;
+  }
+
+  /// The saved state reaching furthest into `finished` (the finished trials in finish order), and its reach
+  /// (results it stands for: +1 for a state after an ask whose trial finished next); nullptr if none.
+  const AlgorithmSnapshot* best_state(const std::vector<AlgorithmSnapshot>& states,
+                                      const std::vector<TrialRecord>& finished, std::int64_t& best_reach) const {
+    const AlgorithmSnapshot* best = nullptr;
+    best_reach = 0;
+    const auto n = static_cast<std::int64_t>(finished.size());
+    for (const auto& s : states) {
+      if (s.finished > n) continue;
+      std::int64_t reach = s.finished;
+      if (s.outstanding >= 0) {
+        // Usable only when that trial was the next to finish: it is then told without a new fit.
+        if (s.finished >= n || finished[static_cast<std::size_t>(s.finished)].id != s.outstanding) continue;
+        ++reach;
+      }
+      // Newest first; at equal reach a state after a result (nothing to tell) before one after an ask.
+      if (!best || reach > best_reach || (reach == best_reach && best->outstanding >= 0 && s.outstanding < 0)) {
+        best = &s;
+        best_reach = reach;
+      }
+    }
+    return best;
+  }
+
+  /// A fresh algorithm, continued from the saved state that reaches furthest into the finished trials when
+  /// the algorithm offers AlgorithmState; sync() replays the rest.
   void rebuild() {
     alg = make_algorithm();
     told_ids.clear();
     outstanding.reset();
     dirty = false;
+    auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
+    if (!resumable) return;
+    const std::vector<TrialRecord> finished = store->finished_since(0);
+    const std::vector<AlgorithmSnapshot> states = store->algorithm_states();
+    std::int64_t reach = 0;
+    const AlgorithmSnapshot* best = best_state(states, finished, reach);
+    saved_reach = std::max(saved_reach, reach);
+    if (!best) return;
+    const auto m = static_cast<std::size_t>(best->finished);
+    try {
+      resumable->restore_state(best->state, observations_of(finished, m));
+    } catch (const Error& e) {
+      log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
+               store->location(), m, e.what());
+      alg = make_algorithm();
+      return;
+    }
+    for (std::size_t i = 0; i < m; ++i) told_ids.push_back(finished[i].id);
+    if (best->outstanding >= 0) outstanding = best->outstanding;
+  }
+
+  /// True when other processes finished more than one trial since this object's algorithm was told and a
+  /// saved state covers them: restoring it is cheaper than replaying them (one fit each).
+  bool saved_state_is_further() const {
+    if (!dynamic_cast<const AlgorithmState*>(alg.get())) return false;
+    if (store->next_finish_seq() <= static_cast<std::int64_t>(told_ids.size()) + 1) return false;
+    const std::vector<TrialRecord> finished = store->finished_since(0);
+    std::int64_t reach = 0;
+    best_state(store->algorithm_states(), finished, reach);
+    return reach > static_cast<std::int64_t>(told_ids.size()) + 1;
+  }
+
+  /// The caller makes sure the live algorithm is in a canonical state: told every finished result in finish
+  /// order, nothing pending, and at most one serial ask(1) since (the trial `asked_for`).
+  void save_state(std::optional<std::int64_t> asked_for = std::nullopt) {
+    auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
+    if (!resumable || !alg) return;
+    const auto told = static_cast<std::int64_t>(told_ids.size());
+    const std::int64_t reach = told + (asked_for ? 1 : 0);
+    if (reach <= saved_reach) return;
+    // A state that cannot be saved costs the next process a replay, never this suggestion or result.
+    try {
+      const std::optional<std::string> text = resumable->save_state();
+      if (!text) return;
+      AlgorithmSnapshot s;
+      s.finished = told;
+      s.outstanding = asked_for.value_or(-1);
+      s.state = *text;
+      s.created_at = unix_time();
+      store->add_algorithm_state(s);
+      saved_reach = reach;
+    } catch (const std::exception& e) {
+      log_warn("{}: the algorithm state after {} result(s) was not saved ({}); the next process replays instead",
+               store->location(), told, e.what());
+    }
   }
 
   /// ask(1) then tell(t): the step of an uninterrupted serial run that produced t.
   void replay_one(const TrialRecord& t) {
+    ++replayed;
     std::vector<Suggestion> s = alg->ask(1);
     const bool serial = t.batch_size == 1 && t.pending_before == 0 &&
                         t.finished_before == static_cast<std::int64_t>(told_ids.size());
@@ -141,7 +242,7 @@ struct Study::Impl {
   /// Brings the live algorithm in step with the finished trials of the store. finish_seq values are assigned
   /// once, in order, and never change, so only the trials finished since the last sync need reading.
   void sync() {
-    if (!alg || dirty) rebuild();
+    if (!alg || dirty || saved_state_is_further()) rebuild();
     std::vector<TrialRecord> fresh = store->finished_since(static_cast<std::int64_t>(told_ids.size()));
     std::size_t i = 0;
     if (outstanding) {
@@ -151,11 +252,69 @@ struct Study::Impl {
         outstanding.reset();
         i = 1;
       } else {
+        // The trial this object asked for did not finish next: the state after that ask is not the canonical
+        // one (results told in finish order); start again from the saved states.
         rebuild();
-        fresh = store->finished_since(0);
+        fresh = store->finished_since(static_cast<std::int64_t>(told_ids.size()));
+        if (outstanding) {  // a saved state that had asked for exactly the next trial to finish
+          alg->tell({observation_of(fresh[0])});
+          told_ids.push_back(fresh[0].id);
+          outstanding.reset();
+          i = 1;
+        }
       }
     }
     for (; i < fresh.size(); ++i) replay_one(fresh[i]);
+  }
+
+  /// Pending trials of workers silent for longer than heartbeat_timeout are abandoned (their results will
+  /// not come: the worker died, on this machine or another). Trials of processes that never sent a heartbeat
+  /// (`varbo suggest`) are left alone.
+  void abandon_silent_workers() {
+    if (!(config.heartbeat_timeout > 0)) return;
+    const double now = unix_time();
+    std::vector<WorkerRecord> silent;
+    for (const auto& w : store->workers())
+      if (w.state == "running" && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
+    if (silent.empty()) return;
+    for (TrialRecord t : store->pending_trials()) {
+      for (const auto& w : silent) {
+        if (t.worker != w.id) continue;
+        t.state = TrialState::Abandoned;
+        t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id,
+                              now - w.heartbeat_at, config.heartbeat_timeout);
+        t.finished_at = now;
+        store->update_trial(t);
+        log_warn("{}: trial {} {}", store->location(), t.id, t.error);
+        dirty = true;
+      }
+    }
+  }
+
+  /// With retry_abandoned: new pending trials at the θ of abandoned trials not retried yet (phase "retry"),
+  /// at most `q`. The meta key retried/<id> links an abandoned trial to its retry.
+  std::vector<TrialRecord> retries(Index q) {
+    std::vector<TrialRecord> out;
+    if (!config.retry_abandoned) return out;
+    for (const auto& a : store->trials()) {
+      if (static_cast<Index>(out.size()) >= q) break;
+      if (a.state != TrialState::Abandoned || a.phase == "manual") continue;
+      const std::string key = fmt::format("retried/{}", a.id);
+      if (store->meta(key)) continue;
+      TrialRecord r;
+      r.state = TrialState::Pending;
+      r.phase = "retry";
+      r.x = a.x;
+      r.theta = a.theta;
+      r.worker = worker;
+      r.created_at = unix_time();
+      r.finished_before = store->next_finish_seq();
+      r.batch_size = 0;  // not suggested by the algorithm: a replay need not reproduce it
+      r.id = store->add_trial(r);
+      store->set_meta(key, std::to_string(r.id));
+      out.push_back(r);
+    }
+    return out;
   }
 
   TrialRecord pending_trial(const std::int64_t id, const char* verb) const {
@@ -272,17 +431,26 @@ std::vector<TrialRecord> Study::ask(Index q) {
   std::vector<TrialRecord> out;
   m.store->transaction([&] {
     out.clear();
+    m.abandon_silent_workers();
+    // The budget first: a spent budget costs no model work.
+    std::vector<Vec> pending;
+    for (const auto& t : m.store->pending_trials()) pending.push_back(t.x);
+    const Index remaining =
+        m.config.budget - static_cast<Index>(m.store->next_finish_seq()) - static_cast<Index>(pending.size());
+    if (remaining <= 0) return;
+    out = m.retries(std::min(q, remaining));
+    if (!out.empty()) {
+      m.dirty = true;  // the retried points are pending now: the next ask rebuilds
+      return;
+    }
     try {
       m.sync();
+      m.save_state();  // the state after every finished result, for the next process that opens the study
     } catch (...) {
       m.dirty = true;
       throw;
     }
     const auto n_finished = static_cast<std::int64_t>(m.told_ids.size());
-    std::vector<Vec> pending;
-    for (const auto& t : m.store->pending_trials()) pending.push_back(t.x);
-    const Index remaining = m.config.budget - static_cast<Index>(n_finished) - static_cast<Index>(pending.size());
-    if (remaining <= 0) return;
     const Index n = std::min(q, remaining);
     m.dirty = true;  // until the suggestion is stored
     m.alg->set_pending(pending);
@@ -310,17 +478,18 @@ std::vector<TrialRecord> Study::ask(Index q) {
       r.id = m.store->add_trial(r);
       out.push_back(r);
     }
+    // A serial ask: the state right after it lets the next process tell this trial's result without a fit.
+    if (out.size() == 1 && pending.empty()) m.save_state(out[0].id);
   });
   // Committed: the live algorithm stays usable only after a plain ask(1) with nothing pending.
-  const bool serial = out.size() == 1 && out[0].pending_before == 0;
+  const bool serial = out.size() == 1 && out[0].pending_before == 0 && out[0].batch_size == 1;
   if (serial) {
     m.outstanding = out[0].id;
     m.dirty = false;
   } else if (!out.empty()) {
     m.dirty = true;
-  } else {
-    m.dirty = false;  // nothing asked (budget spent): the algorithm is unchanged apart from set_pending
-    if (m.alg) m.alg->set_pending({});
+  } else if (m.alg && !m.dirty) {
+    m.alg->set_pending({});  // nothing asked: the algorithm is unchanged apart from set_pending
   }
   return out;
 }
@@ -379,11 +548,12 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
   return id;
 }
 
-void Study::record(std::int64_t id, const Evaluation& ev, double evaluation_seconds) {
+TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluation_seconds) {
   Impl& m = *impl_;
   std::int64_t seq = -1;
+  TrialRecord t;
   m.store->transaction([&] {
-    TrialRecord t = m.pending_trial(id, ev.ok ? "observe" : "fail");
+    t = m.pending_trial(id, ev.ok ? "observe" : "fail");
     t.state = ev.ok ? TrialState::Complete : TrialState::Failed;
     t.cost = ev.cost;
     t.components = ev.components;
@@ -397,12 +567,14 @@ void Study::record(std::int64_t id, const Evaluation& ev, double evaluation_seco
   });
   // The serial case: tell the live algorithm now, so recommendation() and snapshot() are current.
   if (m.alg && !m.dirty && m.outstanding == id && seq == static_cast<std::int64_t>(m.told_ids.size())) {
-    if (auto t = m.store->trial(id)) {
-      m.alg->tell({observation_of(*t)});
+    if (auto stored = m.store->trial(id)) {
+      m.alg->tell({observation_of(*stored)});
       m.told_ids.push_back(id);
       m.outstanding.reset();
+      m.store->transaction([&] { m.save_state(); });
     }
   }
+  return t;
 }
 
 void Study::fail(std::int64_t id, const std::string& reason) {
@@ -417,13 +589,19 @@ std::vector<std::int64_t> Study::abandon(double older_than_seconds, const std::s
   if (!std::isfinite(older_than_seconds) || older_than_seconds < 0)
     throw InputError(fmt::format("{}: abandon: the age must be a finite number of seconds ≥ 0, got {}; nothing written",
                                  impl_->store->location(), older_than_seconds));
+  const double cutoff = unix_time() - older_than_seconds;
+  return abandon_where(
+      [&](const TrialRecord& t) { return older_than_seconds <= 0 || t.created_at <= cutoff; }, reason);
+}
+
+std::vector<std::int64_t> Study::abandon_where(const std::function<bool(const TrialRecord&)>& which,
+                                               const std::string& reason) {
   Impl& m = *impl_;
   std::vector<std::int64_t> ids;
   m.store->transaction([&] {
     ids.clear();
-    const double cutoff = unix_time() - older_than_seconds;
-    for (TrialRecord t : m.store->trials()) {
-      if (t.state != TrialState::Pending || (older_than_seconds > 0 && t.created_at > cutoff)) continue;
+    for (TrialRecord t : m.store->pending_trials()) {
+      if (!which(t)) continue;
       t.state = TrialState::Abandoned;
       t.error = reason;
       t.finished_at = unix_time();
@@ -484,9 +662,88 @@ std::vector<TrialRecord> Study::trials() const { return impl_->store->trials(); 
 const StudyConfig& Study::config() const { return impl_->config; }
 const Domain& Study::domain() const { return impl_->domain; }
 StudyStore& Study::store() { return *impl_->store; }
+void Study::transaction(const std::function<void()>& body) { impl_->store->transaction(body); }
+std::optional<std::string> Study::meta(const std::string& key) const { return impl_->store->meta(key); }
+void Study::set_meta(const std::string& key, const std::string& value) {
+  impl_->store->transaction([&] { impl_->store->set_meta(key, value); });
+}
+void Study::add_model_snapshot(const StoredSnapshot& snapshot) {
+  impl_->store->transaction([&] { impl_->store->add_snapshot(snapshot); });
+}
+std::vector<StoredSnapshot> Study::model_snapshots() const { return impl_->store->snapshots(); }
 const Algorithm* Study::algorithm() const { return impl_->alg.get(); }
 Task& Study::task() { return *impl_->task; }
 void Study::set_worker(const std::string& name) { impl_->worker = name; }
+const Registry& Study::registry() const { return *impl_->registry; }
+
+void Study::heartbeat(const std::string& state) {
+  Impl& m = *impl_;
+  WorkerRecord w;
+  w.id = m.worker;
+  const auto [host, pid] = worker_host_pid(m.worker);
+  w.host = host;
+  w.pid = pid;
+  w.started_at = w.heartbeat_at = unix_time();
+  w.state = state;
+  m.store->transaction([&] { m.store->put_worker(w); });
+}
 Index Study::replay_mismatches() const { return impl_->mismatches; }
+Index Study::replayed() const { return impl_->replayed; }
+
+namespace {
+std::string first_difference(const std::string& stored, const std::string& replayed) {
+  std::size_t i = 0;
+  while (i < stored.size() && i < replayed.size() && stored[i] == replayed[i]) ++i;
+  const std::size_t from = i > 40 ? i - 40 : 0;
+  return fmt::format("at character {}: stored '…{}…' vs replayed '…{}…'", i, stored.substr(from, 100),
+                     replayed.substr(from, 100));
+}
+}  // namespace
+
+VerifyReport Study::verify() {
+  Impl& m = *impl_;
+  VerifyReport rep;
+  std::unique_ptr<Algorithm> alg = m.make_algorithm();
+  const auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
+  const std::vector<TrialRecord> finished = m.store->finished_since(0);
+  const std::vector<AlgorithmSnapshot> states = m.store->algorithm_states();
+  auto compare = [&](std::int64_t told, std::int64_t outstanding) {
+    if (!resumable) return true;
+    for (const auto& s : states) {
+      if (s.finished != told || s.outstanding != outstanding) continue;
+      const std::optional<std::string> now = resumable->save_state();
+      ++rep.states_compared;
+      if (now && *now == s.state) continue;
+      rep.divergence = fmt::format("the saved algorithm state after {} result(s){} differs from the replayed one {}",
+                                   told, outstanding >= 0 ? fmt::format(" and the ask of trial {}", outstanding) : "",
+                                   now ? first_difference(s.state, *now) : "(the replayed algorithm saves none)");
+      return false;
+    }
+    return true;
+  };
+  if (!compare(0, -1)) return rep;
+  for (std::size_t i = 0; i < finished.size(); ++i) {
+    const TrialRecord& t = finished[i];
+    const std::vector<Suggestion> s = alg->ask(1);
+    ++rep.replayed;
+    const bool serial =
+        t.batch_size == 1 && t.pending_before == 0 && t.finished_before == static_cast<std::int64_t>(i);
+    if (serial) {
+      const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
+                        (Box::unit(t.x.size()).clamp(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
+      if (!same) {
+        rep.divergence = fmt::format(
+            "trial {} (result {} in finish order): the replay suggests {} instead of the stored {}", t.id, i,
+            s.empty() ? std::string("nothing") : join_numbers(from_unit(Box::unit(t.x.size()).clamp(s[0].x), m.domain.box)),
+            join_numbers(t.theta));
+        return rep;
+      }
+    }
+    if (!compare(static_cast<std::int64_t>(i), t.id)) return rep;
+    alg->tell({observation_of(t)});
+    if (!compare(static_cast<std::int64_t>(i) + 1, -1)) return rep;
+  }
+  return rep;
+}
 
 }  // namespace varbo

@@ -21,6 +21,12 @@ const std::vector<OptionSpec>& study_options() {
       opt::node("plugin_path", "", "extra plugin files or folders, searched before the defaults"),
       opt::reals("initial_point", "", "θ0 in user units, for algorithms that start from a known policy"),
       opt::string("description", "", "free text, copied to the run folder"),
+      opt::real("heartbeat_timeout", 60,
+                "seconds without a heartbeat after which a `varbo worker`'s pending trial is abandoned (0 = never)")
+          .at_least(0),
+      opt::boolean("retry_abandoned", false,
+                   "hand an abandoned trial's θ out again as it is (phase 'retry') instead of letting the algorithm "
+                   "suggest anew"),
   };
   return specs;
 }
@@ -64,6 +70,8 @@ YAML::Node StudyConfig::resolved() const {
   out["seed"] = seed;
   out["threads"] = threads;
   out["output"] = output;
+  out["heartbeat_timeout"] = heartbeat_timeout;
+  out["retry_abandoned"] = retry_abandoned;
   if (initial_point) {
     std::vector<double> v(initial_point->data(), initial_point->data() + initial_point->size());
     out["initial_point"] = v;
@@ -129,6 +137,8 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   s.budget = o.integer("budget");
   s.seed = static_cast<std::uint64_t>(o.integer("seed"));
   s.threads = static_cast<int>(o.integer("threads"));
+  s.heartbeat_timeout = o.real("heartbeat_timeout");
+  s.retry_abandoned = o.boolean("retry_abandoned");
   s.output = o.is_set("output") ? o.str("output") : std::string();
   if (s.output.empty()) {
     const std::string stem = std::filesystem::path(root.file()).stem().string();

@@ -53,22 +53,6 @@ std::string RunSummary::report() const {
 
 namespace {
 
-TrialRow row_of(const TrialRecord& t, Index index) {
-  TrialRow row;
-  row.index = index;
-  row.phase = t.phase;
-  row.theta = t.theta;
-  row.evaluation.ok = t.state == TrialState::Complete;
-  row.evaluation.cost = t.cost;
-  row.evaluation.components = t.components;
-  row.evaluation.error = t.error;
-  row.evaluation.noiseless_cost = t.noiseless_cost;
-  row.fit_seconds = t.fit_seconds;
-  row.acquisition_seconds = t.acquisition_seconds;
-  row.evaluation_seconds = t.evaluation_seconds;
-  return row;
-}
-
 void remove_store_files(const std::string& path) {
   std::error_code ec;
   for (const char* suffix : {"", "-wal", "-shm", "-journal"}) std::filesystem::remove(path + suffix, ec);
@@ -133,35 +117,22 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
   }
   Study st = Study::attach(store_path, study, registry);
-  st.store().set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
+  st.set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
   const Domain& shown = st.domain();
   const Domain domain = shown;
   // Trials a killed session of this run left pending: their results will never come, and the replay suggests
   // them again. Only trials of processes on this host that no longer exist are touched, so a study shared
   // with live external workers keeps their pending trials.
-  std::vector<std::int64_t> interrupted;
-  st.store().transaction([&] {
-    interrupted.clear();
-    const std::string me = default_worker_name();
-    const std::string host = me.substr(0, me.rfind(':'));
-    for (TrialRecord t : st.store().pending_trials()) {
-      const auto colon = t.worker.rfind(':');
-      if (colon == std::string::npos || t.worker.substr(0, colon) != host) continue;
-      long pid = 0;
-      try {
-        pid = std::stol(t.worker.substr(colon + 1));
-      } catch (const std::exception&) {
-        continue;
-      }
-      if (pid <= 0 || (kill(static_cast<pid_t>(pid), 0) == 0 && pid != static_cast<long>(getpid()))) continue;
-      t.state = TrialState::Abandoned;
-      t.error = "interrupted: the run stopped before the result was recorded";
-      t.finished_at = unix_time();
-      st.store().update_trial(t);
-      interrupted.push_back(t.id);
-    }
-  });
+  const std::string me = default_worker_name();
+  const std::string host = me.substr(0, me.rfind(':'));
+  const std::vector<std::int64_t> interrupted = st.abandon_where(
+      [&](const TrialRecord& t) {
+        const auto [worker_host, pid] = worker_host_pid(t.worker);
+        if (worker_host != host) return false;
+        return pid > 0 && (kill(static_cast<pid_t>(pid), 0) != 0 || pid == static_cast<long>(getpid()));
+      },
+      "interrupted: the run stopped before the result was recorded");
 
   const std::optional<Optimum> optimum = task.optimum();
   RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value());
@@ -193,14 +164,15 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   auto regret_key = [](Index row) { return fmt::format("regret_recommended/{}", row); };
 
   auto account = [&](TrialRow& row) {
-    if (!row.evaluation.ok) {
+    const TrialRecord& t = row.trial;
+    if (!row.ok()) {
       ++summary.failed;
     } else {
-      if (!summary.best_theta || row.evaluation.cost < summary.best_cost) {
-        summary.best_cost = row.evaluation.cost;
-        summary.best_theta = row.theta;
+      if (!summary.best_theta || t.cost < summary.best_cost) {
+        summary.best_cost = t.cost;
+        summary.best_theta = t.theta;
       }
-      const double nl = std::isnan(row.evaluation.noiseless_cost) ? row.evaluation.cost : row.evaluation.noiseless_cost;
+      const double nl = std::isnan(t.noiseless_cost) ? t.cost : t.noiseless_cost;
       best_noiseless = std::min(best_noiseless, nl);
     }
     ++summary.evaluations;
@@ -218,19 +190,21 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     std::sort(done.begin(), done.end(),
               [](const TrialRecord& a, const TrialRecord& b) { return a.finish_seq < b.finish_seq; });
     for (const auto& t : done) {
-      TrialRow row = row_of(t, summary.evaluations);
+      TrialRow row;
+      row.index = summary.evaluations;
+      row.trial = t;
       account(row);
       if (optimum)
-        if (auto v = st.store().meta(regret_key(row.index))) row.regret_recommended = std::strtod(v->c_str(), nullptr);
+        if (auto v = st.meta(regret_key(row.index))) row.regret_recommended = std::strtod(v->c_str(), nullptr);
       writer.trial(row);
     }
     if (!done.empty()) recommend();
-    for (const auto& s : st.store().snapshots()) {
+    for (const auto& s : st.model_snapshots()) {
       writer.model(s.snapshot);
       last_snapshot = s.snapshot.iteration;
     }
     if (!done.empty())
-      log_info("resuming {}: {} finished trials replayed from {}{}", study.output, done.size(), store_path,
+      log_info("resuming {}: {} finished trials read from {}{}", study.output, done.size(), store_path,
                interrupted.empty() ? std::string() : fmt::format(", {} interrupted trial(s) suggested again",
                                                                  interrupted.size()));
   }
@@ -246,58 +220,53 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       break;
     }
     const TrialRecord& t = asked.front();
-    TrialRow row;
-    row.index = summary.evaluations;
-    row.phase = t.phase;
-    row.theta = t.theta;
-    row.fit_seconds = t.fit_seconds;
-    row.acquisition_seconds = t.acquisition_seconds;
-    Rng trng = task_rng.stream(static_cast<std::uint64_t>(row.index));
+    const Index index = summary.evaluations;
+    Rng trng = task_rng.stream(static_cast<std::uint64_t>(index));
+    Evaluation evaluation;
     const auto t0 = std::chrono::steady_clock::now();
     try {
-      row.evaluation = task.evaluate(row.theta, trng);
+      evaluation = task.evaluate(t.theta, trng);
     } catch (const std::exception& e) {
-      row.evaluation = Evaluation{};
-      row.evaluation.ok = false;
-      row.evaluation.error = e.what();
+      evaluation = Evaluation{};
+      evaluation.ok = false;
+      evaluation.error = e.what();
     }
-    row.evaluation_seconds = seconds_since(t0);
-    if ((stop_signal = interrupt_signal()) != 0 && !row.evaluation.ok) {
-      TrialRecord abandoned = t;
-      abandoned.state = TrialState::Abandoned;
-      abandoned.error = fmt::format("interrupted by {}", signal_name(stop_signal));
-      abandoned.finished_at = unix_time();
-      st.store().transaction([&] { st.store().update_trial(abandoned); });
-      log_warn("trial {} abandoned: {} ({})", row.index, abandoned.error, safe_text(row.evaluation.error, 300));
+    const double evaluation_seconds = seconds_since(t0);
+    if ((stop_signal = interrupt_signal()) != 0 && !evaluation.ok) {
+      const std::string reason = fmt::format("interrupted by {}", signal_name(stop_signal));
+      st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
+      log_warn("trial {} abandoned: {} ({})", index, reason, safe_text(evaluation.error, 300));
       break;
     }
-    if (!row.evaluation.ok) row.evaluation.error = abbreviate(printable(row.evaluation.error), 2048);
-    if (row.evaluation.ok && !std::isfinite(row.evaluation.cost)) {
-      row.evaluation.ok = false;
-      row.evaluation.error = fmt::format("non-finite cost {}", row.evaluation.cost);
+    if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);
+    if (evaluation.ok && !std::isfinite(evaluation.cost)) {
+      evaluation.ok = false;
+      evaluation.error = fmt::format("non-finite cost {}", evaluation.cost);
     }
-    if (!row.evaluation.ok) log_warn("trial {} failed: {}", row.index, row.evaluation.error);
-    // The result and the model snapshot of this iteration are committed together.
+    if (!evaluation.ok) log_warn("trial {} failed: {}", index, evaluation.error);
+    // The result and the model snapshot of this iteration are committed together; the row is the stored trial.
     std::optional<ModelSnapshot> snap;
     if (const Algorithm* a = st.algorithm()) snap = a->snapshot();
     const bool new_snapshot = snap && snap->iteration != last_snapshot;
-    st.store().transaction([&] {
-      st.record(t.id, row.evaluation, row.evaluation_seconds);
-      if (new_snapshot) st.store().add_snapshot(StoredSnapshot{row.index + 1, *snap});
+    TrialRow row;
+    row.index = index;
+    st.transaction([&] {
+      row.trial = st.record(t.id, evaluation, evaluation_seconds);
+      if (new_snapshot) st.add_model_snapshot(StoredSnapshot{index + 1, *snap});
       summary.regret_recommended.reset();
       recommend();
-      if (summary.regret_recommended) st.store().set_meta(regret_key(row.index), exact(*summary.regret_recommended));
+      if (summary.regret_recommended) st.set_meta(regret_key(index), exact(*summary.regret_recommended));
     });
     if (summary.regret_recommended) row.regret_recommended = *summary.regret_recommended;
     account(row);
     writer.trial(row);
     if (ov.progress) {
       std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
-                                     study.budget, t.phase, row.evaluation.ok ? row.evaluation.cost : NAN,
+                                     study.budget, t.phase, row.ok() ? row.trial.cost : NAN,
                                      summary.best_theta ? summary.best_cost : NAN);
       if (summary.regret_recommended) line += fmt::format("  regret(rec) {:.2e}", *summary.regret_recommended);
       line += fmt::format("  fit {:.3f}s acq {:.3f}s eval {:.3f}s", t.fit_seconds, t.acquisition_seconds,
-                          row.evaluation_seconds);
+                          evaluation_seconds);
       std::fprintf(stderr, "%s\n", line.c_str());
     }
     if (new_snapshot) {

@@ -14,6 +14,7 @@
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/run_folder.hpp"
 
 namespace fs = std::filesystem;
 
@@ -58,72 +59,32 @@ Weights run_weights(const StudyConfig& study, const std::vector<std::string>& co
 }  // namespace
 
 ComponentRun load_component_run(const std::string& folder, const Registry& registry) {
+  // The one reader of run folders (run_folder.hpp); here only the successful trials with every component.
+  const RunFolder rf = load_run_folder(folder, registry);
+  const std::string trials = folder + "/trials.csv";
   ComponentRun run;
   run.folder = folder;
-  const std::string cfg = folder + "/config.resolved.yaml";
-  if (!fs::exists(cfg)) throw InputError(fmt::format("{}: not a run folder (no config.resolved.yaml)", folder));
-  run.study = parse_study(ConfigNode::load_file(cfg), registry);
-  BuildContext tctx;
-  tctx.seed = run.study.seed;
-  std::unique_ptr<Task> task = registry.create<Task>(run.study.task, tctx);
-  run.domain = task->domain();
-  const Index d = run.domain.box.dim();
-  run.initial_point = run.study.initial_point ? run.study.initial_point : task->initial_point();
-
-  const std::string trials = folder + "/trials.csv";
-  std::ifstream in(trials);
-  if (!in) throw InputError(fmt::format("{}: cannot open", trials));
-  std::string line;
-  if (!std::getline(in, line)) throw InputError(fmt::format("{}: empty file", trials));
-  const std::vector<std::string> header = split_csv_line(line);
-  auto col = [&](const std::string& name) -> Index {
-    for (std::size_t i = 0; i < header.size(); ++i)
-      if (header[i] == name) return static_cast<Index>(i);
-    return -1;
-  };
-  const Index cost_col = col("cost"), ok_col = col("ok"), phase_col = col("phase");
-  if (cost_col < 0 || ok_col < 0 || phase_col < 0)
-    throw InputError(fmt::format("{}: expected the columns phase, cost and ok", trials));
-  // θ columns sit between `phase` and `cost`; component columns between `ok` and `fit_seconds`.
-  if (cost_col - phase_col - 1 != d)
-    throw InputError(fmt::format("{}: {} parameter columns, but the task has {} parameters", trials,
-                                 cost_col - phase_col - 1, d));
-  const Index fit_col = col("fit_seconds");
-  const Index comp_end = fit_col >= 0 ? fit_col : static_cast<Index>(header.size());
-  for (Index c = ok_col + 1; c < comp_end; ++c) run.components.push_back(header[static_cast<std::size_t>(c)]);
+  run.study = rf.study;
+  run.domain = rf.domain;
+  run.initial_point = rf.initial_point;
+  run.components = rf.components;
   if (run.components.empty()) throw InputError(fmt::format("{}: the run recorded no cost components", trials));
-
-  std::vector<Vec> th, vals;
-  std::vector<double> costs;
-  int lineno = 1;
-  while (std::getline(in, line)) {
-    ++lineno;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    const auto cells = split_csv_line(line);
-    const std::string where = fmt::format("{}:{}", trials, lineno);
-    if (cells.size() < header.size())
-      throw InputError(fmt::format("{}: expected {} values, found {}", where, header.size(), cells.size()));
-    if (cells[static_cast<std::size_t>(ok_col)] != "1") continue;  // failed trials have no cost
-    Vec t(d), v(static_cast<Index>(run.components.size()));
-    for (Index i = 0; i < d; ++i) t[i] = to_number(cells[static_cast<std::size_t>(phase_col + 1 + i)], where);
-    for (Index i = 0; i < v.size(); ++i) v[i] = to_number(cells[static_cast<std::size_t>(ok_col + 1 + i)], where);
-    const double c = to_number(cells[static_cast<std::size_t>(cost_col)], where);
-    if (!t.allFinite() || !v.allFinite() || !std::isfinite(c)) continue;
-    th.push_back(t);
-    vals.push_back(v);
-    costs.push_back(c);
-  }
-  const auto n = static_cast<Index>(th.size());
+  const Index d = run.domain.box.dim(), k = static_cast<Index>(run.components.size());
+  std::vector<Index> keep;
+  for (Index i = 0; i < rf.theta.rows(); ++i)
+    if (rf.component_values.row(i).allFinite()) keep.push_back(i);
+  const auto n = static_cast<Index>(keep.size());
   if (n == 0) throw InputError(fmt::format("{}: no successful trials with all components", trials));
   run.theta.resize(n, d);
   run.unit.resize(n, d);
-  run.values.resize(n, static_cast<Index>(run.components.size()));
+  run.values.resize(n, k);
   run.cost.resize(n);
   for (Index i = 0; i < n; ++i) {
-    run.theta.row(i) = th[static_cast<std::size_t>(i)].transpose();
-    run.unit.row(i) = to_unit(th[static_cast<std::size_t>(i)], run.domain.box).transpose();
-    run.values.row(i) = vals[static_cast<std::size_t>(i)].transpose();
-    run.cost[i] = costs[static_cast<std::size_t>(i)];
+    const Index r = keep[static_cast<std::size_t>(i)];
+    run.theta.row(i) = rf.theta.row(r);
+    run.unit.row(i) = to_unit(rf.theta.row(r).transpose(), run.domain.box).transpose();
+    run.values.row(i) = rf.component_values.row(r);
+    run.cost[i] = rf.cost[r];
   }
   run.weights = run_weights(run.study, run.components);
 

@@ -11,6 +11,7 @@
 #include "recommender.hpp"
 #include "varbo/function.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo::bo {
 
@@ -26,7 +27,7 @@ struct Phase {
 
 std::vector<OptionSpec> options();
 
-class BayesianOptimization final : public Algorithm {
+class BayesianOptimization final : public Algorithm, public AlgorithmState {
  public:
   BayesianOptimization(const Options& options, const BuildContext& ctx);
   std::vector<Suggestion> ask(Index q) override;
@@ -39,6 +40,10 @@ class BayesianOptimization final : public Algorithm {
   const Surrogate* model() const override { return model_ready_ ? surrogate_.get() : nullptr; }
   std::optional<ModelSnapshot> snapshot() const override;
   const Dataset& data() const { return data_; }
+  /// Exact snapshots (bo_state.cpp): counters, the model snapshot and the states of the components that carry
+  /// one; nullopt (replay) when the surrogate offers no ComponentState or points are pending.
+  std::optional<std::string> save_state() const override;
+  void restore_state(const std::string& state, const std::vector<Observation>& history) override;
 
  private:
   const Phase& phase_at(Index evaluation) const;

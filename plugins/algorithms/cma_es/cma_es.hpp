@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "varbo/algorithm.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo {
 
@@ -24,7 +25,7 @@ struct CmaEsOptions {
   bool recommend_mean = false;
 };
 
-class CmaEs final : public Algorithm {
+class CmaEs final : public Algorithm, public AlgorithmState {
  public:
   CmaEs(Index dim, CmaEsOptions options);
   /// The next q candidates of the current generation; when all λ have been handed out and their results are
@@ -34,6 +35,9 @@ class CmaEs final : public Algorithm {
   /// current generation have arrived. Failed observations (ok = false) get the worst cost seen so far.
   void tell(const std::vector<Observation>& observations) override;
   std::optional<Vec> recommendation() const override;
+  /// Exact snapshot (cma_es_state.cpp): the distribution, its paths and the current generation.
+  std::optional<std::string> save_state() const override;
+  void restore_state(const std::string& state, const std::vector<Observation>& history) override;
 
   Index lambda() const { return lambda_; }
   Index generation() const { return generation_; }

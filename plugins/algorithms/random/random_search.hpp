@@ -3,10 +3,11 @@
 #include <memory>
 
 #include "varbo/registry.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo::random_search {
 
-class RandomSearch final : public Algorithm {
+class RandomSearch final : public Algorithm, public AlgorithmState {
  public:
   /// Points are drawn a block at a time when first asked for, so a huge budget costs no memory up front.
   static constexpr Index kBlock = 4096;
@@ -17,6 +18,9 @@ class RandomSearch final : public Algorithm {
   /// Points pending elsewhere took the next samples: skip that many, so concurrent workers get distinct ones.
   void set_pending(const std::vector<Vec>& pending) override { skip_ = static_cast<Index>(pending.size()); }
   std::optional<Vec> recommendation() const override;
+  /// Snapshot: the sample counter (the data come back through the history).
+  std::optional<std::string> save_state() const override;
+  void restore_state(const std::string& state, const std::vector<Observation>& history) override;
 
  private:
   std::optional<Vec> point(Index k);  ///< the k-th point of the sequence (k < budget_)

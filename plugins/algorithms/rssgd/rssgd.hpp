@@ -12,6 +12,7 @@
 #include "local_data.hpp"
 #include "rssgd_update.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo::rssgd {
 
@@ -35,7 +36,7 @@ std::vector<OptionSpec> options();
 /// Settings from validated options (dim = problem dimension).
 Settings settings_from(const Options& options, Index dim);
 
-class Rssgd final : public Algorithm {
+class Rssgd final : public Algorithm, public AlgorithmState {
  public:
   /// `start` in the unit cube; `critic` is refit on the local data each step; `history` (may be empty) are
   /// observations known before the run (unit cube), e.g. re-scored trials of an earlier run.
@@ -46,6 +47,10 @@ class Rssgd final : public Algorithm {
   std::optional<Vec> recommendation() const override { return theta_; }
   const Surrogate* model() const override { return critic_ready_ ? critic_.get() : nullptr; }
   std::optional<ModelSnapshot> snapshot() const override;
+  /// Exact snapshot (rssgd_state.cpp): θ, the step counters, κ, the critic's state; nullopt when the critic
+  /// offers no ComponentState.
+  std::optional<std::string> save_state() const override;
+  void restore_state(const std::string& state, const std::vector<Observation>& history) override;
 
   /// Changes κ for every later step (overrides the schedule): variable risk during learning.
   void set_kappa(double kappa);

@@ -6,6 +6,7 @@
 
 #include "varbo/optimizer.hpp"
 #include "varbo/sampler.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo {
 
@@ -17,13 +18,16 @@ struct SamplePolishOptions {
   double tolerance = 1e-4;       ///< relative x and f tolerance of the local search, crbo.md
 };
 
-class SamplePolishOptimizer final : public Optimizer {
+class SamplePolishOptimizer final : public Optimizer, public ComponentState {
  public:
   SamplePolishOptimizer(std::unique_ptr<Sampler> sampler, SamplePolishOptions options);
   /// The feasible rows of `starts` are evaluated along with the samples. The result is the best point found
   /// that region.contains(); success = false only if no finite value at a feasible point was found.
   OptimizeResult maximize(const DifferentiableFunction& f, const RegionConstraint& region, const Mat& starts,
                           Rng& rng) const override;
+  /// The sampler's state (hit-and-run chains), if it has one.
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
 
  private:
   std::unique_ptr<Sampler> sampler_;

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "varbo/region.hpp"
+#include "varbo/state.hpp"
 
 namespace varbo {
 
@@ -19,7 +20,7 @@ struct TrustRegionOptions {
   double restart_length = 0.8;              ///< L after a restart (≥ 2: the whole unit cube from any centre)
 };
 
-class TrustRegion final : public RegionConstraint {
+class TrustRegion final : public RegionConstraint, public ComponentState {
  public:
   TrustRegion(Index dim, TrustRegionOptions options);
   /// Compares the best cost in `data` with the best at the previous update (only when new points arrived),
@@ -30,6 +31,9 @@ class TrustRegion final : public RegionConstraint {
   const Box& bounds() const override { return box_; }
   Mat seeds() const override;
   std::string state() const override;
+  /// Exact snapshot (trust_region_state.cpp): centre, L, best, counters.
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
 
   double length() const { return length_; }
   int successes() const { return successes_; }

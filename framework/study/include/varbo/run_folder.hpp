@@ -1,7 +1,9 @@
 #pragma once
 // Reading a finished run folder back (config.resolved.yaml, trials.csv, model.yaml) to inspect or re-use its
-// model without evaluating the task again: `varbo select`, `varbo plot` and the C++ API.
+// model without evaluating the task again: `varbo select`, `varbo plot`, `varbo rescore` and the C++ API. The one
+// reader of run folders.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,11 +17,14 @@ struct RunFolder {
   StudyConfig study;                ///< parsed from config.resolved.yaml
   Domain domain;                    ///< from the task built from the resolved config (user units)
   std::vector<std::string> names;   ///< parameter names (domain.names, x1.. when the task gives none)
+  std::optional<Vec> initial_point; ///< the config's initial_point, else the task's (user units)
   Index trials = 0;                 ///< rows of trials.csv, failed ones included
   Mat theta;                        ///< successful trials, user units (rows)
   Vec cost;                         ///< their costs
   std::vector<std::string> phases;  ///< their phases ("initial", "ei", ...)
   Dataset data;                     ///< the same trials in the unit cube, as the algorithm saw them
+  std::vector<std::string> components;  ///< trials.csv cost-component columns (between `ok` and the timings)
+  Mat component_values;             ///< successful trials × components (NaN where a value is missing)
   std::vector<Hyperparameters> fits;  ///< model.yaml: hyperparameters after each fit (may be empty)
 };
 

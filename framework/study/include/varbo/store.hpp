@@ -54,10 +54,31 @@ struct StoredSnapshot {
   ModelSnapshot snapshot;
 };
 
+/// The saved state of an algorithm that offers AlgorithmState (varbo/state.hpp): the algorithm after it was
+/// told the first `finished` results (in finish order), and, when `outstanding` ≥ 0, asked once more for the
+/// trial with that id (a serial ask, nothing pending). A study opens from the state reaching furthest.
+struct AlgorithmSnapshot {
+  std::int64_t finished = 0;
+  std::int64_t outstanding = -1;
+  std::string state;
+  double created_at = 0;
+};
+
+/// A process working on a study (`varbo worker`, or any Study that sends heartbeats), across machines.
+struct WorkerRecord {
+  std::string id;            ///< host:pid:nonce
+  std::string host;
+  long pid = 0;
+  double started_at = 0;     ///< unix seconds
+  double heartbeat_at = 0;   ///< latest sign of life
+  std::string state = "running";  ///< running | stopped
+};
+
 class StudyStore {
  public:
   /// Schema version written into the `meta` table; opening a store with a newer version is an error.
-  static constexpr int kSchemaVersion = 1;
+  /// 2: algorithm states (a version-1 store is upgraded when opened).
+  static constexpr int kSchemaVersion = 2;
 
   virtual ~StudyStore();
   /// The file (or URL) of the store, for messages.
@@ -87,6 +108,15 @@ class StudyStore {
 
   virtual void add_snapshot(const StoredSnapshot& snapshot) = 0;
   virtual std::vector<StoredSnapshot> snapshots() const = 0;
+
+  /// Saves an algorithm state and drops states more than two results older (only the latest are used).
+  virtual void add_algorithm_state(const AlgorithmSnapshot& snapshot) = 0;
+  /// The algorithm states kept, newest first.
+  virtual std::vector<AlgorithmSnapshot> algorithm_states() const = 0;
+
+  /// Inserts or replaces the worker's row.
+  virtual void put_worker(const WorkerRecord& worker) = 0;
+  virtual std::vector<WorkerRecord> workers() const = 0;
 };
 
 /// Creates a new SQLite store at `path` holding the `meta` entries; an existing file is an InputError. The
@@ -107,6 +137,10 @@ inline constexpr const char* kOutput = "output";          ///< run folder of `va
 
 /// "host:pid" of this process.
 std::string default_worker_name();
+/// "host:pid:nonce" (16 random hex digits): a worker id unique across machines and pid reuse.
+std::string new_worker_id();
+/// The host and pid of a worker name "host:pid" or "host:pid:nonce"; pid 0 when the name has another form.
+std::pair<std::string, long> worker_host_pid(const std::string& worker);
 /// Seconds since the epoch.
 double unix_time();
 

@@ -17,6 +17,8 @@ struct StudyConfig {
   int threads = 0;
   std::string output;
   std::optional<Vec> initial_point;  ///< user units
+  double heartbeat_timeout = 60;     ///< a silent `varbo worker`'s pending trials are abandoned after it (0: never)
+  bool retry_abandoned = false;      ///< re-queue an abandoned trial's θ as it is
   YAML::Node resolved() const;       ///< every key with defaults, for config.resolved.yaml
 };
 

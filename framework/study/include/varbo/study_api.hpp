@@ -11,9 +11,12 @@
 //   auto best = study.best();
 //
 // How the algorithm is rebuilt: algorithms are deterministic functions of the seed and of the sequence of
-// ask/tell calls, so the store keeps no algorithm state. Study re-creates the algorithm from the stored
-// configuration and replays "ask(1), tell(result)" for every finished trial in the order the results arrived
-// (docs/studies.md). A process that keeps its Study open only replays what other processes added.
+// ask/tell calls. An algorithm that offers AlgorithmState (varbo/state.hpp) has its state saved in the store after
+// every result and every serial ask; Study re-creates the algorithm from the stored configuration, restores the
+// saved state reaching furthest and replays "ask(1), tell(result)" only for results no state covers (an
+// algorithm without snapshots: all of them), in the order the results arrived (docs/studies.md). A process that
+// keeps its Study open only catches up with what other processes added.
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -31,6 +34,15 @@ struct Selection {
   double mean = 0;    ///< E[y] of the refitted surrogate
   double std = 0;     ///< sqrt(V[y]), latent + noise
   double value = 0;   ///< mean + κ·std
+};
+
+/// What Study::verify found.
+struct VerifyReport {
+  Index replayed = 0;         ///< finished trials replayed
+  Index states_compared = 0;  ///< saved algorithm states compared with the replayed algorithm
+  /// The first divergence (a serial trial whose point the replay does not reproduce, or a saved state that
+  /// differs from the replayed one), described; empty when none.
+  std::string divergence;
 };
 
 class Study {
@@ -63,13 +75,26 @@ class Study {
   /// complete trial (phase "manual"). θ must have the study's dimension and lie in its domain, else InputError
   /// with nothing written. Returns its id.
   std::int64_t tell_point(const Vec& theta, double cost, const Components& components = {});
-  /// Records a result with everything `varbo run` knows (noiseless cost, timings, failure).
-  void record(std::int64_t id, const Evaluation& evaluation, double evaluation_seconds);
+  /// Records a result with everything `varbo run` knows (noiseless cost, timings, failure); returns the trial
+  /// as stored.
+  TrialRecord record(std::int64_t id, const Evaluation& evaluation, double evaluation_seconds);
   /// Marks a pending trial failed (it counts against the budget; the algorithm is told ok = false).
   void fail(std::int64_t id, const std::string& reason);
   /// Marks pending trials abandoned: all of them (older_than_seconds = 0) or those created longer ago.
   /// Their points may be suggested again. Returns the ids abandoned.
   std::vector<std::int64_t> abandon(double older_than_seconds = 0, const std::string& reason = "abandoned");
+  /// Marks the pending trials for which `which` holds abandoned (e.g. those of a dead worker).
+  std::vector<std::int64_t> abandon_where(const std::function<bool(const TrialRecord&)>& which,
+                                          const std::string& reason);
+
+  /// Runs `body` as one transaction of the store (nested calls join it): e.g. a result with its model snapshot.
+  void transaction(const std::function<void()>& body);
+  /// Study-level values kept with the trials (the run folder, per-row figures of `varbo run`).
+  std::optional<std::string> meta(const std::string& key) const;
+  void set_meta(const std::string& key, const std::string& value);
+  /// The model after each fit, as `varbo run` writes it to model.yaml.
+  void add_model_snapshot(const StoredSnapshot& snapshot);
+  std::vector<StoredSnapshot> model_snapshots() const;
 
   /// The complete trial with the lowest observed cost.
   std::optional<TrialRecord> best() const;
@@ -81,6 +106,7 @@ class Study {
   std::vector<TrialRecord> trials() const;
   const StudyConfig& config() const;
   const Domain& domain() const;  ///< names filled in (x1, x2, ... when the task gives none)
+  /// The store itself, for tests and tools; programs use the methods above.
   StudyStore& store();
   /// The live algorithm, in step with the store after the latest ask(); for snapshots and recommendations.
   const Algorithm* algorithm() const;
@@ -88,9 +114,22 @@ class Study {
   Task& task();
   /// Name recorded as the worker of trials asked by this object (default "host:pid").
   void set_worker(const std::string& name);
+  /// Records a sign of life of this object's worker (its row in the store's workers table; `state` running or
+  /// stopped). A worker that sent heartbeats and then stays silent longer than the study's heartbeat_timeout has
+  /// its pending trials abandoned by the next ask() of any process (docs/studies.md, "Workers").
+  void heartbeat(const std::string& state = "running");
+  /// The components the study was built from (plugins loaded by open/create, or the registry given to attach).
+  const Registry& registry() const;
   /// Number of finished trials whose replayed suggestion differed from the stored one (should be 0 for a
   /// serial study: a non-zero count means something is not deterministic).
   Index replay_mismatches() const;
+  /// Finished trials replayed (ask + tell, one model fit each for bo) since this object was opened: 0 or 1 per
+  /// ask when the algorithm offers snapshots, the whole study otherwise.
+  Index replayed() const;
+  /// Replays the whole study on a fresh algorithm (ask(1), tell in finish order), checks that every serial
+  /// trial's point is reproduced and that every saved algorithm state equals the replayed one; stops at the
+  /// first divergence. Writes nothing (`varbo study verify`).
+  VerifyReport verify();
 
   struct Impl;
 

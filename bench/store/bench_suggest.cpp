@@ -1,0 +1,132 @@
+// `varbo suggest` against one BO iteration (issue 14, target ≤ 1.5×). One Hartmann-6 bo study (plain
+// defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200 finished
+// trials (or the --at list) three `varbo suggest` + `varbo observe` processes continue it. Printed per N: the
+// median wall time of the embedded ask(1) over the iterations just before N (one BO iteration: fit +
+// acquisition + store), the median wall time of the `varbo suggest` process (start-up, plugins, opening the
+// study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
+// all threads; for the process, its rusage), which a loaded machine distorts less than wall time.
+//
+//   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200] [--dir /tmp/x]
+#include <fmt/format.h>
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "varbo/csv.hpp"
+#include "varbo/study_api.hpp"
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// CPU seconds (user + system) of this process (who = RUSAGE_SELF, all threads) or of its waited-for children.
+double cpu_seconds(int who) {
+  rusage u{};
+  getrusage(who, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+std::string slurp(const std::string& file) {
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Runs a shell command, exits on failure.
+void run(const std::string& cmd) {
+  if (std::system(cmd.c_str()) != 0) {
+    std::fprintf(stderr, "bench_suggest: command failed: %s\n", cmd.c_str());
+    std::exit(1);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200] [--dir DIR]\n");
+    return 2;
+  }
+  const std::string varbo = argv[1];
+  std::vector<long> at = {50, 100, 200};
+  std::string dir = (std::filesystem::temp_directory_path() / "varbo_bench_suggest").string();
+  for (int i = 2; i + 1 < argc; i += 2) {
+    const std::string key = argv[i], value = argv[i + 1];
+    if (key == "--at") {
+      at.clear();
+      std::stringstream ss(value);
+      for (std::string t; std::getline(ss, t, ',');) at.push_back(std::stol(t));
+    } else if (key == "--dir") {
+      dir = value;
+    }
+  }
+  constexpr int kRepeats = 3;     // suggest processes per N
+  constexpr int kIterations = 5;  // embedded iterations timed just before N
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string db = dir + "/h6.db";
+  const long budget = at.back() + 2L * kRepeats * static_cast<long>(at.size()) + 10;
+  varbo::Study study = varbo::Study::create_from_yaml(
+      db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {{type: bo}}\n", budget));
+  varbo::Rng noise(1);
+  auto evaluate = [&](const varbo::TrialRecord& t) {
+    varbo::Rng r = noise.stream(static_cast<std::uint64_t>(t.id));
+    return study.task().evaluate(t.theta, r).cost;
+  };
+  std::printf("| N | one BO iteration (embedded ask): wall, CPU s | `varbo suggest` process: wall, CPU s | ratio wall, "
+              "CPU |\n|---|---|---|---|\n");
+  long finished = 0;
+  for (const long n : at) {
+    std::vector<double> iteration, iteration_cpu;
+    while (finished < n) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_seconds(RUSAGE_SELF);
+      const varbo::TrialRecord t = study.ask(1).at(0);
+      const double s = seconds_since(t0), c = cpu_seconds(RUSAGE_SELF) - c0;
+      if (finished >= n - kIterations) {
+        iteration.push_back(s);
+        iteration_cpu.push_back(c);
+      }
+      study.tell(t.id, evaluate(t));
+      ++finished;
+    }
+    std::vector<double> suggest, suggest_cpu;
+    for (int r = 0; r < kRepeats; ++r) {
+      const std::string out = dir + "/suggest.json";
+      const auto t0 = std::chrono::steady_clock::now();
+      const double c0 = cpu_seconds(RUSAGE_CHILDREN);
+      run(fmt::format("'{}' -q suggest '{}' --json > '{}'", varbo, db, out));
+      suggest.push_back(seconds_since(t0));
+      suggest_cpu.push_back(cpu_seconds(RUSAGE_CHILDREN) - c0);
+      // The trial's id is the number of trials so far; its θ is read back from the store.
+      const auto trials = study.trials();
+      const varbo::TrialRecord& t = trials.back();
+      run(fmt::format("'{}' -q observe '{}' {} {} > /dev/null", varbo, db, t.id, varbo::exact(evaluate(t))));
+      ++finished;
+      (void)slurp(out);
+    }
+    const double it = median(iteration), sg = median(suggest);
+    const double itc = median(iteration_cpu), sgc = median(suggest_cpu);
+    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× |\n", n, it, itc, sg, sgc, sg / it, sgc / itc);
+    std::fflush(stdout);
+  }
+  return 0;
+}

@@ -1,0 +1,176 @@
+// `varbo worker STUDY --command CMD`: the loop a user starts on each machine of a study — suggest, run the command
+// like the `external` task (it is that task: JSON on stdin, cost on stdout, timeout, whole process tree killed,
+// failures recorded), observe, repeat until the budget is used. A heartbeat thread keeps the worker's row fresh
+// so that other processes abandon its trial only when it is really gone (docs/studies.md, "Workers").
+#include <fmt/format.h>
+#include <signal.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <thread>
+
+#include "cli_parse.hpp"
+#include "commands.hpp"
+#include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/study_api.hpp"
+#include "varbo/text.hpp"
+
+namespace varbo::cli {
+
+namespace {
+
+std::atomic<int> g_stop{0};
+extern "C" void on_stop_signal(int sig) { g_stop.store(sig); }
+
+/// SIGTERM, SIGINT, SIGHUP: finish the current trial, record it, then stop (exit 128 + signal).
+void install_stop_handlers() {
+  struct sigaction sa{};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaction(s, &sa, nullptr);
+}
+
+/// The `external` task for the study's domain, built through the registry like any configured task.
+std::unique_ptr<Task> external_task(const Study& study, const std::string& command, double timeout) {
+  const Domain& d = study.domain();
+  YAML::Emitter em;
+  em << YAML::Flow << YAML::BeginMap << YAML::Key << "type" << YAML::Value << "external";
+  em << YAML::Key << "command" << YAML::Value << YAML::DoubleQuoted << command;
+  em << YAML::Key << "lower" << YAML::Value << YAML::BeginSeq;
+  for (Index i = 0; i < d.box.dim(); ++i) em << exact(d.box.lower[i]);
+  em << YAML::EndSeq << YAML::Key << "upper" << YAML::Value << YAML::BeginSeq;
+  for (Index i = 0; i < d.box.dim(); ++i) em << exact(d.box.upper[i]);
+  em << YAML::EndSeq << YAML::Key << "names" << YAML::Value << YAML::BeginSeq;
+  for (const auto& n : d.names) em << YAML::DoubleQuoted << n;
+  em << YAML::EndSeq << YAML::Key << "timeout" << YAML::Value << exact(timeout) << YAML::EndMap;
+  const ResolvedComponent spec =
+      study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<varbo worker --command>"));
+  BuildContext ctx;
+  ctx.seed = study.config().seed;
+  return study.registry().create<Task>(spec, ctx);
+}
+
+/// Refreshes the worker's heartbeat every `interval` seconds on its own connection to the store, so that a
+/// long trial keeps its worker alive.
+class HeartbeatThread {
+ public:
+  HeartbeatThread(const std::string& store, const std::string& worker, double interval)
+      : thread_([=, this] { loop(store, worker, interval); }) {}
+  ~HeartbeatThread() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+
+ private:
+  void loop(const std::string& path, const std::string& worker, double interval) {
+    std::unique_ptr<StudyStore> store;
+    try {
+      store = open_sqlite_store(path);
+    } catch (const Error& e) {
+      log_warn("worker {}: heartbeats stopped: {}", worker, e.what());
+      return;
+    }
+    const auto [host, pid] = worker_host_pid(worker);
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!cv_.wait_for(lock, std::chrono::duration<double>(interval), [&] { return done_; })) {
+      WorkerRecord w;
+      w.id = worker;
+      w.host = host;
+      w.pid = pid;
+      w.started_at = w.heartbeat_at = unix_time();
+      try {
+        store->transaction([&] { store->put_worker(w); });
+      } catch (const Error& e) {
+        log_warn("worker {}: heartbeat not recorded: {}", worker, e.what());
+      }
+    }
+  }
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::thread thread_;
+};
+
+}  // namespace
+
+Runner add_worker(CLI::App& app) {
+  auto* cmd = app.add_subcommand("worker", "Work on a study: suggest, run a command on θ, record its cost, repeat "
+                                           "until the budget is used");
+  struct Args {
+    std::string store, command, timeout = "600";
+    long long max_trials = 0;
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("--command", a->command,
+                  "shell command evaluating one θ, as the external task runs it: {\"theta\": [...], \"names\": "
+                  "[...], \"trial\": k} on stdin, the cost (or {\"cost\": c, \"components\": {...}}) on the last "
+                  "line of stdout")
+      ->required();
+  cmd->add_option("--max-trials", a->max_trials, "stop after this many trials (0 = until the budget is used)")
+      ->check(CLI::Range(0LL, 1000000000LL));
+  cmd->add_option("--timeout", a->timeout, "seconds before the command and its whole process tree are killed "
+                                           "(a failed trial)");
+  return [a]() {
+    const double timeout = parse_number(a->timeout, "--timeout");
+    if (!(timeout > 0) || !std::isfinite(timeout))
+      throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
+    if (a->command.empty()) throw InputError("--command: expected a shell command, got an empty one");
+    Study study = Study::open(a->store);
+    const std::string id = new_worker_id();
+    study.set_worker(id);
+    std::unique_ptr<Task> task = external_task(study, a->command, timeout);
+    install_stop_handlers();
+    const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
+    study.heartbeat();
+    HeartbeatThread beats(a->store, id, hb);
+    std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
+    long long done = 0;
+    int exit_code = 0;
+    while (a->max_trials == 0 || done < a->max_trials) {
+      if (const int sig = g_stop.load()) {
+        exit_code = 128 + sig;
+        break;
+      }
+      const std::vector<TrialRecord> asked = study.ask(1);
+      if (asked.empty()) {
+        // The budget is used, or held by trials pending elsewhere: wait while those may still finish or be
+        // abandoned (their worker silent), then ask again.
+        bool pending = false;
+        for (const auto& t : study.store().pending_trials()) pending = pending || t.worker != id;
+        if (!pending) break;
+        std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 1.0)));
+        continue;
+      }
+      const TrialRecord& t = asked.front();
+      Rng rng = Rng(study.config().seed).stream(0x7a5c).stream(static_cast<std::uint64_t>(t.id));
+      const auto t0 = std::chrono::steady_clock::now();
+      Evaluation e = task->evaluate(t.theta, rng);
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (e.ok && !std::isfinite(e.cost)) {
+        e.ok = false;
+        e.error = fmt::format("non-finite cost {}", e.cost);
+      }
+      study.record(t.id, e, seconds);
+      ++done;
+      std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
+                   e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());
+    }
+    study.heartbeat("stopped");
+    std::fprintf(stderr, "varbo worker %s: %lld trial(s) done%s\n", id.c_str(), done,
+                 exit_code ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");
+    return exit_code;
+  };
+}
+
+}  // namespace varbo::cli

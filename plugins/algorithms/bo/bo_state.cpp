@@ -1,0 +1,68 @@
+// Exact snapshots of bo (varbo/state.hpp): a study continues from the state after its latest trial instead of
+// replaying one model fit per finished trial. The observations come back through tell(); the state holds what
+// they do not determine: the fit counter (refit_every), the latest model snapshot, and the states of the
+// components that carry one from call to call (the surrogate's warm start, a trust region, hit-and-run chains).
+// The failure classifier is refitted at every ask, so it needs no state. The recommender (its cache, its own
+// optimizer) is left out: recommendation() is called by `varbo run` and not by a replay, so its state is not a
+// function of the trials; a restored bo recomputes a recommendation from the same data and model.
+#include <fmt/format.h>
+
+#include "bayesian_optimization.hpp"
+#include "varbo/errors.hpp"
+
+namespace varbo::bo {
+
+namespace {
+// Components other than the surrogate: saved when they offer a state, else taken to be stateless.
+template <class T>
+void save_if_stateful(StateMap& m, const char* key, const T* component) {
+  if (const ComponentState* s = state_of(component)) m.put(key, s->save_state());
+}
+template <class T>
+void restore_if_saved(const StateMap& m, const char* key, T* component) {
+  if (!m.has(key)) return;
+  ComponentState* s = state_of(component);
+  if (!s) throw InputError(fmt::format("bo state: '{}' saved, but the component takes no state", key));
+  s->restore_state(m.str(key));
+}
+}  // namespace
+
+std::optional<std::string> BayesianOptimization::save_state() const {
+  // Pending points change the next fit (fantasies): the study saves states only between serial steps.
+  if (!pending_.empty()) return std::nullopt;
+  const ComponentState* surrogate = state_of(surrogate_.get());
+  if (!surrogate) return std::nullopt;  // every surrogate is warm-started: without its state, replay
+  StateMap m;
+  m.put_int("told", told_);
+  m.put_int("fits", fits_);
+  m.put("model_ready", model_ready_);
+  m.put("feasibility_on", feasibility_on_);
+  m.put("exclusion_threshold", exclusion_threshold_);
+  m.put("snapshot", snapshot_);
+  m.put("surrogate", surrogate->save_state());
+  save_if_stateful(m, "region", region_.get());
+  save_if_stateful(m, "design_sampler", design_sampler_.get());
+  save_if_stateful(m, "acquisition_optimizer", optimizer_.get());
+  return m.text();
+}
+
+void BayesianOptimization::restore_state(const std::string& text, const std::vector<Observation>& history) {
+  const StateMap m = StateMap::parse(text, "bo state");
+  if (told_ != 0) throw std::logic_error("bo: restore_state on an algorithm that was already told");
+  tell(history);  // data, failures and the design counters, exactly as the saved run got them
+  if (m.integer("told") != told_)
+    throw InputError(fmt::format("bo state: saved after {} observations, {} given", m.integer("told"), told_));
+  fits_ = static_cast<Index>(m.integer("fits"));
+  model_ready_ = m.boolean("model_ready");
+  feasibility_on_ = m.boolean("feasibility_on");
+  exclusion_threshold_ = m.real("exclusion_threshold");
+  snapshot_ = m.model_snapshot("snapshot");
+  ComponentState* surrogate = state_of(surrogate_.get());
+  if (!surrogate) throw InputError("bo state: the surrogate takes no state");
+  surrogate->restore_state(m.str("surrogate"));
+  restore_if_saved(m, "region", region_.get());
+  restore_if_saved(m, "design_sampler", design_sampler_.get());
+  restore_if_saved(m, "acquisition_optimizer", optimizer_.get());
+}
+
+}  // namespace varbo::bo

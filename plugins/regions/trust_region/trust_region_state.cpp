@@ -1,0 +1,33 @@
+// Exact snapshot of the trust region (varbo/state.hpp): what its next update() continues from.
+#include "trust_region.hpp"
+#include "varbo/errors.hpp"
+
+namespace varbo {
+
+std::string TrustRegion::save_state() const {
+  StateMap m;
+  m.put("center", center_);
+  m.put("length", length_);
+  m.put("best", best_);
+  m.put_int("seen", seen_);
+  m.put_int("successes", successes_);
+  m.put_int("failures", failures_);
+  m.put_int("restarts", restarts_);
+  return m.text();
+}
+
+void TrustRegion::restore_state(const std::string& text) {
+  const StateMap m = StateMap::parse(text, "trust_region state");
+  const Vec center = m.vec("center");
+  if (center.size() != box_.dim()) throw InputError("trust_region state: the centre has the wrong dimension");
+  center_ = center;
+  length_ = m.real("length");
+  best_ = m.real("best");
+  seen_ = static_cast<Index>(m.integer("seen"));
+  successes_ = static_cast<int>(m.integer("successes"));
+  failures_ = static_cast<int>(m.integer("failures"));
+  restarts_ = static_cast<int>(m.integer("restarts"));
+  set_box();
+}
+
+}  // namespace varbo

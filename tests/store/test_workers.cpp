@@ -1,0 +1,147 @@
+// `varbo worker` (docs/studies.md, "Workers"): several worker processes on one SQLite study, some SIGKILLed
+// mid-trial → every completed observation recorded exactly once and at its own θ, the killed workers' trials
+// abandoned after heartbeat_timeout and run again, the budget respected; SIGTERM finishes the current trial;
+// retry_abandoned re-queues the abandoned θ.
+#include <signal.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+
+#include "process.hpp"
+#include "study_helpers.hpp"
+#include "varbo/store.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+// The trial: θ from the JSON on stdin, cost x1² + x2 printed on stdout, after `sleep` seconds.
+std::string trial_script(const std::string& dir, double sleep) {
+  const std::string path = dir + "/trial.sh";
+  std::ofstream(path) << "#!/bin/sh\n"
+                      << "theta=$(sed 's/.*\"theta\": *\\[\\([^]]*\\)\\].*/\\1/')\n"
+                      << "sleep " << sleep << "\n"
+                      << "echo \"$theta\" | awk -F, '{printf \"%.17g\\n\", $1*$1 + $2}'\n";
+  return "sh " + path;
+}
+
+std::string make_study(const std::string& dir, int budget, const std::string& extra) {
+  const std::string cfg = dir + "/cfg.yaml", db = dir + "/s.db";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: " << budget
+                     << "\nseed: 4\nalgorithm: {type: random}\nheartbeat_timeout: 1\n" << extra;
+  REQUIRE(test::run({VARBO_EXE, "study", "create", db, cfg}).exit_code == 0);
+  return db;
+}
+
+void wait_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
+
+}  // namespace
+
+TEST_CASE("workers: 4 processes, 2 SIGKILLed mid-trial: each result once, abandoned trials re-run, budget kept") {
+  const std::string dir = test::temp_folder("workers");
+  const int budget = 24;
+  const std::string db = make_study(dir, budget, "");
+  const std::string cmd = trial_script(dir, 0.15);
+  std::vector<pid_t> pids;
+  for (int i = 0; i < 4; ++i)
+    pids.push_back(test::spawn({VARBO_EXE, "worker", db, "--command", cmd}, dir + "/worker.log"));
+  wait_ms(700);
+  kill(pids[0], SIGKILL);
+  wait_ms(400);
+  kill(pids[1], SIGKILL);
+  CHECK(test::wait_for(pids[0]).killed);
+  CHECK(test::wait_for(pids[1]).killed);
+  CHECK(test::wait_for(pids[2]).exit_code == 0);
+  CHECK(test::wait_for(pids[3]).exit_code == 0);
+
+  const auto trials = open_sqlite_store(db)->trials();
+  int complete = 0, abandoned = 0;
+  std::set<std::int64_t> seqs;
+  for (const auto& t : trials) {
+    CHECK(t.state != TrialState::Pending);
+    CHECK(t.state != TrialState::Failed);
+    if (t.state == TrialState::Complete) {
+      ++complete;
+      seqs.insert(t.finish_seq);
+      CHECK(std::abs(t.cost - (t.theta[0] * t.theta[0] + t.theta[1])) <= 1e-9 * (1 + std::abs(t.cost)));  // own θ
+    }
+    if (t.state == TrialState::Abandoned) {
+      ++abandoned;
+      CHECK(t.error.find("silent") != std::string::npos);
+    }
+  }
+  CHECK(complete == budget);                           // the budget, exactly
+  CHECK(static_cast<int>(seqs.size()) == complete);    // each result recorded once
+  CHECK(*seqs.begin() == 0);
+  CHECK(*seqs.rbegin() == complete - 1);
+  CHECK(abandoned <= 2);
+  CHECK(static_cast<int>(trials.size()) == complete + abandoned);
+  // The killed workers left their rows "running" with a stale heartbeat; the others stopped.
+  int stopped = 0;
+  for (const auto& w : open_sqlite_store(db)->workers()) stopped += w.state == "stopped";
+  CHECK(stopped == 2);
+}
+
+TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs a killed worker's θ as it was") {
+  const std::string dir = test::temp_folder("workers_term");
+  const std::string db = make_study(dir, 4, "retry_abandoned: true\n");
+  const std::string slow = trial_script(dir, 0.8);
+  // SIGTERM during a trial: it completes, then the worker exits 128 + 15.
+  const pid_t term = test::spawn({VARBO_EXE, "worker", db, "--command", slow}, dir + "/worker.log");
+  wait_ms(500);
+  kill(term, SIGTERM);
+  CHECK(test::wait_for(term).exit_code == 143);
+  {
+    const auto trials = open_sqlite_store(db)->trials();
+    REQUIRE(trials.size() == 1);
+    CHECK(trials[0].state == TrialState::Complete);
+  }
+  // SIGKILL during a trial: its trial stays pending until the heartbeat times out, then is retried as it was.
+  const pid_t killed = test::spawn({VARBO_EXE, "worker", db, "--command", slow}, dir + "/worker.log");
+  wait_ms(500);
+  kill(killed, SIGKILL);
+  CHECK(test::wait_for(killed).killed);
+  const auto before = open_sqlite_store(db)->trials();
+  REQUIRE(before.size() == 2);
+  CHECK(before[1].state == TrialState::Pending);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", trial_script(dir, 0.0)}, dir + "/worker.log").exit_code == 0);
+  const auto after = open_sqlite_store(db)->trials();
+  CHECK(after[1].state == TrialState::Abandoned);
+  bool retried = false;
+  int complete = 0;
+  for (const auto& t : after) {
+    complete += t.state == TrialState::Complete;
+    if (t.phase == "retry") {
+      retried = true;
+      CHECK(t.x == after[1].x);
+      CHECK(t.state == TrialState::Complete);
+    }
+  }
+  CHECK(retried);
+  CHECK(complete == 4);
+}
+
+TEST_CASE("workers: bad input is an error naming the problem, exit 2, nothing written") {
+  const std::string dir = test::temp_folder("workers_bad");
+  const std::string db = make_study(dir, 3, "");
+  const std::string log = dir + "/log.txt";
+  CHECK(test::run({VARBO_EXE, "worker", dir + "/missing.db", "--command", "echo 1"}, log).exit_code == 2);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", "echo 1", "--timeout", "0"}, log).exit_code == 2);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", "echo 1", "--timeout", "1s"}, log).exit_code == 2);
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", ""}, log).exit_code == 2);
+  const std::string errors = test::slurp(log);
+  CHECK(errors.find("missing.db") != std::string::npos);
+  CHECK(errors.find("--timeout") != std::string::npos);
+  CHECK(errors.find("--command") != std::string::npos);
+  CHECK(open_sqlite_store(db)->trials().empty());
+  // A command that fails: a failed trial, recorded; the worker goes on until the budget is used.
+  CHECK(test::run({VARBO_EXE, "worker", db, "--command", "exit 3"}, log).exit_code == 0);
+  const auto trials = open_sqlite_store(db)->trials();
+  REQUIRE(trials.size() == 3);
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Failed);
+    CHECK(t.error.find("exit status 3") != std::string::npos);
+  }
+}
