@@ -245,13 +245,16 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     }
     if (!evaluation.ok) log_warn("trial {} failed: {}", index, evaluation.error);
     // The result and the model snapshot of this iteration are committed together; the row is the stored trial.
+    // The snapshot is read after the algorithm has been told the result, so an algorithm that updates in tell()
+    // (rssgd's step) shows the update this trial caused, not the previous one.
     std::optional<ModelSnapshot> snap;
-    if (const Algorithm* a = st.algorithm()) snap = a->snapshot();
-    const bool new_snapshot = snap && snap->iteration != last_snapshot;
+    bool new_snapshot = false;
     TrialRow row;
     row.index = index;
     st.transaction([&] {
       row.trial = st.record(t.id, evaluation, evaluation_seconds);
+      if (const Algorithm* a = st.algorithm()) snap = a->snapshot();
+      new_snapshot = snap && snap->iteration != last_snapshot;
       if (new_snapshot) st.add_model_snapshot(StoredSnapshot{index + 1, *snap});
       summary.regret_recommended.reset();
       recommend();
