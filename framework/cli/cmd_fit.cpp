@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "background_ticker.hpp"
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
@@ -62,37 +63,15 @@ ResolvedComponent with_fewer_restarts(const Registry& registry, ResolvedComponen
   return registry.resolve(Kind::Surrogate, ConfigNode::parse(em.c_str(), "<varbo fit: restarts for large N>"));
 }
 
-/// Past a few seconds, a line on stderr every so often: a large fit must not look hung.
-class ProgressLine {
- public:
-  explicit ProgressLine(std::string what) : what_(std::move(what)), thread_([this] { loop(); }) {}
-  ~ProgressLine() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      done_ = true;
-    }
-    cv_.notify_all();
-    thread_.join();
-  }
-  ProgressLine(const ProgressLine&) = delete;
-  ProgressLine& operator=(const ProgressLine&) = delete;
-
- private:
-  void loop() {
-    const auto t0 = std::chrono::steady_clock::now();
-    std::unique_lock<std::mutex> lock(mutex_);
-    double next = 5.0;
-    while (!cv_.wait_until(lock, t0 + std::chrono::duration<double>(next), [this] { return done_; })) {
-      std::fprintf(stderr, "varbo fit: fitting %s: %.0f s so far\n", what_.c_str(), next);
-      next = next < 30 ? next + 5 : next + 30;
-    }
-  }
-  std::string what_;
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  bool done_ = false;
-  std::thread thread_;
-};
+/// Past a few seconds, a line on stderr every so often (at 5, 10, …, 30 s, then every 30 s): a large fit must not
+/// look hung.
+BackgroundTicker progress_line(std::string what) {
+  auto at = [](int k) { return k < 6 ? 5.0 * (k + 1) : 30.0 * (k - 4); };
+  return BackgroundTicker(at, [what = std::move(what), at](int k) {
+    std::fprintf(stderr, "varbo fit: fitting %s: %.0f s so far\n", what.c_str(), at(k));
+    return true;
+  });
+}
 
 }  // namespace
 
@@ -169,7 +148,8 @@ Runner add_fit(CLI::App& app) {
     Rng rng(static_cast<std::uint64_t>(a->seed));
     FitReport rep;
     {
-      const ProgressLine progress(fmt::format("{} on {} points × {} dimensions", rc.info->name, ds.size(), ds.dim()));
+      const BackgroundTicker progress =
+          progress_line(fmt::format("{} on {} points × {} dimensions", rc.info->name, ds.size(), ds.dim()));
       try {
         rep = a->no_optimize ? model->condition(ds) : model->fit(ds, rng);
       } catch (const Error&) {

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <thread>
 
+#include "background_ticker.hpp"
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/csv.hpp"
@@ -58,48 +59,34 @@ std::unique_ptr<Task> external_task(const Study& study, const std::string& comma
 
 /// Refreshes the worker's heartbeat every `interval` seconds on its own connection to the store, so that a
 /// long trial keeps its worker alive.
-class HeartbeatThread {
- public:
-  HeartbeatThread(const std::string& store, const std::string& worker, double interval)
-      : thread_([=, this] { loop(store, worker, interval); }) {}
-  ~HeartbeatThread() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      done_ = true;
-    }
-    cv_.notify_all();
-    thread_.join();
-  }
-
- private:
-  void loop(const std::string& path, const std::string& worker, double interval) {
-    std::unique_ptr<StudyStore> store;
-    try {
-      store = open_sqlite_store(path);
-    } catch (const Error& e) {
-      log_warn("worker {}: heartbeats stopped: {}", worker, e.what());
-      return;
-    }
-    const auto [host, pid] = worker_host_pid(worker);
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (!cv_.wait_for(lock, std::chrono::duration<double>(interval), [&] { return done_; })) {
-      WorkerRecord w;
-      w.id = worker;
-      w.host = host;
-      w.pid = pid;
-      w.started_at = w.heartbeat_at = unix_time();
-      try {
-        store->transaction([&] { store->put_worker(w); });
-      } catch (const Error& e) {
-        log_warn("worker {}: heartbeat not recorded: {}", worker, e.what());
-      }
-    }
-  }
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  bool done_ = false;
-  std::thread thread_;
-};
+/// Heartbeats on the thread's own store connection, every `interval` seconds until destroyed.
+std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, const std::string& worker, double interval) {
+  auto store = std::make_shared<std::unique_ptr<StudyStore>>();
+  return std::make_unique<BackgroundTicker>(
+      [interval](int k) { return (k + 1) * interval; },
+      [store, path, worker](int) {
+        if (!*store) {
+          try {
+            *store = open_sqlite_store(path);
+          } catch (const Error& e) {
+            log_warn("worker {}: heartbeats stopped: {}", worker, e.what());
+            return false;
+          }
+        }
+        const auto [host, pid] = worker_host_pid(worker);
+        WorkerRecord w;
+        w.id = worker;
+        w.host = host;
+        w.pid = pid;
+        w.started_at = w.heartbeat_at = unix_time();
+        try {
+          (*store)->transaction([&] { (*store)->put_worker(w); });
+        } catch (const Error& e) {
+          log_warn("worker {}: heartbeat not recorded: {}", worker, e.what());
+        }
+        return true;
+      });
+}
 
 }  // namespace
 
@@ -133,7 +120,7 @@ Runner add_worker(CLI::App& app) {
     install_stop_handlers();
     const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
     study.heartbeat();
-    HeartbeatThread beats(a->store, id, hb);
+    const auto beats = start_heartbeats(a->store, id, hb);
     std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
     long long done = 0;
     int exit_code = 0;

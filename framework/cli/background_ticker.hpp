@@ -1,0 +1,49 @@
+#pragma once
+// A background thread that runs a tick at scheduled times until it is destroyed: `varbo worker`'s heartbeat and
+// `varbo fit`'s progress line. Destruction wakes the thread at once (it never waits for the next tick) and joins it.
+#include <chrono>
+#include <condition_variable>
+#include <functional>
+#include <mutex>
+#include <thread>
+
+namespace varbo::cli {
+
+class BackgroundTicker {
+ public:
+  /// `at(k)`: seconds after construction at which tick k (k = 0, 1, ...) runs; `tick(k)` returns false to stop.
+  /// Ticks run on the thread, under the ticker's lock, so the destructor waits for a running tick to end.
+  BackgroundTicker(std::function<double(int)> at, std::function<bool(int)> tick)
+      : at_(std::move(at)), tick_(std::move(tick)), thread_([this] { run(); }) {}
+  ~BackgroundTicker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  BackgroundTicker(const BackgroundTicker&) = delete;
+  BackgroundTicker& operator=(const BackgroundTicker&) = delete;
+
+ private:
+  void run() {
+    const auto t0 = std::chrono::steady_clock::now();
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (int k = 0;; ++k) {
+      const auto when = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double>(at_(k)));
+      if (cv_.wait_until(lock, when, [this] { return done_; })) return;
+      if (!tick_(k)) return;
+    }
+  }
+
+  std::function<double(int)> at_;
+  std::function<bool(int)> tick_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool done_ = false;
+  std::thread thread_;  ///< last: starts once everything it uses is constructed
+};
+
+}  // namespace varbo::cli
