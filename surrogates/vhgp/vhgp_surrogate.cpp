@@ -102,6 +102,8 @@ FitReport VhgpSurrogate::condition_at(const Dataset& data, const VhgpParams& par
     return report;
   }
   posterior_ = std::move(post);
+  posterior_data_ = data;
+  posterior_params_ = params.pack();
   scaling_ = s;
   params_ = to_cost(params, s);
   // F in cost units: y = m + s·y_s changes log N(y|·) by −n log s; the KL and tr Σ terms are unit-free.
