@@ -1,11 +1,16 @@
 #include "gp_component.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
+#include <string>
+#include <utility>
 
 #include "gp_surrogate.hpp"
 #include "hyperparameter_map.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/option_set.hpp"
 
 namespace varbo::gp {
 
@@ -16,7 +21,68 @@ void check_range(const Options& o, const std::string& lo, const std::string& hi)
     o.node(hi).fail("gp: expected " + hi + " > " + lo + " (" + std::to_string(o.real(lo)) + ")");
 }
 
+// The hyperpriors are stored as log-normal priors (log-median, sd of the log) in GpSettings::priors, two
+// levels down and in log space, which opt:: cannot bind directly: these two adapters bind them by hand, still
+// with the defaults of GpSettings{}. The median is declared at 15 significant digits so that exp(log(0.01))
+// shows (and reads back) as 0.01.
+BoundOption<GpSettings> prior_median(std::string name, LogNormalPrior HyperPriors::*prior, std::string doc) {
+  const std::string key = name;
+  const double median = std::stod(fmt::format("{:.15g}", std::exp((GpSettings{}.priors.*prior).mean)));
+  return {opt::real(std::move(name), median, std::move(doc)).above(0),
+          [key, prior](const Options& o, GpSettings& s) { (s.priors.*prior).mean = std::log(o.real(key)); }};
+}
+BoundOption<GpSettings> prior_sd(std::string name, LogNormalPrior HyperPriors::*prior, std::string doc) {
+  const std::string key = name;
+  return {opt::real(std::move(name), (GpSettings{}.priors.*prior).sd, std::move(doc)).above(0),
+          [key, prior](const Options& o, GpSettings& s) { (s.priors.*prior).sd = o.real(key); }};
+}
+
 }  // namespace
+
+const OptionSet<GpSettings>& gp_options() {
+  using S = GpSettings;
+  static const OptionSet<GpSettings> set{
+      opt::component("kernel", Kind::Kernel, "matern52_ard",
+                     "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
+                     "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
+                     "lengthscales and amplitudes take the priors and bounds below"),
+      opt::integer("restarts", &S::restarts, "optimizer runs per fit (the first warm-started from the previous fit)")
+          .at_least(1),
+      opt::real("full_fit_growth", &S::full_fit_growth,
+                "all restarts once N has grown by this factor since the last such fit (and always up to N = 20); "
+                "in between only the warm start (1: all restarts at every fit)")
+          .at_least(1),
+      opt::component("fit_optimizer", Kind::Optimizer, "{type: ceres_lbfgs, max_iterations: 100}",
+                     "optimizer of the log posterior over log-hyperparameters"),
+      opt::choice("prior_mean", &S::prior_mean, {{"data_mean", S::PriorMean::DataMean}, {"max", S::PriorMean::Max}},
+                  "constant prior mean: the mean of the costs, or the largest cost (pessimistic: unexplored "
+                  "regions look no better than the worst trial; De Ath et al. 2020)"),
+      opt::boolean("priors", opt::nested(&S::priors, &HyperPriors::enabled),
+                   "add the log-normal hyperpriors to the objective (false: plain ML-II)"),
+      prior_median("lengthscale_prior_median", &HyperPriors::lengthscale, "median of the lengthscale prior (unit cube)"),
+      prior_sd("lengthscale_prior_sd", &HyperPriors::lengthscale, "sd of log lengthscale"),
+      prior_median("signal_std_prior_median", &HyperPriors::signal_std,
+                   "median of the signal std prior, relative to std(y)"),
+      prior_sd("signal_std_prior_sd", &HyperPriors::signal_std, "sd of log signal std"),
+      prior_median("noise_std_prior_median", &HyperPriors::noise_std, "median of the noise std prior, relative to std(y)"),
+      prior_sd("noise_std_prior_sd", &HyperPriors::noise_std,
+               "sd of log noise std (wide: the data decide between noise-free and noisy)"),
+      opt::real("min_lengthscale", &S::min_lengthscale, "lower bound of each lengthscale (unit cube)").above(0),
+      opt::real("max_lengthscale", &S::max_lengthscale, "upper bound of each lengthscale (unit cube)").above(0),
+      opt::real("min_signal_std", &S::min_signal_std, "lower bound of the signal std, relative to std(y)").above(0),
+      opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
+      opt::real("min_noise_std", &S::min_noise_std, "lower bound of the noise std, relative to std(y)").above(0),
+      opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
+      opt::choice("output_transform", "none", transforms::output_transform_names(),
+                  transforms::output_transform_description()),
+      opt::node("hyperparameters", "",
+                "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units, by the kernel's "
+                "names (composites: terms[i].<name>): lengthscale (number or list), lengthscale[i], signal_std, "
+                "noise_std (cost units), mean (fixes the "
+                "constant mean; otherwise it is the data mean)"),
+  };
+  return set;
+}
 
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
@@ -24,48 +90,12 @@ ComponentInfo gp_component() {
       "Gaussian process with constant mean, standardized costs, any `kernel` (default Matern-5/2 ARD) and "
       "Gaussian noise. Hyperparameters maximize the log marginal likelihood plus independent log-normal "
       "hyperpriors (Kuindersma 2013, eq. 13), with parallel random restarts of `fit_optimizer`.",
-      {
-          opt::component("kernel", Kind::Kernel, "matern52_ard",
-                         "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
-                         "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
-                         "lengthscales and amplitudes take the priors and bounds below"),
-          opt::integer("restarts", 4, "optimizer runs per fit (the first warm-started from the previous fit)")
-              .at_least(1),
-          opt::real("full_fit_growth", GpSettings{}.full_fit_growth,
-                    "all restarts once N has grown by this factor since the last such fit (and always up to N = 20); "
-                    "in between only the warm start (1: all restarts at every fit)")
-              .at_least(1),
-          opt::component("fit_optimizer", Kind::Optimizer, "{type: ceres_lbfgs, max_iterations: 100}",
-                         "optimizer of the log posterior over log-hyperparameters"),
-          opt::choice("prior_mean", "data_mean", {"data_mean", "max"},
-                      "constant prior mean: the mean of the costs, or the largest cost (pessimistic: unexplored "
-                      "regions look no better than the worst trial; De Ath et al. 2020)"),
-          opt::boolean("priors", true, "add the log-normal hyperpriors to the objective (false: plain ML-II)"),
-          opt::real("lengthscale_prior_median", 0.5, "median of the lengthscale prior (unit cube)").above(0),
-          opt::real("lengthscale_prior_sd", 1.0, "sd of log lengthscale").above(0),
-          opt::real("signal_std_prior_median", 1.0, "median of the signal std prior, relative to std(y)").above(0),
-          opt::real("signal_std_prior_sd", 1.0, "sd of log signal std").above(0),
-          opt::real("noise_std_prior_median", 0.01, "median of the noise std prior, relative to std(y)").above(0),
-          opt::real("noise_std_prior_sd", 3.0, "sd of log noise std (wide: the data decide between noise-free and noisy)").above(0),
-          opt::real("min_lengthscale", 0.01, "lower bound of each lengthscale (unit cube)").above(0),
-          opt::real("max_lengthscale", 50.0, "upper bound of each lengthscale (unit cube)").above(0),
-          opt::real("min_signal_std", 0.05, "lower bound of the signal std, relative to std(y)").above(0),
-          opt::real("max_signal_std", 20.0, "upper bound of the signal std, relative to std(y)").above(0),
-          opt::real("min_noise_std", 1e-6, "lower bound of the noise std, relative to std(y)").above(0),
-          opt::real("max_noise_std", 2.0, "upper bound of the noise std, relative to std(y)").above(0),
-          opt::choice("output_transform", "none", transforms::output_transform_names(),
-                      transforms::output_transform_description()),
-          opt::node("hyperparameters", "",
-                    "initial (or, with `varbo fit --no-optimize`, fixed) values in natural units, by the kernel's "
-                    "names (composites: terms[i].<name>): lengthscale (number or list), lengthscale[i], signal_std, "
-                    "noise_std (cost units), mean (fixes the "
-                    "constant mean; otherwise it is the data mean)"),
-      },
+      gp_options().specs(),
       Factory<Surrogate>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Surrogate> {
         check_range(o, "min_lengthscale", "max_lengthscale");
         check_range(o, "min_signal_std", "max_signal_std");
         check_range(o, "min_noise_std", "max_noise_std");
-        GpSettings s;
+        GpSettings s = gp_options().read(o);
         if (ctx.registry == nullptr) throw std::logic_error("gp: BuildContext without registry");
         // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
         const Registry* registry = ctx.registry;
@@ -79,19 +109,6 @@ ComponentInfo gp_component() {
           return registry->create<Kernel>(kernel, c);
         };
         if (ctx.dim > 0) s.kernel(ctx.dim);
-        s.restarts = static_cast<int>(o.integer("restarts"));
-        s.full_fit_growth = o.real("full_fit_growth");
-        s.prior_mean = o.str("prior_mean") == "max" ? GpSettings::PriorMean::Max : GpSettings::PriorMean::DataMean;
-        s.priors.enabled = o.boolean("priors");
-        s.priors.lengthscale = {std::log(o.real("lengthscale_prior_median")), o.real("lengthscale_prior_sd")};
-        s.priors.signal_std = {std::log(o.real("signal_std_prior_median")), o.real("signal_std_prior_sd")};
-        s.priors.noise_std = {std::log(o.real("noise_std_prior_median")), o.real("noise_std_prior_sd")};
-        s.min_lengthscale = o.real("min_lengthscale");
-        s.max_lengthscale = o.real("max_lengthscale");
-        s.min_signal_std = o.real("min_signal_std");
-        s.max_signal_std = o.real("max_signal_std");
-        s.min_noise_std = o.real("min_noise_std");
-        s.max_noise_std = o.real("max_noise_std");
         std::shared_ptr<const Optimizer> optimizer = ctx.registry->create<Optimizer>(o.component("fit_optimizer"), ctx);
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));
         if (o.is_set("hyperparameters")) {

@@ -8,7 +8,7 @@
 #include "varbo/config.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
-#include "varbo/parallel.hpp"
+#include "varbo/restarts.hpp"
 
 namespace varbo::gp {
 
@@ -220,41 +220,35 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     starts.row(k) = clamp_to(box, p).transpose();
   }
 
-  std::vector<OptimizeResult> results(static_cast<std::size_t>(restarts));
-  parallel_for(restarts, [&](Index k) {
-    OptimizeResult& res = results[static_cast<std::size_t>(k)];
-    try {
-      res = optimizer_->maximize(objective, region, starts.row(k), streams[static_cast<std::size_t>(k)]);
-      if (res.success && res.x.size() == np && res.x.allFinite()) {
-        // The optimizer may ignore the box (ceres_lbfgs): clamp and score the point actually used.
-        res.x = clamp_to(box, res.x);
-        res.value = objective.value(res.x, nullptr);
-        res.success = std::isfinite(res.value);
-      } else {
-        res.success = false;
-      }
-    } catch (const std::exception& e) {
-      res.success = false;
-      res.message = e.what();
-    }
-  });
-
-  // Reduce in index order (ties keep the lower index).
-  Index best = -1, failed = 0;
-  for (Index k = 0; k < restarts; ++k) {
-    const OptimizeResult& res = results[static_cast<std::size_t>(k)];
-    if (!res.success) {
-      ++failed;
-      continue;
-    }
-    if (best < 0 || res.value > results[static_cast<std::size_t>(best)].value) best = k;
-  }
+  // Each start on its own stream (advanced above by the draw of its start), reduced in index order.
+  const Restarts<OptimizeResult> run = run_restarts<OptimizeResult>(
+      restarts, [&](Index k) { return streams[static_cast<std::size_t>(k)]; },
+      [&](Index k, Rng& stream) {
+        OptimizeResult res;
+        try {
+          res = optimizer_->maximize(objective, region, starts.row(k), stream);
+          if (res.success && res.x.size() == np && res.x.allFinite()) {
+            // The optimizer may ignore the box (ceres_lbfgs): clamp and score the point actually used.
+            res.x = clamp_to(box, res.x);
+            res.value = objective.value(res.x, nullptr);
+            res.success = std::isfinite(res.value);
+          } else {
+            res.success = false;
+          }
+        } catch (const std::exception& e) {
+          res.success = false;
+          res.message = e.what();
+        }
+        return res;
+      },
+      [](const OptimizeResult& res) { return res.success ? std::optional<double>(res.value) : std::nullopt; });
+  const Index best = run.best, failed = run.failed;
 
   FitReport rep;
   std::optional<Posterior> post;
   Vec p;
   if (best >= 0) {
-    p = results[static_cast<std::size_t>(best)].x;
+    p = run.results[static_cast<std::size_t>(best)].x;
     post = build(data, s, p);
   }
   if (!post && !full) {

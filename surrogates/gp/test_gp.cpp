@@ -473,3 +473,36 @@ TEST_CASE("prior_mean max: the constant mean is the largest cost (De Ath et al. 
   REQUIRE(plain.condition(data).ok);
   CHECK(plain.predict(far, false).mean == doctest::Approx(data.y.mean()).epsilon(1e-9));
 }
+
+TEST_CASE("gp options: the defaults are GpSettings{}; given priors are stored as log-medians") {
+  const auto read = [](const std::string& yaml) {
+    return gp::gp_options().read(
+        validate_options(ConfigNode::parse(yaml, "<test>"), gp::gp_options().specs(), "gp", &test::registry()));
+  };
+  const gp::GpSettings ref{}, def = read("{}");
+  CHECK(def.restarts == ref.restarts);
+  CHECK(def.full_fit_growth == ref.full_fit_growth);
+  CHECK(def.prior_mean == ref.prior_mean);
+  CHECK(def.priors.enabled == ref.priors.enabled);
+  // The declared median is exp(log-median) at 15 digits; read back through log it is the struct's value exactly.
+  for (const auto& [a, b] : {std::pair{def.priors.lengthscale, ref.priors.lengthscale},
+                             std::pair{def.priors.signal_std, ref.priors.signal_std},
+                             std::pair{def.priors.noise_std, ref.priors.noise_std}}) {
+    CHECK(a.mean == b.mean);
+    CHECK(a.sd == b.sd);
+  }
+  CHECK(def.min_lengthscale == ref.min_lengthscale);
+  CHECK(def.max_noise_std == ref.max_noise_std);
+
+  const gp::GpSettings s = read(
+      "{restarts: 7, prior_mean: max, priors: false, noise_std_prior_median: 0.05, lengthscale_prior_sd: 2.5, "
+      "min_signal_std: 0.1}");
+  CHECK(s.restarts == 7);
+  CHECK(s.prior_mean == gp::GpSettings::PriorMean::Max);
+  CHECK_FALSE(s.priors.enabled);
+  CHECK(s.priors.noise_std.mean == std::log(0.05));
+  CHECK(s.priors.noise_std.sd == ref.priors.noise_std.sd);
+  CHECK(s.priors.lengthscale.sd == 2.5);
+  CHECK(s.priors.lengthscale.mean == ref.priors.lengthscale.mean);
+  CHECK(s.min_signal_std == 0.1);
+}

@@ -10,13 +10,14 @@
 #include <vector>
 
 #include "varbo/config.hpp"
+#include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
 
 namespace varbo::vhgp {
 
 /// Forwards everything to the wrapped model; refuses a condition() before any fit() or condition() unless the
 /// parameters are complete. The checks throw ConfigError naming the YAML key (file:line:col) and the expected form.
-class GivenParameters final : public Surrogate {
+class GivenParameters final : public Surrogate, public ComponentState {
  public:
   /// `missing`: hyperparameter names the YAML did not give (as hyperparameters() names them);
   /// `hyperparameters_node`, `log_lambda_node`: where the YAML gives (or would give) them, for messages;
@@ -33,6 +34,9 @@ class GivenParameters final : public Surrogate {
   std::vector<std::pair<std::string, Vec>> state() const override { return inner_->state(); }
   void set_state(const std::string& name, const Vec& value) override;
   bool ready() const override { return inner_->ready(); }
+  /// Exact snapshot: whether the model was used yet, and the wrapped model's state (vhgp_state.cpp).
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
   /// This wrapper, unless the wrapped model names another one: predictions are the same.
   const Surrogate& acquisition_model() const override {
     const Surrogate& m = inner_->acquisition_model();

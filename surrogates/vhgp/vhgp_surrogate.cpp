@@ -10,7 +10,7 @@
 #include "homoscedastic_init.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
-#include "varbo/parallel.hpp"
+#include "varbo/restarts.hpp"
 
 namespace varbo::vhgp {
 
@@ -102,6 +102,8 @@ FitReport VhgpSurrogate::condition_at(const Dataset& data, const VhgpParams& par
     return report;
   }
   posterior_ = std::move(post);
+  posterior_data_ = data;
+  posterior_params_ = params.pack();
   scaling_ = s;
   params_ = to_cost(params, s);
   // F in cost units: y = m + s·y_s changes log N(y|·) by −n log s; the KL and tr Σ terms are unit-free.
@@ -283,11 +285,18 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     }
   };
 
-  std::vector<RestartResult> results(starts.size());
-  parallel_for(static_cast<Index>(starts.size()), [&](Index k) {
-    Rng r = base.stream(2, static_cast<std::uint64_t>(k));
-    optimize(starts[static_cast<std::size_t>(k)].pack(), r, staged, k, results[static_cast<std::size_t>(k)]);
-  });
+  // Stage 1 (or the only stage): start k on stream (2, k); stage 2 continues finalist k on stream (3, k).
+  const auto score = [](const RestartResult& r) { return r.ok ? std::optional<double>(r.objective) : std::nullopt; };
+  std::vector<RestartResult> results =
+      run_restarts<RestartResult>(
+          static_cast<Index>(starts.size()), [&](Index k) { return base.stream(2, static_cast<std::uint64_t>(k)); },
+          [&](Index k, Rng& r) {
+            RestartResult out;
+            optimize(starts[static_cast<std::size_t>(k)].pack(), r, staged, k, out);
+            return out;
+          },
+          score)
+          .results;
   if (staged) {
     // The finalists in order of their stage-1 objective (ties: lower index), independent of the thread count.
     std::vector<Index> order;
@@ -297,23 +306,23 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
       return results[static_cast<std::size_t>(a)].objective > results[static_cast<std::size_t>(b)].objective;
     });
     order.resize(std::min<std::size_t>(order.size(), static_cast<std::size_t>(n_final)));
-    parallel_for(static_cast<Index>(order.size()), [&](Index j) {
-      const Index k = order[static_cast<std::size_t>(j)];
-      RestartResult& out = results[static_cast<std::size_t>(k)];
-      Rng r = base.stream(3, static_cast<std::uint64_t>(k));
-      optimize(out.x, r, false, k, out);
-    });
+    const auto finalist = [&](Index j) { return order[static_cast<std::size_t>(j)]; };
+    const Restarts<RestartResult> final_run = run_restarts<RestartResult>(
+        static_cast<Index>(order.size()),
+        [&](Index j) { return base.stream(3, static_cast<std::uint64_t>(finalist(j))); },
+        [&](Index j, Rng& r) {
+          RestartResult out = results[static_cast<std::size_t>(finalist(j))];  // keeps its stage-1 point if better
+          optimize(out.x, r, false, finalist(j), out);
+          return out;
+        },
+        score);
+    for (std::size_t j = 0; j < order.size(); ++j)
+      results[static_cast<std::size_t>(order[j])] = final_run.results[j];
   }
 
-  Index best = -1;
-  for (std::size_t k = 0; k < results.size(); ++k) {
-    if (!results[k].ok) {
-      ++report.restarts_failed;
-      continue;
-    }
-    if (best < 0 || results[k].objective > results[static_cast<std::size_t>(best)].objective)
-      best = static_cast<Index>(k);
-  }
+  Index failed = 0;
+  const Index best = best_restart(results, score, &failed);
+  report.restarts_failed += static_cast<int>(failed);
   report.restarts = static_cast<int>(results.size());
   std::optional<VhgpParams> chosen;
   if (best >= 0) chosen = VhgpParams::unpack(results[static_cast<std::size_t>(best)].x, n, dim_);

@@ -4,6 +4,7 @@
 #include <memory>
 #include <optional>
 #include "varbo/optimizer.hpp"
+#include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
 #include "vhgp_objective.hpp"
 
@@ -34,7 +35,7 @@ struct VhgpConfig {
   VhgpHyperprior prior;
 };
 
-class VhgpSurrogate final : public Surrogate {
+class VhgpSurrogate final : public Surrogate, public ComponentState {
  public:
   VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const Optimizer> fit_optimizer);
 
@@ -47,6 +48,10 @@ class VhgpSurrogate final : public Surrogate {
   std::vector<std::pair<std::string, Vec>> state() const override;
   void set_state(const std::string& name, const Vec& value) override;
   bool ready() const override { return posterior_ != nullptr; }
+  /// Exact snapshot (vhgp_state.cpp): the warm starts of the next fit, the full-fit counter, and the posterior
+  /// as (data, model-unit parameters), rebuilt by the same deterministic conditioning.
+  std::string save_state() const override;
+  void restore_state(const std::string& state) override;
 
   /// The bound F in cost units at the current parameters (valid after fit/condition).
   double bound() const { return bound_; }
@@ -84,6 +89,8 @@ class VhgpSurrogate final : public Surrogate {
   Scaling scaling_;
   std::shared_ptr<const VhgpPosterior> posterior_;
   double bound_ = 0;
+  std::optional<Dataset> posterior_data_;  ///< the data posterior_ was conditioned on (for exact snapshots)
+  Vec posterior_params_;                   ///< and its parameters in model units, packed (VhgpParams::pack)
   Index last_full_fit_n_ = 0;  ///< N at the last full fit (0: none yet)
   /// The best heteroscedastic solution of the last fit (cost units): the warm start of the next one, also when
   /// the homoscedastic member was selected (whose σ_g at its bound is a poor start).

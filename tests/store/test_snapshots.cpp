@@ -21,16 +21,17 @@ struct Case {
   int budget;
 };
 
-// Branin (noise-free): bo fits a GP at every trial after the design; rssgd fits its critic at every update (a gp:
-// vhgp offers no snapshot yet, so a study with a vhgp surrogate or critic is replayed).
+// Branin (noise-free): bo fits a GP (or a VHGP) at every trial after the design; rssgd fits its critic at every
+// update.
 // The bo cases cover the default trust region (a region with state), the box, and failed trials (the failure
 // model).
 const Case kCases[] = {
     {"bo", "{type: bo, initial_points: 4}", 12},  // the defaults: trust_region, gp with full_fit_growth
     {"bo_box", "{type: bo, initial_points: 4, region: box}", 11},
+    {"bo_vhgp", "{type: bo, initial_points: 4, surrogate: vhgp}", 10},  // vhgp_state.cpp
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
-    {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},  // vhgp critics are replayed
+    {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},
 };
 
 std::string yaml_of(const Case& c) {

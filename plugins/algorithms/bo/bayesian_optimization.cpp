@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <utility>
 
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -36,15 +38,23 @@ const OptionSet<Phase>& phase_options() {
   };
   return set;
 }
+
+// recommendation's names (recommender.cpp, the first is the default) with their rules.
+std::vector<std::pair<std::string, RecommendationRule>> recommendation_mapping() {
+  std::vector<std::pair<std::string, RecommendationRule>> out;
+  for (const std::string& name : recommendation_rule_names()) out.emplace_back(name, recommendation_rule(name));
+  return out;
+}
 }  // namespace
 
-std::vector<OptionSpec> options() {
-  return {
+const OptionSet<BoSettings>& bo_options() {
+  static const OptionSet<BoSettings> set{
       // Latin hypercube by default: a handful of digitally shifted Sobol points in d ≥ 5 lie on a few diagonal
       // lines (point 2 = point 1 + 0.25 in every coordinate); on Hartmann-6 with 10 points that design left 6 of 10
       // seeds in a local minimum against 2 of 10 with LHS (README, benchmarks).
       opt::component("initial_design", Kind::Sampler, "lhs", "sampler of the initial design and random points"),
-      opt::integer("initial_points", -1, "initial design size (-1 = 2·(d+1), capped by the budget)").at_least(-1),
+      opt::integer("initial_points", &BoSettings::initial_points, "initial design size (-1 = 2·(d+1), capped by the budget)")
+          .at_least(-1),
       opt::component("surrogate", Kind::Surrogate, "gp", "model of the cost"),
       opt::component("acquisition", Kind::Acquisition, "ei", "selection criterion (maximized)"),
       // TuRBO-1's trust region by default (Eriksson et al. 2019): EI in the whole box kept spending trials on the
@@ -52,20 +62,26 @@ std::vector<OptionSpec> options() {
       // (docs/defaults.md).
       opt::component("region", Kind::Region, "trust_region", "where the acquisition may search"),
       opt::component("acquisition_optimizer", Kind::Optimizer, "multistart", "maximizer of the acquisition"),
-      opt::integer("refit_every", 1, "optimize hyperparameters every k model iterations (else only condition)")
+      opt::integer("refit_every", &BoSettings::refit_every,
+                   "optimize hyperparameters every k model iterations (else only condition)")
           .at_least(1),
-      opt::real("epsilon", 0.0, "probability of a random point instead of the acquisition's choice (ε-random)")
+      opt::real("epsilon", &BoSettings::epsilon,
+                "probability of a random point instead of the acquisition's choice (ε-random)")
           .at_least(0)
           .at_most(1),
-      opt::choice("batch_strategy", "kriging_believer", {"kriging_believer", "constant_liar_min", "constant_liar_mean"},
+      opt::choice("batch_strategy", &BoSettings::batch_strategy,
+                  {{"kriging_believer", BatchStrategy::KrigingBeliever},
+                   {"constant_liar_min", BatchStrategy::ConstantLiarMin},
+                   {"constant_liar_mean", BatchStrategy::ConstantLiarMean}},
                   "how points of a batch and points pending elsewhere enter the model before they are observed "
                   "(Ginsbourger 2010): at the posterior mean, or at the min / mean of the observed costs"),
-      opt::choice("recommendation", recommendation_rule_names().front(), recommendation_rule_names(),
+      opt::choice("recommendation", &BoSettings::recommendation, recommendation_mapping(),
                   "the θ to deploy, chosen on a model conditioned on all observations (refitted once the budget "
                   "is spent): the evaluated θ with the lowest posterior mean; the posterior mean's minimum over "
                   "the search region; the evaluated θ with the lowest E + κ·s (κ = recommendation_kappa, "
                   "risk-averse for κ > 0); or the lowest observed cost"),
-      opt::real("recommendation_kappa", 1.0, "κ of the lowest_bound_evaluated recommendation rule"),
+      opt::real("recommendation_kappa", &BoSettings::recommendation_kappa,
+                "κ of the lowest_bound_evaluated recommendation rule"),
       opt::node("phases", "",
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
@@ -75,7 +91,10 @@ std::vector<OptionSpec> options() {
                 "0.5}; the acquisition is weighted by P(success | θ) from a GP classifier of successes and failures "
                 "and θ with P < min_probability are never suggested (docs/failures.md)"),
   };
+  return set;
 }
+
+std::vector<OptionSpec> options() { return bo_options().specs(); }
 
 BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext& ctx)
     : dim_(ctx.dim), budget_(ctx.budget), rng_(ctx.seed) {
@@ -89,14 +108,11 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   // recommending must change no trial, also when a resumed run replays the trials without recommending.
   recommend_optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
   std::shared_ptr<Acquisition> default_acq = r.create<Acquisition>(o.component("acquisition"), ctx);
-  const double epsilon = o.real("epsilon");
-  refit_every_ = o.integer("refit_every");
-  const std::string strategy = o.str("batch_strategy");
-  batch_strategy_ = strategy == "constant_liar_min"    ? BatchStrategy::ConstantLiarMin
-                    : strategy == "constant_liar_mean" ? BatchStrategy::ConstantLiarMean
-                                                       : BatchStrategy::KrigingBeliever;
-  const long ip = o.integer("initial_points");
-  initial_points_ = ip >= 0 ? ip : 2 * (dim_ + 1);
+  const BoSettings settings = bo_options().read(o);
+  const double epsilon = settings.epsilon;
+  refit_every_ = settings.refit_every;
+  batch_strategy_ = settings.batch_strategy;
+  initial_points_ = settings.initial_points >= 0 ? settings.initial_points : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);
@@ -133,8 +149,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                                 : Mat(0, dim_);
   if (ctx.initial_point && design_.rows() > 0) design_.row(0) = ctx.initial_point->transpose();
   data_ = Dataset::empty(dim_);
-  recommender_ = std::make_unique<Recommender>(recommendation_rule(o.str("recommendation")),
-                                               o.real("recommendation_kappa"),
+  recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
 }
 

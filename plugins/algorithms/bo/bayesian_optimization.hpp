@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "bo_settings.hpp"
 #include "failure_aware.hpp"
 #include "recommender.hpp"
 #include "varbo/function.hpp"
@@ -25,7 +26,7 @@ struct Phase {
   double epsilon = 0;
 };
 
-std::vector<OptionSpec> options();
+std::vector<OptionSpec> options();  ///< bo_options().specs()
 
 class BayesianOptimization final : public Algorithm, public AlgorithmState {
  public:
@@ -61,7 +62,6 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState {
   /// (else the likeliest draw), so random and ε-random trials avoid known failure regions too.
   Vec random_point_avoiding_failures(Rng& rng) const;
 
-  enum class BatchStrategy { KrigingBeliever, ConstantLiarMin, ConstantLiarMean };
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   std::vector<Vec> pending_;
   bool prefitted_ = false;  ///< ask() already fitted on the real data (pending points present)

@@ -2,13 +2,14 @@
 
 #include <algorithm>
 #include <numeric>
+#include <optional>
 #include <vector>
 
 #include "optimizers.hpp"
 #include "search_support.hpp"
 #include "unit_designs.hpp"
 #include "varbo/log.hpp"
-#include "varbo/parallel.hpp"
+#include "varbo/restarts.hpp"
 
 namespace varbo::nlopt_plugin {
 
@@ -50,16 +51,20 @@ OptimizeResult MultistartOptimizer::maximize(const DifferentiableFunction& f, co
     if (static_cast<Index>(chosen.size()) >= settings_.polish || !std::isfinite(values[i])) break;
     chosen.push_back(i);
   }
-  std::vector<OptimizeResult> polished(chosen.size());
-  parallel_for(static_cast<Index>(chosen.size()), [&](Index k) {
-    // Restart k has its own stream (unused by the deterministic local methods, kept for stochastic ones).
-    Rng local_rng = rng.stream(call, static_cast<std::uint64_t>(k) + 1);
-    (void)local_rng;
-    polished[static_cast<std::size_t>(k)] =
-        local_maximize(f, region, candidates.row(chosen[static_cast<std::size_t>(k)]).transpose(), settings_.local);
-  });
-  for (auto& r : polished) keep_better(best, std::move(r));
-
+  // Restart k has its own stream (unused by the deterministic local methods, kept for stochastic ones).
+  const Restarts<OptimizeResult> polished = run_restarts<OptimizeResult>(
+      static_cast<Index>(chosen.size()), [&](Index k) { return rng.stream(call, static_cast<std::uint64_t>(k) + 1); },
+      [&](Index k, Rng&) {
+        return local_maximize(f, region, candidates.row(chosen[static_cast<std::size_t>(k)]).transpose(),
+                              settings_.local);
+      },
+      [](const OptimizeResult& r) { return std::isnan(r.value) ? std::nullopt : std::optional<double>(r.value); });
+  // The best polished point replaces the best candidate only when strictly better; evaluations add up.
+  Index polish_evaluations = 0;
+  for (const OptimizeResult& r : polished.results) polish_evaluations += r.evaluations;
+  if (polished.best >= 0 && polished.results[static_cast<std::size_t>(polished.best)].value > best.value)
+    best = polished.results[static_cast<std::size_t>(polished.best)];
+  best.evaluations = candidates.rows() + polish_evaluations;
   best.iterations = static_cast<Index>(chosen.size());
   best.success = std::isfinite(best.value);
   best.message = best.success ? fmt::format("{} candidates ({} feasible Sobol), {} polished", candidates.rows(),

@@ -1,0 +1,26 @@
+#pragma once
+// bo's own settings: the member initializers below are the defaults of its top-level options (one source,
+// option_set.hpp). Component options (surrogate, acquisition, region, ...) and the `phases` / `failure_model`
+// maps are declared beside them in bo_options() but parsed by hand.
+#include "recommender.hpp"
+#include "varbo/option_set.hpp"
+
+namespace varbo::bo {
+
+/// How points of a batch (and points pending elsewhere) enter the model before they are observed
+/// (Ginsbourger, Le Riche & Carraro 2010, section 3).
+enum class BatchStrategy { KrigingBeliever, ConstantLiarMin, ConstantLiarMean };
+
+struct BoSettings {
+  Index initial_points = -1;  ///< initial design size; -1 = 2·(d+1), capped by the budget
+  Index refit_every = 1;      ///< optimize hyperparameters every k model iterations (else only condition)
+  double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice
+  BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;
+  RecommendationRule recommendation = RecommendationRule::LowestMeanEvaluated;
+  double recommendation_kappa = 1.0;  ///< κ of lowest_bound_evaluated
+};
+
+/// Every top-level option of `bo`, in the order --describe shows them; the BoSettings fields are bound.
+const OptionSet<BoSettings>& bo_options();
+
+}  // namespace varbo::bo

@@ -1,0 +1,112 @@
+// Exact snapshot of a VHGP (varbo/state.hpp), as gp_state.cpp does for the GP: what the next fit warm-starts from
+// (the fitted or given parameters, the last heteroscedastic and homoscedastic solutions), the full-fit counter and
+// the noise-model choice, and the posterior as (data, scaling, model-unit parameters), rebuilt by the same
+// deterministic VhgpPosterior::condition, so predictions after a restore are bit-for-bit those before.
+#include "vhgp_surrogate.hpp"
+#include "given_parameters.hpp"
+
+#include <cstddef>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "varbo/errors.hpp"
+
+namespace varbo::vhgp {
+
+namespace {
+// Empty vectors (e.g. log Λ of given hyperparameters) are left out and read back as empty.
+void put_vec(StateMap& m, const std::string& key, const Vec& v) {
+  if (v.size() > 0) m.put(key, v);
+}
+Vec get_vec(const StateMap& m, const std::string& key) { return m.has(key) ? m.vec(key) : Vec(); }
+}  // namespace
+
+std::string VhgpSurrogate::save_state() const {
+  StateMap m;
+  m.put_int("dim", dim_);
+  const auto put_params = [&m](const std::string& prefix, const CostParams& c) {
+    m.put(prefix, true);
+    put_vec(m, prefix + "_theta_f", c.theta_f);
+    put_vec(m, prefix + "_theta_g", c.theta_g);
+    put_vec(m, prefix + "_log_lambda", c.log_lambda);
+    m.put(prefix + "_mu0", c.mu0);
+  };
+  if (params_) put_params("params", *params_);
+  if (heteroscedastic_) put_params("heteroscedastic", *heteroscedastic_);
+  put_vec(m, "homoscedastic", homoscedastic_);
+  m.put("homoscedastic_selected", homoscedastic_selected_);
+  m.put_int("last_full_fit_n", last_full_fit_n_);
+  m.put("bound", bound_);
+  put_vec(m, "bound_gradient", bound_gradient_);
+  m.put("scaling_mean", scaling_.mean);
+  m.put("scaling_scale", scaling_.scale);
+  if (posterior_ && posterior_data_) {
+    m.put("posterior_params", posterior_params_);
+    m.put("posterior_X", posterior_data_->X);
+    m.put("posterior_y", posterior_data_->y);
+  }
+  return m.text();
+}
+
+void VhgpSurrogate::restore_state(const std::string& text) {
+  const StateMap m = StateMap::parse(text, "vhgp state");
+  if (m.integer("dim") != dim_) throw InputError("vhgp state: saved for dimension " + std::to_string(m.integer("dim")));
+  const auto get_params = [&m](const std::string& prefix) -> std::optional<CostParams> {
+    if (!m.has(prefix)) return std::nullopt;
+    CostParams c;
+    c.theta_f = get_vec(m, prefix + "_theta_f");
+    c.theta_g = get_vec(m, prefix + "_theta_g");
+    c.log_lambda = get_vec(m, prefix + "_log_lambda");
+    c.mu0 = m.real(prefix + "_mu0");
+    return c;
+  };
+  posterior_.reset();
+  posterior_data_.reset();
+  posterior_params_ = Vec();
+  params_ = get_params("params");
+  heteroscedastic_ = get_params("heteroscedastic");
+  homoscedastic_ = get_vec(m, "homoscedastic");
+  homoscedastic_selected_ = m.boolean("homoscedastic_selected");
+  last_full_fit_n_ = static_cast<Index>(m.integer("last_full_fit_n"));
+  bound_ = m.real("bound");
+  bound_gradient_ = get_vec(m, "bound_gradient");
+  scaling_.mean = m.real("scaling_mean");
+  scaling_.scale = m.real("scaling_scale");
+  if (!m.has("posterior_params")) return;
+  Dataset data;
+  data.X = m.mat("posterior_X");
+  data.y = m.vec("posterior_y");
+  const Vec p = m.vec("posterior_params");
+  const Index n = data.y.size();
+  if (data.X.rows() != n || data.X.cols() != dim_ || p.size() != n + 2 * (dim_ + 1) + 1)
+    throw InputError("vhgp state: the posterior's data and parameters do not fit together");
+  // As condition_at: the same standardized targets and parameters give the same posterior.
+  const Vec ys = (data.y.array() - scaling_.mean) / scaling_.scale;
+  const VhgpBound bound(data.X, ys, config_.kernels);
+  BoundValue value;
+  auto post = std::make_shared<VhgpPosterior>(VhgpPosterior::condition(bound, VhgpParams::unpack(p, n, dim_), &value));
+  if (!value.ok) throw InputError("vhgp state: the saved posterior cannot be rebuilt (" + value.error + ")");
+  posterior_ = std::move(post);
+  posterior_data_ = std::move(data);
+  posterior_params_ = p;
+}
+
+std::string GivenParameters::save_state() const {
+  const ComponentState* inner = state_of(inner_.get());
+  if (!inner) throw std::logic_error("vhgp: the model wrapped by GivenParameters takes no state");
+  StateMap m;
+  m.put("used", used_);
+  m.put("model", inner->save_state());
+  return m.text();
+}
+
+void GivenParameters::restore_state(const std::string& text) {
+  const StateMap m = StateMap::parse(text, "vhgp state");
+  ComponentState* inner = state_of(inner_.get());
+  if (!inner) throw std::logic_error("vhgp: the model wrapped by GivenParameters takes no state");
+  used_ = m.boolean("used");
+  inner->restore_state(m.str("model"));
+}
+
+}  // namespace varbo::vhgp
