@@ -41,15 +41,21 @@ Index best_observed(const Dataset& data) {
 // the plain default: recommended 3.2e-8 against 1e-9 best observed, seeds 1–20; docs/defaults.md). A tenth of
 // σ_n keeps the winner's curse of a noisy cost (picking the luckiest of tied draws) negligible.
 Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
-  const Incumbent inc = find_incumbent(model, data, 0.0);
-  const Vec x_inc = data.X.row(inc.index).transpose();
-  const double tol = 0.1 * std::sqrt(model.predict(x_inc, false).noise_var());
-  Index best = inc.index;
-  if (!(tol > 0) || !std::isfinite(tol)) return best;
+  if (data.size() == 0) throw std::logic_error("lowest_mean_evaluated without data");
+  // One prediction per point: the means, the lowest (first on ties, as find_incumbent) and its noise.
+  std::vector<Prediction> p;
+  p.reserve(static_cast<std::size_t>(data.size()));
+  Index inc = 0;
   for (Index i = 0; i < data.size(); ++i) {
-    if (data.y(i) >= data.y(best)) continue;
-    if (model.predict(data.X.row(i).transpose(), false).mean <= inc.mean + tol) best = i;
+    p.push_back(model.predict(data.X.row(i).transpose(), false));
+    if (p.back().mean < p[static_cast<std::size_t>(inc)].mean) inc = i;
   }
+  const double lowest = p[static_cast<std::size_t>(inc)].mean;
+  const double tol = 0.1 * std::sqrt(p[static_cast<std::size_t>(inc)].noise_var());
+  Index best = inc;
+  if (!(tol > 0) || !std::isfinite(tol)) return best;
+  for (Index i = 0; i < data.size(); ++i)
+    if (data.y(i) < data.y(best) && p[static_cast<std::size_t>(i)].mean <= lowest + tol) best = i;
   return best;
 }
 
