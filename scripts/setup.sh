@@ -8,7 +8,9 @@ cd "$(dirname "$0")/.."
 PACKAGES=(build-essential cmake ninja-build pkg-config
   libeigen3-dev libceres-dev libboost-dev libtbb-dev libfmt-dev doctest-dev libyaml-cpp-dev
   libnlopt-cxx-dev libnlopt-dev libcli11-dev nlohmann-json3-dev libsqlite3-dev libnanoflann-dev
-  libbenchmark-dev)
+  libbenchmark-dev
+  libpqxx-dev postgresql
+  python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
