@@ -10,7 +10,7 @@ PACKAGES=(build-essential cmake ninja-build pkg-config
   libnlopt-cxx-dev libnlopt-dev libcli11-dev nlohmann-json3-dev libsqlite3-dev libnanoflann-dev
   libbenchmark-dev
   libpqxx-dev postgresql
-  python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest)
+  python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest python3-optuna)
 
 missing=()
 for p in "${PACKAGES[@]}"; do
