@@ -1,65 +1,136 @@
 // The `vhgp` plugin: registers the variational heteroscedastic GP surrogate (Kuindersma 2013, section 2.2).
+// Its options are bound to VhgpConfig (varbo/option_set.hpp): the struct's member initializers are the declared
+// defaults, so `--describe`, config.resolved.yaml and a default-constructed VhgpConfig agree.
 #include <cmath>
 #include <string>
 
 #include "given_parameters.hpp"
 #include "hyperparameter_map.hpp"
-#include "kernel.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
 #include "vhgp_surrogate.hpp"
 
 namespace {
 
+using varbo::BoundOption;
 using varbo::ConfigNode;
+using varbo::LogNormalPrior;
 using varbo::Options;
+using varbo::vhgp::VhgpConfig;
+using varbo::vhgp::VhgpHyperprior;
 
-varbo::LogNormalPrior prior_from(const Options& o, const std::string& name, bool median_is_positive) {
-  const std::vector<double> v = o.reals(name);
-  if (v.size() != 2 || !(v[1] > 0) || (median_is_positive && !(v[0] > 0)))
-    o.node(name).fail(median_is_positive ? "expected [median, sd of its log] with both > 0"
-                                         : "expected [mean, sd] with sd > 0");
-  return varbo::LogNormalPrior{median_is_positive ? std::log(v[0]) : v[0], v[1]};
+/// A prior option `[median, sd of log]` (log-normal, `median_is_positive`) or `[mean, sd]` (μ0) bound to a
+/// LogNormalPrior of VhgpConfig::prior, which keeps (log median, sd): opt:: cannot bind that transform directly.
+/// The default is written from VhgpConfig{} in the shortest form that reads back to the same double.
+BoundOption<VhgpConfig> prior_option(std::string name, LogNormalPrior VhgpHyperprior::*field, bool median_is_positive,
+                                     std::string doc) {
+  const LogNormalPrior def = VhgpConfig{}.prior.*field;
+  const double first = median_is_positive ? std::exp(def.mean) : def.mean;
+  const std::string key = name;
+  return {varbo::opt::reals(std::move(name), varbo::detail::reals_yaml({first, def.sd}), std::move(doc)),
+          [key, field, median_is_positive](const Options& o, VhgpConfig& c) {
+            const std::vector<double> v = o.reals(key);
+            if (v.size() != 2 || !(v[1] > 0) || (median_is_positive && !(v[0] > 0)))
+              o.node(key).fail(median_is_positive ? "expected [median, sd of its log] with both > 0"
+                                                  : "expected [mean, sd] with sd > 0");
+            c.prior.*field = LogNormalPrior{median_is_positive ? std::log(v[0]) : v[0], v[1]};
+          }};
 }
 
-/// The VHGP bound is written for one stationary ARD kernel per process (vhgp_bound.cpp): any kernel component
-/// resolves here, but only those four are accepted (composites: see README.md, "Kernels").
-varbo::kernels::KernelType ard_kernel(const Options& o, const std::string& key) {
-  const varbo::ResolvedComponent& k = o.component(key);
-  try {
-    return varbo::kernels::parse_kernel_type(k.info->name);
-  } catch (const std::invalid_argument&) {
-    o.node(key).fail("vhgp: kernel '" + k.info->name +
-                     "' is not supported here; expected se_ard, matern12_ard, matern32_ard or matern52_ard");
-  }
+const varbo::OptionSet<VhgpConfig>& vhgp_options() {
+  using varbo::Kind;
+  using varbo::vhgp::NoiseModel;
+  using varbo::vhgp::VhgpKernels;
+  using C = VhgpConfig;
+  namespace opt = varbo::opt;
+  static const varbo::OptionSet<VhgpConfig> set{
+      // The kernels are components (read in make_vhgp); their declared defaults are VhgpKernels{}'s.
+      opt::component("kernel_f", Kind::Kernel, "matern52_ard",
+                     "covariance of the cost GP f: any kernel component (se_ard, matern12_ard, matern32_ard, "
+                     "matern52_ard, rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); "
+                     "Matern-5/2 as the gp's; the paper's se_ard; the authors' code SE + constant: "
+                     "{type: sum, terms: [se_ard, constant]}"),
+      opt::component("kernel_g", Kind::Kernel, "se_ard",
+                     "covariance of the log-noise GP g: any kernel component; the authors' code SE + white noise: "
+                     "{type: sum, terms: [se_ard, white]}"),
+      opt::real("jitter", opt::nested(&C::kernels, &VhgpKernels::jitter),
+                "relative jitter: jitter*diag(K) added to each training covariance (GPML covSEisoj uses 1e-6, "
+                "which floors the noise sd at 1e-3 sigma_f); 0 for none")
+          .at_least(0)
+          .at_most(1),
+      opt::choice("noise_model", &C::noise_model,
+                  {{"auto", NoiseModel::Auto},
+                   {"heteroscedastic", NoiseModel::Heteroscedastic},
+                   {"homoscedastic", NoiseModel::Homoscedastic}},
+                  "auto: the heteroscedastic fit unless its bound beats the constant-noise member of the model "
+                  "(a GP) by less than 1/2 p log N, p = the number of g's hyperparameters (its BIC penalty); "
+                  "heteroscedastic: always the paper's model; homoscedastic: always constant noise"),
+      opt::integer("restarts", &C::restarts, "optimizer starts per fit (warm start, GP initialization, random)")
+          .at_least(1),
+      opt::integer("restart_evaluations", &C::restart_evaluations,
+                   "objective evaluations per start before only the best `finalists` starts continue to "
+                   "convergence; 0: every start runs to convergence")
+          .at_least(0),
+      opt::integer("finalists", &C::finalists, "starts optimized to convergence after the first stage").at_least(1),
+      opt::real("full_fit_growth", &C::full_fit_growth,
+                "a full fit (GP initialization and all restarts) once N has grown by this factor since the last "
+                "one; in between only the warm start is optimized (1: every fit is full)")
+          .at_least(1),
+      opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
+      opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
+                   "add independent log-normal hyperpriors to the bound (eq. 13)"),
+      prior_option("prior_lengthscale_f", &VhgpHyperprior::lengthscale_f, true,
+                   "[median, sd of log] of every lengthscale of kernel_f (unit cube)"),
+      prior_option("prior_lengthscale_g", &VhgpHyperprior::lengthscale_g, true,
+                   "[median, sd of log] of every lengthscale of kernel_g (unit cube)"),
+      prior_option("prior_signal_std_f", &VhgpHyperprior::signal_f, true,
+                   "[median, sd of log] of every amplitude of kernel_f (sigma_f, a constant term's std; "
+                   "standardized costs)"),
+      prior_option("prior_signal_std_g", &VhgpHyperprior::signal_g, true,
+                   "[median, sd of log] of every amplitude of kernel_g (sigma_g)"),
+      prior_option("prior_mu0", &VhgpHyperprior::mu0, false,
+                   "[mean, sd] of mu0, the log noise variance (standardized): 2 log 0.01, a noise sd median of "
+                   "0.01 std(y), as the gp's"),
+      opt::boolean("standardize", &C::standardize, "standardize costs inside the model (predictions stay in cost units)"),
+      opt::boolean("warm_start", &C::warm_start, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
+      opt::boolean("lambda_warmup", &C::lambda_warmup,
+                   "optimize log Lambda alone before each joint optimization (about twice the time)"),
+      opt::boolean("fixed_hyperparameters", &C::fixed_hyperparameters,
+                   "keep `hyperparameters` (or the defaults) fixed in every fit and optimize only log Lambda; "
+                   "otherwise they are the start of one restart"),
+      opt::node("hyperparameters", "",
+                "initial hyperparameters in cost units (one start of the fit, or fixed with fixed_hyperparameters), "
+                "by the kernels' names with _f or _g: {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
+                "signal_std_g, mu0} for ARD kernels, terms[i].<name>_f for composites"),
+      opt::reals("log_lambda", "", "initial variational parameters log Lambda, one per data point"),
+      opt::choice("output_transform", "none", varbo::transforms::output_transform_names(),
+                  varbo::transforms::output_transform_description()),
+  };
+  return set;
+}
+
+/// The kernel component at `key`, built for a dimension through the registry (composites build their terms).
+varbo::vhgp::KernelSpec kernel_spec(const Options& o, const std::string& key, const varbo::BuildContext& ctx) {
+  const varbo::Registry* registry = ctx.registry;
+  const varbo::ResolvedComponent kernel = o.component(key);
+  const std::uint64_t seed = ctx.seed;
+  return varbo::vhgp::KernelSpec([registry, kernel, seed](varbo::Index dim) {
+    varbo::BuildContext c;
+    c.registry = registry;
+    c.dim = dim;
+    c.seed = seed;
+    return registry->create<varbo::Kernel>(kernel, c);
+  });
 }
 
 std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::BuildContext& ctx) {
   using namespace varbo::vhgp;
-  VhgpConfig c;
-  c.kernels.f = ard_kernel(o, "kernel_f");
-  c.kernels.g = ard_kernel(o, "kernel_g");
-  c.kernels.jitter = o.real("jitter");
-  const std::string noise_model = o.str("noise_model");
-  c.noise_model = noise_model == "heteroscedastic" ? NoiseModel::Heteroscedastic
-                  : noise_model == "homoscedastic" ? NoiseModel::Homoscedastic
-                                                   : NoiseModel::Auto;
-  c.restarts = static_cast<int>(o.integer("restarts"));
-  c.standardize = o.boolean("standardize");
-  c.warm_start = o.boolean("warm_start");
-  c.lambda_warmup = o.boolean("lambda_warmup");
-  c.restart_evaluations = static_cast<int>(o.integer("restart_evaluations"));
-  c.finalists = static_cast<int>(o.integer("finalists"));
-  c.fixed_hyperparameters = o.boolean("fixed_hyperparameters");
-  c.full_fit_growth = o.real("full_fit_growth");
-  c.prior.enabled = o.boolean("hyperpriors");
-  c.prior.lengthscale_f = prior_from(o, "prior_lengthscale_f", true);
-  c.prior.lengthscale_g = prior_from(o, "prior_lengthscale_g", true);
-  c.prior.signal_f = prior_from(o, "prior_signal_std_f", true);
-  c.prior.signal_g = prior_from(o, "prior_signal_std_g", true);
-  c.prior.mu0 = prior_from(o, "prior_mu0", false);
-  if (ctx.registry == nullptr) throw varbo::ConfigError("vhgp: no registry to create the fit optimizer");
+  if (ctx.registry == nullptr) throw varbo::ConfigError("vhgp: no registry to create the kernels and the fit optimizer");
+  VhgpConfig c = vhgp_options().read(o);
+  c.kernels.f = kernel_spec(o, "kernel_f", ctx);
+  c.kernels.g = kernel_spec(o, "kernel_g", ctx);
   std::shared_ptr<const varbo::Optimizer> optimizer =
       ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);
   auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer));
@@ -90,57 +161,9 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
 }  // namespace
 
 VARBO_PLUGIN("vhgp", "0.1.0", "Variational heteroscedastic GP surrogate (Lazaro-Gredilla & Titsias 2011)") {
-  using varbo::Kind;
-  namespace opt = varbo::opt;
   registry.add(varbo::make_component<varbo::Surrogate>(
       "vhgp",
-      "Variational heteroscedastic GP: cost GP f and log-noise GP g, marginal variational bound maximized jointly "
-      "over log Lambda and hyperparameters with restarts (Kuindersma 2013, eq. 6-7, 13)",
-      {
-          opt::component("kernel_f", Kind::Kernel, "matern52_ard",
-                         "covariance of the cost GP f: se_ard, matern12_ard, matern32_ard or matern52_ard (Matern-5/2 "
-                         "as the gp's; se_ard is the paper's)"),
-          opt::component("kernel_g", Kind::Kernel, "se_ard",
-                         "covariance of the log-noise GP g: se_ard, matern12_ard, matern32_ard or matern52_ard"),
-          opt::real("jitter", 1e-11, "relative jitter: jitter*sigma^2 added to each training covariance diagonal "
-                                     "(GPML covSEisoj uses 1e-6, which floors the noise sd at 1e-3 sigma_f); 0 for none")
-              .at_least(0)
-              .at_most(1),
-          opt::choice("noise_model", "auto", {"auto", "heteroscedastic", "homoscedastic"},
-                      "auto: the heteroscedastic fit unless its bound beats the constant-noise member of the model "
-                      "(a GP) by less than 1/2 (d+1) log N, the BIC penalty of g's hyperparameters; "
-                      "heteroscedastic: always the paper's model; homoscedastic: always constant noise"),
-          opt::integer("restarts", 8, "optimizer starts per fit (warm start, GP initialization, random)").at_least(1),
-          opt::integer("restart_evaluations", 40,
-                       "objective evaluations per start before only the best `finalists` starts continue to "
-                       "convergence; 0: every start runs to convergence")
-              .at_least(0),
-          opt::integer("finalists", 2, "starts optimized to convergence after the first stage").at_least(1),
-          opt::real("full_fit_growth", 1.25,
-                    "a full fit (GP initialization and all restarts) once N has grown by this factor since the last "
-                    "one; in between only the warm start is optimized (1: every fit is full)")
-              .at_least(1),
-          opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
-          opt::boolean("hyperpriors", true, "add independent log-normal hyperpriors to the bound (eq. 13)"),
-          opt::reals("prior_lengthscale_f", "[1.0, 1.6]", "[median, sd of log] of the f lengthscales (unit cube)"),
-          opt::reals("prior_lengthscale_g", "[1.0, 1.6]", "[median, sd of log] of the g lengthscales (unit cube)"),
-          opt::reals("prior_signal_std_f", "[1.0, 1.0]", "[median, sd of log] of sigma_f (standardized costs)"),
-          opt::reals("prior_signal_std_g", "[1.0, 1.0]", "[median, sd of log] of sigma_g"),
-          opt::reals("prior_mu0", "[-9.210340372, 6.0]",
-                     "[mean, sd] of mu0, the log noise variance (standardized): noise sd median 0.01 std(y), as the gp's"),
-          opt::boolean("standardize", true, "standardize costs inside the model (predictions stay in cost units)"),
-          opt::boolean("warm_start", true, "start one restart from the previous fit (new points: log Lambda = log 1/2)"),
-          opt::boolean("lambda_warmup", false, "optimize log Lambda alone before each joint optimization (about twice the time)"),
-          opt::boolean("fixed_hyperparameters", false,
-                       "keep `hyperparameters` (or the defaults) fixed in every fit and optimize only log Lambda; "
-                       "otherwise they are the start of one restart"),
-          opt::node("hyperparameters", "",
-                    "initial hyperparameters in cost units (one start of the fit, or fixed with "
-                    "fixed_hyperparameters): {lengthscale_f: [..], signal_std_f, lengthscale_g: [..], "
-                    "signal_std_g, mu0}"),
-          opt::reals("log_lambda", "", "initial variational parameters log Lambda, one per data point"),
-          opt::choice("output_transform", "none", varbo::transforms::output_transform_names(),
-                      varbo::transforms::output_transform_description()),
-      },
-      varbo::Factory<varbo::Surrogate>(make_vhgp), {"surrogate:latent_variance"}));
+      "Variational heteroscedastic GP: cost GP f and log-noise GP g (each any kernel), marginal variational bound "
+      "maximized jointly over log Lambda and hyperparameters with restarts (Kuindersma 2013, eq. 6-7, 13)",
+      vhgp_options().specs(), varbo::Factory<varbo::Surrogate>(make_vhgp), {"surrogate:latent_variance"}));
 }

@@ -17,6 +17,7 @@ const double kLog2Pi = std::log(2.0 * M_PI);
 /// Everything of the stable evaluation order (vhgp.md, section 4) that the value, the gradient and the
 /// predictive share.
 struct Factors {
+  JitteredKernel kf, kg;  // the kernels at θ_f, θ_g
   Mat Kf, Kg;
   Vec lambda, s, beta, mu, r, sc, rs, alphas, alpha, sigma_diag;
   Mat cinvB;   // L_B⁻¹ (lower), B = I + Λ^{½} K_g Λ^{½} = L_B L_B'
@@ -26,34 +27,22 @@ struct Factors {
   double F = 0;
 };
 
-ArdKernel make_kernel(KernelType type, Index dim, const Vec& theta) {
-  ArdKernel k(type, dim);
-  k.set_log_params(theta);
-  return k;
-}
-
-/// Training covariance with the relative jitter of covSEisoj: K + jitter·σ²·I.
-Mat training_matrix(const ArdKernel& k, const Mat& X, double jitter) {
-  Mat K = k.matrix(X);
-  K.diagonal().array() += jitter * k.variance();
-  return K;
-}
-
-bool factorize(const Mat& X, const Vec& y, const VhgpKernels& kernels, const VhgpParams& p, bool full_sigma,
-               Factors& f, std::string& error) {
-  const Index n = y.size(), dim = X.cols();
-  if (p.log_lambda.size() != n || p.theta_f.size() != dim + 1 || p.theta_g.size() != dim + 1) {
-    error = "parameter sizes do not match the data";
+bool factorize(const VhgpBound& bound, const VhgpParams& p, bool full_sigma, Factors& f, std::string& error) {
+  const Mat& X = bound.X();
+  const Vec& y = bound.y();
+  const Index n = y.size();
+  if (p.log_lambda.size() != n || p.theta_f.size() != bound.num_f() || p.theta_g.size() != bound.num_g()) {
+    error = "parameter sizes do not match the data and kernels";
     return false;
   }
   if (!p.log_lambda.allFinite() || !p.theta_f.allFinite() || !p.theta_g.allFinite() || !std::isfinite(p.mu0)) {
     error = "non-finite parameters";
     return false;
   }
-  const ArdKernel kf = make_kernel(kernels.f, dim, p.theta_f);
-  const ArdKernel kg = make_kernel(kernels.g, dim, p.theta_g);
-  f.Kf = training_matrix(kf, X, kernels.jitter);
-  f.Kg = training_matrix(kg, X, kernels.jitter);
+  f.kf = JitteredKernel(bound.f_form(), p.theta_f, bound.jitter());
+  f.kg = JitteredKernel(bound.g_form(), p.theta_g, bound.jitter());
+  f.Kf = f.kf.training_matrix(X);
+  f.Kg = f.kg.training_matrix(X);
   const Mat& Kg = f.Kg;
 
   f.lambda = p.log_lambda.array().exp();
@@ -116,18 +105,22 @@ bool factorize(const Mat& X, const Vec& y, const VhgpKernels& kernels, const Vhg
 
 }  // namespace
 
-VhgpBound::VhgpBound(Mat X, Vec y, VhgpKernels kernels)
-    : X_(std::move(X)), y_(std::move(y)), kernels_(kernels) {}
+VhgpBound::VhgpBound(Mat X, Vec y, const VhgpKernels& kernels)
+    : X_(std::move(X)),
+      y_(std::move(y)),
+      f_(kernels.f.build(X_.cols())),
+      g_(kernels.g.build(X_.cols())),
+      jitter_(kernels.jitter) {}
 
 BoundValue VhgpBound::evaluate(const VhgpParams& p, bool with_gradient) const {
   BoundValue out;
   Factors f;
-  if (!factorize(X_, y_, kernels_, p, with_gradient, f, out.error)) return out;
+  if (!factorize(*this, p, with_gradient, f, out.error)) return out;
   out.ok = true;
   out.F = f.F;
   if (!with_gradient) return out;
 
-  const Index n = size(), dim = this->dim();
+  const Index n = size();
   // (S(K_f + R)S)⁻¹ = L⁻ᵀ L⁻¹ (symmetric; built from the triangular inverse).
   const Mat invA = lower_triangular_gram(lower_triangular_inverse(f.lltA.matrixLLT()));
 
@@ -140,14 +133,9 @@ BoundValue VhgpBound::evaluate(const VhgpParams& p, bool with_gradient) const {
   g.lambda = -(f.Kg + 0.5 * f.Sigma.cwiseAbs2()) * (f.lambda - lambdahat);
   g.log_lambda = f.lambda.cwiseProduct(g.lambda);
 
-  const ArdKernel kf = make_kernel(kernels_.f, dim, p.theta_f);
-  const ArdKernel kg = make_kernel(kernels_.g, dim, p.theta_g);
-
-  // ∂F/∂θ_f = ½ Σ W_f ∘ ∂K_f,  W_f = αα' − (K_f + R)⁻¹,  (K_f + R)⁻¹ = S invA S
-  Mat Wf = f.alpha * f.alpha.transpose() - f.sc.asDiagonal() * invA * f.sc.asDiagonal();
-  g.theta_f = kf.contract_gradient(X_, Wf);
-  // The jitter term jitter·σ²·I also scales with σ²: ∂/∂log σ adds ½ tr(W)·2·jitter·σ².
-  g.theta_f(dim) += kernels_.jitter * kf.variance() * Wf.trace();
+  // ∂F/∂θ_f = ½ Σ W_f ∘ ∂K_f,  W_f = αα' − (K_f + R)⁻¹,  (K_f + R)⁻¹ = S invA S  (the jitter term included)
+  const Mat Wf = f.alpha * f.alpha.transpose() - f.sc.asDiagonal() * invA * f.sc.asDiagonal();
+  g.theta_f = f.kf.contract_gradient(X_, Wf);
 
   // ∂F/∂θ_g = ½ Σ W_g ∘ ∂K_g with Λ held fixed (vhgp.md §5):
   //   W_g = ββ' + 2(β̂ − β)β' − invBs' diag(Λ̂/Λ − 1) invBs − cinvBs'cinvBs,   invBs = B⁻¹Λ^{½}.
@@ -161,10 +149,12 @@ BoundValue VhgpBound::evaluate(const VhgpParams& p, bool with_gradient) const {
   PDP.triangularView<Eigen::Lower>() = PD * P;
   PDP.triangularView<Eigen::Lower>() += P;
   PDP.triangularView<Eigen::StrictlyUpper>() = PDP.transpose();
-  Mat Wg = f.beta * f.beta.transpose() + 2.0 * (betahat - f.beta) * f.beta.transpose();
+  // Only the symmetric part of W_g counts (∂K_g is symmetric), and a kernel's contraction expects a symmetric W:
+  // 2(β̂ − β)β' enters as uβ' + βu', u = β̂ − β.
+  const Vec u = betahat - f.beta;
+  Mat Wg = f.beta * f.beta.transpose() + u * f.beta.transpose() + f.beta * u.transpose();
   Wg.noalias() -= f.s.asDiagonal() * PDP * f.s.asDiagonal();
-  g.theta_g = kg.contract_gradient(X_, Wg);  // only the symmetric part of W_g counts
-  g.theta_g(dim) += kernels_.jitter * kg.variance() * Wg.trace();
+  g.theta_g = f.kg.contract_gradient(X_, Wg);
 
   // ∂F/∂μ0 = Σ β̂_i
   g.mu0 = betahat.sum();
@@ -181,18 +171,14 @@ VhgpPosterior VhgpPosterior::condition(const VhgpBound& bound, const VhgpParams&
   BoundValue local;
   BoundValue& res = result ? *result : local;
   res = BoundValue{};
-  if (!factorize(bound.X(), bound.y(), bound.kernels(), p, false, f, res.error)) return post;
+  if (!factorize(bound, p, false, f, res.error)) return post;
   res.ok = true;
   res.F = f.F;
-  const Index dim = bound.dim();
   post.valid_ = true;
   post.X_ = bound.X();
   post.params_ = p;
-  post.kf_ = make_kernel(bound.kernels().f, dim, p.theta_f);
-  post.kg_ = make_kernel(bound.kernels().g, dim, p.theta_g);
-  // k** includes the kernel's own diagonal term σ²(1 + jitter), as covSEisoj (vhgp.md §6).
-  post.kss_f_ = post.kf_.variance() * (1.0 + bound.kernels().jitter);
-  post.kss_g_ = post.kg_.variance() * (1.0 + bound.kernels().jitter);
+  post.kf_ = std::move(f.kf);
+  post.kg_ = std::move(f.kg);
   post.alpha_ = std::move(f.alpha);
   post.sc_ = std::move(f.sc);
   post.beta_ = std::move(f.beta);
@@ -210,20 +196,21 @@ LatentPrediction VhgpPosterior::predict(const Vec& x, bool with_gradient) const 
   out.a = kf.dot(alpha_);
   // c*² = k** − ‖L⁻¹(S k_f*)‖²  (L L' = S(K_f+R)S)
   const Vec v = chol_a_.triangularView<Eigen::Lower>().solve(sc_.cwiseProduct(kf));
-  out.c2 = kss_f_ - v.squaredNorm();
+  // k** includes the kernel's own diagonal terms: σ²(1 + jitter) as covSEisoj, a white term's σ² (vhgp.md §6).
+  out.c2 = kf_.prior_variance(x) - v.squaredNorm();
   out.mu = kg.dot(beta_) + params_.mu0;
   // σ*² = k** − ‖L_B⁻¹ Λ^{½} k_g*‖²  = k** − k_g*'(K_g + Λ⁻¹)⁻¹ k_g*
   const Vec w = cinv_bs_.triangularView<Eigen::Lower>() * kg;
-  out.s2 = kss_g_ - w.squaredNorm();
+  out.s2 = kg_.prior_variance(x) - w.squaredNorm();
   if (!with_gradient) return out;
   const Mat Gf = kf_.cross_gradient_x(x, X_);  // D × n, column i = ∂k_f(x, x_i)/∂x
   const Mat Gg = kg_.cross_gradient_x(x, X_);
   out.d_a = Gf * alpha_;
-  // ∂c*²/∂x = −2 Gf (K_f+R)⁻¹ k_f* = −2 Gf S L⁻ᵀ v
+  // ∂c*²/∂x = ∂k**/∂x − 2 Gf (K_f+R)⁻¹ k_f* = ∂k**/∂x − 2 Gf S L⁻ᵀ v  (∂k**/∂x = 0 for stationary kernels)
   const Vec u = chol_a_.triangularView<Eigen::Lower>().transpose().solve(v);
-  out.d_c2 = -2.0 * Gf * sc_.cwiseProduct(u);
+  out.d_c2 = kf_.prior_variance_gradient(x) - 2.0 * Gf * sc_.cwiseProduct(u);
   out.d_mu = Gg * beta_;
-  out.d_s2 = -2.0 * Gg * (cinv_bs_.triangularView<Eigen::Lower>().transpose() * w);
+  out.d_s2 = kg_.prior_variance_gradient(x) - 2.0 * Gg * (cinv_bs_.triangularView<Eigen::Lower>().transpose() * w);
   return out;
 }
 

@@ -7,22 +7,12 @@
 //   y_i = f(x_i) + ε_i,  ε_i ~ N(0, exp(g(x_i))),  f ~ GP(0, k_f),  g ~ GP(μ0, k_g)
 //   q(g) = N(μ, Σ),  Σ = (K_g⁻¹ + Λ)⁻¹,  μ = K_g(Λ − ½)1 + μ0 1
 //   F = log N(y | 0, K_f + R) − KL(N(μ, Σ) ‖ N(μ0 1, K_g)) − ¼ tr Σ,   R_ii = exp(μ_i − Σ_ii/2)
+#include <memory>
 #include <string>
-#include "kernel.hpp"
+#include "vhgp_kernels.hpp"
 #include "vhgp_params.hpp"
 
 namespace varbo::vhgp {
-
-using kernels::ArdKernel;
-using kernels::KernelType;
-
-/// The kernel pair and the relative jitter: each training covariance gets jitter·σ² on its diagonal and the
-/// prior variance at a test point is σ²(1 + jitter), as GPML's covSEisoj (vhgp.md, section 2).
-struct VhgpKernels {
-  KernelType f = KernelType::SquaredExponential;
-  KernelType g = KernelType::SquaredExponential;
-  double jitter = 1e-11;  // the authors' 1e-6·σ_f² floored the noise sd at 1e-3·σ_f (docs/noisy.md)
-};
 
 struct BoundValue {
   bool ok = false;        ///< false: a Cholesky factorization failed or F is not finite
@@ -31,22 +21,32 @@ struct BoundValue {
   std::string error;
 };
 
-/// F(Λ, θ) and ∂F on fixed data. Thread-safe (evaluate is const and allocates its own work space).
+/// F(Λ, θ) and ∂F on fixed data, for any pair of kernels. Thread-safe (evaluate is const, allocates its own
+/// work space and evaluates its own copies of the kernels).
 class VhgpBound {
  public:
-  VhgpBound(Mat X, Vec y, VhgpKernels kernels);
+  /// Builds both kernels for the dimension of X (std::invalid_argument when a kernel cannot be built for it).
+  VhgpBound(Mat X, Vec y, const VhgpKernels& kernels);
   Index size() const { return y_.size(); }
   Index dim() const { return X_.cols(); }
-  Index num_params() const { return size() + 2 * (dim() + 1) + 1; }
+  /// The kernels' forms: parameter tables in the order of θ_f and θ_g (their own values are not used).
+  const Kernel& f_form() const { return *f_; }
+  const Kernel& g_form() const { return *g_; }
+  Index num_f() const { return f_->num_params(); }
+  Index num_g() const { return g_->num_params(); }
+  Index num_params() const { return size() + num_f() + num_g() + 1; }
+  double jitter() const { return jitter_; }
+  /// VhgpParams::unpack for this data and these kernels.
+  VhgpParams unpack(const Vec& packed) const { return VhgpParams::unpack(packed, size(), num_f(), num_g()); }
   const Mat& X() const { return X_; }
   const Vec& y() const { return y_; }
-  const VhgpKernels& kernels() const { return kernels_; }
   BoundValue evaluate(const VhgpParams& params, bool with_gradient) const;
 
  private:
   Mat X_;
   Vec y_;
-  VhgpKernels kernels_;
+  std::shared_ptr<const Kernel> f_, g_;
+  double jitter_;
 };
 
 /// The four latent predictive quantities of vhgp.md section 6 at one test input, and their x-gradients.
@@ -74,9 +74,7 @@ class VhgpPosterior {
   bool valid_ = false;
   Mat X_;
   VhgpParams params_;
-  ArdKernel kf_{KernelType::SquaredExponential, 1};
-  ArdKernel kg_{KernelType::SquaredExponential, 1};
-  double kss_f_ = 0, kss_g_ = 0;
+  JitteredKernel kf_, kg_;
   Vec alpha_, sc_, beta_, mu_, sigma_diag_;
   Mat chol_a_;   ///< lower L with L L' = S(K_f + R)S
   Mat cinv_bs_;  ///< L_B⁻¹ Λ^{½} (lower triangular)

@@ -4,35 +4,48 @@
 
 namespace varbo::vhgp {
 
-double VhgpHyperprior::log_density(const VhgpParams& p, VhgpGradient* grad) const {
-  if (!enabled) return 0.0;
-  const Index dim = p.theta_f.size() - 1;
-  double lp = 0.0, d = 0.0;
-  for (Index i = 0; i <= dim; ++i) {
-    const LogNormalPrior& pf = i < dim ? lengthscale_f : signal_f;
-    const LogNormalPrior& pg = i < dim ? lengthscale_g : signal_g;
-    lp += pf.log_density(p.theta_f(i), &d);
-    if (grad) grad->theta_f(i) += d;
-    lp += pg.log_density(p.theta_g(i), &d);
-    if (grad) grad->theta_g(i) += d;
-  }
-  lp += mu0.log_density(p.mu0, &d);
-  if (grad) grad->mu0 += d;
-  return lp;
+std::unique_ptr<Kernel> VhgpHyperprior::configured(const Kernel& form, Process process) const {
+  std::unique_ptr<Kernel> k = form.clone();
+  const bool f = process == Process::F;
+  k->set_role_defaults(KernelParameterRole::Lengthscale, f ? lengthscale_f : lengthscale_g, 1e-3, 1e3);
+  k->set_role_defaults(KernelParameterRole::Amplitude, f ? signal_f : signal_g, f ? 1e-3 : 1e-4, f ? 1e2 : 30.0);
+  return k;
 }
 
-VhgpObjective::VhgpObjective(const VhgpBound& bound, const VhgpHyperprior& prior) : bound_(bound), prior_(prior) {}
+VhgpObjective::VhgpObjective(const VhgpBound& bound, const VhgpHyperprior& prior)
+    : bound_(bound),
+      prior_(prior),
+      f_(prior.configured(bound.f_form(), Process::F)),
+      g_(prior.configured(bound.g_form(), Process::G)) {}
 
 VhgpObjective::VhgpObjective(const VhgpBound& bound, const VhgpHyperprior& prior, const VhgpParams& fixed)
-    : bound_(bound), prior_(prior), lambda_only_(true), fixed_(fixed) {}
+    : VhgpObjective(bound, prior) {
+  lambda_only_ = true;
+  fixed_ = fixed;
+}
 
 Index VhgpObjective::dim() const { return lambda_only_ ? bound_.size() : bound_.num_params(); }
 
 VhgpParams VhgpObjective::params(const Vec& x) const {
-  if (!lambda_only_) return VhgpParams::unpack(x, bound_.size(), bound_.dim());
+  if (!lambda_only_) return bound_.unpack(x);
   VhgpParams p = fixed_;
   p.log_lambda = x;
   return p;
+}
+
+double VhgpObjective::log_prior(const VhgpParams& p, VhgpGradient* grad) const {
+  if (!prior_.enabled) return 0.0;
+  Vec gf, gg;
+  double d = 0.0;
+  double lp = f_->log_prior(p.theta_f, grad ? &gf : nullptr);
+  lp += g_->log_prior(p.theta_g, grad ? &gg : nullptr);
+  lp += prior_.mu0.log_density(p.mu0, &d);
+  if (grad) {
+    grad->theta_f += gf;
+    grad->theta_g += gg;
+    grad->mu0 += d;
+  }
+  return lp;
 }
 
 double VhgpObjective::value(const Vec& x, Vec* grad) const {
@@ -42,25 +55,23 @@ double VhgpObjective::value(const Vec& x, Vec* grad) const {
     if (grad) *grad = Vec::Zero(dim());
     return -std::numeric_limits<double>::infinity();
   }
-  const double lp = prior_.log_density(p, grad ? &b.gradient : nullptr);
+  const double lp = log_prior(p, grad ? &b.gradient : nullptr);
   if (grad) *grad = lambda_only_ ? b.gradient.log_lambda : b.gradient.pack();
   return b.F + lp;
 }
 
-Box parameter_box(Index n, Index dim) {
+Box VhgpObjective::box() const {
+  const Index n = bound_.size();
   VhgpParams lo, hi;
   lo.log_lambda = Vec::Constant(n, -15.0);
   hi.log_lambda = Vec::Constant(n, 12.0);
-  lo.theta_f = Vec::Constant(dim + 1, std::log(1e-3));  // lengthscales in the unit cube
-  hi.theta_f = Vec::Constant(dim + 1, std::log(1e3));
-  lo.theta_f(dim) = std::log(1e-3);                     // σ_f of standardized costs
-  hi.theta_f(dim) = std::log(1e2);
-  lo.theta_g = lo.theta_f;
-  hi.theta_g = hi.theta_f;
-  lo.theta_g(dim) = std::log(1e-4);                     // σ_g: std of the log noise variance
-  hi.theta_g(dim) = std::log(30.0);
-  lo.mu0 = -30.0;
-  hi.mu0 = 8.0;
+  const Box bf = f_->log_box(), bg = g_->log_box();
+  lo.theta_f = bf.lower;
+  hi.theta_f = bf.upper;
+  lo.theta_g = bg.lower;
+  hi.theta_g = bg.upper;
+  lo.mu0 = kMu0Lower;
+  hi.mu0 = kMu0Upper;
   return Box{lo.pack(), hi.pack()};
 }
 

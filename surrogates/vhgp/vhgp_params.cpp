@@ -11,14 +11,14 @@ Vec VhgpParams::pack() const {
   return v;
 }
 
-VhgpParams VhgpParams::unpack(const Vec& v, Index n, Index dim) {
-  if (v.size() != n + 2 * (dim + 1) + 1)
-    throw std::invalid_argument("VhgpParams::unpack: expected " + std::to_string(n + 2 * (dim + 1) + 1) +
+VhgpParams VhgpParams::unpack(const Vec& v, Index n, Index num_f, Index num_g) {
+  if (v.size() != n + num_f + num_g + 1)
+    throw std::invalid_argument("VhgpParams::unpack: expected " + std::to_string(n + num_f + num_g + 1) +
                                 " values, got " + std::to_string(v.size()));
   VhgpParams p;
   p.log_lambda = v.head(n);
-  p.theta_f = v.segment(n, dim + 1);
-  p.theta_g = v.segment(n + dim + 1, dim + 1);
+  p.theta_f = v.segment(n, num_f);
+  p.theta_g = v.segment(n + num_f, num_g);
   p.mu0 = v(v.size() - 1);
   return p;
 }

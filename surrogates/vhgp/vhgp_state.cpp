@@ -52,13 +52,17 @@ std::string VhgpSurrogate::save_state() const {
 void VhgpSurrogate::restore_state(const std::string& text) {
   const StateMap m = StateMap::parse(text, "vhgp state");
   if (m.integer("dim") != dim_) throw InputError("vhgp state: saved for dimension " + std::to_string(m.integer("dim")));
-  const auto get_params = [&m](const std::string& prefix) -> std::optional<CostParams> {
+  const auto get_params = [&m, this](const std::string& prefix) -> std::optional<CostParams> {
     if (!m.has(prefix)) return std::nullopt;
     CostParams c;
     c.theta_f = get_vec(m, prefix + "_theta_f");
     c.theta_g = get_vec(m, prefix + "_theta_g");
     c.log_lambda = get_vec(m, prefix + "_log_lambda");
     c.mu0 = m.real(prefix + "_mu0");
+    if (c.theta_f.size() != f_form_->num_params() || c.theta_g.size() != g_form_->num_params())
+      throw InputError("vhgp state: '" + prefix + "' was saved for other kernels (" + std::to_string(c.theta_f.size()) +
+                       " and " + std::to_string(c.theta_g.size()) + " hyperparameters, these take " +
+                       std::to_string(f_form_->num_params()) + " and " + std::to_string(g_form_->num_params()) + ")");
     return c;
   };
   posterior_.reset();
@@ -79,13 +83,13 @@ void VhgpSurrogate::restore_state(const std::string& text) {
   data.y = m.vec("posterior_y");
   const Vec p = m.vec("posterior_params");
   const Index n = data.y.size();
-  if (data.X.rows() != n || data.X.cols() != dim_ || p.size() != n + 2 * (dim_ + 1) + 1)
-    throw InputError("vhgp state: the posterior's data and parameters do not fit together");
+  if (data.X.rows() != n || data.X.cols() != dim_ || p.size() != n + f_form_->num_params() + g_form_->num_params() + 1)
+    throw InputError("vhgp state: the posterior's data and parameters do not fit together (or the kernels differ)");
   // As condition_at: the same standardized targets and parameters give the same posterior.
   const Vec ys = (data.y.array() - scaling_.mean) / scaling_.scale;
   const VhgpBound bound(data.X, ys, config_.kernels);
   BoundValue value;
-  auto post = std::make_shared<VhgpPosterior>(VhgpPosterior::condition(bound, VhgpParams::unpack(p, n, dim_), &value));
+  auto post = std::make_shared<VhgpPosterior>(VhgpPosterior::condition(bound, bound.unpack(p), &value));
   if (!value.ok) throw InputError("vhgp state: the saved posterior cannot be rebuilt (" + value.error + ")");
   posterior_ = std::move(post);
   posterior_data_ = std::move(data);

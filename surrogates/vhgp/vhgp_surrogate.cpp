@@ -25,25 +25,15 @@ struct RestartResult {
   Vec x;
 };
 
-bool parse_indexed(const std::string& name, const std::string& base, Index dim, Index& index) {
-  if (name == base) {
-    index = -1;  // all dimensions
-    return true;
-  }
-  if (name.size() < base.size() + 3 || name.compare(0, base.size() + 1, base + "[") != 0 || name.back() != ']')
-    return false;
-  const std::string digits = name.substr(base.size() + 1, name.size() - base.size() - 2);
-  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos) return false;
-  index = std::stol(digits);
-  return index < dim;
-}
-
 }  // namespace
 
 VhgpSurrogate::VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const Optimizer> fit_optimizer)
     : dim_(dim), config_(std::move(config)), optimizer_(std::move(fit_optimizer)) {
   if (dim_ < 1) throw ConfigError("vhgp: the problem dimension must be at least 1");
   if (config_.restarts < 1) config_.restarts = 1;
+  f_form_ = config_.prior.configured(*config_.kernels.f.build(dim_), Process::F);
+  g_form_ = config_.prior.configured(*config_.kernels.g.build(dim_), Process::G);
+  f_scaling_ = output_scaling(*f_form_);
 }
 
 VhgpSurrogate::Scaling VhgpSurrogate::scaling_for(const Vec& y) const {
@@ -57,8 +47,7 @@ VhgpSurrogate::Scaling VhgpSurrogate::scaling_for(const Vec& y) const {
 
 VhgpParams VhgpSurrogate::to_model(const CostParams& c, Index n, const Scaling& s) const {
   VhgpParams p;
-  p.theta_f = c.theta_f;
-  p.theta_f(dim_) -= std::log(s.scale);       // σ_f of standardized costs
+  p.theta_f = c.theta_f - std::log(s.scale) * f_scaling_;  // σ_f (amplitudes, noise) of standardized costs
   p.theta_g = c.theta_g;
   p.mu0 = c.mu0 - 2.0 * std::log(s.scale);    // log noise variance of standardized costs
   // Warm start: keep the previous log Λ and pad new points with log ½ (β = 0, μ_i = μ0 there).
@@ -70,8 +59,7 @@ VhgpParams VhgpSurrogate::to_model(const CostParams& c, Index n, const Scaling& 
 
 VhgpSurrogate::CostParams VhgpSurrogate::to_cost(const VhgpParams& p, const Scaling& s) const {
   CostParams c;
-  c.theta_f = p.theta_f;
-  c.theta_f(dim_) += std::log(s.scale);
+  c.theta_f = p.theta_f + std::log(s.scale) * f_scaling_;
   c.theta_g = p.theta_g;
   c.mu0 = p.mu0 + 2.0 * std::log(s.scale);
   c.log_lambda = p.log_lambda;
@@ -79,13 +67,50 @@ VhgpSurrogate::CostParams VhgpSurrogate::to_cost(const VhgpParams& p, const Scal
 }
 
 VhgpSurrogate::CostParams VhgpSurrogate::defaults(const Scaling& s) const {
+  // Model units: lengthscales 0.3, σ_f = 1 (an f noise term √0.1, as the noise), σ_g = 0.5 and a g noise term
+  // 0.5 (the authors' covNoise start, vhgp.md §8); then cost units.
   CostParams c;
-  c.theta_f = Vec::Constant(dim_ + 1, std::log(0.3));
-  c.theta_f(dim_) = std::log(s.scale);
-  c.theta_g = Vec::Constant(dim_ + 1, std::log(0.3));
-  c.theta_g(dim_) = std::log(0.5);
+  c.theta_f = values_by_role(*f_form_, std::log(0.3), 0.0, 0.5 * std::log(0.1)) + std::log(s.scale) * f_scaling_;
+  c.theta_g = values_by_role(*g_form_, std::log(0.3), std::log(0.5), std::log(0.5));
   c.mu0 = std::log(0.1) + 2.0 * std::log(s.scale);
   return c;
+}
+
+VhgpParams VhgpSurrogate::perturbed(const VhgpParams& gp_start, Rng& r) const {
+  // The draws run dimension by dimension (f's lengthscales of dimension d, then g's), then amplitudes, other
+  // parameters and μ0: for one ARD kernel per process the sequence of the fixed-kernel vhgp.
+  VhgpParams p = gp_start;
+  const auto& fp = f_form_->parameters();
+  const auto& gp = g_form_->parameters();
+  const auto role = [](const std::vector<KernelParameter>& t, Index j) { return t[static_cast<std::size_t>(j)].role; };
+  const auto dim_of = [](const std::vector<KernelParameter>& t, Index j) {
+    return t[static_cast<std::size_t>(j)].role == KernelParameterRole::Lengthscale
+               ? dimension_of(t[static_cast<std::size_t>(j)].name)
+               : Index{-1};
+  };
+  for (Index d = 0; d < dim_; ++d) {
+    for (Index j = 0; j < p.theta_f.size(); ++j)
+      if (dim_of(fp, j) == d) p.theta_f(j) += 0.5 * r.normal();
+    for (Index j = 0; j < p.theta_g.size(); ++j)
+      if (dim_of(gp, j) == d) p.theta_g(j) = std::log(r.uniform(0.05, 1.0));
+  }
+  for (Index j = 0; j < p.theta_f.size(); ++j) {
+    if (role(fp, j) == KernelParameterRole::Lengthscale && dim_of(fp, j) < 0) p.theta_f(j) += 0.5 * r.normal();
+    if (role(fp, j) == KernelParameterRole::Amplitude) p.theta_f(j) += 0.3 * r.normal();
+  }
+  for (Index j = 0; j < p.theta_g.size(); ++j) {
+    if (role(gp, j) == KernelParameterRole::Lengthscale && dim_of(gp, j) < 0) p.theta_g(j) = std::log(r.uniform(0.05, 1.0));
+    if (role(gp, j) == KernelParameterRole::Amplitude) p.theta_g(j) = std::log(r.uniform(0.2, 1.5));
+  }
+  // Noise and shape parameters: a move of the log value (noise terms of g: the same range as its amplitudes).
+  for (Index j = 0; j < p.theta_f.size(); ++j)
+    if (role(fp, j) == KernelParameterRole::Noise || role(fp, j) == KernelParameterRole::Shape) p.theta_f(j) += 0.5 * r.normal();
+  for (Index j = 0; j < p.theta_g.size(); ++j) {
+    if (role(gp, j) == KernelParameterRole::Noise) p.theta_g(j) = std::log(r.uniform(0.2, 1.5));
+    if (role(gp, j) == KernelParameterRole::Shape) p.theta_g(j) += 0.5 * r.normal();
+  }
+  p.mu0 = gp_start.mu0 + r.normal();
+  return p;
 }
 
 FitReport VhgpSurrogate::condition_at(const Dataset& data, const VhgpParams& params, const Scaling& s,
@@ -110,7 +135,7 @@ FitReport VhgpSurrogate::condition_at(const Dataset& data, const VhgpParams& par
   bound_ = value.F - static_cast<double>(data.size()) * std::log(s.scale);
   report.ok = true;
   report.log_likelihood = bound_;
-  report.log_prior = config_.prior.log_density(params, nullptr);
+  report.log_prior = VhgpObjective(bound, config_.prior).log_prior(params, nullptr);
   report.objective = report.log_likelihood + report.log_prior;
   return report;
 }
@@ -158,7 +183,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   const Vec ys = (data.y.array() - s.mean) / s.scale;
   const VhgpBound bound(data.X, ys, config_.kernels);
   const VhgpObjective objective(bound, config_.prior);
-  const BoxRegion region(parameter_box(n, dim_));
+  const BoxRegion region(objective.box());
   const Box& box = region.bounds();
 
   // One seed drawn from the caller's stream per fit; restart k then uses stream k of it, whatever the thread.
@@ -202,38 +227,42 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   if (full || !heteroscedastic || select) {
     Rng init_rng = base.stream(0);
     Vec warm_homo;
-    if (homoscedastic_.size() == dim_ + 2) {
-      warm_homo = homoscedastic_;
-      warm_homo.tail(2).array() -= std::log(s.scale);  // log σ_f and log σ_n of standardized costs
+    const Index m = f_form_->num_params();
+    if (homoscedastic_.size() == m + 1) {
+      warm_homo = homoscedastic_;  // log σ_f (amplitudes) and log σ_n of standardized costs
+      warm_homo.head(m) -= std::log(s.scale) * f_scaling_;
+      warm_homo(m) -= std::log(s.scale);
     }
-    homo = fit_homoscedastic(data.X, ys, config_.kernels.f, config_.kernels.jitter, config_.prior, *optimizer_,
-                             init_rng, warm_homo.size() > 0 ? &warm_homo : nullptr, !full);
+    homo = fit_homoscedastic(data.X, ys, *f_form_, config_.kernels.jitter, config_.prior, *optimizer_, init_rng,
+                             warm_homo.size() > 0 ? &warm_homo : nullptr, !full);
   }
   std::vector<VhgpParams> starts;
   const std::optional<CostParams>& warm_source = heteroscedastic_ ? heteroscedastic_ : params_;
   if (warm && heteroscedastic) starts.push_back(to_model(*warm_source, n, s));
   Index n_restarts = heteroscedastic ? 1 : 0;
   if (full && heteroscedastic) {
+    // θ_f and μ0 = log σ_n² from the GP; g's lengthscale of dimension d is f's (the first such), σ_g and a g
+    // noise term ½, other g parameters (ℓ without a dimension: 1, the authors' start) as values_by_role gives.
     VhgpParams gp_start;
     gp_start.log_lambda = Vec::Constant(n, kLogHalf);
     gp_start.theta_f = homo.theta_f;
-    gp_start.theta_g = Vec::Constant(dim_ + 1, 0.0);
-    gp_start.theta_g.head(dim_) = homo.theta_f.head(dim_);
-    gp_start.theta_g(dim_) = std::log(0.5);
+    gp_start.theta_g = values_by_role(*g_form_, 0.0, std::log(0.5), std::log(0.5));
+    for (Index j = 0; j < gp_start.theta_g.size(); ++j) {
+      const Index d = dimension_of(g_form_->parameters()[static_cast<std::size_t>(j)].name);
+      if (d < 0 || g_form_->parameters()[static_cast<std::size_t>(j)].role != KernelParameterRole::Lengthscale) continue;
+      for (Index i = 0; i < homo.theta_f.size(); ++i)
+        if (f_form_->parameters()[static_cast<std::size_t>(i)].role == KernelParameterRole::Lengthscale &&
+            dimension_of(f_form_->parameters()[static_cast<std::size_t>(i)].name) == d) {
+          gp_start.theta_g(j) = homo.theta_f(i);
+          break;
+        }
+    }
     gp_start.mu0 = homo.log_noise_var;
     starts.push_back(gp_start);
     n_restarts = std::max<Index>(config_.restarts, 1);
     for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
       Rng r = base.stream(1, static_cast<std::uint64_t>(k));
-      VhgpParams p = gp_start;
-      for (Index d = 0; d < dim_; ++d) {
-        p.theta_f(d) += 0.5 * r.normal();
-        p.theta_g(d) = std::log(r.uniform(0.05, 1.0));
-      }
-      p.theta_f(dim_) += 0.3 * r.normal();
-      p.theta_g(dim_) = std::log(r.uniform(0.2, 1.5));
-      p.mu0 = gp_start.mu0 + r.normal();
-      starts.push_back(p);
+      starts.push_back(perturbed(gp_start, r));
     }
   }
   starts.resize(static_cast<std::size_t>(n_restarts));
@@ -249,7 +278,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
       Vec x0 = box.clamp(start);
       if (config_.lambda_warmup && !out.ok) {
         // Phase 1: log Λ alone, hyperparameters fixed (the authors' fixhyp = 2 phase).
-        const VhgpParams fixed = VhgpParams::unpack(x0, n, dim_);
+        const VhgpParams fixed = bound.unpack(x0);
         const VhgpObjective lambda_objective(bound, config_.prior, fixed);
         const BoxRegion lambda_region(Box{box.lower.head(n), box.upper.head(n)});
         const OptimizeResult w =
@@ -325,7 +354,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   report.restarts_failed += static_cast<int>(failed);
   report.restarts = static_cast<int>(results.size());
   std::optional<VhgpParams> chosen;
-  if (best >= 0) chosen = VhgpParams::unpack(results[static_cast<std::size_t>(best)].x, n, dim_);
+  if (best >= 0) chosen = bound.unpack(results[static_cast<std::size_t>(best)].x);
   const std::optional<VhgpParams> heteroscedastic_fit = chosen;
   bool homoscedastic_chosen = false;
   if ((select || !heteroscedastic) && homo.ok) {
@@ -338,7 +367,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
         homoscedastic_member(homoscedastic_coordinates(homo), chosen ? *chosen : to_model(defaults(s), n, s), n);
     const BoundValue fh = bound.evaluate(member, false);
     const double fv = chosen ? bound.evaluate(*chosen, false).F : -std::numeric_limits<double>::infinity();
-    const double penalty = 0.5 * static_cast<double>(dim_ + 1) * std::log(static_cast<double>(n));
+    const double penalty = 0.5 * static_cast<double>(g_form_->num_params()) * std::log(static_cast<double>(n));
     if (fh.ok && (!heteroscedastic || !(fv > fh.F + penalty))) {
       chosen = member;
       homoscedastic_chosen = true;
@@ -359,7 +388,8 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
       if (heteroscedastic_fit) heteroscedastic_ = to_cost(*heteroscedastic_fit, s);
       if (homo.ok) {
         homoscedastic_ = homoscedastic_coordinates(homo);
-        homoscedastic_.tail(2).array() += std::log(s.scale);
+        homoscedastic_.head(f_form_->num_params()) += std::log(s.scale) * f_scaling_;
+        homoscedastic_(f_form_->num_params()) += std::log(s.scale);
       }
     }
     if (report.ok && report.restarts_failed > 0)
@@ -374,10 +404,16 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
 
 VhgpParams VhgpSurrogate::homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const {
   VhgpParams p;
-  p.theta_f = x.head(dim_ + 1);
+  const Index m = f_form_->num_params();
+  p.theta_f = x.head(m);
   p.theta_g = like.theta_g;
-  p.theta_g(dim_) = parameter_box(n, dim_).lower(n + 2 * dim_ + 1);  // σ_g at its lower bound: g ≡ μ0
-  p.mu0 = 2.0 * x(dim_ + 1);
+  // Every amplitude and noise term of g at its lower bound: g ≡ μ0 (up to a variance of 1e-8).
+  const Box g_box = g_form_->log_box();
+  for (Index j = 0; j < p.theta_g.size(); ++j) {
+    const KernelParameterRole r = g_form_->parameters()[static_cast<std::size_t>(j)].role;
+    if (r == KernelParameterRole::Amplitude || r == KernelParameterRole::Noise) p.theta_g(j) = g_box.lower(j);
+  }
+  p.mu0 = 2.0 * x(m);
   p.log_lambda = Vec::Constant(n, kLogHalf);  // β = Λ − ½ = 0: every μ_i = μ0
   return p;
 }
@@ -407,49 +443,58 @@ Prediction VhgpSurrogate::predict(const Vec& x, bool with_gradient) const {
 }
 
 double VhgpSurrogate::signal_variance() const {
+  // k_f(c, c) at the centre c of the cube in cost units (σ_f² for a stationary kernel), as the gp.
   const CostParams c = params_ ? *params_ : defaults(scaling_);
-  return std::exp(2.0 * c.theta_f(dim_));
+  const std::unique_ptr<Kernel> k = f_form_->clone();
+  k->set_log_params(c.theta_f);
+  return k->diagonal(Vec::Constant(dim_, 0.5));
 }
 
 Hyperparameters VhgpSurrogate::hyperparameters() const {
+  // The kernels' names with _f / _g (process_name): lengthscale_f[0], signal_std_f, ... for ARD kernels.
   const CostParams c = params_ ? *params_ : defaults(scaling_);
   Hyperparameters h;
-  for (Index d = 0; d < dim_; ++d) h.push_back({"lengthscale_f[" + std::to_string(d) + "]", std::exp(c.theta_f(d))});
-  h.push_back({"signal_std_f", std::exp(c.theta_f(dim_))});
-  for (Index d = 0; d < dim_; ++d) h.push_back({"lengthscale_g[" + std::to_string(d) + "]", std::exp(c.theta_g(d))});
-  h.push_back({"signal_std_g", std::exp(c.theta_g(dim_))});
+  for (Index j = 0; j < c.theta_f.size(); ++j)
+    h.push_back({process_name(f_form_->parameters()[static_cast<std::size_t>(j)].name, Process::F), std::exp(c.theta_f(j))});
+  for (Index j = 0; j < c.theta_g.size(); ++j)
+    h.push_back({process_name(g_form_->parameters()[static_cast<std::size_t>(j)].name, Process::G), std::exp(c.theta_g(j))});
   h.push_back({"mu0", c.mu0});
   return h;
 }
 
 void VhgpSurrogate::set_hyperparameters(const Hyperparameters& values) {
   CostParams c = params_ ? *params_ : defaults(scaling_);
+  std::vector<std::string> known;
+  for (const auto& h : hyperparameters()) known.push_back(h.name);
+  const Index nf = c.theta_f.size();
+  // Position of a name in [θ_f ; θ_g ; μ0]; a base name stands for all its indices (lengthscale_f → [0..D-1]).
+  const auto positions = [&](const std::string& name) {
+    std::vector<Index> at;
+    for (Index i = 0; i < static_cast<Index>(known.size()); ++i) {
+      const std::string& k = known[static_cast<std::size_t>(i)];
+      if (k == name) return std::vector<Index>{i};
+      if (k.size() > name.size() + 2 && k.compare(0, name.size() + 1, name + "[") == 0 &&
+          k.find_first_not_of("0123456789", name.size() + 1) == k.size() - 1)
+        at.push_back(i);
+    }
+    return at;
+  };
   for (const auto& h : values) {
-    Index i = 0;
-    auto positive = [&](double v) {
-      if (!(v > 0) || !std::isfinite(v))
-        throw ConfigError("vhgp: hyperparameter '" + h.name + "' must be a positive finite number, got " +
-                          std::to_string(v));
-      return std::log(v);
-    };
-    if (parse_indexed(h.name, "lengthscale_f", dim_, i)) {
-      if (i < 0) c.theta_f.head(dim_).setConstant(positive(h.value));
-      else c.theta_f(i) = positive(h.value);
-    } else if (parse_indexed(h.name, "lengthscale_g", dim_, i)) {
-      if (i < 0) c.theta_g.head(dim_).setConstant(positive(h.value));
-      else c.theta_g(i) = positive(h.value);
-    } else if (h.name == "signal_std_f") {
-      c.theta_f(dim_) = positive(h.value);
-    } else if (h.name == "signal_std_g") {
-      c.theta_g(dim_) = positive(h.value);
-    } else if (h.name == "mu0") {
+    const std::vector<Index> at = positions(h.name);
+    if (at.empty()) {
+      std::string list;
+      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+      throw ConfigError("vhgp: unknown hyperparameter '" + h.name + "'; known: " + list);
+    }
+    if (h.name == "mu0") {
       if (!std::isfinite(h.value)) throw ConfigError("vhgp: hyperparameter 'mu0' must be finite");
       c.mu0 = h.value;
-    } else {
-      throw ConfigError("vhgp: unknown hyperparameter '" + h.name + "'; expected lengthscale_f[0.." +
-                        std::to_string(dim_ - 1) + "], signal_std_f, lengthscale_g[0.." + std::to_string(dim_ - 1) +
-                        "], signal_std_g or mu0");
+      continue;
     }
+    if (!(h.value > 0) || !std::isfinite(h.value))
+      throw ConfigError("vhgp: hyperparameter '" + h.name + "' must be a positive finite number, got " +
+                        std::to_string(h.value));
+    for (const Index i : at) (i < nf ? c.theta_f(i) : c.theta_g(i - nf)) = std::log(h.value);
   }
   params_ = c;
 }

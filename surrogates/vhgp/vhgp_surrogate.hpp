@@ -19,6 +19,9 @@ enum class NoiseModel {
   Homoscedastic,   ///< always the constant-noise member (a GP with the VHGP's f kernel and priors)
 };
 
+/// The settings of the `vhgp` component. Every default here is the declared default of its option (plugin.cpp binds
+/// them with OptionSet, so `--describe`, the YAML and a default-constructed VhgpConfig agree; the kernels, which are
+/// components, are declared as matern52_ard and se_ard, the VhgpKernels defaults).
 struct VhgpConfig {
   VhgpKernels kernels;
   NoiseModel noise_model = NoiseModel::Auto;
@@ -31,7 +34,7 @@ struct VhgpConfig {
   bool fixed_hyperparameters = false;  ///< fit() optimizes log Λ only, at the given (or default) hyperparameters
   /// A full fit (homoscedastic init + all restarts) when N has grown by this factor since the last one; in
   /// between only the warm start is optimized. ≤ 1: every fit is full.
-  double full_fit_growth = 1.0;
+  double full_fit_growth = 1.25;
   VhgpHyperprior prior;
 };
 
@@ -58,6 +61,9 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   /// The predictive of the latent quantities in model (standardized) units, for tests.
   LatentPrediction predict_latent(const Vec& x, bool with_gradient) const;
   const VhgpConfig& config() const { return config_; }
+  /// The kernels of f and g with the VHGP's priors and boxes (parameter tables in the order of θ_f and θ_g).
+  const Kernel& f_form() const { return *f_form_; }
+  const Kernel& g_form() const { return *g_form_; }
   /// The last fit ended in the constant-noise member (noise_model auto or homoscedastic).
   bool homoscedastic_selected() const { return homoscedastic_selected_; }
 
@@ -81,9 +87,14 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   /// σ_g at its lower bound, β = 0 (log Λ = log ½), μ0 = log σ_n²; g's lengthscales from `like` (irrelevant).
   VhgpParams homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const;
 
+  /// A start of a restart: θ_f moved, θ_g and μ0 drawn around `gp_start` (model units).
+  VhgpParams perturbed(const VhgpParams& gp_start, Rng& r) const;
+
   Index dim_;
   VhgpConfig config_;
   std::shared_ptr<const Optimizer> optimizer_;
+  std::shared_ptr<const Kernel> f_form_, g_form_;  ///< configured with config_.prior (VhgpHyperprior::configured)
+  Vec f_scaling_;  ///< output_scaling(f): which log θ_f shift by log(scale) between cost and model units
   std::optional<CostParams> params_;  ///< given or fitted hyperparameters (cost units)
   Vec bound_gradient_;  ///< ∂F at the parameters of the last condition() (model units), for inspection
   Scaling scaling_;
