@@ -14,6 +14,7 @@
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
+#include "kernel_library.hpp"
 #include "vhgp_surrogate.hpp"
 
 namespace {
@@ -92,6 +93,47 @@ void BM_VhgpWarmFit(benchmark::State& state) {
   if (std::getenv("VHGP_BENCH_VERBOSE")) std::fprintf(stderr, "%s\n", report.c_str());
 }
 
+/// One evaluation of the objective (F + hyperprior) with its gradient at fixed parameters: the unit of work of a
+/// fit, independent of the optimizer's path. kernels = 0: SE for f and g, as the fit benchmarks; 1: the authors'
+/// SE + constant and SE + white (composites through the kernel plugin's sum).
+void BM_VhgpObjectiveGradient(benchmark::State& state) {
+  const Index n = state.range(0), dim = state.range(1);
+  const Dataset d = make_data(n, dim, 1);
+  vhgp::VhgpKernels k;
+  k.f = vhgp::KernelType::SquaredExponential;
+  k.g = vhgp::KernelType::SquaredExponential;
+  if (state.range(2) == 1) {
+    const auto sum_with = [](std::unique_ptr<Kernel> (*second)(Index)) {
+      return vhgp::KernelSpec([second](Index dim) {
+        std::vector<std::unique_ptr<Kernel>> terms;
+        terms.push_back(kernels::make_stationary_ard(kernels::KernelType::SquaredExponential, dim));
+        terms.push_back(second(dim));
+        return kernels::make_sum(std::move(terms));
+      });
+    };
+    k.f = sum_with(kernels::make_constant);
+    k.g = sum_with(kernels::make_white);
+  }
+  const vhgp::VhgpBound bound(d.X, (d.y.array() - d.y.mean()).matrix(), k);
+  const vhgp::VhgpHyperprior prior;
+  const vhgp::VhgpObjective objective(bound, prior);
+  Rng rng(3);
+  vhgp::VhgpParams p;
+  p.log_lambda = Vec::Constant(n, std::log(0.5)) + 0.3 * rng.normal_vec(n);
+  p.theta_f = Vec::Constant(bound.num_f(), std::log(0.4));
+  p.theta_f(dim) = 0.0;
+  p.theta_g = Vec::Constant(bound.num_g(), std::log(0.5));
+  p.mu0 = -2.0;
+  const Vec x = p.pack();
+  Vec grad;
+  double v = 0;
+  for (auto _ : state) {
+    v = objective.value(x, &grad);
+    benchmark::DoNotOptimize(v);
+  }
+  state.SetLabel(fmt::format("objective {:.10g}", v));
+}
+
 void fit_args(benchmark::internal::Benchmark* b) {
   for (int n : {25, 50, 100, 200})
     for (int threads : {2, 1}) b->Args({n, threads, 2});
@@ -103,4 +145,10 @@ void fit_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_VhgpFit)->Apply(fit_args);
 BENCHMARK(BM_VhgpWarmFit)->Apply(fit_args);
+BENCHMARK(BM_VhgpObjectiveGradient)
+    ->Args({100, 5, 0})
+    ->Args({200, 2, 0})
+    ->Args({100, 5, 1})
+    ->Args({200, 2, 1})
+    ->ArgNames({"N", "d", "kernels"})->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();
