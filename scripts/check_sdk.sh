@@ -54,6 +54,20 @@ algorithm:
 YAML
 "$VARBO" run "$WORK/kernel.yaml" --no-progress
 test "$(wc -l < "$WORK/kernel/trials.csv")" -eq 9
+# ... and in the vhgp, for f and (with the authors' white noise term) for g.
+cat > "$WORK/kernel_vhgp.yaml" <<YAML
+task: {type: branin}
+budget: 8
+seed: 3
+output: $WORK/kernel_vhgp
+algorithm:
+  type: bo
+  initial_points: 4
+  surrogate: {type: vhgp, restarts: 2, kernel_f: {type: sum, terms: [periodic, se_ard]},
+              kernel_g: {type: sum, terms: [periodic, white]}}
+YAML
+"$VARBO" run "$WORK/kernel_vhgp.yaml" --no-progress
+test "$(wc -l < "$WORK/kernel_vhgp/trials.csv")" -eq 9
 
 # 2. The template algorithm on the template task: 12 trials at once, and 5 then resumed to 12, give the same
 # trials (an algorithm is rebuilt by replaying its trials, so ask() must depend only on the seed and the trials).
