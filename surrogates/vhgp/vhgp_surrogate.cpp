@@ -360,7 +360,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   if ((select || !heteroscedastic) && homo.ok) {
     // Model selection between nested models on the bound (a lower bound of the log evidence; the
     // constant-noise member's bound is its exact log marginal likelihood): the heteroscedastic fit must
-    // beat it by the BIC penalty ½(D+1) log N of g's extra hyperparameters. Without it, noise-free and
+    // beat it by the BIC penalty ½ p log N of g's p extra hyperparameters (p = D + 1 for an ARD kernel). Without it, noise-free and
     // homoscedastic data got a noise process that fitted the noise to a few points and floored the
     // posterior (docs/noisy.md).
     const VhgpParams member =

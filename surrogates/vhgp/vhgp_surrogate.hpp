@@ -14,7 +14,7 @@ namespace varbo::vhgp {
 /// process (σ_g → 0, β = 0), so it is a nested model whose bound equals its log marginal likelihood.
 enum class NoiseModel {
   Auto,            ///< the heteroscedastic fit unless its bound beats the homoscedastic one by less than the
-                   ///< BIC penalty ½(D+1) log N of g's D + 1 extra hyperparameters
+                   ///< BIC penalty ½ p log N of g's p extra hyperparameters (D + 1 for an ARD kernel)
   Heteroscedastic, ///< always the heteroscedastic fit (the paper's model)
   Homoscedastic,   ///< always the constant-noise member (a GP with the VHGP's f kernel and priors)
 };

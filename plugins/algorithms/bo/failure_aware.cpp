@@ -44,9 +44,15 @@ Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double 
   for (Index d = 0; d < dim; ++d) {
     // fmt, not "[" + to_string: GCC 12 -Wrestrict false positive.
     const std::string gp_name = fmt::format("lengthscale[{}]", d), vhgp_name = fmt::format("lengthscale_f[{}]", d);
+    const auto names = [](const std::string& name, const std::string& key) {  // key itself or "terms[..].key"
+      return name == key || (name.size() > key.size() && name.compare(name.size() - key.size(), key.size(), key) == 0 &&
+                             name[name.size() - key.size() - 1] == '.');
+    };
     for (const Hyperparameter& h : hyperparameters)
-      if ((h.name == gp_name || h.name == vhgp_name) && std::isfinite(h.value) && h.value > 0)
+      if ((names(h.name, gp_name) || names(h.name, vhgp_name)) && std::isfinite(h.value) && h.value > 0) {
         ell(d) = h.value;
+        break;
+      }
   }
   return ell.cwiseMax(0.01).cwiseMin(10.0);
 }

@@ -38,8 +38,9 @@ std::vector<OptionSpec> failure_model_options();
 /// Reads `bo.failure_model` (a map, validated) or the defaults when absent.
 FailureModelSettings parse_failure_model(const Options& bo_options, const Registry* registry);
 
-/// The cost model's lengthscales in the unit cube ("lengthscale[d]" of gp, "lengthscale_f[d]" of vhgp), clipped
-/// to [0.01, 10]; `fallback` for a dimension the surrogate does not name.
+/// The cost model's lengthscales in the unit cube ("lengthscale[d]" of gp, "lengthscale_f[d]" of vhgp; in a
+/// composite kernel the first term that has one, e.g. "terms[0].lengthscale[d]"), clipped to [0.01, 10];
+/// `fallback` for a dimension the surrogate does not name.
 Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double fallback = 0.2);
 
 /// u_fail = min(0, min_i u(x_i)) over the rows of X (see above).

@@ -216,3 +216,16 @@ TEST_CASE("failure_model options are validated") {
   }
   CHECK_NOTHROW(test::registry().create<Algorithm>("{type: bo, failure_model: {enabled: on, min_probability: 0.05}}", ctx));
 }
+
+TEST_CASE("cost_lengthscales reads ARD and composite kernels of gp and vhgp, never g's") {
+  const Hyperparameters gp = {{"lengthscale[0]", 0.3}, {"lengthscale[1]", 0.4}, {"signal_std", 1.0}};
+  const Hyperparameters composite = {{"terms[0].lengthscale[0]", 0.3}, {"terms[1].lengthscale[0]", 0.7},
+                                     {"terms[0].lengthscale_g[1]", 5.0}, {"terms[0].lengthscale_f[1]", 0.4},
+                                     {"xlengthscale_f[1]", 9.0}};
+  const Vec a = bo::cost_lengthscales(gp, 2), b = bo::cost_lengthscales(composite, 2);
+  CHECK(a(0) == 0.3);
+  CHECK(a(1) == 0.4);
+  CHECK(b(0) == 0.3);  // the first term that names dimension 0
+  CHECK(b(1) == 0.4);  // f's, not g's, and not a name that merely ends like it
+  CHECK(bo::cost_lengthscales({}, 2)(1) == 0.2);
+}
