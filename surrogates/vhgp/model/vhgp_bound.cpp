@@ -7,6 +7,9 @@
 
 namespace varbo::vhgp {
 
+using linalg::lower_triangular_gram;
+using linalg::lower_triangular_inverse;
+
 namespace {
 
 // The diagonal rescaling constant of vhgpr.m: S = diag(1/sqrt(p + r)) conditions the Cholesky of K_f + R

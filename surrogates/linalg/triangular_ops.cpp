@@ -1,6 +1,6 @@
 #include "triangular_ops.hpp"
 
-namespace varbo::vhgp {
+namespace varbo::linalg {
 
 namespace {
 
@@ -59,4 +59,4 @@ Mat lower_triangular_gram(const Mat& M) {
   return G;
 }
 
-}  // namespace varbo::vhgp
+}  // namespace varbo::linalg
