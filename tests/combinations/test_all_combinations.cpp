@@ -184,8 +184,8 @@ TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitte
 
 TEST_CASE("every kernel option of every surrogate runs with every kernel, the same with 1 and 2 threads") {
   // Found by option kind (gp's `kernel`, vhgp's `kernel_f` and `kernel_g`), so a new surrogate or kernel adds its
-  // combinations with no edit here. A surrogate may refuse a kernel it cannot use (vhgp takes the stationary ARD
-  // kernels only): then building it must fail with a ConfigError that names the kernel, never run wrongly.
+  // combinations with no edit here (gp and vhgp take every kernel: 3 × 10 combinations today). A surrogate may refuse
+  // a kernel it cannot use: then building it must fail with a ConfigError that names the kernel, never run wrongly.
   set_log_level(LogLevel::Error);
   Registry& r = test::registry();
   const std::string out = test::temp_folder("kernel_combinations");
