@@ -6,24 +6,17 @@
 #include <limits>
 #include <stdexcept>
 
-#include "budgeted_objective.hpp"
 #include "homoscedastic_init.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/restarts.hpp"
+#include "vhgp_restarts.hpp"
 
 namespace varbo::vhgp {
 
 namespace {
 
 const double kLogHalf = std::log(0.5);
-
-/// One restart's outcome, written only by its own task (deterministic reduction in index order).
-struct RestartResult {
-  bool ok = false;
-  double objective = -std::numeric_limits<double>::infinity();
-  Vec x;
-};
 
 }  // namespace
 
@@ -184,7 +177,6 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   const VhgpBound bound(data.X, ys, config_.kernels);
   const VhgpObjective objective(bound, config_.prior);
   const BoxRegion region(objective.box());
-  const Box& box = region.bounds();
 
   // One seed drawn from the caller's stream per fit; restart k then uses stream k of it, whatever the thread.
   const Rng base(rng.next());
@@ -192,28 +184,18 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   if (config_.fixed_hyperparameters) {
     // Hyperparameters as given (`hyperparameters:`) or the defaults; only the variational parameters log Λ
     // are optimized, from the previous Λ (new points at log ½).
-    const VhgpParams fixed = to_model(params_ ? *params_ : defaults(s), n, s);
-    const VhgpObjective lambda_objective(bound, config_.prior, fixed);
-    const BoxRegion lambda_region(Box{box.lower.head(n), box.upper.head(n)});
+    VhgpParams fixed = to_model(params_ ? *params_ : defaults(s), n, s);
     Rng r = base.stream(2, 0);
-    VhgpParams best = fixed;
-    try {
-      const OptimizeResult w = optimizer_->maximize(lambda_objective, lambda_region, fixed.log_lambda.transpose(), r);
-      if (w.x.size() == n && w.x.allFinite() && std::isfinite(lambda_objective.value(w.x, nullptr)))
-        best.log_lambda = lambda_region.bounds().clamp(w.x);
-    } catch (const std::exception& e) {
-      log_debug("vhgp: log Lambda optimization failed: {}", e.what());
-    }
+    fixed.log_lambda = maximize_log_lambda(objective, fixed, region.bounds(), *optimizer_, r);
     report.restarts = 1;
-    report = condition_at(data, best, s, report);
+    report = condition_at(data, fixed, s, report);
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return report;
   }
 
-  // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and
-  // random perturbations of the latter. Between full fits (see `full_fit_growth`) only the warm start runs.
-  // Below kAlwaysFullFit points a full fit is cheap and the hyperparameters still move a lot from point to point
-  // (a warm-only fit there lost a 15-trial Branin smoke test); the saving matters at large N.
+  // Between full fits (see `full_fit_growth`) only the warm start runs. Below kAlwaysFullFit points a full fit is
+  // cheap and the hyperparameters still move a lot from point to point (a warm-only fit there lost a 15-trial
+  // Branin smoke test); the saving matters at large N.
   constexpr Index kAlwaysFullFit = 20;
   const bool warm = config_.warm_start && params_;
   const bool full = !warm || n <= kAlwaysFullFit || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
@@ -237,120 +219,15 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
                              warm_homo.size() > 0 ? &warm_homo : nullptr, !full);
   }
   std::vector<VhgpParams> starts;
-  const std::optional<CostParams>& warm_source = heteroscedastic_ ? heteroscedastic_ : params_;
-  if (warm && heteroscedastic) starts.push_back(to_model(*warm_source, n, s));
-  Index n_restarts = heteroscedastic ? 1 : 0;
-  if (full && heteroscedastic) {
-    // θ_f and μ0 = log σ_n² from the GP; g's lengthscale of dimension d is f's (the first such), σ_g and a g
-    // noise term ½, other g parameters (ℓ without a dimension: 1, the authors' start) as values_by_role gives.
-    VhgpParams gp_start;
-    gp_start.log_lambda = Vec::Constant(n, kLogHalf);
-    gp_start.theta_f = homo.theta_f;
-    gp_start.theta_g = values_by_role(*g_form_, 0.0, std::log(0.5), std::log(0.5));
-    for (Index j = 0; j < gp_start.theta_g.size(); ++j) {
-      const Index d = dimension_of(g_form_->parameters()[static_cast<std::size_t>(j)].name);
-      if (d < 0 || g_form_->parameters()[static_cast<std::size_t>(j)].role != KernelParameterRole::Lengthscale) continue;
-      for (Index i = 0; i < homo.theta_f.size(); ++i)
-        if (f_form_->parameters()[static_cast<std::size_t>(i)].role == KernelParameterRole::Lengthscale &&
-            dimension_of(f_form_->parameters()[static_cast<std::size_t>(i)].name) == d) {
-          gp_start.theta_g(j) = homo.theta_f(i);
-          break;
-        }
-    }
-    gp_start.mu0 = homo.log_noise_var;
-    starts.push_back(gp_start);
-    n_restarts = std::max<Index>(config_.restarts, 1);
-    for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
-      Rng r = base.stream(1, static_cast<std::uint64_t>(k));
-      starts.push_back(perturbed(gp_start, r));
-    }
-  }
-  starts.resize(static_cast<std::size_t>(n_restarts));
-
-  // Stage 1: every start gets `restart_evaluations` evaluations (all of them to convergence when 0 or when
-  // there are no more starts than finalists). Stage 2: the `finalists` best of stage 1 are optimized to
-  // convergence. Most restarts of a fit end in the same optimum, so spending 60–200 evaluations on each was
-  // the bulk of the fit time (README, benchmark).
-  const Index n_final = std::min<Index>(std::max(config_.finalists, 1), static_cast<Index>(starts.size()));
-  const bool staged = config_.restart_evaluations > 0 && static_cast<Index>(starts.size()) > n_final;
-  auto optimize = [&](const Vec& start, Rng& r, bool budgeted, Index k, RestartResult& out) {
-    try {
-      Vec x0 = box.clamp(start);
-      if (config_.lambda_warmup && !out.ok) {
-        // Phase 1: log Λ alone, hyperparameters fixed (the authors' fixhyp = 2 phase).
-        const VhgpParams fixed = bound.unpack(x0);
-        const VhgpObjective lambda_objective(bound, config_.prior, fixed);
-        const BoxRegion lambda_region(Box{box.lower.head(n), box.upper.head(n)});
-        const OptimizeResult w =
-            optimizer_->maximize(lambda_objective, lambda_region, fixed.log_lambda.transpose(), r);
-        if (w.x.size() == n && w.x.allFinite() && std::isfinite(w.value)) x0.head(n) = w.x;
-      }
-      Vec x;
-      if (budgeted) {
-        const BudgetedObjective limited(objective, config_.restart_evaluations);
-        const OptimizeResult res = optimizer_->maximize(limited, region, x0.transpose(), r);
-        x = limited.best_x();
-        log_debug("vhgp: restart {} (stage 1): objective {:.10g} after {} iterations: {}", k, limited.best_value(),
-                  res.iterations, res.message);
-      } else {
-        const OptimizeResult res = optimizer_->maximize(objective, region, x0.transpose(), r);
-        x = res.x;
-        log_debug("vhgp: restart {}: {} iterations ({} evaluations): {}", k, res.iterations, res.evaluations,
-                  res.message);
-      }
-      if (x.size() == objective.dim() && x.allFinite()) {
-        // Re-evaluate: the reported value must be the objective at the returned point.
-        const double v = objective.value(x, nullptr);
-        log_debug("vhgp: restart {}: objective {:.10g}", k, v);
-        // A converged restart that ended below its stage-1 point keeps the better one.
-        if (std::isfinite(v) && (!out.ok || v >= out.objective)) {
-          out.ok = true;
-          out.objective = v;
-          out.x = x;
-        }
-      }
-    } catch (const std::exception& e) {
-      log_debug("vhgp: restart {} failed: {}", k, e.what());
-    }
-  };
-
-  // Stage 1 (or the only stage): start k on stream (2, k); stage 2 continues finalist k on stream (3, k).
-  const auto score = [](const RestartResult& r) { return r.ok ? std::optional<double>(r.objective) : std::nullopt; };
-  std::vector<RestartResult> results =
-      run_restarts<RestartResult>(
-          static_cast<Index>(starts.size()), [&](Index k) { return base.stream(2, static_cast<std::uint64_t>(k)); },
-          [&](Index k, Rng& r) {
-            RestartResult out;
-            optimize(starts[static_cast<std::size_t>(k)].pack(), r, staged, k, out);
-            return out;
-          },
-          score)
-          .results;
-  if (staged) {
-    // The finalists in order of their stage-1 objective (ties: lower index), independent of the thread count.
-    std::vector<Index> order;
-    for (Index k = 0; k < static_cast<Index>(results.size()); ++k)
-      if (results[static_cast<std::size_t>(k)].ok) order.push_back(k);
-    std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) {
-      return results[static_cast<std::size_t>(a)].objective > results[static_cast<std::size_t>(b)].objective;
-    });
-    order.resize(std::min<std::size_t>(order.size(), static_cast<std::size_t>(n_final)));
-    const auto finalist = [&](Index j) { return order[static_cast<std::size_t>(j)]; };
-    const Restarts<RestartResult> final_run = run_restarts<RestartResult>(
-        static_cast<Index>(order.size()),
-        [&](Index j) { return base.stream(3, static_cast<std::uint64_t>(finalist(j))); },
-        [&](Index j, Rng& r) {
-          RestartResult out = results[static_cast<std::size_t>(finalist(j))];  // keeps its stage-1 point if better
-          optimize(out.x, r, false, finalist(j), out);
-          return out;
-        },
-        score);
-    for (std::size_t j = 0; j < order.size(); ++j)
-      results[static_cast<std::size_t>(order[j])] = final_run.results[j];
-  }
+  if (heteroscedastic) starts = restart_starts(n, s, homo, warm, full, base);
+  const std::vector<RestartResult> results =
+      optimize_restarts(objective, region, starts, *optimizer_, base,
+                        RestartSettings{config_.restart_evaluations, config_.finalists, config_.lambda_warmup});
 
   Index failed = 0;
-  const Index best = best_restart(results, score, &failed);
+  const Index best =
+      best_restart(results, [](const RestartResult& r) { return r.ok ? std::optional<double>(r.objective) : std::nullopt; },
+                   &failed);
   report.restarts_failed += static_cast<int>(failed);
   report.restarts = static_cast<int>(results.size());
   std::optional<VhgpParams> chosen;
@@ -359,10 +236,10 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   bool homoscedastic_chosen = false;
   if ((select || !heteroscedastic) && homo.ok) {
     // Model selection between nested models on the bound (a lower bound of the log evidence; the
-    // constant-noise member's bound is its exact log marginal likelihood): the heteroscedastic fit must
-    // beat it by the BIC penalty ½ p log N of g's p extra hyperparameters (p = D + 1 for an ARD kernel). Without it, noise-free and
-    // homoscedastic data got a noise process that fitted the noise to a few points and floored the
-    // posterior (docs/noisy.md).
+    // constant-noise member's bound is its exact log marginal likelihood): the heteroscedastic fit must beat it
+    // by the BIC penalty ½ p log N of g's p extra hyperparameters (p = D + 1 for an ARD kernel). Without it,
+    // noise-free and homoscedastic data got a noise process that fitted the noise to a few points and floored
+    // the posterior (docs/noisy.md).
     const VhgpParams member =
         homoscedastic_member(homoscedastic_coordinates(homo), chosen ? *chosen : to_model(defaults(s), n, s), n);
     const BoundValue fh = bound.evaluate(member, false);
@@ -374,7 +251,8 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     }
     if (select)
       log_debug("vhgp: noise model on {} points: {} (bound heteroscedastic {:.6g}, homoscedastic {:.6g}, penalty {:.3g})",
-                n, homoscedastic_chosen ? "homoscedastic" : "heteroscedastic", fv, fh.ok ? fh.F : -std::numeric_limits<double>::infinity(), penalty);
+                n, homoscedastic_chosen ? "homoscedastic" : "heteroscedastic", fv,
+                fh.ok ? fh.F : -std::numeric_limits<double>::infinity(), penalty);
   }
   if (!chosen) {
     report.ok = false;
@@ -400,6 +278,45 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
+}
+
+std::vector<VhgpParams> VhgpSurrogate::restart_starts(Index n, const Scaling& s, const HomoscedasticFit& homo,
+                                                      bool warm, bool full, const Rng& base) const {
+  // Start values (vhgp.md §8): the previous solution (warm start), a homoscedastic-GP initialization, and random
+  // perturbations of the latter; a fit between full fits has the warm start alone.
+  std::vector<VhgpParams> starts;
+  const std::optional<CostParams>& warm_source = heteroscedastic_ ? heteroscedastic_ : params_;
+  if (warm) starts.push_back(to_model(*warm_source, n, s));
+  if (!full) {
+    starts.resize(1);
+    return starts;
+  }
+  // θ_f and μ0 = log σ_n² from the GP; g's lengthscale of dimension d is f's (the first such), σ_g and a g
+  // noise term ½, other g parameters (ℓ without a dimension: 1, the authors' start) as values_by_role gives.
+  VhgpParams gp_start;
+  gp_start.log_lambda = Vec::Constant(n, kLogHalf);
+  gp_start.theta_f = homo.theta_f;
+  gp_start.theta_g = values_by_role(*g_form_, 0.0, std::log(0.5), std::log(0.5));
+  const auto& fp = f_form_->parameters();
+  const auto& gp = g_form_->parameters();
+  for (std::size_t j = 0; j < gp.size(); ++j) {
+    const Index d = dimension_of(gp[j].name);
+    if (d < 0 || gp[j].role != KernelParameterRole::Lengthscale) continue;
+    for (std::size_t i = 0; i < fp.size(); ++i)
+      if (fp[i].role == KernelParameterRole::Lengthscale && dimension_of(fp[i].name) == d) {
+        gp_start.theta_g(static_cast<Index>(j)) = homo.theta_f(static_cast<Index>(i));
+        break;
+      }
+  }
+  gp_start.mu0 = homo.log_noise_var;
+  starts.push_back(gp_start);
+  const Index n_restarts = std::max<Index>(config_.restarts, 1);
+  for (Index k = static_cast<Index>(starts.size()); k < n_restarts; ++k) {
+    Rng r = base.stream(1, static_cast<std::uint64_t>(k));
+    starts.push_back(perturbed(gp_start, r));
+  }
+  starts.resize(static_cast<std::size_t>(n_restarts));
+  return starts;
 }
 
 VhgpParams VhgpSurrogate::homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const {

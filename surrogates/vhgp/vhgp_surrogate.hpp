@@ -6,6 +6,7 @@
 #include "varbo/optimizer.hpp"
 #include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
+#include "homoscedastic_init.hpp"
 #include "vhgp_objective.hpp"
 
 namespace varbo::vhgp {
@@ -87,6 +88,10 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   /// σ_g at its lower bound, β = 0 (log Λ = log ½), μ0 = log σ_n²; g's lengthscales from `like` (irrelevant).
   VhgpParams homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const;
 
+  /// The starts of the heteroscedastic restarts (model units): the warm start when `warm`; on a full fit the GP
+  /// start from `homo` and `restarts` in all.
+  std::vector<VhgpParams> restart_starts(Index n, const Scaling& s, const HomoscedasticFit& homo, bool warm, bool full,
+                                         const Rng& base) const;
   /// A start of a restart: θ_f moved, θ_g and μ0 drawn around `gp_start` (model units).
   VhgpParams perturbed(const VhgpParams& gp_start, Rng& r) const;
 

@@ -47,6 +47,8 @@ class VhgpObjective final : public DifferentiableFunction {
   /// The search box of the packed joint vector, in log space (model units): log Λ in [−15, 12], each kernel's
   /// box from `configured`, μ0 in [kMu0Lower, kMu0Upper].
   Box box() const;
+  const VhgpBound& bound() const { return bound_; }
+  const VhgpHyperprior& prior() const { return prior_; }
   /// The kernels with the priors and boxes of the objective.
   const Kernel& f_form() const { return *f_; }
   const Kernel& g_form() const { return *g_; }

@@ -385,6 +385,10 @@ TEST_CASE("the plugin: composite kernels in YAML, the hyperparameter map, errors
   // Conditioning without a fit needs every one of the nine (GivenParameters, item 8).
   const Dataset d = heteroscedastic_data(12, 2, 4);
   CHECK_THROWS_WITH_AS(s->condition(d), doctest::Contains("missing: terms[0].signal_std_f"), ConfigError);
+  CHECK_THROWS_WITH_AS(s->condition(d),
+                       doctest::Contains("expected {'terms[0].lengthscale_f': [2 values], 'terms[0].signal_std_f', "
+                                         "'terms[1].signal_std_f', 'terms[0].lengthscale_g': [2 values]"),
+                       ConfigError);
   Rng rng(3);
   const FitReport r = s->fit(d, rng);
   REQUIRE(r.ok);
