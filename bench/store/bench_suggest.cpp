@@ -1,12 +1,14 @@
 // `varbo suggest` against one BO iteration (issue 14, target ≤ 1.5×). One Hartmann-6 bo study (plain
-// defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200 finished
+// defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200, 400 finished
 // trials (or the --at list) three `varbo suggest` + `varbo observe` processes continue it. Printed per N: the
 // median wall time of the embedded ask(1) over the iterations just before N (one BO iteration: fit +
 // acquisition + store), the median wall time of the `varbo suggest` process (start-up, plugins, opening the
 // study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
 // all threads; for the process, its rusage), which a loaded machine distorts less than wall time.
 //
-//   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200] [--dir /tmp/x]
+// The study is a SQLite file in --dir, or a PostgreSQL study with --store 'postgresql://...?study=NAME'.
+//
+//   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200,400] [--dir /tmp/x] [--store ADDRESS]
 #include <fmt/format.h>
 #include <sys/resource.h>
 
@@ -62,11 +64,12 @@ void run(const std::string& cmd) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200] [--dir DIR]\n");
+    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200,400] [--dir DIR] [--store ADDRESS]\n");
     return 2;
   }
   const std::string varbo = argv[1];
-  std::vector<long> at = {50, 100, 200};
+  std::vector<long> at = {50, 100, 200, 400};
+  std::string store;
   std::string dir = (std::filesystem::temp_directory_path() / "varbo_bench_suggest").string();
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
@@ -76,13 +79,15 @@ int main(int argc, char** argv) {
       for (std::string t; std::getline(ss, t, ',');) at.push_back(std::stol(t));
     } else if (key == "--dir") {
       dir = value;
+    } else if (key == "--store") {
+      store = value;
     }
   }
   constexpr int kRepeats = 3;     // suggest processes per N
   constexpr int kIterations = 5;  // embedded iterations timed just before N
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  const std::string db = dir + "/h6.db";
+  const std::string db = store.empty() ? dir + "/h6.db" : store;
   const long budget = at.back() + 2L * kRepeats * static_cast<long>(at.size()) + 10;
   varbo::Study study = varbo::Study::create_from_yaml(
       db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {{type: bo}}\n", budget));

@@ -67,7 +67,7 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
       [store, path, worker](int) {
         if (!*store) {
           try {
-            *store = open_sqlite_store(path);
+            *store = open_store(path);
           } catch (const Error& e) {
             log_warn("worker {}: heartbeats stopped: {}", worker, e.what());
             return false;
@@ -94,11 +94,11 @@ Runner add_worker(CLI::App& app) {
   auto* cmd = app.add_subcommand("worker", "Work on a study: suggest, run a command on θ, record its cost, repeat "
                                            "until the budget is used");
   struct Args {
-    std::string store, command, timeout = "600";
+    std::string store, command, timeout = "600", host_id;
     long long max_trials = 0;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("--command", a->command,
                   "shell command evaluating one θ, as the external task runs it: {\"theta\": [...], \"names\": "
                   "[...], \"trial\": k} on stdin, the cost (or {\"cost\": c, \"components\": {...}}) on the last "
@@ -106,6 +106,8 @@ Runner add_worker(CLI::App& app) {
       ->required();
   cmd->add_option("--max-trials", a->max_trials, "stop after this many trials (0 = until the budget is used)")
       ->check(CLI::Range(0LL, 1000000000LL));
+  cmd->add_option("--host-id", a->host_id, "the host part of this worker's id (default $VARBO_HOST_ID, else the host "
+                                           "name); workers are told apart by host:pid:nonce");
   cmd->add_option("--timeout", a->timeout, "seconds before the command and its whole process tree are killed "
                                            "(a failed trial)");
   return [a]() {
@@ -114,7 +116,7 @@ Runner add_worker(CLI::App& app) {
       throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
     if (a->command.empty()) throw InputError("--command: expected a shell command, got an empty one");
     Study study = Study::open(a->store);
-    const std::string id = new_worker_id();
+    const std::string id = new_worker_id(a->host_id);
     study.set_worker(id);
     std::unique_ptr<Task> task = external_task(study, a->command, timeout);
     install_stop_handlers();
@@ -136,7 +138,7 @@ Runner add_worker(CLI::App& app) {
         bool pending = false;
         for (const auto& t : study.store().pending_trials()) pending = pending || t.worker != id;
         if (!pending) break;
-        std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 1.0)));
+        std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 0.25)));
         continue;
       }
       const TrialRecord& t = asked.front();
