@@ -122,7 +122,7 @@ Runner add_worker(CLI::App& app) {
     install_stop_handlers();
     const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
     study.heartbeat();
-    const auto beats = start_heartbeats(a->store, id, hb);
+    auto beats = start_heartbeats(a->store, id, hb);
     std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
     long long done = 0;
     int exit_code = 0;
@@ -155,6 +155,7 @@ Runner add_worker(CLI::App& app) {
       std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
                    e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());
     }
+    beats.reset();  // first: a beat after it would mark the worker running again
     study.heartbeat("stopped");
     std::fprintf(stderr, "varbo worker %s: %lld trial(s) done%s\n", id.c_str(), done,
                  exit_code ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");

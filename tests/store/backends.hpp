@@ -17,7 +17,7 @@ namespace varbo::test {
 enum class Backend { Sqlite, Postgres };
 
 inline std::vector<Backend> all_backends() { return {Backend::Sqlite, Backend::Postgres}; }
-inline const char* backend_name(Backend b) { return b == Backend::Sqlite ? "sqlite" : "postgresql"; }
+inline std::string backend_name(Backend b) { return b == Backend::Sqlite ? "sqlite" : "postgresql"; }
 
 /// postgresql://varbo@/varbo_test?host=/tmp/varbo-pg.XXXX (no study).
 inline std::string pg_base_url() {

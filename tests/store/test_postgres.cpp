@@ -137,8 +137,9 @@ TEST_CASE("postgresql: a study written by a newer varbo is refused by every comm
                   url.substr(url.rfind("study=") + 6));
     w.commit();
   }
-  for (const std::vector<std::string> args : {std::vector<std::string>{"suggest", url}, {"status", url},
-                                              {"worker", url, "--command", "echo 1"}, {"observe", url, "0", "1.5"}}) {
+  const std::vector<std::vector<std::string>> commands = {
+      {"suggest", url}, {"status", url}, {"worker", url, "--command", "echo 1"}, {"observe", url, "0", "1.5"}};
+  for (const auto& args : commands) {
     CAPTURE(args[0]);
     const auto [code, out] = varbo_cli(args, dir);
     CHECK(code == 2);

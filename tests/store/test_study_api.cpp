@@ -35,7 +35,8 @@ TEST_CASE("serial ask/tell: closing and reopening the study gives the same trial
   const std::string dir = test::temp_folder("study_replay");
   for (const auto backend : test::all_backends()) {  // both backends
     CAPTURE(test::backend_name(backend));
-    const std::string a_address = test::study_address(backend, dir, "a"), b_address = test::study_address(backend, dir, "b");
+    const std::string a_address = test::study_address(backend, dir, "a");
+    const std::string b_address = test::study_address(backend, dir, "b");
     std::vector<Vec> straight;
     {
       Study a = Study::create_from_yaml(a_address, bo_yaml(12));
@@ -246,7 +247,7 @@ TEST_CASE("the budget bounds suggestions, pending ones included") {
   const std::string dir = test::temp_folder("study_budget");
   for (const auto backend : test::all_backends()) {  // both backends
     CAPTURE(test::backend_name(backend));
-    Study s = Study::create_from_yaml(dir + "/s.db", kRandomYaml);
+    Study s = Study::create_from_yaml(test::study_address(backend, dir, "s"), kRandomYaml);
     CHECK(s.ask(4).size() == 4);
     CHECK(s.ask(4).size() == 2);  // budget 6
     CHECK(s.ask(1).empty());

@@ -1,9 +1,9 @@
 // A fleet of `varbo worker` processes on one study (docs/studies.md, "Workers"): 8 workers on two "hosts" (distinct
 // host ids) sharing a PostgreSQL study, and 8 workers on one host sharing a SQLite study; 2 of them SIGKILLed
 // mid-trial at random moments. Then: every completed observation recorded exactly once and at its own θ, the
-// killed workers' trials abandoned after heartbeat_timeout and their θ run again, the budget used exactly, no
-// trial left pending (no deadlock: every worker ends), finish order contiguous. The trial count comes from
-// $VARBO_FLEET_TRIALS (default 200).
+// killed workers' trials abandoned after heartbeat_timeout and their θ run again (retry_abandoned), the budget
+// used exactly, no trial left pending (no deadlock: every worker ends), finish order contiguous. The trial count
+// comes from $VARBO_FLEET_TRIALS (default 200).
 #include <signal.h>
 
 #include <cmath>
@@ -42,7 +42,7 @@ int fleet_trials() {
 void run_fleet(test::Backend backend, const std::string& dir, int budget, bool two_hosts) {
   const std::string cfg = dir + "/cfg.yaml";
   std::ofstream(cfg) << "task: {type: branin}\nbudget: " << budget
-                     << "\nseed: 11\nalgorithm: {type: random}\nheartbeat_timeout: 1\n";
+                     << "\nseed: 11\nalgorithm: {type: random}\nheartbeat_timeout: 1\nretry_abandoned: true\n";
   const std::string study = test::study_address(backend, dir, "fleet");
   REQUIRE(test::run({VARBO_EXE, "study", "create", study, cfg}, dir + "/create.log").exit_code == 0);
   const std::string cmd = trial_command(dir);
@@ -121,11 +121,11 @@ void run_fleet(test::Backend backend, const std::string& dir, int budget, bool t
   CHECK(static_cast<int>(trials.size()) == complete + static_cast<int>(abandoned.size()));
   CHECK(runs >= complete);  // every recorded result comes from a command run …
   CHECK(runs <= complete + static_cast<int>(abandoned.size()));  // … and no θ ran twice except a killed worker's
-  // An abandoned θ is suggested again (random search: the same sample index) and completed.
+  // An abandoned θ is handed out again as it was (retry_abandoned) and completed.
   for (const TrialRecord* a : abandoned) {
-    bool rerun = false;
-    for (const auto& t : trials) rerun = rerun || (t.state == TrialState::Complete && t.x == a->x);
-    CHECK(rerun);
+    int reruns = 0;
+    for (const auto& t : trials) reruns += t.state == TrialState::Complete && t.phase == "retry" && t.x == a->x;
+    CHECK(reruns == 1);
   }
   if (two_hosts) {
     CHECK(hosts.count("host-a") == 1);
