@@ -4,7 +4,8 @@
 // median wall time of the embedded ask(1) over the iterations just before N (one BO iteration: fit +
 // acquisition + store), the median wall time of the `varbo suggest` process (start-up, plugins, opening the
 // study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
-// all threads; for the process, its rusage), which a loaded machine distorts less than wall time.
+// all threads; for the process, its rusage), which a loaded machine distorts less than wall time; and the median
+// of each process's wall time minus the fit and acquisition time it recorded for its trial: the fixed cost.
 //
 // The study is a SQLite file in --dir, or a PostgreSQL study with --store 'postgresql://...?study=NAME'.
 //
@@ -83,8 +84,8 @@ int main(int argc, char** argv) {
       store = value;
     }
   }
-  constexpr int kRepeats = 3;     // suggest processes per N
-  constexpr int kIterations = 5;  // embedded iterations timed just before N
+  constexpr int kRepeats = 5;     // suggest processes per N
+  constexpr int kIterations = 9;  // embedded iterations timed just before N (a fit's cost varies 2-3× between neighbours)
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string db = store.empty() ? dir + "/h6.db" : store;
@@ -97,7 +98,7 @@ int main(int argc, char** argv) {
     return study.task().evaluate(t.theta, r).cost;
   };
   std::printf("| N | one BO iteration (embedded ask): wall, CPU s | `varbo suggest` process: wall, CPU s | ratio wall, "
-              "CPU |\n|---|---|---|---|\n");
+              "CPU | process minus its own fit + acquisition: wall s |\n|---|---|---|---|---|\n");
   long finished = 0;
   for (const long n : at) {
     std::vector<double> iteration, iteration_cpu;
@@ -113,7 +114,7 @@ int main(int argc, char** argv) {
       study.tell(t.id, evaluate(t));
       ++finished;
     }
-    std::vector<double> suggest, suggest_cpu;
+    std::vector<double> suggest, suggest_cpu, overhead;
     for (int r = 0; r < kRepeats; ++r) {
       const std::string out = dir + "/suggest.json";
       const auto t0 = std::chrono::steady_clock::now();
@@ -124,13 +125,15 @@ int main(int argc, char** argv) {
       // The trial's id is the number of trials so far; its θ is read back from the store.
       const auto trials = study.trials();
       const varbo::TrialRecord& t = trials.back();
+      overhead.push_back(suggest.back() - t.fit_seconds - t.acquisition_seconds);
       run(fmt::format("'{}' -q observe '{}' {} {} > /dev/null", varbo, db, t.id, varbo::exact(evaluate(t))));
       ++finished;
       (void)slurp(out);
     }
     const double it = median(iteration), sg = median(suggest);
     const double itc = median(iteration_cpu), sgc = median(suggest_cpu);
-    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× |\n", n, it, itc, sg, sgc, sg / it, sgc / itc);
+    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× | %.3f |\n", n, it, itc, sg, sgc, sg / it, sgc / itc,
+                median(overhead));
     std::fflush(stdout);
   }
   return 0;
