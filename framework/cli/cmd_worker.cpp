@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
@@ -88,13 +89,33 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
       });
 }
 
+/// Runs `f`, retrying with backoff (0.5 s doubling to 15 s) while the store's server cannot be reached, for at most
+/// `limit` seconds: a worker of a days-long study outlives a database restart or a network cut. Nothing is
+/// written by a failed attempt, so retrying is safe.
+template <class F>
+auto retrying(double limit, const std::string& worker, F&& f) -> decltype(f()) {
+  const auto start = std::chrono::steady_clock::now();
+  double wait = 0.5;
+  for (;;) {
+    try {
+      return f();
+    } catch (const StoreConnectionError& e) {
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (elapsed + wait > limit || g_stop.load()) throw;
+      log_warn("worker {}: {}; retrying in {:.1f} s", worker, e.what(), wait);
+      std::this_thread::sleep_for(std::chrono::duration<double>(wait));
+      wait = std::min(15.0, 2 * wait);
+    }
+  }
+}
+
 }  // namespace
 
 Runner add_worker(CLI::App& app) {
   auto* cmd = app.add_subcommand("worker", "Work on a study: suggest, run a command on θ, record its cost, repeat "
                                            "until the budget is used");
   struct Args {
-    std::string store, command, timeout = "600", host_id;
+    std::string store, command, timeout = "600", host_id, reconnect = "120";
     long long max_trials = 0;
   };
   auto a = std::make_shared<Args>();
@@ -108,6 +129,9 @@ Runner add_worker(CLI::App& app) {
       ->check(CLI::Range(0LL, 1000000000LL));
   cmd->add_option("--host-id", a->host_id, "the host part of this worker's id (default $VARBO_HOST_ID, else the host "
                                            "name); workers are told apart by host:pid:nonce");
+  cmd->add_option("--reconnect-timeout", a->reconnect,
+                  "seconds to keep retrying (with backoff) when the database server is unreachable or the connection "
+                  "drops, before exiting 2 (PostgreSQL studies; 0 = exit at once)");
   cmd->add_option("--timeout", a->timeout, "seconds before the command and its whole process tree are killed "
                                            "(a failed trial)");
   return [a]() {
@@ -115,6 +139,9 @@ Runner add_worker(CLI::App& app) {
     if (!(timeout > 0) || !std::isfinite(timeout))
       throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
     if (a->command.empty()) throw InputError("--command: expected a shell command, got an empty one");
+    const double reconnect = parse_number(a->reconnect, "--reconnect-timeout");
+    if (!(reconnect >= 0) || !std::isfinite(reconnect))
+      throw InputError(fmt::format("--reconnect-timeout: expected a number of seconds ≥ 0, got '{}'", a->reconnect));
     Study study = Study::open(a->store);
     const std::string id = new_worker_id(a->host_id);
     study.set_worker(id);
@@ -131,7 +158,7 @@ Runner add_worker(CLI::App& app) {
         exit_code = 128 + sig;
         break;
       }
-      const std::vector<TrialRecord> asked = study.ask(1);
+      const std::vector<TrialRecord> asked = retrying(reconnect, id, [&] { return study.ask(1); });
       if (asked.empty()) {
         // The budget is used, or held by trials pending elsewhere: wait while those may still finish or be
         // abandoned (their worker silent), then ask again.
@@ -150,7 +177,18 @@ Runner add_worker(CLI::App& app) {
         e.ok = false;
         e.error = fmt::format("non-finite cost {}", e.cost);
       }
-      study.record(t.id, e, seconds);
+      retrying(reconnect, id, [&] {
+        try {
+          study.record(t.id, e, seconds);
+        } catch (const InputError&) {
+          // A commit cut by a lost connection may have landed: then the retry finds the trial finished.
+          const auto stored = study.store().trial(t.id);
+          const bool landed = stored && (e.ok ? stored->state == TrialState::Complete && stored->cost == e.cost
+                                              : stored->state == TrialState::Failed);
+          if (!landed) throw;
+        }
+        return 0;
+      });
       ++done;
       std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
                    e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());

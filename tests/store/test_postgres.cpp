@@ -3,6 +3,8 @@
 // newer varbo, a connection dropped mid-transaction. Each is an error naming the study and the cause (exit 2
 // from the CLI) and writes nothing.
 #include <fstream>
+#include <set>
+#include <thread>
 #include <pqxx/pqxx>
 
 #include "backends.hpp"
@@ -110,7 +112,7 @@ TEST_CASE("postgresql: a URL naming no study, a database without studies, an exi
   auto [code, out] = varbo_cli({"suggest", base + "&study=absent_study"}, dir);
   CHECK(code == 2);
   CHECK(out.find("no study named 'absent_study' in this database") != std::string::npos);
-  CHECK(out.find(url.substr(url.rfind("study=") + 6)) != std::string::npos);  // the studies that are there
+  CHECK(out.find("(studies there: ") != std::string::npos);  // the first ten names, for a typo
   CHECK(out.find("varbo study create") != std::string::npos);
   CHECK(open_error(base + "&study=absent_study").find("study=absent_study") != std::string::npos);
   // The maintenance database holds no varbo tables at all.
@@ -183,4 +185,39 @@ TEST_CASE("postgresql: a connection dropped mid-transaction writes nothing; the 
   CHECK(trials[0].state == TrialState::Pending);
   study.tell(first[0].id, 2.0);
   CHECK(open_store(url)->trial(first[0].id)->cost == 2.0);
+}
+
+TEST_CASE("postgresql: a worker outlives dropped connections (reconnects, retries), every trial recorded once") {
+  const std::string dir = test::temp_folder("pg_worker_reconnect");
+  const std::string url = test::pg_study_url("reconnect") + "&application_name=varbo_reconnect_test";
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: branin}\nbudget: 4\nseed: 3\nalgorithm: {type: random}\n";
+  REQUIRE(varbo_cli({"study", "create", url, dir + "/cfg.yaml"}, dir).first == 0);
+  const std::string log = dir + "/worker.log";
+  const pid_t worker = test::spawn({VARBO_EXE, "worker", url, "--command", "cat > /dev/null; sleep 0.4; echo 2.5"}, log);
+  pqxx::connection killer(test::pg_base_url());
+  int terminated = 0;
+  for (int round = 0; round < 2; ++round) {  // twice, while the command runs: the next statements find the session gone
+    std::this_thread::sleep_for(std::chrono::milliseconds(round == 0 ? 200 : 500));
+    pqxx::nontransaction k(killer);
+    terminated += static_cast<int>(
+        k.exec("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name = 'varbo_reconnect_test'")
+            .size());
+  }
+  CHECK(terminated >= 2);
+  CHECK(test::wait_for(worker).exit_code == 0);
+  const auto trials = open_store(url)->trials();
+  REQUIRE(trials.size() == 4);
+  std::set<std::int64_t> seqs;
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Complete);
+    CHECK(t.cost == 2.5);
+    seqs.insert(t.finish_seq);
+  }
+  CHECK(seqs.size() == 4);
+  CHECK(test::slurp(log).find("reconnecting to the database server") != std::string::npos);
+  // --reconnect-timeout 0 and an unreachable server: exit 2 at once, naming the study.
+  const auto [code, out] = varbo_cli({"worker", "postgresql:///varbo_test?host=/nonexistent-varbo&study=gone",
+                                      "--command", "echo 1", "--reconnect-timeout", "0"}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("study=gone") != std::string::npos);
 }

@@ -164,11 +164,11 @@ class PostgresStore final : public StudyStore {
         log_debug("{}: {}; retrying in {} ms (attempt {})", location(), cause(e), ms, attempt);
         std::this_thread::sleep_for(std::chrono::milliseconds(jitter(ms)));
       } catch (const pqxx::in_doubt_error& e) {
-        throw InputError(fmt::format("{}: the connection was lost while committing ({}); the transaction may or may "
+        throw StoreConnectionError(fmt::format("{}: the connection was lost while committing ({}); the transaction may or may "
                                      "not have been written: check with `varbo status {}`",
                                      location(), cause(e), location()));
       } catch (const pqxx::broken_connection& e) {
-        throw InputError(fmt::format("{}: lost the connection to the database server ({}); the transaction was "
+        throw StoreConnectionError(fmt::format("{}: lost the connection to the database server ({}); the transaction was "
                                      "rolled back, nothing of it was written",
                                      location(), cause(e)));
       } catch (const pqxx::sql_error& e) {
@@ -367,7 +367,7 @@ class PostgresStore final : public StudyStore {
       pqxx::nontransaction n(*conn_);
       n.exec("SET client_min_messages TO WARNING");
     } catch (const pqxx::broken_connection& e) {
-      throw InputError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
+      throw StoreConnectionError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
     } catch (const pqxx::failure& e) {
       throw InputError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
     }
@@ -403,7 +403,7 @@ class PostgresStore final : public StudyStore {
     try {
       return f();
     } catch (const pqxx::broken_connection& e) {
-      throw InputError(fmt::format("{}: cannot {}: lost the connection to the database server ({})", location(), what,
+      throw StoreConnectionError(fmt::format("{}: cannot {}: lost the connection to the database server ({})", location(), what,
                                    cause(e)));
     } catch (const pqxx::insufficient_privilege& e) {
       throw InputError(fmt::format("{}: cannot {}: the database role lacks a privilege ({})", location(), what,

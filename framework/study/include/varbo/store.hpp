@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "varbo/algorithm.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/task.hpp"
 
 namespace varbo {
@@ -72,6 +73,14 @@ struct WorkerRecord {
   double started_at = 0;     ///< unix seconds
   double heartbeat_at = 0;   ///< latest sign of life
   std::string state = "running";  ///< running | stopped
+};
+
+/// The store's server could not be reached or the connection was lost (PostgreSQL); the operation wrote
+/// nothing, unless the message says the commit itself was cut ("may or may not have been written"). A process
+/// that stays up may retry (`varbo worker` does, with backoff).
+class StoreConnectionError : public InputError {
+ public:
+  using InputError::InputError;
 };
 
 class StudyStore {
