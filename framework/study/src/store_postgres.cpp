@@ -360,7 +360,7 @@ class PostgresStore final : public StudyStore {
     return ms / 2 + static_cast<int>(rng() % static_cast<unsigned>(ms / 2 + 1));
   }
 
-  void connect() {
+  void connect() const {
     try {
       conn_ = std::make_unique<pqxx::connection>(address_.conninfo);
       // CREATE ... IF NOT EXISTS would print notices; warnings and errors still reach the exceptions.
@@ -374,7 +374,7 @@ class PostgresStore final : public StudyStore {
   }
 
   /// A connection the server dropped (restart, pg_terminate_backend) is opened afresh for the next transaction.
-  void reconnect_if_needed() {
+  void reconnect_if_needed() const {
     if (conn_ && conn_->is_open()) return;
     log_warn("{}: reconnecting to the database server", location());
     connect();
@@ -384,8 +384,8 @@ class PostgresStore final : public StudyStore {
   template <class F>
   auto read(const char* what, F&& f) const -> decltype(f(std::declval<pqxx::transaction_base&>())) {
     if (tx_) return f(*tx_);
-    return const_cast<PostgresStore*>(this)->guarded(what, [&] {
-      const_cast<PostgresStore*>(this)->reconnect_if_needed();
+    return guarded(what, [&] {
+      reconnect_if_needed();
       pqxx::nontransaction n(*conn_);
       return f(n);
     });
@@ -399,7 +399,7 @@ class PostgresStore final : public StudyStore {
 
   /// Runs `f`, turning libpqxx errors into InputErrors naming the study.
   template <class F>
-  auto guarded(const char* what, F&& f) -> decltype(f()) {
+  auto guarded(const char* what, F&& f) const -> decltype(f()) {
     try {
       return f();
     } catch (const pqxx::broken_connection& e) {
@@ -526,7 +526,7 @@ class PostgresStore final : public StudyStore {
   }
 
   PostgresAddress address_;
-  std::unique_ptr<pqxx::connection> conn_;
+  mutable std::unique_ptr<pqxx::connection> conn_;  // reopened by reads too, after the server dropped it
   pqxx::transaction_base* tx_ = nullptr;
 };
 
