@@ -108,7 +108,9 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // One driver per study and per run folder (docs/studies.md, "One writer"): held until this function returns,
   // after the store is closed (declared before it).
   std::vector<RunLock> locks;
-  if (!is_database_url(store_path))  // a database study: its transactions serialize the drivers
+  // A database study has no lock file (no shared folder to hold it): one `varbo run` per database study is the
+  // user's to keep (docs/studies.md); the run folder's own lock below still holds.
+  if (!is_database_url(store_path))
     locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
   const std::string folder_store = study.output + "/study.db";
   if (!own_store && !same_file(folder_store, store_path))
