@@ -221,3 +221,17 @@ TEST_CASE("postgresql: a worker outlives dropped connections (reconnects, retrie
   CHECK(code == 2);
   CHECK(out.find("study=gone") != std::string::npos);
 }
+
+TEST_CASE("postgresql: heartbeats are judged by the server's clock, whatever the worker machine's clock says") {
+  const std::string url = test::pg_study_url("clock");
+  Study study = Study::create_from_yaml(
+      url, "task: {type: branin}\nbudget: 6\nseed: 2\nalgorithm: {type: random}\nheartbeat_timeout: 30\n");
+  // A worker whose clock is an hour behind: its own timestamps would make it look silent for an hour.
+  study.set_worker("far-host:7:0123456789abcdef");
+  const auto t = study.ask(1).at(0);
+  WorkerRecord w{"far-host:7:0123456789abcdef", "far-host", 7, unix_time() - 3600, unix_time() - 3600, "running"};
+  study.store().put_worker(w);
+  Study other = Study::open(url);
+  REQUIRE(other.ask(1).size() == 1);  // checks every worker's silence first
+  CHECK(other.store().trial(t.id)->state == TrialState::Pending);  // alive by the server's clock
+}

@@ -306,14 +306,15 @@ class PostgresStore final : public StudyStore {
   }
 
   /// One upsert, atomic by itself: outside a transaction it takes no study lock, so a heartbeat is never held
-  /// up behind another process's model fit.
+  /// up behind another process's model fit. The times are the server's clock (`clock_timestamp()`), not the
+  /// worker's: workers on machines whose clocks disagree are still judged by one clock (workers() translates).
   void put_worker(const WorkerRecord& wr) override {
     auto upsert = [&](pqxx::transaction_base& t) {
       t.exec_params("INSERT INTO varbo_workers (study, id, host, pid, started_at, heartbeat_at, state) VALUES "
-                    "($1, $2, $3, $4, $5, $6, $7) ON CONFLICT (study, id) DO UPDATE SET heartbeat_at = "
-                    "excluded.heartbeat_at, state = excluded.state",
-                    address_.study, wr.id, wr.host, static_cast<std::int64_t>(wr.pid), num(wr.started_at),
-                    num(wr.heartbeat_at), wr.state);
+                    "($1, $2, $3, $4, EXTRACT(EPOCH FROM clock_timestamp()), EXTRACT(EPOCH FROM clock_timestamp()), "
+                    "$5) ON CONFLICT (study, id) DO UPDATE SET heartbeat_at = excluded.heartbeat_at, state = "
+                    "excluded.state",
+                    address_.study, wr.id, wr.host, static_cast<std::int64_t>(wr.pid), wr.state);
     };
     if (tx_)
       upsert(*tx_);
@@ -324,18 +325,23 @@ class PostgresStore final : public StudyStore {
       });
   }
 
+  /// Times in this machine's clock: the server's, shifted by (this clock − the server's clock) now, so that
+  /// `unix_time() − heartbeat_at` is the silence measured by the server alone.
   std::vector<WorkerRecord> workers() const override {
     return read("read workers", [&](pqxx::transaction_base& t) {
       std::vector<WorkerRecord> out;
-      for (const auto& row : t.exec_params("SELECT id, host, pid, started_at, heartbeat_at, state FROM varbo_workers "
-                                           "WHERE study = $1 ORDER BY started_at",
-                                           address_.study)) {
+      const pqxx::result r = t.exec_params(
+          "SELECT id, host, pid, started_at, heartbeat_at, state, EXTRACT(EPOCH FROM clock_timestamp()) FROM "
+          "varbo_workers WHERE study = $1 ORDER BY started_at",
+          address_.study);
+      const double shift = r.empty() ? 0.0 : unix_time() - to_double(r[0][6]);
+      for (const auto& row : r) {
         WorkerRecord w;
         w.id = to_text(row[0]);
         w.host = to_text(row[1]);
         w.pid = static_cast<long>(to_int(row[2]));
-        w.started_at = to_double(row[3]);
-        w.heartbeat_at = to_double(row[4]);
+        w.started_at = to_double(row[3]) + shift;
+        w.heartbeat_at = to_double(row[4]) + shift;
         w.state = to_text(row[5]);
         out.push_back(std::move(w));
       }
