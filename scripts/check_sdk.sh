@@ -3,7 +3,7 @@
 # (find_package(varbo): an acquisition, a task, an algorithm without a surrogate and a kernel), and runs short studies
 # with the installed executable using them: BO with the template acquisition, the template algorithm on the
 # template task (stopped and resumed: same trials), and the template task's config errors (exit 2); the core and
-# the templates must not depend on SQLite or the study library.
+# the templates must not depend on SQLite, PostgreSQL or the study library.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD_DIR=${BUILD_DIR:-build}
@@ -18,7 +18,7 @@ if grep -q "warning:" "$WORK/build.log"; then cat "$WORK/build.log"; echo "templ
 CORE_LIB=$(find "$PREFIX" -name libvarbo_core.so | head -n 1)
 for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
   test -f "$lib"
-  if readelf -d "$lib" | grep -E 'NEEDED.*(sqlite|varbo_study|varbo_tools)'; then
+  if readelf -d "$lib" | grep -E 'NEEDED.*(sqlite|pqxx|libpq|varbo_study|varbo_tools)'; then
     echo "check_sdk: $lib depends on the study machinery" >&2
     exit 1
   fi

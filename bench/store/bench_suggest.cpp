@@ -1,12 +1,15 @@
 // `varbo suggest` against one BO iteration (issue 14, target ≤ 1.5×). One Hartmann-6 bo study (plain
-// defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200 finished
+// defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200, 400 finished
 // trials (or the --at list) three `varbo suggest` + `varbo observe` processes continue it. Printed per N: the
 // median wall time of the embedded ask(1) over the iterations just before N (one BO iteration: fit +
 // acquisition + store), the median wall time of the `varbo suggest` process (start-up, plugins, opening the
 // study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
-// all threads; for the process, its rusage), which a loaded machine distorts less than wall time.
+// all threads; for the process, its rusage), which a loaded machine distorts less than wall time; and the median
+// of each process's wall time minus the fit and acquisition time it recorded for its trial: the fixed cost.
 //
-//   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200] [--dir /tmp/x]
+// The study is a SQLite file in --dir, or a PostgreSQL study with --store 'postgresql://...?study=NAME'.
+//
+//   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200,400] [--dir /tmp/x] [--store ADDRESS]
 #include <fmt/format.h>
 #include <sys/resource.h>
 
@@ -62,11 +65,12 @@ void run(const std::string& cmd) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200] [--dir DIR]\n");
+    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200,400] [--dir DIR] [--store ADDRESS]\n");
     return 2;
   }
   const std::string varbo = argv[1];
-  std::vector<long> at = {50, 100, 200};
+  std::vector<long> at = {50, 100, 200, 400};
+  std::string store;
   std::string dir = (std::filesystem::temp_directory_path() / "varbo_bench_suggest").string();
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
@@ -76,13 +80,15 @@ int main(int argc, char** argv) {
       for (std::string t; std::getline(ss, t, ',');) at.push_back(std::stol(t));
     } else if (key == "--dir") {
       dir = value;
+    } else if (key == "--store") {
+      store = value;
     }
   }
-  constexpr int kRepeats = 3;     // suggest processes per N
-  constexpr int kIterations = 5;  // embedded iterations timed just before N
+  constexpr int kRepeats = 5;     // suggest processes per N
+  constexpr int kIterations = 9;  // embedded iterations timed just before N (a fit's cost varies 2-3× between neighbours)
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  const std::string db = dir + "/h6.db";
+  const std::string db = store.empty() ? dir + "/h6.db" : store;
   const long budget = at.back() + 2L * kRepeats * static_cast<long>(at.size()) + 10;
   varbo::Study study = varbo::Study::create_from_yaml(
       db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {{type: bo}}\n", budget));
@@ -92,7 +98,7 @@ int main(int argc, char** argv) {
     return study.task().evaluate(t.theta, r).cost;
   };
   std::printf("| N | one BO iteration (embedded ask): wall, CPU s | `varbo suggest` process: wall, CPU s | ratio wall, "
-              "CPU |\n|---|---|---|---|\n");
+              "CPU | process minus its own fit + acquisition: wall s |\n|---|---|---|---|---|\n");
   long finished = 0;
   for (const long n : at) {
     std::vector<double> iteration, iteration_cpu;
@@ -108,7 +114,7 @@ int main(int argc, char** argv) {
       study.tell(t.id, evaluate(t));
       ++finished;
     }
-    std::vector<double> suggest, suggest_cpu;
+    std::vector<double> suggest, suggest_cpu, overhead;
     for (int r = 0; r < kRepeats; ++r) {
       const std::string out = dir + "/suggest.json";
       const auto t0 = std::chrono::steady_clock::now();
@@ -119,13 +125,15 @@ int main(int argc, char** argv) {
       // The trial's id is the number of trials so far; its θ is read back from the store.
       const auto trials = study.trials();
       const varbo::TrialRecord& t = trials.back();
+      overhead.push_back(suggest.back() - t.fit_seconds - t.acquisition_seconds);
       run(fmt::format("'{}' -q observe '{}' {} {} > /dev/null", varbo, db, t.id, varbo::exact(evaluate(t))));
       ++finished;
       (void)slurp(out);
     }
     const double it = median(iteration), sg = median(suggest);
     const double itc = median(iteration_cpu), sgc = median(suggest_cpu);
-    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× |\n", n, it, itc, sg, sgc, sg / it, sgc / itc);
+    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× | %.3f |\n", n, it, itc, sg, sgc, sg / it, sgc / itc,
+                median(overhead));
     std::fflush(stdout);
   }
   return 0;

@@ -29,7 +29,7 @@ std::string csv_cell(const std::string& s) { return csv_text(s); }
 Runner add_status(CLI::App& app) {
   auto* cmd = app.add_subcommand("status", "Show a study: trials by state, best so far, pending trials");
   auto store = std::make_shared<std::string>();
-  cmd->add_option("store", *store, "study file")->required();
+  cmd->add_option("store", *store, "study file, or postgresql://...?study=NAME URL")->required();
   return [store]() {
     Study s = Study::open(*store);
     const auto trials = s.trials();
@@ -90,7 +90,7 @@ Runner add_export(CLI::App& app) {
     bool csv = false;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_flag("--csv", a->csv, "CSV with a header row (the only format so far)")->required();
   cmd->add_option("-o,--output", a->output, "file to write (default: standard output)");
   return [a]() {

@@ -23,11 +23,11 @@ Runner add_study(CLI::App& app) {
     std::string store, config;
   };
   auto a = std::make_shared<Args>();
-  create->add_option("store", a->store, "the study file to create (SQLite)")->required();
+  create->add_option("store", a->store, "the study to create: a file (SQLite), or postgresql://user@host/db?study=NAME")->required();
   create->add_option("config", a->config, "study configuration (YAML)")->required();
   auto* verify = cmd->add_subcommand("verify", "Replay the whole study and report the first divergence from the stored "
                                                "trials and saved algorithm states (exit 1 if any)");
-  verify->add_option("store", a->store, "study file")->required();
+  verify->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   return [a, verify]() {
     if (verify->parsed()) {
       Study s = Study::open(a->store);
@@ -59,7 +59,7 @@ Runner add_suggest(CLI::App& app) {
     bool json = false;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("--batch", a->batch, "number of distinct trials to suggest (they account for pending ones)")
       ->check(CLI::Range(1LL, 100000LL));
   cmd->add_flag("--json", a->json, "print JSON: [{\"id\": 3, \"theta\": [...], \"names\": [...], \"phase\": ...}]");
@@ -107,7 +107,7 @@ Runner add_observe(CLI::App& app) {
     std::string theta;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("id", a->id, "trial id printed by `varbo suggest`, or 'new' with --theta")->required();
   cmd->add_option("cost", a->cost, "the observed cost (a finite number)")->required();
   cmd->add_option("--component", a->components, "a named cost component, name=value (repeatable)");
@@ -148,7 +148,7 @@ Runner add_fail(CLI::App& app) {
     std::string store, id, reason = "failed";
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("id", a->id, "trial id")->required();
   cmd->add_option("--reason", a->reason, "why it failed (stored with the trial)");
   return [a]() {
@@ -167,7 +167,7 @@ Runner add_abandon(CLI::App& app) {
     std::string older_than = "0";
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("--older-than", a->older_than, "only trials suggested more than this many seconds ago (0 = all)");
   return [a]() {
     const double older_than = parse_number(a->older_than, "--older-than");

@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
@@ -67,7 +68,7 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
       [store, path, worker](int) {
         if (!*store) {
           try {
-            *store = open_sqlite_store(path);
+            *store = open_store(path);
           } catch (const Error& e) {
             log_warn("worker {}: heartbeats stopped: {}", worker, e.what());
             return false;
@@ -88,17 +89,37 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
       });
 }
 
+/// Runs `f`, retrying with backoff (0.5 s doubling to 15 s) while the store's server cannot be reached, for at most
+/// `limit` seconds: a worker of a days-long study outlives a database restart or a network cut. Nothing is
+/// written by a failed attempt, so retrying is safe.
+template <class F>
+auto retrying(double limit, const std::string& worker, F&& f) -> decltype(f()) {
+  const auto start = std::chrono::steady_clock::now();
+  double wait = 0.5;
+  for (;;) {
+    try {
+      return f();
+    } catch (const StoreConnectionError& e) {
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      if (elapsed + wait > limit || g_stop.load()) throw;
+      log_warn("worker {}: {}; retrying in {:.1f} s", worker, e.what(), wait);
+      std::this_thread::sleep_for(std::chrono::duration<double>(wait));
+      wait = std::min(15.0, 2 * wait);
+    }
+  }
+}
+
 }  // namespace
 
 Runner add_worker(CLI::App& app) {
   auto* cmd = app.add_subcommand("worker", "Work on a study: suggest, run a command on θ, record its cost, repeat "
                                            "until the budget is used");
   struct Args {
-    std::string store, command, timeout = "600";
+    std::string store, command, timeout = "600", host_id, reconnect = "120";
     long long max_trials = 0;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("store", a->store, "study file")->required();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("--command", a->command,
                   "shell command evaluating one θ, as the external task runs it: {\"theta\": [...], \"names\": "
                   "[...], \"trial\": k} on stdin, the cost (or {\"cost\": c, \"components\": {...}}) on the last "
@@ -106,6 +127,11 @@ Runner add_worker(CLI::App& app) {
       ->required();
   cmd->add_option("--max-trials", a->max_trials, "stop after this many trials (0 = until the budget is used)")
       ->check(CLI::Range(0LL, 1000000000LL));
+  cmd->add_option("--host-id", a->host_id, "the host part of this worker's id (default $VARBO_HOST_ID, else the host "
+                                           "name); workers are told apart by host:pid:nonce");
+  cmd->add_option("--reconnect-timeout", a->reconnect,
+                  "seconds to keep retrying (with backoff) when the database server is unreachable or the connection "
+                  "drops, before exiting 2 (PostgreSQL studies; 0 = exit at once)");
   cmd->add_option("--timeout", a->timeout, "seconds before the command and its whole process tree are killed "
                                            "(a failed trial)");
   return [a]() {
@@ -113,14 +139,17 @@ Runner add_worker(CLI::App& app) {
     if (!(timeout > 0) || !std::isfinite(timeout))
       throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
     if (a->command.empty()) throw InputError("--command: expected a shell command, got an empty one");
+    const double reconnect = parse_number(a->reconnect, "--reconnect-timeout");
+    if (!(reconnect >= 0) || !std::isfinite(reconnect))
+      throw InputError(fmt::format("--reconnect-timeout: expected a number of seconds ≥ 0, got '{}'", a->reconnect));
     Study study = Study::open(a->store);
-    const std::string id = new_worker_id();
+    const std::string id = new_worker_id(a->host_id);
     study.set_worker(id);
     std::unique_ptr<Task> task = external_task(study, a->command, timeout);
     install_stop_handlers();
     const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
     study.heartbeat();
-    const auto beats = start_heartbeats(a->store, id, hb);
+    auto beats = start_heartbeats(a->store, id, hb);
     std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
     long long done = 0;
     int exit_code = 0;
@@ -129,14 +158,14 @@ Runner add_worker(CLI::App& app) {
         exit_code = 128 + sig;
         break;
       }
-      const std::vector<TrialRecord> asked = study.ask(1);
+      const std::vector<TrialRecord> asked = retrying(reconnect, id, [&] { return study.ask(1); });
       if (asked.empty()) {
         // The budget is used, or held by trials pending elsewhere: wait while those may still finish or be
         // abandoned (their worker silent), then ask again.
         bool pending = false;
         for (const auto& t : study.store().pending_trials()) pending = pending || t.worker != id;
         if (!pending) break;
-        std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 1.0)));
+        std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 0.25)));
         continue;
       }
       const TrialRecord& t = asked.front();
@@ -148,11 +177,23 @@ Runner add_worker(CLI::App& app) {
         e.ok = false;
         e.error = fmt::format("non-finite cost {}", e.cost);
       }
-      study.record(t.id, e, seconds);
+      retrying(reconnect, id, [&] {
+        try {
+          study.record(t.id, e, seconds);
+        } catch (const InputError&) {
+          // A commit cut by a lost connection may have landed: then the retry finds the trial finished.
+          const auto stored = study.store().trial(t.id);
+          const bool landed = stored && (e.ok ? stored->state == TrialState::Complete && stored->cost == e.cost
+                                              : stored->state == TrialState::Failed);
+          if (!landed) throw;
+        }
+        return 0;
+      });
       ++done;
       std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
                    e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());
     }
+    beats.reset();  // first: a beat after it would mark the worker running again
     study.heartbeat("stopped");
     std::fprintf(stderr, "varbo worker %s: %lld trial(s) done%s\n", id.c_str(), done,
                  exit_code ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");

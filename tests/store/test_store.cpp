@@ -1,10 +1,14 @@
-// The SQLite study store: round trip of every field, the schema-version and foreign-file checks.
+// The study stores: round trip of every field and rollback on both backends (SQLite, PostgreSQL), the
+// schema-version check, and SQLite's foreign-file checks.
 #include <sqlite3.h>
+
+#include <pqxx/pqxx>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
+#include "backends.hpp"
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/store.hpp"
@@ -24,9 +28,19 @@ void exec_sql(const std::string& file, const std::string& sql) {
   REQUIRE(rc == SQLITE_OK);
 }
 
+/// Pretends a newer varbo wrote the study.
+void set_schema_version(const std::string& address, const std::string& version) {
+  if (!is_database_url(address)) return exec_sql(address, "UPDATE meta SET value = '" + version + "' WHERE key = 'schema_version'");
+  const auto study = address.substr(address.rfind("study=") + 6);
+  pqxx::connection c(test::pg_base_url());
+  pqxx::work w(c);
+  w.exec_params("UPDATE varbo_meta SET value = $1 WHERE study = $2 AND key = 'schema_version'", version, study);
+  w.commit();
+}
+
 std::string open_error(const std::string& file) {
   try {
-    open_sqlite_store(file);
+    open_store(file);
   } catch (const InputError& e) {
     return e.what();
   }
@@ -61,108 +75,157 @@ TrialRecord sample_trial() {
 
 TEST_CASE("store round trip: meta, every trial field (bit-exact doubles, NaN), updates and snapshots") {
   const std::string dir = test::temp_folder("store_round_trip");
-  const std::string file = dir + "/s.db";
-  const TrialRecord t = sample_trial();
-  {
-    auto store = create_sqlite_store(file);
-    store->set_meta(store_key::kConfig, "task: {type: branin}\n");
-    std::int64_t id0 = -1, id1 = -1;
-    store->transaction([&] {
-      id0 = store->add_trial(t);
-      TrialRecord p = t;
-      p.state = TrialState::Pending;
-      p.cost = std::nan("");
-      p.finish_seq = -1;
-      id1 = store->add_trial(p);
-    });
-    CHECK(id0 == 0);
-    CHECK(id1 == 1);
-    CHECK(store->next_finish_seq() == 1);
-    StoredSnapshot s;
-    s.after_trials = 7;
-    s.snapshot.iteration = 6;
-    s.snapshot.objective = -3.5;
-    s.snapshot.note = "fit failed";
-    s.snapshot.region_state = "box";
-    s.snapshot.hyperparameters = {{"lengthscale[0]", 0.3}, {"signal_std", 2.0}};
-    store->add_snapshot(s);
+  for (const auto backend : test::all_backends()) {
+    CAPTURE(test::backend_name(backend));
+    const std::string file = test::study_address(backend, dir, "round_trip");
+    const TrialRecord t = sample_trial();
+    {
+      auto store = create_store(file);
+      store->set_meta(store_key::kConfig, "task: {type: branin}\n");
+      std::int64_t id0 = -1, id1 = -1;
+      store->transaction([&] {
+        id0 = store->add_trial(t);
+        TrialRecord p = t;
+        p.state = TrialState::Pending;
+        p.cost = std::nan("");
+        p.finish_seq = -1;
+        id1 = store->add_trial(p);
+      });
+      CHECK(id0 == 0);
+      CHECK(id1 == 1);
+      CHECK(store->next_finish_seq() == 1);
+      StoredSnapshot s;
+      s.after_trials = 7;
+      s.snapshot.iteration = 6;
+      s.snapshot.objective = -3.5;
+      s.snapshot.note = "fit failed";
+      s.snapshot.region_state = "box";
+      s.snapshot.hyperparameters = {{"lengthscale[0]", 0.3}, {"signal_std", 2.0}};
+      store->add_snapshot(s);
+    }
+    auto store = open_store(file);  // reopened: everything came from the file
+    CHECK(store->location().find(is_database_url(file) ? "study=round_trip_" : "round_trip.db") != std::string::npos);
+    CHECK(store->meta(store_key::kConfig).value() == "task: {type: branin}\n");
+    CHECK_FALSE(store->meta("no such key").has_value());
+    const auto trials = store->trials();
+    REQUIRE(trials.size() == 2);
+    const TrialRecord& r = trials[0];
+    CHECK(r.id == 0);
+    CHECK(r.state == TrialState::Complete);
+    CHECK(r.phase == "ei");
+    CHECK(r.x == t.x);          // bit-exact
+    CHECK(r.theta == t.theta);  // bit-exact, including 1e-300
+    CHECK(r.cost == t.cost);
+    CHECK(r.components == t.components);
+    CHECK(std::isnan(r.noiseless_cost));
+    CHECK(r.worker == t.worker);
+    CHECK(r.created_at == t.created_at);
+    CHECK(r.finished_at == t.finished_at);
+    CHECK(r.finish_seq == 0);
+    CHECK(r.pending_before == 2);
+    CHECK(r.batch_size == 3);
+    CHECK(r.batch_index == 1);
+    CHECK(r.evaluation_seconds == 12.0);
+    CHECK(trials[1].state == TrialState::Pending);
+    CHECK(std::isnan(trials[1].cost));
+
+    TrialRecord u = trials[1];
+    u.state = TrialState::Failed;
+    u.error = "emergency stop";
+    u.finish_seq = store->next_finish_seq();
+    store->update_trial(u);
+    CHECK(store->trial(1)->state == TrialState::Failed);
+    CHECK(store->trial(1)->error == "emergency stop");
+    CHECK(store->trial(1)->finish_seq == 1);
+    CHECK_FALSE(store->trial(5).has_value());
+    u.id = 5;
+    CHECK_THROWS_AS(store->update_trial(u), InputError);
+
+    const auto snaps = store->snapshots();
+    REQUIRE(snaps.size() == 1);
+    CHECK(snaps[0].after_trials == 7);
+    CHECK(snaps[0].snapshot.iteration == 6);
+    CHECK(snaps[0].snapshot.objective == -3.5);
+    CHECK(snaps[0].snapshot.note == "fit failed");
+    CHECK(snaps[0].snapshot.region_state == "box");
+    REQUIRE(snaps[0].snapshot.hyperparameters.size() == 2);
+    CHECK(snaps[0].snapshot.hyperparameters[0].name == "lengthscale[0]");
+    CHECK(snaps[0].snapshot.hyperparameters[1].value == 2.0);
+
+    AlgorithmSnapshot a;
+    a.state = "{\"k\": 1}";
+    a.created_at = 1.7e9 + 1.0 / 3.0;
+    for (std::int64_t f = 0; f < 5; ++f) {
+      a.finished = f;
+      a.outstanding = f % 2 ? f + 10 : -1;
+      store->add_algorithm_state(a);
+    }
+    const auto states = store->algorithm_states();  // newest first, those more than two results older dropped
+    REQUIRE(states.size() == 3);
+    CHECK(states[0].finished == 4);
+    CHECK(states[1].outstanding == 13);
+    CHECK(states[2].finished == 2);
+    CHECK(states[0].created_at == a.created_at);
+    CHECK(states[0].state == a.state);
+
+    // SQLite keeps the worker's own times; PostgreSQL stamps the server's clock and reads it back in ours.
+    const double now = unix_time();
+    WorkerRecord w{"robot-1:42:00ff", "robot-1", 42, now - 1, now - 0.5, "running"};
+    store->put_worker(w);
+    const double first = store->workers().at(0).heartbeat_at;
+    w.heartbeat_at = now + 0.25;
+    w.state = "stopped";
+    store->transaction([&] { store->put_worker(w); });
+    const auto workers = store->workers();
+    REQUIRE(workers.size() == 1);
+    CHECK(workers[0].id == w.id);
+    CHECK(workers[0].host == "robot-1");
+    CHECK(workers[0].pid == 42);
+    if (backend == test::Backend::Sqlite) {
+      CHECK(workers[0].heartbeat_at == w.heartbeat_at);
+      CHECK(workers[0].started_at == w.started_at);
+    } else {
+      CHECK(std::abs(workers[0].heartbeat_at - unix_time()) < 5.0);
+      CHECK(workers[0].heartbeat_at >= first - 0.01);  // the update moved it forward (read-back shift aside)
+    }
+    CHECK(workers[0].state == "stopped");
   }
-  auto store = open_sqlite_store(file);  // reopened: everything came from the file
-  CHECK(store->meta(store_key::kConfig).value() == "task: {type: branin}\n");
-  CHECK_FALSE(store->meta("no such key").has_value());
-  const auto trials = store->trials();
-  REQUIRE(trials.size() == 2);
-  const TrialRecord& r = trials[0];
-  CHECK(r.id == 0);
-  CHECK(r.state == TrialState::Complete);
-  CHECK(r.phase == "ei");
-  CHECK(r.x == t.x);          // bit-exact
-  CHECK(r.theta == t.theta);  // bit-exact, including 1e-300
-  CHECK(r.cost == t.cost);
-  CHECK(r.components == t.components);
-  CHECK(std::isnan(r.noiseless_cost));
-  CHECK(r.worker == t.worker);
-  CHECK(r.created_at == t.created_at);
-  CHECK(r.finished_at == t.finished_at);
-  CHECK(r.finish_seq == 0);
-  CHECK(r.pending_before == 2);
-  CHECK(r.batch_size == 3);
-  CHECK(r.batch_index == 1);
-  CHECK(r.evaluation_seconds == 12.0);
-  CHECK(trials[1].state == TrialState::Pending);
-  CHECK(std::isnan(trials[1].cost));
-
-  TrialRecord u = trials[1];
-  u.state = TrialState::Failed;
-  u.error = "emergency stop";
-  u.finish_seq = store->next_finish_seq();
-  store->update_trial(u);
-  CHECK(store->trial(1)->state == TrialState::Failed);
-  CHECK(store->trial(1)->error == "emergency stop");
-  CHECK(store->trial(1)->finish_seq == 1);
-  CHECK_FALSE(store->trial(5).has_value());
-  u.id = 5;
-  CHECK_THROWS_AS(store->update_trial(u), InputError);
-
-  const auto snaps = store->snapshots();
-  REQUIRE(snaps.size() == 1);
-  CHECK(snaps[0].after_trials == 7);
-  CHECK(snaps[0].snapshot.iteration == 6);
-  CHECK(snaps[0].snapshot.objective == -3.5);
-  CHECK(snaps[0].snapshot.note == "fit failed");
-  CHECK(snaps[0].snapshot.region_state == "box");
-  REQUIRE(snaps[0].snapshot.hyperparameters.size() == 2);
-  CHECK(snaps[0].snapshot.hyperparameters[0].name == "lengthscale[0]");
-  CHECK(snaps[0].snapshot.hyperparameters[1].value == 2.0);
 }
 
 TEST_CASE("a transaction that throws writes nothing") {
-  const std::string file = test::temp_folder("store_rollback") + "/s.db";
-  auto store = create_sqlite_store(file);
-  CHECK_THROWS_AS(store->transaction([&] {
-    store->add_trial(sample_trial());
-    store->set_meta("k", "v");
-    throw InputError("bad input halfway");
-  }),
-                  InputError);
-  CHECK(store->trials().empty());
-  CHECK_FALSE(store->meta("k").has_value());
-  // Nested transactions join the outer one.
-  store->transaction([&] {
-    store->add_trial(sample_trial());
-    store->transaction([&] { store->add_trial(sample_trial()); });
-  });
-  CHECK(store->trials().size() == 2);
+  const std::string dir = test::temp_folder("store_rollback");
+  for (const auto backend : test::all_backends()) {
+    CAPTURE(test::backend_name(backend));
+    auto store = create_store(test::study_address(backend, dir, "rollback"));
+    CHECK_THROWS_AS(store->transaction([&] {
+      store->add_trial(sample_trial());
+      store->set_meta("k", "v");
+      throw InputError("bad input halfway");
+    }),
+                    InputError);
+    CHECK(store->trials().empty());
+    CHECK_FALSE(store->meta("k").has_value());
+    // Nested transactions join the outer one.
+    store->transaction([&] {
+      store->add_trial(sample_trial());
+      store->transaction([&] { store->add_trial(sample_trial()); });
+    });
+    CHECK(store->trials().size() == 2);
+  }
 }
 
-TEST_CASE("schema version: a store written by a newer varbo is a clear error naming the file") {
-  const std::string file = test::temp_folder("store_schema") + "/newer.db";
-  create_sqlite_store(file);
-  exec_sql(file, "UPDATE meta SET value = '99' WHERE key = 'schema_version'");
-  const std::string msg = open_error(file);
-  CHECK(msg.find(file) != std::string::npos);
-  CHECK(msg.find("newer varbo") != std::string::npos);
-  CHECK(msg.find("schema version 99") != std::string::npos);
+TEST_CASE("schema version: a store written by a newer varbo is a clear error naming the study") {
+  const std::string dir = test::temp_folder("store_schema");
+  for (const auto backend : test::all_backends()) {
+    CAPTURE(test::backend_name(backend));
+    const std::string file = test::study_address(backend, dir, "newer");
+    create_store(file);
+    set_schema_version(file, "99");
+    const std::string msg = open_error(file);
+    CHECK(msg.find(file.substr(file.rfind('/') + 1)) != std::string::npos);  // the file, or the study's name
+    CHECK(msg.find("newer varbo") != std::string::npos);
+    CHECK(msg.find("schema version 99") != std::string::npos);
+  }
 }
 
 TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, existing file on create") {

@@ -1,7 +1,9 @@
-// varbo::Study: ask/tell through the store, replay after reopening, batches with pending trials, bad input.
+// varbo::Study: ask/tell through the store, replay after reopening, batches with pending trials, bad input; the
+// tests marked "both backends" run on a SQLite file and on a PostgreSQL study (backends.hpp).
 #include <cmath>
 #include <filesystem>
 
+#include "backends.hpp"
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/study_api.hpp"
@@ -31,40 +33,45 @@ double min_distance(const std::vector<Vec>& pts) {
 
 TEST_CASE("serial ask/tell: closing and reopening the study gives the same trials as one uninterrupted session") {
   const std::string dir = test::temp_folder("study_replay");
-  std::vector<Vec> straight;
-  {
-    Study a = Study::create_from_yaml(dir + "/a.db", bo_yaml(12));
-    for (int i = 0; i < 12; ++i) {
-      const TrialRecord t = a.ask().at(0);
-      straight.push_back(t.theta);
-      a.tell(t.id, cost_of(t.theta));
+  for (const auto backend : test::all_backends()) {  // both backends
+    CAPTURE(test::backend_name(backend));
+    const std::string a_address = test::study_address(backend, dir, "a");
+    const std::string b_address = test::study_address(backend, dir, "b");
+    std::vector<Vec> straight;
+    {
+      Study a = Study::create_from_yaml(a_address, bo_yaml(12));
+      for (int i = 0; i < 12; ++i) {
+        const TrialRecord t = a.ask().at(0);
+        straight.push_back(t.theta);
+        a.tell(t.id, cost_of(t.theta));
+      }
+      CHECK(a.ask().empty());  // budget spent
+      CHECK(a.replay_mismatches() == 0);
     }
-    CHECK(a.ask().empty());  // budget spent
-    CHECK(a.replay_mismatches() == 0);
-  }
-  std::vector<Vec> resumed;
-  {
-    Study b = Study::create_from_yaml(dir + "/b.db", bo_yaml(12));
-    for (int i = 0; i < 7; ++i) {
+    std::vector<Vec> resumed;
+    {
+      Study b = Study::create_from_yaml(b_address, bo_yaml(12));
+      for (int i = 0; i < 7; ++i) {
+        const TrialRecord t = b.ask().at(0);
+        resumed.push_back(t.theta);
+        b.tell(t.id, cost_of(t.theta));
+      }
+    }
+    Study b = Study::open(b_address);  // continues from the saved state
+    for (int i = 7; i < 12; ++i) {
       const TrialRecord t = b.ask().at(0);
       resumed.push_back(t.theta);
       b.tell(t.id, cost_of(t.theta));
     }
+    CHECK(b.replay_mismatches() == 0);
+    REQUIRE(resumed.size() == straight.size());
+    for (std::size_t i = 0; i < straight.size(); ++i) CHECK(resumed[i] == straight[i]);  // bit-identical
+    const auto best = b.best();
+    REQUIRE(best);
+    double m = INFINITY;
+    for (const auto& t : b.trials()) m = std::min(m, t.cost);
+    CHECK(best->cost == m);
   }
-  Study b = Study::open(dir + "/b.db");  // replays the 7 finished trials
-  for (int i = 7; i < 12; ++i) {
-    const TrialRecord t = b.ask().at(0);
-    resumed.push_back(t.theta);
-    b.tell(t.id, cost_of(t.theta));
-  }
-  CHECK(b.replay_mismatches() == 0);
-  REQUIRE(resumed.size() == straight.size());
-  for (std::size_t i = 0; i < straight.size(); ++i) CHECK(resumed[i] == straight[i]);  // bit-identical
-  const auto best = b.best();
-  REQUIRE(best);
-  double m = INFINITY;
-  for (const auto& t : b.trials()) m = std::min(m, t.cost);
-  CHECK(best->cost == m);
 }
 
 TEST_CASE("replay after reopening is exact for algorithms whose state depends on ask() too (random, cma_es)") {
@@ -156,84 +163,93 @@ TEST_CASE("best() and select(kappa): a complete trial, value = mean + kappa * st
 
 TEST_CASE("bad input: each is an InputError and nothing is written") {
   const std::string dir = test::temp_folder("study_bad_input");
-  const std::string file = dir + "/s.db";
-  Study s = Study::create_from_yaml(file, kRandomYaml);
-  const auto t = s.ask(2);
-  REQUIRE(t.size() == 2);
-  const auto before = s.trials();
+  for (const auto backend : test::all_backends()) {  // both backends
+    CAPTURE(test::backend_name(backend));
+    const std::string file = test::study_address(backend, dir, "s");
+    Study s = Study::create_from_yaml(file, kRandomYaml);
+    const auto t = s.ask(2);
+    REQUIRE(t.size() == 2);
+    const auto before = s.trials();
 
-  auto unchanged = [&] {
-    const auto now = s.trials();
-    REQUIRE(now.size() == before.size());
-    for (std::size_t i = 0; i < now.size(); ++i) {
-      CHECK(now[i].state == before[i].state);
-      CHECK(now[i].finish_seq == before[i].finish_seq);
-    }
-  };
-  CHECK_THROWS_WITH_AS(s.tell(t[0].id, std::nan("")), doctest::Contains("finite number"), InputError);
-  CHECK_THROWS_WITH_AS(s.tell(t[0].id, INFINITY), doctest::Contains("nothing written"), InputError);
-  CHECK_THROWS_WITH_AS(s.tell(t[0].id, 1.0, {{"energy", NAN}}), doctest::Contains("component 'energy'"), InputError);
-  CHECK_THROWS_WITH_AS(s.tell(t[0].id, 1.0, {{"", 1.0}}), doctest::Contains("needs a name"), InputError);
-  CHECK_THROWS_WITH_AS(s.tell(99, 1.0), doctest::Contains("no trial with id 99"), InputError);
-  CHECK_THROWS_WITH_AS(s.fail(-1, "x"), doctest::Contains("no trial with id -1"), InputError);
-  CHECK_THROWS_WITH_AS(s.tell_point((Vec(2) << 20.0, 0.0).finished(), 1.0),
-                       doctest::Contains("outside the domain: x1 = 20"), InputError);
-  CHECK_THROWS_WITH_AS(s.tell_point((Vec(3) << 0.0, 0.0, 0.0).finished(), 1.0), doctest::Contains("3 values"),
-                       InputError);
-  CHECK_THROWS_WITH_AS(s.tell_point((Vec(2) << NAN, 0.0).finished(), 1.0), doctest::Contains("outside the domain"),
-                       InputError);
-  CHECK_THROWS_AS(s.ask(0), InputError);
-  unchanged();
+    auto unchanged = [&] {
+      const auto now = s.trials();
+      REQUIRE(now.size() == before.size());
+      for (std::size_t i = 0; i < now.size(); ++i) {
+        CHECK(now[i].state == before[i].state);
+        CHECK(now[i].finish_seq == before[i].finish_seq);
+      }
+    };
+    CHECK_THROWS_WITH_AS(s.tell(t[0].id, std::nan("")), doctest::Contains("finite number"), InputError);
+    CHECK_THROWS_WITH_AS(s.tell(t[0].id, INFINITY), doctest::Contains("nothing written"), InputError);
+    CHECK_THROWS_WITH_AS(s.tell(t[0].id, 1.0, {{"energy", NAN}}), doctest::Contains("component 'energy'"), InputError);
+    CHECK_THROWS_WITH_AS(s.tell(t[0].id, 1.0, {{"", 1.0}}), doctest::Contains("needs a name"), InputError);
+    CHECK_THROWS_WITH_AS(s.tell(99, 1.0), doctest::Contains("no trial with id 99"), InputError);
+    CHECK_THROWS_WITH_AS(s.fail(-1, "x"), doctest::Contains("no trial with id -1"), InputError);
+    CHECK_THROWS_WITH_AS(s.tell_point((Vec(2) << 20.0, 0.0).finished(), 1.0),
+                         doctest::Contains("outside the domain: x1 = 20"), InputError);
+    CHECK_THROWS_WITH_AS(s.tell_point((Vec(3) << 0.0, 0.0, 0.0).finished(), 1.0), doctest::Contains("3 values"),
+                         InputError);
+    CHECK_THROWS_WITH_AS(s.tell_point((Vec(2) << NAN, 0.0).finished(), 1.0), doctest::Contains("outside the domain"),
+                         InputError);
+    CHECK_THROWS_AS(s.ask(0), InputError);
+    unchanged();
 
-  s.tell(t[0].id, 2.5);
-  CHECK_THROWS_WITH_AS(s.tell(t[0].id, 1.0), doctest::Contains("already complete"), InputError);
-  CHECK(s.store().trial(t[0].id)->cost == 2.5);  // the first result stands
-  s.fail(t[1].id, "robot fell");
-  CHECK_THROWS_WITH_AS(s.tell(t[1].id, 1.0), doctest::Contains("already failed"), InputError);
-  CHECK(s.store().trial(t[1].id)->error == "robot fell");
+    s.tell(t[0].id, 2.5);
+    CHECK_THROWS_WITH_AS(s.tell(t[0].id, 1.0), doctest::Contains("already complete"), InputError);
+    CHECK(s.store().trial(t[0].id)->cost == 2.5);  // the first result stands
+    s.fail(t[1].id, "robot fell");
+    CHECK_THROWS_WITH_AS(s.tell(t[1].id, 1.0), doctest::Contains("already failed"), InputError);
+    CHECK(s.store().trial(t[1].id)->error == "robot fell");
 
-  // A point no suggestion produced, inside the domain: recorded as a new complete trial.
-  const auto id = s.tell_point((Vec(2) << 1.0, 4.0).finished(), 0.5);
-  CHECK(s.store().trial(id)->phase == "manual");
-  CHECK(s.best()->id == id);
+    // A point no suggestion produced, inside the domain: recorded as a new complete trial.
+    const auto id = s.tell_point((Vec(2) << 1.0, 4.0).finished(), 0.5);
+    CHECK(s.store().trial(id)->phase == "manual");
+    CHECK(s.best()->id == id);
+  }
 }
 
 TEST_CASE("a store from a different configuration is refused; abandoned trials take late results") {
   const std::string dir = test::temp_folder("study_identity");
-  const std::string file = dir + "/s.db";
-  { Study::create_from_yaml(file, kRandomYaml); }
-  const std::string other = "task: {type: branin}\nbudget: 6\nseed: 3\nalgorithm: {type: random}\n";
-  const StudyConfig cfg = parse_study(ConfigNode::parse(other, "other.yaml"), test::registry());
-  CHECK_THROWS_WITH_AS(Study::attach(file, cfg, test::registry()), doctest::Contains("different configuration"),
-                       InputError);
-  CHECK_THROWS_WITH_AS(Study::create_from_yaml(file, kRandomYaml), doctest::Contains("exists already"), InputError);
-  // The budget is not part of the identity: a longer run may continue the study.
-  const StudyConfig longer = parse_study(
-      ConfigNode::parse("task: {type: branin}\nbudget: 9\nseed: 2\nalgorithm: {type: random}\n", "l.yaml"),
-      test::registry());
-  CHECK_NOTHROW(Study::attach(file, longer, test::registry()));
+  for (const auto backend : test::all_backends()) {  // both backends
+    CAPTURE(test::backend_name(backend));
+    const std::string file = test::study_address(backend, dir, "s");
+    { Study::create_from_yaml(file, kRandomYaml); }
+    const std::string other = "task: {type: branin}\nbudget: 6\nseed: 3\nalgorithm: {type: random}\n";
+    const StudyConfig cfg = parse_study(ConfigNode::parse(other, "other.yaml"), test::registry());
+    CHECK_THROWS_WITH_AS(Study::attach(file, cfg, test::registry()), doctest::Contains("different configuration"),
+                         InputError);
+    CHECK_THROWS_WITH_AS(Study::create_from_yaml(file, kRandomYaml), doctest::Contains("exists already"), InputError);
+    // The budget is not part of the identity: a longer run may continue the study.
+    const StudyConfig longer = parse_study(
+        ConfigNode::parse("task: {type: branin}\nbudget: 9\nseed: 2\nalgorithm: {type: random}\n", "l.yaml"),
+        test::registry());
+    CHECK_NOTHROW(Study::attach(file, longer, test::registry()));
 
-  Study s = Study::open(file);
-  const auto t = s.ask(3);
-  REQUIRE(t.size() == 3);
-  const auto gone = s.abandon(0, "worker died");
-  CHECK(gone.size() == 3);
-  CHECK(s.store().trial(t[0].id)->state == TrialState::Abandoned);
-  // The abandoned points are suggested again (random: same sample index).
-  const auto again = s.ask(1);
-  REQUIRE(again.size() == 1);
-  CHECK(again[0].x == t[0].x);
-  // A late result of an abandoned trial is real data: it is recorded.
-  s.tell(t[1].id, 3.0);
-  CHECK(s.store().trial(t[1].id)->state == TrialState::Complete);
-  // abandon(older_than) leaves young pending trials alone.
-  CHECK(s.abandon(3600).empty());
+    Study s = Study::open(file);
+    const auto t = s.ask(3);
+    REQUIRE(t.size() == 3);
+    const auto gone = s.abandon(0, "worker died");
+    CHECK(gone.size() == 3);
+    CHECK(s.store().trial(t[0].id)->state == TrialState::Abandoned);
+    // The abandoned points are suggested again (random: same sample index).
+    const auto again = s.ask(1);
+    REQUIRE(again.size() == 1);
+    CHECK(again[0].x == t[0].x);
+    // A late result of an abandoned trial is real data: it is recorded.
+    s.tell(t[1].id, 3.0);
+    CHECK(s.store().trial(t[1].id)->state == TrialState::Complete);
+    // abandon(older_than) leaves young pending trials alone.
+    CHECK(s.abandon(3600).empty());
+  }
 }
 
 TEST_CASE("the budget bounds suggestions, pending ones included") {
   const std::string dir = test::temp_folder("study_budget");
-  Study s = Study::create_from_yaml(dir + "/s.db", kRandomYaml);
-  CHECK(s.ask(4).size() == 4);
-  CHECK(s.ask(4).size() == 2);  // budget 6
-  CHECK(s.ask(1).empty());
+  for (const auto backend : test::all_backends()) {  // both backends
+    CAPTURE(test::backend_name(backend));
+    Study s = Study::create_from_yaml(test::study_address(backend, dir, "s"), kRandomYaml);
+    CHECK(s.ask(4).size() == 4);
+    CHECK(s.ask(4).size() == 2);  // budget 6
+    CHECK(s.ask(1).empty());
+  }
 }

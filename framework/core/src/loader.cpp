@@ -100,7 +100,10 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
     return;
   }
 
-  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  // Built-in plugins were linked with varbo itself (-z defs, same build): their functions are bound lazily,
+  // which saves a few ms of symbol lookups per process (`varbo suggest`, docs/studies.md). A third-party library
+  // is bound at once, so that a missing symbol is a load error naming it, never a crash mid-study.
+  void* handle = dlopen(path.c_str(), (builtin ? RTLD_LAZY : RTLD_NOW) | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* err = dlerror();
     throw PluginLoadError(fmt::format("{}: cannot load: {}", path, err ? err : "unknown dlopen error"));

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <random>
 
 #include "varbo/errors.hpp"
@@ -30,16 +31,22 @@ TrialState state_from_name(const std::string& n) {
   throw InputError(fmt::format("unknown trial state '{}' (expected pending, complete, failed or abandoned)", n));
 }
 
-std::string default_worker_name() {
+std::string host_id() {
+  if (const char* env = std::getenv("VARBO_HOST_ID"); env && *env) return env;
   char host[256] = {0};
   if (gethostname(host, sizeof(host) - 1) != 0) host[0] = 0;
-  return fmt::format("{}:{}", host[0] ? host : "localhost", static_cast<long>(getpid()));
+  return host[0] ? host : "localhost";
 }
 
-std::string new_worker_id() {
+std::string default_worker_name() { return fmt::format("{}:{}", host_id(), static_cast<long>(getpid())); }
+
+std::string new_worker_id(const std::string& host_in) {
+  const std::string host = host_in.empty() ? host_id() : host_in;
+  if (host.find(':') != std::string::npos || host.find_first_of(" \t\n") != std::string::npos)
+    throw InputError(fmt::format("host id '{}': expected a name without ':' or spaces", host));
   std::random_device rd;
   const std::uint64_t nonce = (static_cast<std::uint64_t>(rd()) << 32) ^ rd();
-  return fmt::format("{}:{:016x}", default_worker_name(), nonce);
+  return fmt::format("{}:{}:{:016x}", host, static_cast<long>(getpid()), nonce);
 }
 
 std::pair<std::string, long> worker_host_pid(const std::string& worker) {

@@ -355,9 +355,9 @@ std::unique_ptr<Study::Impl> impl_with_plugins(const std::vector<std::string>& p
   return impl;
 }
 
-void create_store(Study::Impl& impl, const std::string& store_path) {
+void create_study_store(Study::Impl& impl, const std::string& store_path) {
   impl.make_algorithm();  // surface configuration errors before any file is written
-  impl.store = create_sqlite_store(store_path, impl.meta_entries(study_identity(impl.config)));
+  impl.store = create_store(store_path, impl.meta_entries(study_identity(impl.config)));
 }
 }  // namespace
 
@@ -365,7 +365,7 @@ Study Study::create(const std::string& store_path, const std::string& config_fil
   const ConfigNode root = ConfigNode::load_file(config_file);
   auto impl = impl_with_plugins(plugin_paths_of(root));
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
-  create_store(*impl, store_path);
+  create_study_store(*impl, store_path);
   return Study(std::move(impl));
 }
 
@@ -373,12 +373,12 @@ Study Study::create_from_yaml(const std::string& store_path, const std::string& 
   const ConfigNode root = ConfigNode::parse(yaml, name);
   auto impl = impl_with_plugins(plugin_paths_of(root));
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
-  create_store(*impl, store_path);
+  create_study_store(*impl, store_path);
   return Study(std::move(impl));
 }
 
 Study Study::open(const std::string& store_path) {
-  std::unique_ptr<StudyStore> store = open_sqlite_store(store_path);
+  std::unique_ptr<StudyStore> store = open_store(store_path);
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration (corrupt store?)", store_path));
   std::vector<std::string> paths;
@@ -400,11 +400,11 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
   auto impl = std::make_unique<Study::Impl>();
   impl->init(config, registry);
   const std::string identity = study_identity(impl->config);
-  if (!fs::exists(store_path)) {
-    create_store(*impl, store_path);
+  if (!store_exists(store_path)) {
+    create_study_store(*impl, store_path);
     return Study(std::move(impl));
   }
-  impl->store = open_sqlite_store(store_path);
+  impl->store = open_store(store_path);
   const std::string stored = impl->store->meta(store_key::kIdentity).value_or("");
   if (stored != identity) {
     const auto a = lines_of(stored), b = lines_of(identity);

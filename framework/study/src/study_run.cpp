@@ -98,7 +98,7 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // continued with --resume (docs/studies.md).
   const bool own_store = !ov.store;  // <output>/study.db, not a study file given with --study
   const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
-  if (ov.resume && !std::filesystem::exists(store_path))
+  if (ov.resume && !store_exists(store_path))
     throw InputError(fmt::format("{}: no study store to resume", store_path));
   {
     std::error_code ec;
@@ -108,7 +108,10 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // One driver per study and per run folder (docs/studies.md, "One writer"): held until this function returns,
   // after the store is closed (declared before it).
   std::vector<RunLock> locks;
-  locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
+  // A database study has no lock file (no shared folder to hold it): one `varbo run` per database study is the
+  // user's to keep (docs/studies.md); the run folder's own lock below still holds.
+  if (!is_database_url(store_path))
+    locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
   const std::string folder_store = study.output + "/study.db";
   if (!own_store && !same_file(folder_store, store_path))
     locks.push_back(RunLock::acquire(folder_store + ".lock", fmt::format("the run folder {}", study.output)));
@@ -311,11 +314,13 @@ namespace varbo {
 
 RunSummary resume_study(const std::string& target, const RunOverrides& overrides) {
   std::string store_path = target;
-  if (std::filesystem::is_directory(target)) store_path = (std::filesystem::path(target) / "study.db").string();
-  if (!std::filesystem::exists(store_path))
+  const bool url = is_database_url(target);
+  if (!url && std::filesystem::is_directory(target))
+    store_path = (std::filesystem::path(target) / "study.db").string();
+  if (!url && !std::filesystem::exists(store_path))
     throw InputError(fmt::format("{}: nothing to resume (expected a run folder holding study.db, or a study file)",
                                  target));
-  std::unique_ptr<StudyStore> store = open_sqlite_store(store_path);
+  std::unique_ptr<StudyStore> store = open_store(store_path);
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration", store_path));
   std::vector<std::string> paths;
@@ -330,7 +335,8 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
     // when it was created (that may be the original, still in use, or gone).
     namespace fs = std::filesystem;
     const fs::path parent = fs::absolute(store_path).parent_path();
-    if (fs::is_directory(target)) ov.output = target;
+    if (url) ov.output = store->meta(store_key::kOutput).value_or("runs/resumed");
+    else if (fs::is_directory(target)) ov.output = target;
     else if (fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) ov.output = parent.string();
     else if (auto out = store->meta(store_key::kOutput)) ov.output = *out;  // a study file kept apart (--study)
     else ov.output = parent.string();

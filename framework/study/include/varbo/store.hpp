@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "varbo/algorithm.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/task.hpp"
 
 namespace varbo {
@@ -74,6 +75,14 @@ struct WorkerRecord {
   std::string state = "running";  ///< running | stopped
 };
 
+/// The store's server could not be reached or the connection was lost (PostgreSQL); the operation wrote
+/// nothing, unless the message says the commit itself was cut ("may or may not have been written"). A process
+/// that stays up may retry (`varbo worker` does, with backoff).
+class StoreConnectionError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
 class StudyStore {
  public:
   /// Schema version written into the `meta` table; opening a store with a newer version is an error.
@@ -85,8 +94,10 @@ class StudyStore {
   virtual const std::string& location() const = 0;
 
   /// Runs `body` as one atomic, exclusive transaction (SQLite: BEGIN IMMEDIATE ... COMMIT, retried when the
-  /// store is busy). An exception inside `body` rolls everything back and is rethrown. Nested calls join the
-  /// outer transaction. Reads outside a transaction see a consistent snapshot too.
+  /// store is busy; PostgreSQL: the study's row locked FOR UPDATE, the whole transaction retried with backoff
+  /// when the server reports a serialization failure or deadlock, so `body` must be safe to run again).
+  /// An exception inside `body` rolls everything back and is rethrown. Nested calls join the outer
+  /// transaction. Reads outside a transaction see a consistent snapshot too.
   virtual void transaction(const std::function<void()>& body) = 0;
 
   virtual std::optional<std::string> meta(const std::string& key) const = 0;
@@ -127,6 +138,26 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
 /// newer varbo (schema version) is an InputError naming the file.
 std::unique_ptr<StudyStore> open_sqlite_store(const std::string& path);
 
+/// PostgreSQL: one database holds any number of studies, each addressed by a URL naming the study,
+/// `postgresql://user@host[:port]/db?study=NAME` or over a unix socket `postgresql:///db?host=/run/postgresql&study=NAME`
+/// (any other libpq parameter may follow; docs/studies.md, "Addresses"). create_postgres_store makes the tables
+/// when the database has none; an existing study of that name is an InputError. Every failure (server unreachable,
+/// authentication, no such study, a newer store version, a connection lost mid-transaction) is an InputError
+/// naming the study and the cause; a failed transaction writes nothing.
+std::unique_ptr<StudyStore> create_postgres_store(const std::string& url,
+                                                  const std::vector<std::pair<std::string, std::string>>& meta = {});
+std::unique_ptr<StudyStore> open_postgres_store(const std::string& url);
+
+/// A study address is a file path (SQLite) or a postgresql:// (or postgres://) URL. The one place that picks the
+/// backend: every command and varbo::Study go through these.
+bool is_database_url(const std::string& address);
+std::unique_ptr<StudyStore> create_store(const std::string& address,
+                                         const std::vector<std::pair<std::string, std::string>>& meta = {});
+std::unique_ptr<StudyStore> open_store(const std::string& address);
+/// Whether a study exists at the address (a file; a study of that name in the database). Connection errors
+/// are an InputError, never "false".
+bool store_exists(const std::string& address);
+
 /// Meta keys every store holds.
 namespace store_key {
 inline constexpr const char* kConfig = "config";          ///< resolved YAML of the study
@@ -135,10 +166,14 @@ inline constexpr const char* kPluginPaths = "plugin_paths";///< extra plugin pat
 inline constexpr const char* kOutput = "output";          ///< run folder of `varbo run`, if any
 }  // namespace store_key
 
-/// "host:pid" of this process.
+/// The host part of worker names: $VARBO_HOST_ID when set (e.g. to tell apart containers that share a host
+/// name), else the host name.
+std::string host_id();
+/// "host:pid" of this process (host from host_id()).
 std::string default_worker_name();
-/// "host:pid:nonce" (16 random hex digits): a worker id unique across machines and pid reuse.
-std::string new_worker_id();
+/// "host:pid:nonce" (16 random hex digits): a worker id unique across machines and pid reuse. `host` must
+/// hold no ':' (InputError); empty: host_id().
+std::string new_worker_id(const std::string& host = "");
 /// The host and pid of a worker name "host:pid" or "host:pid:nonce"; pid 0 when the name has another form.
 std::pair<std::string, long> worker_host_pid(const std::string& worker);
 /// Seconds since the epoch.

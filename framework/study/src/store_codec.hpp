@@ -1,0 +1,48 @@
+#pragma once
+// Text encodings of a trial's vectors and components, shared by the store backends: JSON with 17 significant
+// digits, so that every double comes back bit-identical.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "varbo/errors.hpp"
+#include "varbo/task.hpp"
+
+namespace varbo::store_codec {
+
+inline std::string vec_text(const Vec& v) {
+  nlohmann::json a = nlohmann::json::array();
+  for (Index i = 0; i < v.size(); ++i) a.push_back(v[i]);  // dumped with 17 significant digits: exact
+  return a.dump();
+}
+
+inline Vec text_vec(const std::string& s, const std::string& where) {
+  nlohmann::json a = nlohmann::json::parse(s, nullptr, false);
+  if (!a.is_array()) throw InputError(fmt::format("{}: corrupt vector '{}'", where, s));
+  Vec v(static_cast<Index>(a.size()));
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (!a[i].is_number()) throw InputError(fmt::format("{}: corrupt vector '{}'", where, s));
+    v[static_cast<Index>(i)] = a[i].get<double>();
+  }
+  return v;
+}
+
+inline std::string components_text(const Components& c) {
+  nlohmann::json o = nlohmann::json::array();  // an ordered list of [name, value] pairs keeps the task's order
+  for (const auto& [name, value] : c) o.push_back({name, std::isfinite(value) ? nlohmann::json(value) : nlohmann::json()});
+  return o.dump();
+}
+
+inline Components text_components(const std::string& s) {
+  Components c;
+  nlohmann::json o = nlohmann::json::parse(s, nullptr, false);
+  if (!o.is_array()) return c;
+  for (const auto& p : o)
+    if (p.is_array() && p.size() == 2 && p[0].is_string())
+      c.emplace_back(p[0].get<std::string>(), p[1].is_number() ? p[1].get<double>() : std::nan(""));
+  return c;
+}
+
+}  // namespace varbo::store_codec

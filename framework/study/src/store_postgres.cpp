@@ -1,0 +1,551 @@
+// The PostgreSQL study store (libpqxx): one database holds any number of studies, each a row of varbo_studies
+// and its rows in the shared tables, keyed by the study's name. Several machines share a study through the
+// server. A transaction locks the study's row (SELECT ... FOR NO KEY UPDATE), so suggestions and results of one
+// study serialize exactly as SQLite's BEGIN IMMEDIATE does, while other studies in the database run freely;
+// the server's serialization failures and deadlocks are retried with backoff. Every libpqxx error becomes an
+// InputError naming the study and the cause.
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <pqxx/pqxx>
+#include <random>
+#include <thread>
+
+#include "store_codec.hpp"
+#include "store_url.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/store.hpp"
+
+namespace varbo {
+
+namespace {
+
+using namespace store_codec;
+
+constexpr const char* kFormat = "varbo-study";
+constexpr int kRetryAttempts = 12;       // serialization failures / deadlocks: backoff 20 ms × 2^k, capped at 2 s
+constexpr long kCreateLockKey = 0x76617262;  // advisory lock serializing the creation of the tables ("varb")
+
+// Every study's rows carry its name; deleting the study's row deletes them all.
+const char* kSchema = R"SQL(
+CREATE TABLE IF NOT EXISTS varbo_studies (
+  name TEXT PRIMARY KEY,
+  created_at DOUBLE PRECISION NOT NULL
+);
+CREATE TABLE IF NOT EXISTS varbo_meta (
+  study TEXT NOT NULL REFERENCES varbo_studies (name) ON DELETE CASCADE,
+  key TEXT NOT NULL,
+  value TEXT NOT NULL,
+  PRIMARY KEY (study, key)
+);
+CREATE TABLE IF NOT EXISTS varbo_trials (
+  study TEXT NOT NULL REFERENCES varbo_studies (name) ON DELETE CASCADE,
+  id BIGINT NOT NULL,
+  state TEXT NOT NULL CHECK (state IN ('pending', 'complete', 'failed', 'abandoned')),
+  phase TEXT NOT NULL DEFAULT '',
+  x TEXT NOT NULL,
+  theta TEXT NOT NULL,
+  cost DOUBLE PRECISION,
+  components TEXT NOT NULL DEFAULT '[]',
+  noiseless_cost DOUBLE PRECISION,
+  error TEXT NOT NULL DEFAULT '',
+  worker TEXT NOT NULL DEFAULT '',
+  created_at DOUBLE PRECISION NOT NULL,
+  finished_at DOUBLE PRECISION NOT NULL DEFAULT 0,
+  finish_seq BIGINT NOT NULL DEFAULT -1,
+  finished_before BIGINT NOT NULL DEFAULT 0,
+  pending_before BIGINT NOT NULL DEFAULT 0,
+  batch_size BIGINT NOT NULL DEFAULT 1,
+  batch_index BIGINT NOT NULL DEFAULT 0,
+  fit_seconds DOUBLE PRECISION NOT NULL DEFAULT 0,
+  acquisition_seconds DOUBLE PRECISION NOT NULL DEFAULT 0,
+  evaluation_seconds DOUBLE PRECISION NOT NULL DEFAULT 0,
+  PRIMARY KEY (study, id)
+);
+CREATE INDEX IF NOT EXISTS varbo_trials_state ON varbo_trials (study, state);
+CREATE INDEX IF NOT EXISTS varbo_trials_finish_seq ON varbo_trials (study, finish_seq);
+CREATE TABLE IF NOT EXISTS varbo_snapshots (
+  id BIGSERIAL PRIMARY KEY,
+  study TEXT NOT NULL REFERENCES varbo_studies (name) ON DELETE CASCADE,
+  after_trials BIGINT NOT NULL,
+  iteration BIGINT NOT NULL,
+  objective DOUBLE PRECISION,
+  note TEXT NOT NULL DEFAULT '',
+  region_state TEXT NOT NULL DEFAULT '',
+  hyperparameters TEXT NOT NULL
+);
+CREATE INDEX IF NOT EXISTS varbo_snapshots_study ON varbo_snapshots (study, id);
+CREATE TABLE IF NOT EXISTS varbo_algorithm_states (
+  id BIGSERIAL PRIMARY KEY,
+  study TEXT NOT NULL REFERENCES varbo_studies (name) ON DELETE CASCADE,
+  finished BIGINT NOT NULL,
+  outstanding BIGINT NOT NULL DEFAULT -1,
+  state TEXT NOT NULL,
+  created_at DOUBLE PRECISION NOT NULL
+);
+CREATE INDEX IF NOT EXISTS varbo_algorithm_states_study ON varbo_algorithm_states (study, id);
+CREATE TABLE IF NOT EXISTS varbo_workers (
+  study TEXT NOT NULL REFERENCES varbo_studies (name) ON DELETE CASCADE,
+  id TEXT NOT NULL,
+  host TEXT NOT NULL,
+  pid BIGINT NOT NULL,
+  started_at DOUBLE PRECISION NOT NULL,
+  heartbeat_at DOUBLE PRECISION NOT NULL,
+  state TEXT NOT NULL,
+  PRIMARY KEY (study, id)
+);
+)SQL";
+
+constexpr const char* kColumns =
+    "id, state, phase, x, theta, cost, components, noiseless_cost, error, worker, created_at, finished_at, "
+    "finish_seq, finished_before, pending_before, batch_size, batch_index, fit_seconds, acquisition_seconds, "
+    "evaluation_seconds";
+
+/// Doubles travel as text: the shortest representation that reads back bit-identical (fmt's "{}"), NaN as
+/// '' (stored NULL, as SQLite stores it). The server prints float8 shortest-exact as well (PostgreSQL ≥ 12).
+std::string num(double v) { return std::isnan(v) ? std::string() : fmt::format("{}", v); }
+double to_double(const pqxx::field& f) { return f.is_null() ? std::nan("") : std::strtod(f.c_str(), nullptr); }
+std::int64_t to_int(const pqxx::field& f) { return f.is_null() ? 0 : std::strtoll(f.c_str(), nullptr, 10); }
+std::string to_text(const pqxx::field& f) { return f.is_null() ? std::string() : std::string(f.c_str()); }
+
+/// libpq's messages end with a newline and sometimes carry "FATAL:  " / "ERROR:  " prefixes.
+std::string cause(const std::exception& e) {
+  std::string m = e.what();
+  while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
+  for (const char* p : {"FATAL:  ", "ERROR:  "})
+    for (auto i = m.find(p); i != std::string::npos; i = m.find(p)) m.erase(i, std::char_traits<char>::length(p));
+  for (auto& c : m)
+    if (c == '\n') c = ' ';
+  return m;
+}
+
+class PostgresStore final : public StudyStore {
+ public:
+  PostgresStore(const PostgresAddress& address, bool create,
+                const std::vector<std::pair<std::string, std::string>>& meta)
+      : address_(address) {
+    connect();
+    guarded("open", [&] {
+      if (create)
+        create_study(meta);
+      else
+        check_study();
+    });
+  }
+
+  const std::string& location() const override { return address_.display; }
+
+  void transaction(const std::function<void()>& body) override {
+    if (tx_) {  // join the outer transaction
+      body();
+      return;
+    }
+    for (int attempt = 1;; ++attempt) {
+      try {
+        reconnect_if_needed();
+        pqxx::work w(*conn_, "varbo");
+        Current current(tx_, w);
+        // The study's row lock: one writer per study at a time (the same guarantee as SQLite's BEGIN IMMEDIATE).
+        // NO KEY UPDATE, not UPDATE: the foreign-key checks of a heartbeat's upsert (KEY SHARE) do not wait for it.
+        if (w.exec_params("SELECT 1 FROM varbo_studies WHERE name = $1 FOR NO KEY UPDATE", address_.study).empty())
+          throw InputError(fmt::format("{}: the study was deleted from the database", location()));
+        body();
+        current.release();
+        w.commit();
+        return;
+      } catch (const pqxx::transaction_rollback& e) {  // serialization failure, deadlock: the server asks to retry
+        if (attempt >= kRetryAttempts)
+          throw InputError(fmt::format("{}: the transaction failed {} times ({}); nothing of it was written", location(),
+                                       attempt, cause(e)));
+        const int ms = std::min(2000, 20 << std::min(attempt, 7));
+        log_debug("{}: {}; retrying in {} ms (attempt {})", location(), cause(e), ms, attempt);
+        std::this_thread::sleep_for(std::chrono::milliseconds(jitter(ms)));
+      } catch (const pqxx::in_doubt_error& e) {
+        throw StoreConnectionError(fmt::format("{}: the connection was lost while committing ({}); the transaction may or may "
+                                     "not have been written: check with `varbo status {}`",
+                                     location(), cause(e), location()));
+      } catch (const pqxx::broken_connection& e) {
+        throw StoreConnectionError(fmt::format("{}: lost the connection to the database server ({}); the transaction was "
+                                     "rolled back, nothing of it was written",
+                                     location(), cause(e)));
+      } catch (const pqxx::sql_error& e) {
+        throw InputError(fmt::format("{}: database error ({}); the transaction was rolled back, nothing of it was "
+                                     "written",
+                                     location(), cause(e)));
+      } catch (const pqxx::failure& e) {
+        throw InputError(fmt::format("{}: database error ({}); nothing of the transaction was written", location(),
+                                     cause(e)));
+      }
+    }
+  }
+
+  std::optional<std::string> meta(const std::string& key) const override {
+    return read("read meta", [&](pqxx::transaction_base& t) -> std::optional<std::string> {
+      const auto r = t.exec_params("SELECT value FROM varbo_meta WHERE study = $1 AND key = $2", address_.study, key);
+      if (r.empty()) return std::nullopt;
+      return to_text(r[0][0]);
+    });
+  }
+  void set_meta(const std::string& key, const std::string& value) override {
+    write([&](pqxx::transaction_base& t) {
+      t.exec_params("INSERT INTO varbo_meta (study, key, value) VALUES ($1, $2, $3) "
+                    "ON CONFLICT (study, key) DO UPDATE SET value = excluded.value",
+                    address_.study, key, value);
+    });
+  }
+
+  std::vector<TrialRecord> trials() const override { return select_trials("ORDER BY id", std::nullopt); }
+  std::optional<TrialRecord> trial(std::int64_t id) const override {
+    auto v = select_trials("AND id = $2", id);
+    if (v.empty()) return std::nullopt;
+    return v.front();
+  }
+  std::vector<TrialRecord> finished_since(std::int64_t seq) const override {
+    return select_trials("AND finish_seq >= $2 AND state IN ('complete', 'failed') ORDER BY finish_seq", seq);
+  }
+  std::vector<TrialRecord> pending_trials() const override {
+    return select_trials("AND state = 'pending' ORDER BY id", std::nullopt);
+  }
+
+  std::int64_t add_trial(const TrialRecord& t) override {
+    std::int64_t id = 0;
+    write([&](pqxx::transaction_base& w) {
+      id = to_int(w.exec_params("SELECT COALESCE(MAX(id) + 1, 0) FROM varbo_trials WHERE study = $1", address_.study)[0][0]);
+      TrialRecord r = t;
+      r.id = id;
+      exec_trial(w,
+                 std::string("INSERT INTO varbo_trials (study, ") + kColumns +
+                     ") VALUES ($1, $2, $3, $4, $5, $6, NULLIF($7, '')::float8, $8, NULLIF($9, '')::float8, $10, $11, "
+                     "$12, $13, $14, $15, $16, $17, $18, $19, $20, $21)",
+                 r);
+    });
+    return id;
+  }
+
+  void update_trial(const TrialRecord& t) override {
+    write([&](pqxx::transaction_base& w) {
+      const auto r = exec_trial(w,
+                                std::string("UPDATE varbo_trials SET (") + kColumns +
+                                    ") = ($2, $3, $4, $5, $6, NULLIF($7, '')::float8, $8, NULLIF($9, '')::float8, $10, "
+                                    "$11, $12, $13, $14, $15, $16, $17, $18, $19, $20, $21) WHERE study = $1 AND id = $2",
+                                t);
+      if (r.affected_rows() != 1) throw InputError(fmt::format("{}: no trial with id {}", location(), t.id));
+    });
+  }
+
+  std::int64_t next_finish_seq() const override {
+    return read("read trials", [&](pqxx::transaction_base& t) {
+      return std::max<std::int64_t>(
+          0, to_int(t.exec_params("SELECT COALESCE(MAX(finish_seq) + 1, 0) FROM varbo_trials WHERE study = $1",
+                                  address_.study)[0][0]));
+    });
+  }
+
+  void add_snapshot(const StoredSnapshot& snap) override {
+    nlohmann::json h = nlohmann::json::array();
+    for (const auto& p : snap.snapshot.hyperparameters) h.push_back({p.name, p.value});
+    write([&](pqxx::transaction_base& t) {
+      t.exec_params("INSERT INTO varbo_snapshots (study, after_trials, iteration, objective, note, hyperparameters, "
+                    "region_state) VALUES ($1, $2, $3, NULLIF($4, '')::float8, $5, $6, $7)",
+                    address_.study, snap.after_trials, static_cast<std::int64_t>(snap.snapshot.iteration),
+                    num(snap.snapshot.objective), snap.snapshot.note, h.dump(), snap.snapshot.region_state);
+    });
+  }
+
+  std::vector<StoredSnapshot> snapshots() const override {
+    return read("read snapshots", [&](pqxx::transaction_base& t) {
+      std::vector<StoredSnapshot> out;
+      for (const auto& row : t.exec_params("SELECT after_trials, iteration, objective, note, hyperparameters, "
+                                           "region_state FROM varbo_snapshots WHERE study = $1 ORDER BY id",
+                                           address_.study)) {
+        StoredSnapshot r;
+        r.after_trials = to_int(row[0]);
+        r.snapshot.iteration = static_cast<Index>(to_int(row[1]));
+        r.snapshot.objective = to_double(row[2]);
+        r.snapshot.note = to_text(row[3]);
+        r.snapshot.region_state = to_text(row[5]);
+        nlohmann::json h = nlohmann::json::parse(to_text(row[4]), nullptr, false);
+        if (h.is_array())
+          for (const auto& p : h)
+            if (p.is_array() && p.size() == 2 && p[0].is_string() && p[1].is_number())
+              r.snapshot.hyperparameters.push_back({p[0].get<std::string>(), p[1].get<double>()});
+        out.push_back(std::move(r));
+      }
+      return out;
+    });
+  }
+
+  void add_algorithm_state(const AlgorithmSnapshot& snap) override {
+    write([&](pqxx::transaction_base& t) {
+      t.exec_params("INSERT INTO varbo_algorithm_states (study, finished, outstanding, state, created_at) VALUES "
+                    "($1, $2, $3, $4, $5)",
+                    address_.study, snap.finished, snap.outstanding, snap.state, num(snap.created_at));
+      t.exec_params("DELETE FROM varbo_algorithm_states WHERE study = $1 AND finished < $2", address_.study,
+                    snap.finished - 2);
+    });
+  }
+
+  std::vector<AlgorithmSnapshot> algorithm_states() const override {
+    return read("read algorithm states", [&](pqxx::transaction_base& t) {
+      std::vector<AlgorithmSnapshot> out;
+      for (const auto& row : t.exec_params("SELECT finished, outstanding, state, created_at FROM varbo_algorithm_states "
+                                           "WHERE study = $1 ORDER BY id DESC",
+                                           address_.study)) {
+        AlgorithmSnapshot a;
+        a.finished = to_int(row[0]);
+        a.outstanding = to_int(row[1]);
+        a.state = to_text(row[2]);
+        a.created_at = to_double(row[3]);
+        out.push_back(std::move(a));
+      }
+      return out;
+    });
+  }
+
+  /// One upsert, atomic by itself: outside a transaction it takes no study lock, so a heartbeat is never held
+  /// up behind another process's model fit. The times are the server's clock (`clock_timestamp()`), not the
+  /// worker's: workers on machines whose clocks disagree are still judged by one clock (workers() translates).
+  void put_worker(const WorkerRecord& wr) override {
+    auto upsert = [&](pqxx::transaction_base& t) {
+      t.exec_params("INSERT INTO varbo_workers (study, id, host, pid, started_at, heartbeat_at, state) VALUES "
+                    "($1, $2, $3, $4, EXTRACT(EPOCH FROM clock_timestamp()), EXTRACT(EPOCH FROM clock_timestamp()), "
+                    "$5) ON CONFLICT (study, id) DO UPDATE SET heartbeat_at = excluded.heartbeat_at, state = "
+                    "excluded.state",
+                    address_.study, wr.id, wr.host, static_cast<std::int64_t>(wr.pid), wr.state);
+    };
+    if (tx_)
+      upsert(*tx_);
+    else
+      read("record a heartbeat", [&](pqxx::transaction_base& t) {
+        upsert(t);
+        return 0;
+      });
+  }
+
+  /// Times in this machine's clock: the server's, shifted by (this clock − the server's clock) now, so that
+  /// `unix_time() − heartbeat_at` is the silence measured by the server alone.
+  std::vector<WorkerRecord> workers() const override {
+    return read("read workers", [&](pqxx::transaction_base& t) {
+      std::vector<WorkerRecord> out;
+      const pqxx::result r = t.exec_params(
+          "SELECT id, host, pid, started_at, heartbeat_at, state, EXTRACT(EPOCH FROM clock_timestamp()) FROM "
+          "varbo_workers WHERE study = $1 ORDER BY started_at",
+          address_.study);
+      const double shift = r.empty() ? 0.0 : unix_time() - to_double(r[0][6]);
+      for (const auto& row : r) {
+        WorkerRecord w;
+        w.id = to_text(row[0]);
+        w.host = to_text(row[1]);
+        w.pid = static_cast<long>(to_int(row[2]));
+        w.started_at = to_double(row[3]) + shift;
+        w.heartbeat_at = to_double(row[4]) + shift;
+        w.state = to_text(row[5]);
+        out.push_back(std::move(w));
+      }
+      return out;
+    });
+  }
+
+ private:
+  /// Sets the current transaction for the duration of a scope (joined by nested calls and the accessors).
+  class Current {
+   public:
+    Current(pqxx::transaction_base*& slot, pqxx::transaction_base& t) : slot_(slot) { slot_ = &t; }
+    ~Current() { release(); }
+    void release() { slot_ = nullptr; }
+
+   private:
+    pqxx::transaction_base*& slot_;
+  };
+
+  static int jitter(int ms) {
+    thread_local std::minstd_rand rng(std::random_device{}());
+    return ms / 2 + static_cast<int>(rng() % static_cast<unsigned>(ms / 2 + 1));
+  }
+
+  void connect() const {
+    try {
+      conn_ = std::make_unique<pqxx::connection>(address_.conninfo);
+      // CREATE ... IF NOT EXISTS would print notices; warnings and errors still reach the exceptions.
+      pqxx::nontransaction n(*conn_);
+      n.exec("SET client_min_messages TO WARNING");
+    } catch (const pqxx::broken_connection& e) {
+      throw StoreConnectionError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
+    } catch (const pqxx::failure& e) {
+      throw InputError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
+    }
+  }
+
+  /// A connection the server dropped (restart, pg_terminate_backend) is opened afresh for the next transaction.
+  void reconnect_if_needed() const {
+    if (conn_ && conn_->is_open()) return;
+    log_warn("{}: reconnecting to the database server", location());
+    connect();
+  }
+
+  /// Runs a read (or a single autocommitted statement) in the current transaction, else on its own.
+  template <class F>
+  auto read(const char* what, F&& f) const -> decltype(f(std::declval<pqxx::transaction_base&>())) {
+    if (tx_) return f(*tx_);
+    return guarded(what, [&] {
+      reconnect_if_needed();
+      pqxx::nontransaction n(*conn_);
+      return f(n);
+    });
+  }
+
+  /// A write joins the current transaction, or is a transaction of its own.
+  template <class F>
+  void write(F&& f) {
+    transaction([&] { f(*tx_); });
+  }
+
+  /// Runs `f`, turning libpqxx errors into InputErrors naming the study.
+  template <class F>
+  auto guarded(const char* what, F&& f) const -> decltype(f()) {
+    try {
+      return f();
+    } catch (const pqxx::broken_connection& e) {
+      throw StoreConnectionError(fmt::format("{}: cannot {}: lost the connection to the database server ({})", location(), what,
+                                   cause(e)));
+    } catch (const pqxx::insufficient_privilege& e) {
+      throw InputError(fmt::format("{}: cannot {}: the database role lacks a privilege ({})", location(), what,
+                                   cause(e)));
+    } catch (const pqxx::failure& e) {
+      throw InputError(fmt::format("{}: cannot {}: database error ({})", location(), what, cause(e)));
+    }
+  }
+
+  pqxx::result exec_trial(pqxx::transaction_base& w, const std::string& sql, const TrialRecord& t) {
+    return w.exec_params(sql, address_.study, t.id, state_name(t.state), t.phase, vec_text(t.x), vec_text(t.theta),
+                         num(t.cost), components_text(t.components), num(t.noiseless_cost), t.error, t.worker,
+                         num(t.created_at), num(t.finished_at), t.finish_seq, t.finished_before, t.pending_before,
+                         t.batch_size, t.batch_index, num(t.fit_seconds), num(t.acquisition_seconds),
+                         num(t.evaluation_seconds));
+  }
+
+  std::vector<TrialRecord> select_trials(const std::string& clause, std::optional<std::int64_t> arg) const {
+    return read("read trials", [&](pqxx::transaction_base& t) {
+      const std::string sql = std::string("SELECT ") + kColumns + " FROM varbo_trials WHERE study = $1 " + clause;
+      const pqxx::result r = arg ? t.exec_params(sql, address_.study, *arg) : t.exec_params(sql, address_.study);
+      std::vector<TrialRecord> out;
+      out.reserve(r.size());
+      for (const auto& row : r) {
+        TrialRecord x;
+        x.id = to_int(row[0]);
+        x.state = state_from_name(to_text(row[1]));
+        x.phase = to_text(row[2]);
+        const std::string where = fmt::format("{}: trial {}", location(), x.id);
+        x.x = text_vec(to_text(row[3]), where);
+        x.theta = text_vec(to_text(row[4]), where);
+        x.cost = to_double(row[5]);
+        x.components = text_components(to_text(row[6]));
+        x.noiseless_cost = to_double(row[7]);
+        x.error = to_text(row[8]);
+        x.worker = to_text(row[9]);
+        x.created_at = to_double(row[10]);
+        x.finished_at = to_double(row[11]);
+        x.finish_seq = to_int(row[12]);
+        x.finished_before = to_int(row[13]);
+        x.pending_before = to_int(row[14]);
+        x.batch_size = to_int(row[15]);
+        x.batch_index = to_int(row[16]);
+        x.fit_seconds = to_double(row[17]);
+        x.acquisition_seconds = to_double(row[18]);
+        x.evaluation_seconds = to_double(row[19]);
+        out.push_back(std::move(x));
+      }
+      return out;
+    });
+  }
+
+  /// The tables (made once per database, under an advisory lock so that two first creations do not race) and
+  /// the study's row with its meta entries, in one transaction: the study appears complete or not at all.
+  void create_study(const std::vector<std::pair<std::string, std::string>>& meta) {
+    pqxx::work w(*conn_, "varbo create");
+    w.exec_params("SELECT pg_advisory_xact_lock($1)", kCreateLockKey);
+    w.exec(kSchema);
+    if (w.exec_params("INSERT INTO varbo_studies (name, created_at) VALUES ($1, $2) ON CONFLICT (name) DO NOTHING",
+                      address_.study, num(unix_time()))
+            .affected_rows() != 1)
+      throw InputError(fmt::format("{}: a study named '{}' exists already in this database; choose another name or "
+                                   "continue it with `varbo suggest`/`varbo worker`",
+                                   location(), address_.study));
+    auto put = [&](const std::string& k, const std::string& v) {
+      w.exec_params("INSERT INTO varbo_meta (study, key, value) VALUES ($1, $2, $3) ON CONFLICT (study, key) DO "
+                    "UPDATE SET value = excluded.value",
+                    address_.study, k, v);
+    };
+    put("format", kFormat);
+    put("schema_version", std::to_string(kSchemaVersion));
+    for (const auto& [k, v] : meta) put(k, v);
+    w.commit();
+  }
+
+  void check_study() {
+    {
+      pqxx::nontransaction n(*conn_);
+      check_study_row(n);
+    }
+    check_meta();
+  }
+
+  void check_study_row(pqxx::nontransaction& n) {
+    if (to_text(n.exec("SELECT to_regclass('varbo_studies')::text")[0][0]).empty())
+      throw InputError(fmt::format("{}: no study named '{}': the database holds no varbo studies (create one with "
+                                   "`varbo study create '{}' CONFIG.yaml`)",
+                                   location(), address_.study, location()));
+    if (n.exec_params("SELECT 1 FROM varbo_studies WHERE name = $1", address_.study).empty()) {
+      std::string names;
+      int count = 0;
+      for (const auto& row : n.exec("SELECT name FROM varbo_studies ORDER BY name LIMIT 11")) {
+        names += (count > 0 ? ", " : "") + (count >= 10 ? std::string("...") : to_text(row[0]));
+        ++count;
+      }
+      throw InputError(fmt::format("{}: no study named '{}' in this database (studies there: {}); create it with "
+                                   "`varbo study create '{}' CONFIG.yaml`",
+                                   location(), address_.study, names.empty() ? "none" : names, location()));
+    }
+  }
+
+  void check_meta() {
+    const auto format = meta("format");
+    if (format.value_or("") != kFormat)
+      throw InputError(fmt::format("{}: not a varbo study (meta 'format' is '{}', expected '{}')", location(),
+                                   format.value_or(""), kFormat));
+    const auto v = meta("schema_version");
+    int version = 0;
+    try {
+      version = v ? std::stoi(*v) : 0;
+    } catch (const std::exception&) {
+      version = 0;
+    }
+    if (version < 1)
+      throw InputError(fmt::format("{}: corrupt varbo study (schema_version '{}')", location(), v.value_or("")));
+    if (version > kSchemaVersion)
+      throw InputError(fmt::format("{}: written by a newer varbo (store schema version {}; this varbo reads up to "
+                                   "version {}); upgrade varbo to open it",
+                                   location(), version, kSchemaVersion));
+  }
+
+  PostgresAddress address_;
+  mutable std::unique_ptr<pqxx::connection> conn_;  // reopened by reads too, after the server dropped it
+  pqxx::transaction_base* tx_ = nullptr;
+};
+
+}  // namespace
+
+std::unique_ptr<StudyStore> create_postgres_store(const std::string& url,
+                                                  const std::vector<std::pair<std::string, std::string>>& meta) {
+  return std::make_unique<PostgresStore>(parse_postgres_address(url), true, meta);
+}
+
+std::unique_ptr<StudyStore> open_postgres_store(const std::string& url) {
+  return std::make_unique<PostgresStore>(parse_postgres_address(url), false,
+                                         std::vector<std::pair<std::string, std::string>>{});
+}
+
+}  // namespace varbo

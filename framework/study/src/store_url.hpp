@@ -1,0 +1,18 @@
+#pragma once
+// The address of a study in a PostgreSQL database: `postgresql://[user[:password]@][host][:port]/db?study=NAME[&...]`
+// (docs/studies.md, "Addresses"). `study` is varbo's; every other parameter is libpq's (host=/socket/dir,
+// sslmode, connect_timeout, ...).
+#include <string>
+
+namespace varbo {
+
+struct PostgresAddress {
+  std::string conninfo;  ///< the URL for libpq: without `study`, with application_name and connect_timeout
+  std::string study;     ///< the study's name in the database
+  std::string display;   ///< the URL as given with any password hidden, for messages
+};
+
+/// Throws InputError for a URL without `?study=NAME` or with a name holding other than letters, digits, '_', '-', '.'.
+PostgresAddress parse_postgres_address(const std::string& url);
+
+}  // namespace varbo

@@ -1,0 +1,237 @@
+// The PostgreSQL store's own failures, on the fixture's throwaway server (backends.hpp): the URL format, an
+// unreachable server, wrong credentials, a role without privileges, a URL naming no study, a study written by a
+// newer varbo, a connection dropped mid-transaction. Each is an error naming the study and the cause (exit 2
+// from the CLI) and writes nothing.
+#include <fstream>
+#include <set>
+#include <thread>
+#include <pqxx/pqxx>
+
+#include "backends.hpp"
+#include "process.hpp"
+#include "study_helpers.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/store.hpp"
+#include "varbo/study_api.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+std::string open_error(const std::string& url) {
+  try {
+    open_store(url);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// The socket folder of the test server (the URL's host= parameter).
+std::string socket_dir() {
+  const std::string base = test::pg_base_url();
+  return base.substr(base.find("host=") + 5);
+}
+
+/// `varbo ARGS...`: exit code and everything it printed.
+std::pair<int, std::string> varbo_cli(const std::vector<std::string>& args, const std::string& dir) {
+  const std::string log = dir + "/cli.log";
+  std::remove(log.c_str());
+  std::vector<std::string> all = {VARBO_EXE};
+  all.insert(all.end(), args.begin(), args.end());
+  const int code = test::run(all, log).exit_code;
+  return {code, test::slurp(log)};
+}
+
+std::string config_file(const std::string& dir) {
+  const std::string cfg = dir + "/cfg.yaml";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 5\nseed: 3\nalgorithm: {type: random}\n";
+  return cfg;
+}
+
+}  // namespace
+
+TEST_CASE("postgresql URL: the study parameter is required and checked; a password never appears in messages") {
+  CHECK(is_database_url("postgresql://u@h/db?study=a"));
+  CHECK(is_database_url("postgres:///db?study=a"));
+  CHECK_FALSE(is_database_url("runs/study.db"));
+  CHECK_THROWS_WITH_AS(open_store("postgresql://u@h/db"), doctest::Contains("names no study; add ?study=NAME"),
+                       InputError);
+  CHECK_THROWS_WITH_AS(open_store("postgresql://u@h/db?sslmode=disable&study="), doctest::Contains("names no study"),
+                       InputError);
+  CHECK_THROWS_WITH_AS(open_store("postgresql://u@h/db?study=a%20b"), doctest::Contains("study name 'a b'"),
+                       InputError);
+  // An unreachable server: a connection refused on a socket folder without a server.
+  const std::string url = "postgresql://u:secret@/db?host=/nonexistent-varbo-socket&password=secret2&study=gait";
+  const std::string msg = open_error(url);
+  CHECK(msg.find("study=gait") != std::string::npos);
+  CHECK(msg.find("cannot connect to the database server") != std::string::npos);
+  CHECK(msg.find("secret") == std::string::npos);
+}
+
+TEST_CASE("postgresql: unreachable server, wrong credentials, a role without privileges: exit 2 naming study and cause") {
+  const std::string dir = test::temp_folder("pg_connect");
+  const std::string cfg = config_file(dir);
+  // Unreachable: no server on that socket folder; `study create` writes nothing anywhere.
+  auto [code, out] = varbo_cli({"study", "create", "postgresql:///varbo_test?host=/nonexistent-varbo&study=lost", cfg}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("study=lost") != std::string::npos);
+  CHECK(out.find("cannot connect to the database server") != std::string::npos);
+  CHECK(out.find("No such file or directory") != std::string::npos);
+
+  const std::string url = test::pg_study_url("creds");
+  REQUIRE(varbo_cli({"study", "create", url, cfg}, dir).first == 0);
+  const std::string study = url.substr(url.rfind("study="));
+  const std::string socket = socket_dir();
+  // A role the server does not know.
+  std::tie(code, out) = varbo_cli({"suggest", "postgresql://nobody_here@/varbo_test?host=" + socket + "&" + study}, dir);
+  CHECK(code == 2);
+  CHECK(out.find(study) != std::string::npos);
+  CHECK(out.find("role \"nobody_here\" does not exist") != std::string::npos);
+  // A wrong password (varbo_pw authenticates with scram-sha-256; the fixture's pg_hba.conf).
+  std::tie(code, out) =
+      varbo_cli({"status", "postgresql://varbo_pw:wrong@/varbo_test?host=" + socket + "&" + study}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("password authentication failed for user \"varbo_pw\"") != std::string::npos);
+  CHECK(out.find("wrong") == std::string::npos);  // the password is not shown
+  // A role that may log in but was granted nothing on varbo's tables.
+  std::tie(code, out) = varbo_cli({"suggest", "postgresql://varbo_reader@/varbo_test?host=" + socket + "&" + study}, dir);
+  CHECK(code == 2);
+  CHECK(out.find(study) != std::string::npos);
+  CHECK(out.find("permission denied") != std::string::npos);
+  CHECK(open_store(url)->trials().empty());  // nothing written by any of them
+}
+
+TEST_CASE("postgresql: a URL naming no study, a database without studies, an existing name on create") {
+  const std::string dir = test::temp_folder("pg_no_study");
+  const std::string cfg = config_file(dir);
+  const std::string url = test::pg_study_url("present");
+  REQUIRE(varbo_cli({"study", "create", url, cfg}, dir).first == 0);
+  const std::string base = test::pg_base_url();
+  auto [code, out] = varbo_cli({"suggest", base + "&study=absent_study"}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("no study named 'absent_study' in this database") != std::string::npos);
+  CHECK(out.find("(studies there: ") != std::string::npos);  // the first ten names, for a typo
+  CHECK(out.find("varbo study create") != std::string::npos);
+  CHECK(open_error(base + "&study=absent_study").find("study=absent_study") != std::string::npos);
+  // The maintenance database holds no varbo tables at all.
+  const std::string postgres_db = "postgresql://varbo@/postgres?host=" + socket_dir() + "&study=x";
+  CHECK(open_error(postgres_db).find("the database holds no varbo studies") != std::string::npos);
+  CHECK_FALSE(store_exists(postgres_db));
+  CHECK(store_exists(url));
+  // Creating a study under a taken name: refused, the existing study untouched.
+  { Study s = Study::open(url); s.ask(2); }
+  std::tie(code, out) = varbo_cli({"study", "create", url, cfg}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("exists already") != std::string::npos);
+  CHECK(open_store(url)->trials().size() == 2);
+}
+
+TEST_CASE("postgresql: a study written by a newer varbo is refused by every command, exit 2") {
+  const std::string dir = test::temp_folder("pg_newer");
+  const std::string url = test::pg_study_url("newer");
+  REQUIRE(varbo_cli({"study", "create", url, config_file(dir)}, dir).first == 0);
+  {
+    pqxx::connection c(test::pg_base_url());
+    pqxx::work w(c);
+    w.exec_params("UPDATE varbo_meta SET value = '7' WHERE study = $1 AND key = 'schema_version'",
+                  url.substr(url.rfind("study=") + 6));
+    w.commit();
+  }
+  const std::vector<std::vector<std::string>> commands = {
+      {"suggest", url}, {"status", url}, {"worker", url, "--command", "echo 1"}, {"observe", url, "0", "1.5"}};
+  for (const auto& args : commands) {
+    CAPTURE(args[0]);
+    const auto [code, out] = varbo_cli(args, dir);
+    CHECK(code == 2);
+    CHECK(out.find("written by a newer varbo (store schema version 7") != std::string::npos);
+    CHECK(out.find(url.substr(url.rfind("study="))) != std::string::npos);
+  }
+}
+
+TEST_CASE("postgresql: a connection dropped mid-transaction writes nothing; the next transaction reconnects") {
+  // Its own application_name, so that only this study's session is ended (other tests share the server).
+  const std::string url = test::pg_study_url("dropped") + "&application_name=varbo_dropped_test";
+  Study study = Study::create_from_yaml(url, "task: {type: branin}\nbudget: 6\nseed: 2\nalgorithm: {type: random}\n");
+  const auto first = study.ask(1);
+  REQUIRE(first.size() == 1);
+  pqxx::connection killer(test::pg_base_url());
+  StudyStore& store = study.store();
+  std::string msg;
+  try {
+    store.transaction([&] {
+      TrialRecord t = first[0];
+      t.state = TrialState::Complete;
+      t.cost = 1.0;
+      t.finish_seq = 0;
+      store.update_trial(t);  // written inside the transaction …
+      TrialRecord extra = first[0];
+      store.add_trial(extra);
+      // … then the server ends this session (an administrator, a failover, a network cut).
+      pqxx::nontransaction k(killer);
+      k.exec("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name = 'varbo_dropped_test'");
+      store.add_trial(extra);
+    });
+  } catch (const InputError& e) {
+    msg = e.what();
+  }
+  CHECK(msg.find("study=dropped_") != std::string::npos);
+  CHECK(msg.find("lost the connection to the database server") != std::string::npos);
+  CHECK(msg.find("nothing of it was written") != std::string::npos);
+  // Nothing of it reached the database; the same Study goes on after reconnecting.
+  const auto trials = open_store(url)->trials();
+  REQUIRE(trials.size() == 1);
+  CHECK(trials[0].state == TrialState::Pending);
+  study.tell(first[0].id, 2.0);
+  CHECK(open_store(url)->trial(first[0].id)->cost == 2.0);
+}
+
+TEST_CASE("postgresql: a worker outlives dropped connections (reconnects, retries), every trial recorded once") {
+  const std::string dir = test::temp_folder("pg_worker_reconnect");
+  const std::string url = test::pg_study_url("reconnect") + "&application_name=varbo_reconnect_test";
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: branin}\nbudget: 4\nseed: 3\nalgorithm: {type: random}\n";
+  REQUIRE(varbo_cli({"study", "create", url, dir + "/cfg.yaml"}, dir).first == 0);
+  const std::string log = dir + "/worker.log";
+  const pid_t worker = test::spawn({VARBO_EXE, "worker", url, "--command", "cat > /dev/null; sleep 0.4; echo 2.5"}, log);
+  pqxx::connection killer(test::pg_base_url());
+  int terminated = 0;
+  for (int round = 0; round < 2; ++round) {  // twice, while the command runs: the next statements find the session gone
+    std::this_thread::sleep_for(std::chrono::milliseconds(round == 0 ? 200 : 500));
+    pqxx::nontransaction k(killer);
+    terminated += static_cast<int>(
+        k.exec("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name = 'varbo_reconnect_test'")
+            .size());
+  }
+  CHECK(terminated >= 2);
+  CHECK(test::wait_for(worker).exit_code == 0);
+  const auto trials = open_store(url)->trials();
+  REQUIRE(trials.size() == 4);
+  std::set<std::int64_t> seqs;
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Complete);
+    CHECK(t.cost == 2.5);
+    seqs.insert(t.finish_seq);
+  }
+  CHECK(seqs.size() == 4);
+  CHECK(test::slurp(log).find("reconnecting to the database server") != std::string::npos);
+  // --reconnect-timeout 0 and an unreachable server: exit 2 at once, naming the study.
+  const auto [code, out] = varbo_cli({"worker", "postgresql:///varbo_test?host=/nonexistent-varbo&study=gone",
+                                      "--command", "echo 1", "--reconnect-timeout", "0"}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("study=gone") != std::string::npos);
+}
+
+TEST_CASE("postgresql: heartbeats are judged by the server's clock, whatever the worker machine's clock says") {
+  const std::string url = test::pg_study_url("clock");
+  Study study = Study::create_from_yaml(
+      url, "task: {type: branin}\nbudget: 6\nseed: 2\nalgorithm: {type: random}\nheartbeat_timeout: 30\n");
+  // A worker whose clock is an hour behind: its own timestamps would make it look silent for an hour.
+  study.set_worker("far-host:7:0123456789abcdef");
+  const auto t = study.ask(1).at(0);
+  WorkerRecord w{"far-host:7:0123456789abcdef", "far-host", 7, unix_time() - 3600, unix_time() - 3600, "running"};
+  study.store().put_worker(w);
+  Study other = Study::open(url);
+  REQUIRE(other.ask(1).size() == 1);  // checks every worker's silence first
+  CHECK(other.store().trial(t.id)->state == TrialState::Pending);  // alive by the server's clock
+}
