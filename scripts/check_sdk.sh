@@ -10,6 +10,19 @@ BUILD_DIR=${BUILD_DIR:-build}
 PREFIX=${SDK_PREFIX:-$(mktemp -d /tmp/varbo-sdk.XXXXXX)}
 WORK=$(mktemp -d /tmp/varbo-sdk-work.XXXXXX)
 cmake --install "$BUILD_DIR" --prefix "$PREFIX" > "$WORK/install.log"
+# The Python package installed into the prefix's site-packages layout: it imports from there, loads the installed
+# libvarbo_core (its RPATH) and finds the installed plugins.
+PYTHON=$(sed -n 's/^VARBO_PYTHON_EXECUTABLE:INTERNAL=//p' "$BUILD_DIR/CMakeCache.txt")
+if [ -n "$PYTHON" ]; then
+  PYPKG=$(find "$PREFIX" -path '*/varbo/__init__.py' -printf '%h\n' | head -n 1)
+  test -n "$PYPKG"
+  (cd "$WORK" && PYTHONPATH="$(dirname "$PYPKG")" "$PYTHON" -c "
+import varbo
+assert varbo.__file__.startswith('$PREFIX'), varbo.__file__
+assert {'bo', 'gp', 'branin'} <= {c['name'] for c in varbo.plugins()}
+assert all(c['library'].startswith('$PREFIX') for c in varbo.plugins() if c['builtin'])
+print('installed Python package:', varbo.__file__)")
+fi
 cmake -S plugins/template -B "$WORK/template" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/configure.log"
 cmake --build "$WORK/template" > "$WORK/build.log"
 if grep -q "warning:" "$WORK/build.log"; then cat "$WORK/build.log"; echo "template plugins: compiler warnings"; exit 1; fi
