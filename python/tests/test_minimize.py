@@ -157,3 +157,41 @@ def test_bad_space_and_config(tmp_path):
                        space={"x": (0, 1)})
     assert e.value.key == "algorithm.acquisition.xii" and e.value.line is not None
     assert not os.path.exists(tmp_path / "never")
+
+
+CTRL_C_CHILD = r'''
+import csv, sys, time, varbo
+out = sys.argv[1]
+def f(p):
+    time.sleep(0.02)
+    return (p["x"] - 0.3) ** 2
+try:
+    varbo.minimize(f, {"x": (0, 1)}, budget=500, seed=1, output=out)
+    print("finished")
+except KeyboardInterrupt:
+    rows = list(csv.DictReader(open(out + "/trials.csv")))
+    res = varbo.minimize(f, {"x": (0, 1)}, budget=len(rows) + 2, seed=1, output=out, resume=True)
+    print("interrupted", len(rows), "resumed", res.evaluations)
+'''
+
+
+def test_ctrl_c_from_outside(tmp_path):
+    """A real SIGINT to a process running minimize (while the engine or the objective runs): KeyboardInterrupt in
+    the caller, the run folder complete up to the last recorded trial, and resume continues it."""
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "run"
+    p = subprocess.Popen([sys.executable, "-c", CTRL_C_CHILD, str(out)], stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        if (out / "trials.csv").exists() and len(read_trials_csv(out / "trials.csv")) >= 8:
+            break
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    stdout, _ = p.communicate(timeout=300)
+    assert p.returncode == 0
+    words = stdout.split()
+    assert words[0] == "interrupted", stdout
+    assert int(words[1]) >= 8 and int(words[3]) == int(words[1]) + 2
