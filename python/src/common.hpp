@@ -38,6 +38,9 @@ const Registry& module_registry();
 /// or opened later in this process (each with its own loader) find it too.
 void load_plugin(const std::string& path);
 
+/// Adds the task `python` (a box; evaluation by the function varbo.minimize() is running, if any) to a registry.
+void add_python_task(Registry& registry);
+
 // Each part registers its functions on the module.
 void bind_errors(py::module_& m);
 void bind_registry(py::module_& m);

@@ -62,6 +62,7 @@ class PythonTask : public Task {
 
   Evaluation evaluate(const Vec& theta, Rng& /*rng*/) override {
     Evaluation ev;
+    if (!objective_) return failed(ev, "the task 'python' evaluates only inside varbo.minimize(), which gives it the function");
     py::gil_scoped_acquire gil;
     if (objective_->check_signals()) return failed(ev, "interrupted");
     try {
@@ -131,10 +132,11 @@ std::unique_ptr<Task> make_python_task(const Options& o) {
     for (std::size_t i = 0; i < n.size(); ++i) dom.names.push_back(n.item(i).scalar());
   }
   for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
-  if (!t_objective)
-    o.source().fail("the task 'python' exists only inside varbo.minimize(), which gives it its Python function");
+  // Outside minimize() (varbo.Study.open on a study minimize wrote) the task gives the domain only.
   return std::make_unique<PythonTask>(std::move(dom), t_objective);
 }
+
+}  // namespace
 
 void add_python_task(Registry& registry) {
   ComponentInfo info = make_component<Task>(
@@ -147,6 +149,8 @@ void add_python_task(Registry& registry) {
   info.library = "<varbo Python module>";
   registry.add(std::move(info));
 }
+
+namespace {
 
 py::dict summary_dict(const RunSummary& s) {
   py::dict d;

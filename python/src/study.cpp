@@ -80,7 +80,7 @@ void bind_study(py::module_& m) {
             std::optional<Study> s;
             {
               py::gil_scoped_release release;
-              s.emplace(Study::open(store));
+              s.emplace(Study::open(store, add_python_task));  // studies made by varbo.minimize too
             }
             return std::make_unique<PyStudy>(std::move(*s));
           },

@@ -33,10 +33,11 @@ def test_minimize_equals_varbo_run(tmp_path):
     summary = json.load(open(tmp_path / "cli" / "summary.json"))
     assert res.fun == pytest.approx(min(float(r["cost"]) for r in cli), rel=0, abs=0)
     assert res.x.tolist() == [res.params["x1"], res.params["x2"]]
+    assert res.best.params == res.params and res.best.cost == res.fun and res.recommended == res.recommended_params
     assert res.recommended_x is not None and res.recommendation_rule == "lowest_mean_evaluated"
-    rec = summary.get("recommended_theta") or summary.get("recommended", {}).get("theta")
-    if rec is not None:
-        np.testing.assert_array_equal(np.asarray(rec, dtype=float), res.recommended_x)
+    # Both recommend the same point (the CLI's summary.json against the result object).
+    np.testing.assert_allclose(np.asarray(summary["recommended_theta"], dtype=float), res.recommended_x,
+                               rtol=1e-15, atol=0)
 
 
 def test_space_forms_and_result(tmp_path):
@@ -45,8 +46,10 @@ def test_space_forms_and_result(tmp_path):
     assert res.output == str(tmp_path / "r") and os.path.exists(res.study_path)
     assert list(res.params) == ["x1"] and res.evaluations == 6 and res.failed == 0
     yaml_cfg = "budget: 5\nseed: 2\nalgorithm: {type: random}\ntask: {type: python, lower: [0], upper: [1], names: [a]}\n"
-    res2 = varbo.minimize(lambda p: p["a"], yaml_cfg)
+    res2 = varbo.minimize(lambda p: p["a"], yaml_cfg)  # no output given: a new temporary run folder
     assert res2.evaluations == 5 and list(res2.params) == ["a"] and os.path.isdir(res2.output)
+    import shutil
+    shutil.rmtree(res2.output)
 
 
 def test_failed_trials(tmp_path):
@@ -195,3 +198,17 @@ def test_ctrl_c_from_outside(tmp_path):
     words = stdout.split()
     assert words[0] == "interrupted", stdout
     assert int(words[1]) >= 8 and int(words[3]) == int(words[1]) + 2
+
+
+def test_study_open_on_a_minimize_run(tmp_path):
+    """varbo.Study.open reads and continues a study minimize wrote (its task `python` gives the domain)."""
+    res = varbo.minimize(lambda p: (p["a"] - 0.2) ** 2, {"budget": 8, "algorithm": {"type": "random"}},
+                         space={"a": (0, 1)}, callback=lambda t: t.id == 4, output=str(tmp_path / "r"))
+    s = varbo.Study.open(res.study_path)
+    assert s.names == ["a"] and s.bounds == [(0.0, 1.0)]
+    assert [t.params for t in s.trials(as_frame=False)] == [t.params for t in res.trials]
+    assert s.best().id == res.best.id
+    assert len(res.trials) == 5
+    (t,) = s.ask()  # the budget is 8: three more
+    s.tell(t, 0.5)
+    assert len(s.trials(as_frame=False)) == 6

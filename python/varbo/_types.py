@@ -95,6 +95,17 @@ class OptimizeResult:
     def study_path(self) -> str:
         return self.output + "/study.db"
 
+    @property
+    def best(self) -> Optional[Trial]:
+        """The complete trial with the lowest cost (the first such by id), as Study.best()."""
+        done = [t for t in self.trials if t.state == "complete"]
+        return min(done, key=lambda t: t.cost) if done else None
+
+    @property
+    def recommended(self) -> Optional[Dict[str, float]]:
+        """The recommended parameters (``recommended_params``)."""
+        return self.recommended_params
+
 
 def trial_from(d: Dict[str, Any]) -> Trial:
     return Trial(**d)
