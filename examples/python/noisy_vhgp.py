@@ -4,7 +4,7 @@ Two minima of equal expected cost 0.1 at θ = 0.25 and 0.75; the noise grows to 
 This script evaluates the cost itself (ask/tell); the study's task, two_minima_1d, only gives the domain [0, 1].
 The VHGP learns where the cost is noisy, so `select` picks, without a new trial, a risk-averse point (κ > 0: the quiet
 minimum) and a risk-seeking one (κ < 0: the noisy one).
-Run: PYTHONPATH=build/python python3 examples/python/noisy_vhgp.py
+Run: PYTHONPATH=build/python /usr/bin/python3 examples/python/noisy_vhgp.py
 """
 import math
 import tempfile

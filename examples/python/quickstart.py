@@ -1,4 +1,5 @@
-"""Quick start: minimize Branin with varbo's default Bayesian optimization (run: PYTHONPATH=build/python python3 ...)."""
+"""Quick start: Branin with varbo's default Bayesian optimization.
+Run: PYTHONPATH=build/python /usr/bin/python3 examples/python/quickstart.py"""
 import math
 
 import varbo

@@ -1,6 +1,6 @@
 """One study, two worker processes: each asks, evaluates and tells on the same study file (SQLite; one machine).
 
-    PYTHONPATH=build/python python3 examples/python/two_workers.py
+    PYTHONPATH=build/python /usr/bin/python3 examples/python/two_workers.py
 
 The parent creates the study and starts two workers (multiprocessing, "spawn"); every trial one worker asks is
 pending for the other, so the two never evaluate the same point; the budget is shared.
