@@ -36,6 +36,18 @@ for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
     exit 1
   fi
 done
+# Python: varbo.load_plugin() of a third-party library built against the installed SDK; a minimize() started
+# afterwards finds its component.
+if [ -n "$PYTHON" ]; then
+  (cd "$WORK" && PYTHONPATH="$(dirname "$PYPKG")" "$PYTHON" -c "
+import varbo
+varbo.load_plugin('$WORK/template/libvarbo_template.so')
+assert varbo.describe('greedy_mean')['kind'] == 'acquisition'
+r = varbo.minimize(lambda p: (p['x'] - 0.3) ** 2, {'algorithm': {'type': 'bo', 'initial_points': 3,
+                   'acquisition': {'type': 'greedy_mean'}}}, space={'x': (0, 1)}, budget=6, seed=1)
+assert r.evaluations == 6 and [t.phase for t in r.trials][-1] != 'initial', [t.phase for t in r.trials]
+print('Python load_plugin + minimize with greedy_mean: ok')")
+fi
 export VARBO_PLUGIN_PATH="$WORK/template"
 VARBO="$PREFIX/bin/varbo"
 for c in greedy_mean bowl one_plus_one periodic; do "$VARBO" plugins --describe "$c"; done
