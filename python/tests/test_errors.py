@@ -58,7 +58,7 @@ def test_load_plugin_errors(tmp_path):
 
 
 def test_set_log_level():
-    varbo.set_log_level("warn")
     varbo.set_log_level("info")
+    varbo.set_log_level("warn")  # the default after import
     with pytest.raises(varbo.InputError):
         varbo.set_log_level("loud")

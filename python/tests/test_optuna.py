@@ -104,3 +104,22 @@ def test_varbo_beats_tpe_on_branin():
             regret[name].append(study.best_value - 10 / (8 * math.pi))
     assert np.median(regret["varbo"]) < np.median(regret["tpe"])
     assert np.median(regret["varbo"]) < 1e-3
+
+
+def test_parallel_jobs_and_pickle():
+    """n_jobs = 2 (two threads share the sampler: running trials are pending points) and a pickled copy."""
+    import pickle
+
+    def objective(trial):
+        return branin({"x1": trial.suggest_float("x1", -5, 10), "x2": trial.suggest_float("x2", 0, 15)})
+
+    sampler = varbo.optuna.VarboSampler(seed=4)
+    study = optuna.create_study(sampler=sampler)
+    study.optimize(objective, n_trials=16, n_jobs=2)
+    assert len(study.trials) == 16 and all(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+    params = [tuple(t.params.values()) for t in study.trials]
+    assert len(set(params)) == len(params)  # no point handed out twice
+    copy = pickle.loads(pickle.dumps(sampler))
+    study.sampler = copy
+    study.optimize(objective, n_trials=2)
+    assert len(study.trials) == 18

@@ -24,6 +24,9 @@ from ._varbo import (ConfigError, Error, InputError, NumericalError, PluginLoadE
                      describe, load_plugin, plugins, set_log_level, skipped_plugins)
 
 __version__ = _varbo.__version__
+# Quiet by default, as Python's logging is: warnings and errors on stderr; a run folder's log.txt still gets every
+# info line. varbo.set_log_level("info") shows the engine's progress messages as the CLI does.
+set_log_level("warn")
 __all__ = [
     "Study", "Trial", "Selection", "Model", "Prediction", "OptimizeResult", "minimize", "fit", "plugins",
     "describe", "load_plugin", "skipped_plugins", "set_log_level", "Error", "ConfigError",

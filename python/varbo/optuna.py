@@ -16,6 +16,7 @@ failure model avoids where trials fail); pending trials are passed as pending po
 from __future__ import annotations
 
 import math
+import threading
 from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
@@ -103,11 +104,22 @@ class VarboSampler(BaseSampler):
         self._alg: Optional[_varbo._Algorithm] = None
         self._alg_key: Optional[tuple] = None
         self._told: List[int] = []
+        self._lock = threading.Lock()  # study.optimize(n_jobs > 1) samples from several threads
         # Configuration errors surface here, not at the first relative sample.
         _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads)
 
     def reseed_rng(self) -> None:
         self._independent.reseed_rng()
+
+    def __getstate__(self) -> Dict[str, Any]:
+        # The live algorithm (C++) is not pickled: the next relative sample rebuilds it from the study's trials.
+        state = self.__dict__.copy()
+        state.update(_alg=None, _alg_key=None, _told=[], _lock=None)
+        return state
+
+    def __setstate__(self, state: Dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     def infer_relative_search_space(self, study: optuna.Study, trial: FrozenTrial) -> Dict[str, BaseDistribution]:
         if study._is_multi_objective():
@@ -123,6 +135,11 @@ class VarboSampler(BaseSampler):
                         search_space: Dict[str, BaseDistribution]) -> Dict[str, Any]:
         if not search_space:
             return {}
+        with self._lock:
+            return self._sample_relative(study, trial, search_space)
+
+    def _sample_relative(self, study: optuna.Study, trial: FrozenTrial,
+                         search_space: Dict[str, BaseDistribution]) -> Dict[str, Any]:
         names = sorted(search_space)
         sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
         trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.RUNNING))
