@@ -104,6 +104,7 @@ class VarboSampler(BaseSampler):
         self._alg: Optional[_varbo._Algorithm] = None
         self._alg_key: Optional[tuple] = None
         self._told: List[int] = []
+        self._handed_out: Dict[int, tuple] = {}  # trial number -> (search space key, unit point) while running
         self._lock = threading.Lock()  # study.optimize(n_jobs > 1) samples from several threads
         # Configuration errors surface here, not at the first relative sample.
         _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads)
@@ -114,7 +115,7 @@ class VarboSampler(BaseSampler):
     def __getstate__(self) -> Dict[str, Any]:
         # The live algorithm (C++) is not pickled: the next relative sample rebuilds it from the study's trials.
         state = self.__dict__.copy()
-        state.update(_alg=None, _alg_key=None, _told=[], _lock=None)
+        state.update(_alg=None, _alg_key=None, _told=[], _handed_out={}, _lock=None)
         return state
 
     def __setstate__(self, state: Dict[str, Any]) -> None:
@@ -142,18 +143,25 @@ class VarboSampler(BaseSampler):
                          search_space: Dict[str, BaseDistribution]) -> Dict[str, Any]:
         names = sorted(search_space)
         sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
+        key = (tuple(names), tuple(repr(search_space[n]) for n in names), sign)
         trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.RUNNING))
         done: List[FrozenTrial] = []
         pending: List[List[float]] = []
         for t in trials:
-            if t.number == trial.number or not all(n in t.params for n in names):
+            if t.number == trial.number:
                 continue
             if t.state == TrialState.RUNNING:
-                pending.append([_encode(search_space[n], t.params[n]) for n in names])
-            else:
+                # A point this sampler handed out is pending even before its trial stores it (Optuna sets a
+                # relative sample's params only when the objective suggests them).
+                if t.number in self._handed_out and self._handed_out[t.number][0] == key:
+                    pending.append(self._handed_out[t.number][1])
+                elif all(n in t.params for n in names):
+                    pending.append([_encode(search_space[n], t.params[n]) for n in names])
+            elif all(n in t.params for n in names):
                 done.append(t)
+        running = {t.number for t in trials if t.state == TrialState.RUNNING}
+        self._handed_out = {k: v for k, v in self._handed_out.items() if k in running}
         done.sort(key=lambda t: (t.datetime_complete or t.datetime_start, t.number))
-        key = (tuple(names), tuple(repr(search_space[n]) for n in names), sign)
         numbers = [t.number for t in done]
         if self._alg is None or self._alg_key != key or numbers[:len(self._told)] != self._told:
             self._alg = _varbo._Algorithm(self._yaml, self._yaml_name, len(names), self._seed, self._budget,
@@ -165,12 +173,18 @@ class VarboSampler(BaseSampler):
             X = np.array([[_encode(search_space[n], t.params[n]) for n in names] for t in new], dtype=float)
             y = np.array([sign * t.value if t.state == TrialState.COMPLETE and t.value is not None else math.nan
                           for t in new], dtype=float)
-            self._alg.tell(X, y)
+            for i in range(len(new)):  # one result per tell, in finish order, as a varbo study tells them
+                self._alg.tell(X[i:i + 1], y[i:i + 1])
             self._told.extend(t.number for t in new)
         self._alg.set_pending(np.array(pending, dtype=float).reshape(-1, len(names)))
         X, _phases = self._alg.ask(1)
         if len(X) == 0:
             return {}
+        self._handed_out[trial.number] = (key, X[0].tolist())
+        if pending:
+            # As varbo::Study does: an algorithm asked with pending points is not continued (its state after such
+            # an ask is not the serial one); the next sample rebuilds it from the finished trials.
+            self._alg = None
         return {n: _decode(search_space[n], u) for n, u in zip(names, X[0])}
 
     def sample_independent(self, study: optuna.Study, trial: FrozenTrial, param_name: str,
