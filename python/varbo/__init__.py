@@ -270,7 +270,7 @@ def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None
         elif not has_task(text):
             raise ConfigError(f"{name}: no search space: pass space={{name: (low, high), ...}} or give the config "
                               "task: {type: python, lower: [...], upper: [...]}")
-        given_output = has_output(text)
+        given_output = _has_output(text)
     if output is None and not given_output:
         output = tempfile.mkdtemp(prefix="varbo-minimize-")
         overwrite = True
@@ -293,7 +293,7 @@ def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None
                           evaluations=r["evaluations"], failed=r["failed"], seconds=r["seconds"])
 
 
-def has_output(yaml_text: str) -> bool:
+def _has_output(yaml_text: str) -> bool:
     import re
     return re.search(r"^output\s*:", yaml_text, re.MULTILINE) is not None
 
