@@ -210,6 +210,11 @@ void bind_minimize(py::module_& m) {
           loader.load_default(plugin_paths_of(root));
           add_python_task(registry);
           const StudyConfig study = parse_study(root, registry);
+          if (study.task.info->plugin != "python")
+            study.task.source.fail(fmt::format(
+                "minimize() optimizes the Python function: leave the task out (give the space) or make it {{type: "
+                "python, lower: [...], upper: [...]}}, not the task '{}'",
+                study.task.info->name));
           {
             // The names the callback's trials are shown with (as the task gives them).
             BuildContext ctx;

@@ -159,6 +159,9 @@ def test_bad_space_and_config(tmp_path):
         varbo.minimize(lambda p: 0.0, {"budget": 3, "algorithm": {"type": "bo", "acquisition": {"type": "ei", "xii": 1}}},
                        space={"x": (0, 1)})
     assert e.value.key == "algorithm.acquisition.xii" and e.value.line is not None
+    with pytest.raises(varbo.ConfigError, match="optimizes the Python function") as e:
+        varbo.minimize(lambda p: 0.0, {"task": {"type": "branin"}, "budget": 3})  # would never call fun
+    assert e.value.key == "task"
     assert not os.path.exists(tmp_path / "never")
 
 
