@@ -10,6 +10,19 @@ BUILD_DIR=${BUILD_DIR:-build}
 PREFIX=${SDK_PREFIX:-$(mktemp -d /tmp/varbo-sdk.XXXXXX)}
 WORK=$(mktemp -d /tmp/varbo-sdk-work.XXXXXX)
 cmake --install "$BUILD_DIR" --prefix "$PREFIX" > "$WORK/install.log"
+# The Python package installed into the prefix's site-packages layout: it imports from there, loads the installed
+# libvarbo_core (its RPATH) and finds the installed plugins.
+PYTHON=$(sed -n 's/^VARBO_PYTHON_EXECUTABLE:INTERNAL=//p' "$BUILD_DIR/CMakeCache.txt")
+if [ -n "$PYTHON" ]; then
+  PYPKG=$(find "$PREFIX" -path '*/varbo/__init__.py' -printf '%h\n' | head -n 1)
+  test -n "$PYPKG"
+  (cd "$WORK" && PYTHONPATH="$(dirname "$PYPKG")" "$PYTHON" -c "
+import varbo
+assert varbo.__file__.startswith('$PREFIX'), varbo.__file__
+assert {'bo', 'gp', 'branin'} <= {c['name'] for c in varbo.plugins()}
+assert all(c['library'].startswith('$PREFIX') for c in varbo.plugins() if c['builtin'])
+print('installed Python package:', varbo.__file__)")
+fi
 cmake -S plugins/template -B "$WORK/template" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/configure.log"
 cmake --build "$WORK/template" > "$WORK/build.log"
 if grep -q "warning:" "$WORK/build.log"; then cat "$WORK/build.log"; echo "template plugins: compiler warnings"; exit 1; fi
@@ -23,6 +36,18 @@ for lib in "$CORE_LIB" "$WORK"/template/libvarbo_*.so; do
     exit 1
   fi
 done
+# Python: varbo.load_plugin() of a third-party library built against the installed SDK; a minimize() started
+# afterwards finds its component.
+if [ -n "$PYTHON" ]; then
+  (cd "$WORK" && PYTHONPATH="$(dirname "$PYPKG")" "$PYTHON" -c "
+import varbo
+varbo.load_plugin('$WORK/template/libvarbo_template.so')
+assert varbo.describe('greedy_mean')['kind'] == 'acquisition'
+r = varbo.minimize(lambda p: (p['x'] - 0.3) ** 2, {'algorithm': {'type': 'bo', 'initial_points': 3,
+                   'acquisition': {'type': 'greedy_mean'}}}, space={'x': (0, 1)}, budget=6, seed=1)
+assert r.evaluations == 6 and [t.phase for t in r.trials][-1] != 'initial', [t.phase for t in r.trials]
+print('Python load_plugin + minimize with greedy_mean: ok')")
+fi
 export VARBO_PLUGIN_PATH="$WORK/template"
 VARBO="$PREFIX/bin/varbo"
 for c in greedy_mean bowl one_plus_one periodic; do "$VARBO" plugins --describe "$c"; done

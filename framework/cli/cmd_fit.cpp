@@ -15,6 +15,7 @@
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/fit.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
@@ -43,24 +44,6 @@ void check_values(const CsvTable& t, const std::vector<Index>& cols, const std::
                                      "square it); rescale the column",
                                      file, line, name, v, kMaxMagnitude));
     }
-}
-
-/// Each restart of an exact GP fit costs O(N³) per likelihood evaluation: past kManyPoints points, unless the
-/// YAML sets `restarts`, one restart per fit (docs/studies.md, "varbo fit").
-constexpr Index kManyPoints = 500;
-
-ResolvedComponent with_fewer_restarts(const Registry& registry, ResolvedComponent rc, Index n) {
-  if (n <= kManyPoints || rc.options.given("restarts")) return rc;
-  bool declares = false;
-  for (const auto& o : rc.info->options) declares = declares || o.name == "restarts";
-  if (!declares || rc.options.integer("restarts") <= 1) return rc;
-  YAML::Node m = YAML::Clone(rc.resolved());
-  m["restarts"] = 1;
-  YAML::Emitter em;
-  em << m;
-  log_info("varbo fit: {} points (> {}) and no `restarts:` given: 1 restart instead of {} (set restarts to override)",
-           n, kManyPoints, rc.options.integer("restarts"));
-  return registry.resolve(Kind::Surrogate, ConfigNode::parse(em.c_str(), "<varbo fit: restarts for large N>"));
 }
 
 /// Past a few seconds, a line on stderr every so often (at 5, 10, …, 30 s, then every 30 s): a large fit must not
@@ -99,11 +82,7 @@ Runner add_fit(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);
-    ConfigNode root = ConfigNode::load_file(a->surrogate);
-    ConfigNode node = root;
-    if (root.has("surrogate")) node = root.child("surrogate");
-    if (root.has("algorithm") && root.child("algorithm").has("surrogate"))
-      node = root.child("algorithm").child("surrogate");
+    const ConfigNode node = surrogate_node(ConfigNode::load_file(a->surrogate));
     const CsvTable data = read_csv(a->data);
     const Index ycol = data.column("y");
     if (ycol < 0) throw InputError(fmt::format("{}: no column named 'y' (the costs)", a->data));
@@ -139,27 +118,15 @@ Runner add_fit(CLI::App& app) {
     ds.y = data.values.col(ycol);
 
     Registry& registry = default_registry();
-    ResolvedComponent rc = registry.resolve(Kind::Surrogate, node);
-    if (!a->no_optimize) rc = with_fewer_restarts(registry, std::move(rc), ds.size());
-    BuildContext ctx;
-    ctx.dim = ds.dim();
-    ctx.seed = static_cast<std::uint64_t>(a->seed);
-    auto model = registry.create<Surrogate>(rc, ctx);
-    Rng rng(static_cast<std::uint64_t>(a->seed));
-    FitReport rep;
+    SurrogateFit fitted;
     {
-      const BackgroundTicker progress =
-          progress_line(fmt::format("{} on {} points × {} dimensions", rc.info->name, ds.size(), ds.dim()));
-      try {
-        rep = a->no_optimize ? model->condition(ds) : model->fit(ds, rng);
-      } catch (const Error&) {
-        throw;
-      } catch (const std::exception& e) {
-        throw NumericalError(fmt::format("{}: the {} fit failed on this data: {} (are θ and y scaled to moderate "
-                                         "magnitudes?)",
-                                         a->data, rc.info->name, e.what()));
-      }
+      const BackgroundTicker progress = progress_line(fmt::format(
+          "{} on {} points × {} dimensions", registry.resolve(Kind::Surrogate, node).info->name, ds.size(), ds.dim()));
+      fitted = fit_surrogate(registry, node, ds, static_cast<std::uint64_t>(a->seed), !a->no_optimize, a->data);
     }
+    const ResolvedComponent& rc = fitted.component;
+    const FitReport& rep = fitted.report;
+    const auto& model = fitted.model;
 
     nlohmann::json j;
     j["surrogate"] = rc.info->full_name();

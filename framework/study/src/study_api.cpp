@@ -377,7 +377,9 @@ Study Study::create_from_yaml(const std::string& store_path, const std::string& 
   return Study(std::move(impl));
 }
 
-Study Study::open(const std::string& store_path) {
+Study Study::open(const std::string& store_path) { return open(store_path, [](Registry&) {}); }
+
+Study Study::open(const std::string& store_path, const std::function<void(Registry&)>& add_components) {
   std::unique_ptr<StudyStore> store = open_store(store_path);
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration (corrupt store?)", store_path));
@@ -385,6 +387,7 @@ Study Study::open(const std::string& store_path) {
   for (const auto& l : lines_of(store->meta(store_key::kPluginPaths).value_or("")))
     if (!l.empty()) paths.push_back(l);
   auto impl = impl_with_plugins(paths);
+  add_components(*impl->own_registry);
   const ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
   const auto identity = store->meta(store_key::kIdentity);

@@ -216,7 +216,11 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // external command is then killed with its whole process tree, and its trial, which has no result, is
   // recorded abandoned (so --resume suggests it again) rather than failed.
   int stop_signal = 0;
-  while (summary.evaluations < study.budget && !(stop_signal = interrupt_signal())) {
+  auto stop_requested = [&ov] {
+    const int s = interrupt_signal();
+    return s != 0 || !ov.stop_signal ? s : ov.stop_signal();
+  };
+  while (summary.evaluations < study.budget && !(stop_signal = stop_requested())) {
     std::vector<TrialRecord> asked = st.ask(1);
     if (asked.empty()) {
       log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
@@ -235,7 +239,7 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       evaluation.error = e.what();
     }
     const double evaluation_seconds = seconds_since(t0);
-    if ((stop_signal = interrupt_signal()) != 0 && !evaluation.ok) {
+    if ((stop_signal = stop_requested()) != 0 && !evaluation.ok) {
       const std::string reason = fmt::format("interrupted by {}", signal_name(stop_signal));
       st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
       log_warn("trial {} abandoned: {} ({})", index, reason, safe_text(evaluation.error, 300));
@@ -281,6 +285,7 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     }
     summary.seconds = seconds_since(t_start);
     writer.summary(summary, shown, optimum);
+    if (ov.on_trial && !ov.on_trial(row.trial)) break;
   }
   if (!summary.recommended_theta) recommend();
   if (st.replay_mismatches() > 0)

@@ -1,11 +1,14 @@
 #pragma once
 // A study: the top-level configuration (task + algorithm + budget + seed + output), and running it.
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 #include "varbo/registry.hpp"
 
 namespace varbo {
+
+struct TrialRecord;  // varbo/store.hpp
 
 /// The validated top-level keys of a study file.
 struct StudyConfig {
@@ -45,6 +48,12 @@ struct RunOverrides {
   bool resume = false;
   /// Replace the study of <output>/study.db even if it holds trials.
   bool overwrite = false;
+  /// For hosts that embed the runner (the Python module): polled like a stop signal, between trials and after a
+  /// failed trial; a non-zero signal number stops the run as that signal would (Interrupted, trial abandoned).
+  std::function<int()> stop_signal;
+  /// Called with each trial once it is recorded; false ends the run after it (as a spent budget would). An
+  /// exception propagates out of run_study with every recorded trial kept.
+  std::function<bool(const TrialRecord&)> on_trial;
 };
 
 struct RunSummary {

@@ -54,6 +54,9 @@ class Study {
                                 const std::string& name = "<embedded config>");
   /// Opens an existing study file (plugins: the default search path plus the paths stored at creation).
   static Study open(const std::string& store_path);
+  /// The same, with components an embedding host adds to the study's registry after the plugins (the Python
+  /// module's task `python`, which studies made by varbo.minimize name).
+  static Study open(const std::string& store_path, const std::function<void(Registry&)>& add_components);
   /// Opens or creates a study with components from `registry` (which must outlive the Study). An existing
   /// store must hold the same task, algorithm, seed and initial point, else InputError.
   static Study attach(const std::string& store_path, const StudyConfig& config, const Registry& registry);

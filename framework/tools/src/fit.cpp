@@ -1,0 +1,63 @@
+#include "varbo/fit.hpp"
+
+#include <fmt/format.h>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+
+namespace varbo {
+
+namespace {
+
+/// Each restart of an exact GP fit costs O(N³) per likelihood evaluation: past kManyPoints points, unless the
+/// YAML sets `restarts`, one restart per fit (docs/studies.md, "varbo fit").
+constexpr Index kManyPoints = 500;
+
+ResolvedComponent with_fewer_restarts(const Registry& registry, ResolvedComponent rc, Index n) {
+  if (n <= kManyPoints || rc.options.given("restarts")) return rc;
+  bool declares = false;
+  for (const auto& o : rc.info->options) declares = declares || o.name == "restarts";
+  if (!declares || rc.options.integer("restarts") <= 1) return rc;
+  YAML::Node m = YAML::Clone(rc.resolved());
+  m["restarts"] = 1;
+  YAML::Emitter em;
+  em << m;
+  log_info("varbo fit: {} points (> {}) and no `restarts:` given: 1 restart instead of {} (set restarts to override)",
+           n, kManyPoints, rc.options.integer("restarts"));
+  return registry.resolve(Kind::Surrogate, ConfigNode::parse(em.c_str(), "<varbo fit: restarts for large N>"));
+}
+
+}  // namespace
+
+ConfigNode surrogate_node(const ConfigNode& root) {
+  ConfigNode node = root;
+  if (root.is_map() && root.has("surrogate")) node = root.child("surrogate");
+  if (root.is_map() && root.has("algorithm") && root.child("algorithm").is_map() &&
+      root.child("algorithm").has("surrogate"))
+    node = root.child("algorithm").child("surrogate");
+  return node;
+}
+
+SurrogateFit fit_surrogate(const Registry& registry, const ConfigNode& node, const Dataset& data, std::uint64_t seed,
+                           bool optimize, const std::string& data_name) {
+  SurrogateFit out;
+  out.component = registry.resolve(Kind::Surrogate, node);
+  if (optimize) out.component = with_fewer_restarts(registry, std::move(out.component), data.size());
+  BuildContext ctx;
+  ctx.dim = data.dim();
+  ctx.seed = seed;
+  out.model = registry.create<Surrogate>(out.component, ctx);
+  Rng rng(seed);
+  try {
+    out.report = optimize ? out.model->fit(data, rng) : out.model->condition(data);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw NumericalError(fmt::format("{}: the {} fit failed on this data: {} (are θ and y scaled to moderate "
+                                     "magnitudes?)",
+                                     data_name, out.component.info->name, e.what()));
+  }
+  return out;
+}
+
+}  // namespace varbo

@@ -1,0 +1,52 @@
+#pragma once
+// Shared pieces of the Python bindings: conversions between Eigen/varbo types and Python objects, and the
+// process-wide registry the module uses for varbo.plugins(), describe(), fit() and the Optuna sampler.
+#include <pybind11/pybind11.h>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+
+#include <string>
+#include <vector>
+
+#include "varbo/registry.hpp"
+#include "varbo/store.hpp"
+
+namespace varbo::python {
+
+namespace py = pybind11;
+
+/// A 1-D float64 array (a copy).
+py::array_t<double> to_array(const Vec& v);
+/// A 2-D float64 array (a copy, row-major).
+py::array_t<double> to_array(const Mat& m);
+/// Any sequence or array of numbers as a vector; `what` names it in the ValueError.
+Vec to_vec(const py::handle& obj, const std::string& what);
+/// A 2-D array-like (a 1-D one is one row per value when dim == 1, else one row) as a matrix.
+Mat to_mat(const py::handle& obj, const std::string& what);
+/// {name: value} for a θ in user units.
+py::dict params_of(const Vec& theta, const std::vector<std::string>& names);
+/// Every field of a stored trial, as the dict varbo.Trial is built from.
+py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names);
+/// Cost components from a dict {name: value} (None or empty: none).
+Components components_of(const py::handle& obj);
+
+/// The module's registry: the built-in plugins (next to libvarbo_core), VARBO_PLUGIN_PATH, and what
+/// varbo.load_plugin() added. Used (resolve, create) and extended only while holding the GIL, which serializes
+/// load_plugin() with every lookup.
+const Registry& module_registry();
+/// Loads one plugin file into the module's registry and appends it to VARBO_PLUGIN_PATH, so that studies created
+/// or opened later in this process (each with its own loader) find it too.
+void load_plugin(const std::string& path);
+
+/// Adds the task `python` (a box; evaluation by the function varbo.minimize() is running, if any) to a registry.
+void add_python_task(Registry& registry);
+
+// Each part registers its functions on the module.
+void bind_errors(py::module_& m);
+void bind_registry(py::module_& m);
+void bind_study(py::module_& m);
+void bind_minimize(py::module_& m);
+void bind_fit(py::module_& m);
+void bind_algorithm(py::module_& m);
+
+}  // namespace varbo::python

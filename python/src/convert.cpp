@@ -1,0 +1,106 @@
+// Conversions between varbo's types and Python objects.
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "common.hpp"
+#include "varbo/errors.hpp"
+
+namespace varbo::python {
+
+py::array_t<double> to_array(const Vec& v) {
+  py::array_t<double> a(v.size());
+  std::copy(v.data(), v.data() + v.size(), a.mutable_data());
+  return a;
+}
+
+py::array_t<double> to_array(const Mat& m) {
+  py::array_t<double> a({m.rows(), m.cols()});
+  auto r = a.mutable_unchecked<2>();
+  for (Index i = 0; i < m.rows(); ++i)
+    for (Index j = 0; j < m.cols(); ++j) r(i, j) = m(i, j);
+  return a;
+}
+
+Vec to_vec(const py::handle& obj, const std::string& what) {
+  py::array_t<double, py::array::c_style | py::array::forcecast> a;
+  try {
+    a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  } catch (const py::error_already_set&) {
+  }
+  if (!a || a.ndim() > 1)
+    throw InputError(fmt::format("{}: expected a sequence of numbers (a 1-D array)", what));
+  Vec v(a.size());
+  std::copy(a.data(), a.data() + a.size(), v.data());
+  return v;
+}
+
+Mat to_mat(const py::handle& obj, const std::string& what) {
+  py::array_t<double, py::array::c_style | py::array::forcecast> a;
+  try {
+    a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  } catch (const py::error_already_set&) {
+  }
+  if (!a || a.ndim() != 2)
+    throw InputError(fmt::format("{}: expected a 2-D array of numbers (one row per point)", what));
+  Mat m(a.shape(0), a.shape(1));
+  auto r = a.unchecked<2>();
+  for (Index i = 0; i < m.rows(); ++i)
+    for (Index j = 0; j < m.cols(); ++j) m(i, j) = r(i, j);
+  return m;
+}
+
+py::dict params_of(const Vec& theta, const std::vector<std::string>& names) {
+  py::dict d;
+  for (Index i = 0; i < theta.size(); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    d[py::str(k < names.size() ? names[k] : fmt::format("x{}", i + 1))] = theta[i];
+  }
+  return d;
+}
+
+namespace {
+py::object number_or_none(double v) { return std::isnan(v) ? py::object(py::none()) : py::object(py::float_(v)); }
+}  // namespace
+
+py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names) {
+  py::dict d;
+  d["id"] = t.id;
+  d["state"] = state_name(t.state);
+  d["phase"] = t.phase;
+  d["params"] = params_of(t.theta, names);
+  d["x"] = to_array(t.theta);
+  d["x_unit"] = to_array(t.x);
+  d["cost"] = number_or_none(t.cost);
+  py::dict comps;
+  for (const auto& [name, v] : t.components) comps[py::str(name)] = v;
+  d["components"] = comps;
+  d["error"] = t.error;
+  d["worker"] = t.worker;
+  d["created_at"] = t.created_at;
+  d["finished_at"] = t.finished_at;
+  d["fit_seconds"] = t.fit_seconds;
+  d["acquisition_seconds"] = t.acquisition_seconds;
+  d["evaluation_seconds"] = t.evaluation_seconds;
+  return d;
+}
+
+Components components_of(const py::handle& obj) {
+  Components out;
+  if (obj.is_none()) return out;
+  if (!py::isinstance<py::dict>(obj))
+    throw InputError("components: expected a dict {name: number}");
+  for (const auto& [k, v] : py::reinterpret_borrow<py::dict>(obj)) {
+    if (!py::isinstance<py::str>(k)) throw InputError("components: every name must be a string");
+    double x = 0;
+    try {
+      x = py::cast<double>(v);
+    } catch (const py::cast_error&) {
+      throw InputError(fmt::format("components: '{}' must be a number", py::cast<std::string>(k)));
+    }
+    out.emplace_back(py::cast<std::string>(k), x);
+  }
+  return out;
+}
+
+}  // namespace varbo::python

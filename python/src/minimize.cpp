@@ -1,0 +1,250 @@
+// varbo._minimize: `varbo run` in-process with a Python objective. The study's task is the component `python`
+// (a box with names); its evaluate() calls the Python function with the GIL held, everything else (fits,
+// acquisition optimization, the store) runs with the GIL released. Stop paths: Ctrl-C (seen by
+// PyErr_CheckSignals before each trial and between trials) stops like SIGINT stops `varbo run`: the trial in
+// flight is abandoned, every recorded trial stays, and KeyboardInterrupt is raised; a callback returning True ends
+// the run after that trial; a callback raising ends it and re-raises.
+#include <fmt/format.h>
+#include <signal.h>
+
+#include <cmath>
+#include <memory>
+
+#include "common.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/study.hpp"
+
+namespace varbo::python {
+
+namespace {
+
+/// What the running minimize() shares with its task (one per call; the task finds it through a thread-local).
+struct Objective {
+  Objective(py::object f, py::object cb) : fun(std::move(f)), callback(std::move(cb)) {}
+  py::object fun;
+  py::object callback;
+  int stop = 0;                                  ///< sticky: once set, every later poll stops
+  std::unique_ptr<py::error_already_set> error;  ///< raised again once the run has ended
+
+  /// Called with the GIL held: Ctrl-C pending? Records the KeyboardInterrupt (or what a signal handler raised).
+  bool check_signals() {
+    if (stop) return true;
+    if (PyErr_CheckSignals() == 0) return false;
+    error = std::make_unique<py::error_already_set>();
+    stop = SIGINT;
+    return true;
+  }
+};
+
+thread_local Objective* t_objective = nullptr;
+
+struct ScopedObjective {
+  explicit ScopedObjective(Objective* o) : previous(t_objective) { t_objective = o; }
+  ~ScopedObjective() { t_objective = previous; }
+  Objective* previous;
+};
+
+std::string describe(const py::error_already_set& e) {
+  std::string type = "Exception";
+  try {
+    type = py::cast<std::string>(e.type().attr("__name__"));
+  } catch (...) {
+  }
+  return fmt::format("{}: {}", type, e.value() ? py::cast<std::string>(py::str(e.value())) : std::string());
+}
+
+class PythonTask : public Task {
+ public:
+  PythonTask(Domain domain, Objective* objective) : domain_(std::move(domain)), objective_(objective) {}
+  Domain domain() const override { return domain_; }
+
+  Evaluation evaluate(const Vec& theta, Rng& /*rng*/) override {
+    Evaluation ev;
+    if (!objective_) return failed(ev, "the task 'python' evaluates only inside varbo.minimize(), which gives it the function");
+    py::gil_scoped_acquire gil;
+    if (objective_->check_signals()) return failed(ev, "interrupted");
+    try {
+      py::object r = objective_->fun(params_of(theta, domain_.names));
+      read_result(r, ev);
+    } catch (py::error_already_set& e) {
+      if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
+        objective_->stop = SIGINT;
+        objective_->error = std::make_unique<py::error_already_set>(std::move(e));
+        return failed(ev, "interrupted");
+      }
+      return failed(ev, describe(e));
+    } catch (const std::exception& e) {
+      return failed(ev, e.what());
+    }
+    return ev;
+  }
+
+ private:
+  static Evaluation& failed(Evaluation& ev, std::string why) {
+    ev.ok = false;
+    ev.cost = std::nan("");
+    ev.error = std::move(why);
+    return ev;
+  }
+
+  /// A number, or a dict {cost: number, components: {name: number}}. NaN or ±inf: a failed trial (the runner).
+  static void read_result(const py::object& r, Evaluation& ev) {
+    if (py::isinstance<py::dict>(r)) {
+      py::dict d = py::reinterpret_borrow<py::dict>(r);
+      if (!d.contains("cost")) throw InputError("the objective returned a dict without 'cost'");
+      ev.cost = number(d["cost"]);
+      if (d.contains("components")) ev.components = components_of(d["components"]);
+      return;
+    }
+    ev.cost = number(r);
+  }
+  static double number(const py::handle& h) {
+    if (h.is_none()) return std::nan("");
+    try {
+      return py::cast<double>(h);
+    } catch (const py::cast_error&) {
+      throw InputError(fmt::format("the objective returned {} (type {}); expected a number or a dict with 'cost'",
+                                   py::cast<std::string>(py::repr(h)),
+                                   py::cast<std::string>(h.get_type().attr("__name__"))));
+    }
+  }
+
+  Domain domain_;
+  Objective* objective_;
+};
+
+std::unique_ptr<Task> make_python_task(const Options& o) {
+  const auto lower = o.reals("lower"), upper = o.reals("upper");
+  if (lower.empty()) o.node("lower").fail("expected at least one value");
+  if (lower.size() != upper.size())
+    o.node("upper").fail(fmt::format("has {} entries but lower has {}", upper.size(), lower.size()));
+  for (std::size_t i = 0; i < lower.size(); ++i)
+    if (!(lower[i] < upper[i])) o.node("upper").fail(fmt::format("entry {} is not above lower[{}]", i, i));
+  const auto d = static_cast<Index>(lower.size());
+  Domain dom;
+  dom.box = Box{Eigen::Map<const Vec>(lower.data(), d), Eigen::Map<const Vec>(upper.data(), d)};
+  if (o.is_set("names")) {
+    const ConfigNode n = o.node("names");
+    if (!n.is_sequence() || static_cast<Index>(n.size()) != d)
+      n.fail(fmt::format("expected a list of {} parameter names (one per bound)", d));
+    for (std::size_t i = 0; i < n.size(); ++i) dom.names.push_back(n.item(i).scalar());
+  }
+  for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
+  // Outside minimize() (varbo.Study.open on a study minimize wrote) the task gives the domain only.
+  return std::make_unique<PythonTask>(std::move(dom), t_objective);
+}
+
+}  // namespace
+
+void add_python_task(Registry& registry) {
+  ComponentInfo info = make_component<Task>(
+      "python", "a Python function (varbo.minimize): the box lower..upper, parameters named by names",
+      {opt::reals("lower", "", "lower bound per parameter").must(),
+       opt::reals("upper", "", "upper bound per parameter").must(),
+       opt::node("names", "", "parameter names (default x1, x2, ...)")},
+      Factory<Task>([](const Options& o, const BuildContext&) { return make_python_task(o); }));
+  info.plugin = "python";
+  info.library = "<varbo Python module>";
+  registry.add(std::move(info));
+}
+
+namespace {
+
+py::dict summary_dict(const RunSummary& s) {
+  py::dict d;
+  d["output"] = s.output;
+  d["evaluations"] = s.evaluations;
+  d["failed"] = s.failed;
+  d["best_x"] = s.best_theta ? py::object(to_array(*s.best_theta)) : py::object(py::none());
+  d["best_cost"] = s.best_theta ? py::object(py::float_(s.best_cost)) : py::object(py::none());
+  d["recommended_x"] = s.recommended_theta ? py::object(to_array(*s.recommended_theta)) : py::object(py::none());
+  d["recommendation_rule"] = s.recommendation_rule;
+  d["seconds"] = s.seconds;
+  return d;
+}
+
+}  // namespace
+
+void bind_minimize(py::module_& m) {
+  m.def(
+      "_minimize",
+      [](py::object fun, const std::string& yaml, const std::string& name, py::object callback,
+         std::optional<std::uint64_t> seed, std::optional<Index> budget, std::optional<int> threads,
+         std::optional<std::string> output, bool resume, bool overwrite, bool progress) {
+        Objective objective{std::move(fun), std::move(callback)};
+        RunOverrides ov;
+        ov.seed = seed;
+        ov.budget = budget;
+        ov.threads = threads;
+        ov.output = output;
+        ov.resume = resume;
+        ov.overwrite = overwrite;
+        ov.progress = progress;
+        ov.stop_signal = [&objective] {
+          py::gil_scoped_acquire gil;
+          objective.check_signals();
+          return objective.stop;
+        };
+        std::vector<std::string> names;
+        ov.on_trial = [&objective, &names](const TrialRecord& t) {
+          py::gil_scoped_acquire gil;
+          if (objective.callback.is_none()) return true;
+          try {
+            return !py::cast<bool>(py::bool_(objective.callback(trial_dict(t, names))));
+          } catch (py::error_already_set& e) {
+            objective.error = std::make_unique<py::error_already_set>(std::move(e));
+            return false;
+          }
+        };
+        std::optional<RunSummary> summary;
+        {
+          py::gil_scoped_release release;
+          ScopedObjective scope(&objective);
+          // A registry per run, as `varbo run` builds one: the default plugins, the config's plugin_path and the
+          // task `python`.
+          const ConfigNode root = ConfigNode::parse(yaml, name);
+          Registry registry;
+          PluginLoader loader(registry);
+          loader.load_default(plugin_paths_of(root));
+          add_python_task(registry);
+          const StudyConfig study = parse_study(root, registry);
+          if (study.task.info->plugin != "python")
+            study.task.source.fail(fmt::format(
+                "minimize() optimizes the Python function: leave the task out (give the space) or make it {{type: "
+                "python, lower: [...], upper: [...]}}, not the task '{}'",
+                study.task.info->name));
+          {
+            // The names the callback's trials are shown with (as the task gives them).
+            BuildContext ctx;
+            names = registry.create<Task>(study.task, ctx)->domain().names;
+          }
+          try {
+            summary = run_study(study, registry, ov);
+          } catch (const Interrupted&) {
+            if (!objective.error) throw;  // a real signal to this process (not Python's handler)
+          }
+        }
+        if (objective.error) {
+          objective.error->restore();
+          objective.error.reset();
+          throw py::error_already_set();
+        }
+        py::dict out = summary_dict(*summary);
+        std::vector<TrialRecord> trials;
+        {
+          py::gil_scoped_release release;
+          trials = open_sqlite_store(summary->output + "/study.db")->trials();
+        }
+        py::list ts;
+        for (const auto& t : trials) ts.append(trial_dict(t, names));
+        out["trials"] = ts;
+        out["names"] = names;
+        return out;
+      },
+      py::arg("fun"), py::arg("yaml"), py::arg("name"), py::arg("callback"), py::arg("seed"), py::arg("budget"),
+      py::arg("threads"), py::arg("output"), py::arg("resume"), py::arg("overwrite"), py::arg("progress"));
+}
+
+}  // namespace varbo::python

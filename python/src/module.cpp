@@ -1,0 +1,15 @@
+// The compiled part of the Python package `varbo` (varbo/_varbo*.so); varbo/__init__.py is the public surface.
+#include "common.hpp"
+#include "varbo/version.hpp"
+
+PYBIND11_MODULE(_varbo, m) {
+  using namespace varbo::python;
+  m.doc() = "varbo's C++ engine (the SDK and varbo::Study); import varbo instead";
+  m.attr("__version__") = VARBO_VERSION_STRING;
+  bind_errors(m);
+  bind_registry(m);
+  bind_study(m);
+  bind_minimize(m);
+  bind_fit(m);
+  bind_algorithm(m);
+}

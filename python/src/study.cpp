@@ -1,0 +1,170 @@
+// varbo._Study: varbo::Study (varbo/study_api.hpp) with the GIL released around every store and model call. The
+// Pythonic surface (configs as dicts, Trial objects, DataFrames) is varbo/study.py.
+#include <fmt/format.h>
+
+#include <chrono>
+#include <mutex>
+
+#include "common.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/study_api.hpp"
+
+namespace varbo::python {
+
+namespace {
+
+/// One varbo::Study; a mutex makes concurrent calls from several Python threads on the same object safe (each
+/// call releases the GIL first, then takes the mutex, so a long ask never blocks other Python threads).
+class PyStudy {
+ public:
+  explicit PyStudy(Study s) : study_(std::move(s)) {}
+
+  template <class F>
+  auto locked(F&& f) {
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(mutex_);
+    // The engine's own time in the latest call, without the Python layer (bench/python: the layer's overhead).
+    struct Timer {
+      double& out;
+      std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+      ~Timer() { out = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+    } timer{engine_seconds_};
+    return f(study_);
+  }
+  double engine_seconds() const { return engine_seconds_; }
+  const std::vector<std::string>& names() const { return study_.domain().names; }
+  Study& study() { return study_; }
+
+ private:
+  Study study_;
+  std::mutex mutex_;
+  double engine_seconds_ = 0;
+};
+
+std::unique_ptr<PyStudy> make(Study (*fn)(const std::string&, const std::string&), const std::string& a,
+                              const std::string& b) {
+  std::optional<Study> s;
+  {
+    py::gil_scoped_release release;
+    s.emplace(fn(a, b));
+  }
+  return std::make_unique<PyStudy>(std::move(*s));
+}
+
+py::object optional_trial(const std::optional<TrialRecord>& t, const std::vector<std::string>& names) {
+  return t ? py::object(trial_dict(*t, names)) : py::object(py::none());
+}
+
+}  // namespace
+
+void bind_study(py::module_& m) {
+  py::class_<PyStudy>(m, "_Study", "varbo::Study; use varbo.Study.")
+      .def_static(
+          "create_from_file",
+          [](const std::string& store, const std::string& file) { return make(&Study::create, store, file); },
+          py::arg("store"), py::arg("config_file"))
+      .def_static(
+          "create_from_yaml",
+          [](const std::string& store, const std::string& yaml, const std::string& name) {
+            std::optional<Study> s;
+            {
+              py::gil_scoped_release release;
+              s.emplace(Study::create_from_yaml(store, yaml, name));
+            }
+            return std::make_unique<PyStudy>(std::move(*s));
+          },
+          py::arg("store"), py::arg("yaml"), py::arg("name"))
+      .def_static(
+          "open",
+          [](const std::string& store) {
+            std::optional<Study> s;
+            {
+              py::gil_scoped_release release;
+              s.emplace(Study::open(store, add_python_task));  // studies made by varbo.minimize too
+            }
+            return std::make_unique<PyStudy>(std::move(*s));
+          },
+          py::arg("store"))
+      .def(
+          "ask",
+          [](PyStudy& s, Index n) {
+            std::vector<TrialRecord> asked = s.locked([&](Study& st) { return st.ask(n); });
+            py::list out;
+            for (const auto& t : asked) out.append(trial_dict(t, s.names()));
+            return out;
+          },
+          py::arg("n") = 1)
+      .def(
+          "tell",
+          [](PyStudy& s, std::int64_t id, double cost, const py::object& components) {
+            const Components c = components_of(components);
+            s.locked([&](Study& st) { st.tell(id, cost, c); });
+          },
+          py::arg("id"), py::arg("cost"), py::arg("components") = py::none())
+      .def(
+          "tell_point",
+          [](PyStudy& s, const py::object& theta, double cost, const py::object& components) {
+            const Vec v = to_vec(theta, "tell_point: θ");
+            const Components c = components_of(components);
+            return s.locked([&](Study& st) { return st.tell_point(v, cost, c); });
+          },
+          py::arg("theta"), py::arg("cost"), py::arg("components") = py::none())
+      .def(
+          "fail",
+          [](PyStudy& s, std::int64_t id, const std::string& reason) {
+            s.locked([&](Study& st) { st.fail(id, reason); });
+          },
+          py::arg("id"), py::arg("reason") = "failed")
+      .def(
+          "abandon",
+          [](PyStudy& s, double older_than) {
+            return s.locked([&](Study& st) { return st.abandon(older_than, "abandoned from Python"); });
+          },
+          py::arg("older_than") = 0.0)
+      .def("best",
+           [](PyStudy& s) {
+             auto b = s.locked([](Study& st) { return st.best(); });
+             return optional_trial(b, s.names());
+           })
+      .def("trials",
+           [](PyStudy& s) {
+             auto ts = s.locked([](Study& st) { return st.trials(); });
+             py::list out;
+             for (const auto& t : ts) out.append(trial_dict(t, s.names()));
+             return out;
+           })
+      .def(
+          "select",
+          [](PyStudy& s, double kappa) -> py::object {
+            auto sel = s.locked([&](Study& st) { return st.select(kappa); });
+            if (!sel) return py::none();
+            py::dict d;
+            d["kappa"] = kappa;
+            d["trial_id"] = sel->trial_id;
+            d["x"] = to_array(sel->theta);
+            d["params"] = params_of(sel->theta, s.names());
+            d["mean"] = sel->mean;
+            d["std"] = sel->std;
+            d["value"] = sel->value;
+            return d;
+          },
+          py::arg("kappa") = 0.0)
+      .def("heartbeat", [](PyStudy& s, const std::string& state) { s.locked([&](Study& st) { st.heartbeat(state); }); },
+           py::arg("state") = "running")
+      .def("set_worker", [](PyStudy& s, const std::string& name) { s.locked([&](Study& st) { st.set_worker(name); }); })
+      .def_property_readonly("engine_seconds", &PyStudy::engine_seconds,
+                             "seconds the C++ engine spent in the latest call (the rest is the Python layer)")
+      .def_property_readonly("names", [](PyStudy& s) { return s.names(); })
+      .def_property_readonly("lower", [](PyStudy& s) { return to_array(s.study().domain().box.lower); })
+      .def_property_readonly("upper", [](PyStudy& s) { return to_array(s.study().domain().box.upper); })
+      .def_property_readonly("budget", [](PyStudy& s) { return s.study().config().budget; })
+      .def_property_readonly("seed", [](PyStudy& s) { return s.study().config().seed; })
+      .def_property_readonly("location", [](PyStudy& s) { return s.study().store().location(); })
+      .def_property_readonly("config", [](PyStudy& s) {
+        YAML::Emitter em;
+        em << s.study().config().resolved();
+        return std::string(em.c_str());
+      });
+}
+
+}  // namespace varbo::python

@@ -1,0 +1,217 @@
+"""varbo.minimize: the same trials as `varbo run`, failures, callbacks, Ctrl-C."""
+import json
+import math
+import os
+import signal
+import threading
+
+import numpy as np
+import pytest
+
+import varbo
+from conftest import BRANIN_SPACE, branin, read_trials_csv, run_cli
+
+ALGORITHM = {"type": "bo", "initial_points": 5, "surrogate": {"type": "gp", "restarts": 2}}
+
+
+def test_minimize_equals_varbo_run(tmp_path):
+    """Branin in Python vs the C++ branin task under `varbo run`: same seed and algorithm, same trials."""
+    cfg = {"task": {"type": "branin"}, "budget": 12, "seed": 7, "threads": 2, "algorithm": ALGORITHM,
+           "output": str(tmp_path / "cli")}
+    (tmp_path / "c.json").write_text(json.dumps(cfg))
+    run_cli("run", tmp_path / "c.json")
+    cli = read_trials_csv(tmp_path / "cli" / "trials.csv")
+    res = varbo.minimize(branin, {"budget": 12, "seed": 7, "threads": 2, "algorithm": ALGORITHM},
+                         space=BRANIN_SPACE, output=str(tmp_path / "py"))
+    py = read_trials_csv(tmp_path / "py" / "trials.csv")
+    assert len(cli) == len(py) == 12 == res.evaluations
+    for a, b, t in zip(cli, py, res.trials):
+        assert a["phase"] == b["phase"] == t.phase
+        for name in ("x1", "x2"):
+            assert float(a[name]) == float(b[name]) == t.params[name]
+        assert float(a["cost"]) == float(b["cost"]) == t.cost
+    summary = json.load(open(tmp_path / "cli" / "summary.json"))
+    assert res.fun == pytest.approx(min(float(r["cost"]) for r in cli), rel=0, abs=0)
+    assert res.x.tolist() == [res.params["x1"], res.params["x2"]]
+    assert res.best.params == res.params and res.best.cost == res.fun and res.recommended == res.recommended_params
+    assert res.recommended_x is not None and res.recommendation_rule == "lowest_mean_evaluated"
+    # Both recommend the same point (the CLI's summary.json against the result object).
+    np.testing.assert_allclose(np.asarray(summary["recommended_theta"], dtype=float), res.recommended_x,
+                               rtol=1e-15, atol=0)
+
+
+def test_space_forms_and_result(tmp_path):
+    res = varbo.minimize(lambda p: p["x1"] ** 2, [(-1, 1)], budget=6, seed=2,
+                         output=str(tmp_path / "r"))
+    assert res.output == str(tmp_path / "r") and os.path.exists(res.study_path)
+    assert list(res.params) == ["x1"] and res.evaluations == 6 and res.failed == 0
+    yaml_cfg = "budget: 5\nseed: 2\nalgorithm: {type: random}\ntask: {type: python, lower: [0], upper: [1], names: [a]}\n"
+    res2 = varbo.minimize(lambda p: p["a"], yaml_cfg)  # no output given: a new temporary run folder
+    assert res2.evaluations == 5 and list(res2.params) == ["a"] and os.path.isdir(res2.output)
+    import shutil
+    shutil.rmtree(res2.output)
+
+
+def test_failed_trials(tmp_path):
+    """An exception, NaN, None or a non-number is a failed trial with its reason; the run goes on."""
+    answers = iter([ValueError("sensor"), float("nan"), None, "bad", {"cost": 2.0, "components": {"e": 1.0}}, 1.0])
+
+    def fun(p):
+        a = next(answers)
+        if isinstance(a, Exception):
+            raise a
+        return a
+
+    res = varbo.minimize(fun, {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=6, seed=1,
+                         output=str(tmp_path / "r"))
+    states = [t.state for t in res.trials]
+    assert states == ["failed"] * 4 + ["complete"] * 2 and res.failed == 4
+    assert "ValueError: sensor" in res.trials[0].error
+    assert "non-finite" in res.trials[1].error and "non-finite" in res.trials[2].error
+    assert "expected a number" in res.trials[3].error
+    assert res.trials[4].components == {"e": 1.0} and res.fun == 1.0
+
+
+def test_callback_stops_and_errors(tmp_path):
+    seen = []
+
+    def cb(trial):
+        seen.append(trial.id)
+        return len(seen) == 3  # stop after the third trial
+
+    res = varbo.minimize(lambda p: p["x"], {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=10,
+                         seed=1, callback=cb, output=str(tmp_path / "a"))
+    assert seen == [0, 1, 2] and res.evaluations == 3
+
+    def bad(trial):
+        if trial.id == 1:
+            raise RuntimeError("callback broke")
+
+    with pytest.raises(RuntimeError, match="callback broke"):
+        varbo.minimize(lambda p: p["x"], {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=10,
+                       seed=1, callback=bad, output=str(tmp_path / "b"))
+    rows = read_trials_csv(tmp_path / "b" / "trials.csv")
+    assert len(rows) == 2  # both recorded trials kept
+    with pytest.raises(TypeError):
+        varbo.minimize(lambda p: 0.0, {"x": (0, 1)}, callback=42)
+    with pytest.raises(TypeError):
+        varbo.minimize(42, {"x": (0, 1)})
+    # A callback with the wrong signature is an error raised from the run, not a crash.
+    with pytest.raises(TypeError):
+        varbo.minimize(lambda p: p["x"], {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=3,
+                       callback=lambda: None, output=str(tmp_path / "c"))
+
+
+def test_ctrl_c_saves_and_resumes(tmp_path):
+    """SIGINT during the objective: KeyboardInterrupt, the trials so far kept, the trial in flight abandoned;
+    resume=True continues to the same trials as an uninterrupted run."""
+    cfg = {"budget": 10, "seed": 4, "algorithm": ALGORITHM}
+    calls = []
+
+    def fun(p):
+        calls.append(p)
+        if len(calls) == 7:
+            os.kill(os.getpid(), signal.SIGINT)
+            # Python runs its handler at the next bytecode boundary: inside this function.
+            for _ in range(1000):
+                pass
+        return branin(p)
+
+    with pytest.raises(KeyboardInterrupt):
+        varbo.minimize(fun, cfg, space=BRANIN_SPACE, output=str(tmp_path / "r"))
+    rows = read_trials_csv(tmp_path / "r" / "trials.csv")
+    assert len(rows) == 6
+    res = varbo.minimize(branin, cfg, space=BRANIN_SPACE, output=str(tmp_path / "r"), resume=True)
+    full = varbo.minimize(branin, cfg, space=BRANIN_SPACE, output=str(tmp_path / "full"))
+    assert res.evaluations == 10
+    done = [t for t in res.trials if t.state == "complete"]
+    assert [t.params for t in done] == [t.params for t in full.trials]
+    assert [t.state for t in res.trials].count("abandoned") == 1
+
+
+def test_gil_released_during_run(tmp_path):
+    """Another Python thread runs while the engine fits (it would starve if the GIL were held)."""
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks.append(1)
+            stop.wait(0.001)
+
+    th = threading.Thread(target=ticker)
+    th.start()
+    try:
+        varbo.minimize(branin, {"budget": 14, "seed": 1, "algorithm": ALGORITHM}, space=BRANIN_SPACE,
+                       output=str(tmp_path / "r"))
+    finally:
+        stop.set()
+        th.join()
+    assert len(ticks) > 10
+
+
+def test_bad_space_and_config(tmp_path):
+    with pytest.raises(varbo.ConfigError, match="no search space"):
+        varbo.minimize(lambda p: 0.0, {"budget": 3})
+    with pytest.raises(varbo.ConfigError):
+        varbo.minimize(lambda p: 0.0, {"x": (1, 0)})  # low above high
+    with pytest.raises(varbo.ConfigError) as e:
+        varbo.minimize(lambda p: 0.0, {"budget": 3, "algorithm": {"type": "bo", "acquisition": {"type": "ei", "xii": 1}}},
+                       space={"x": (0, 1)})
+    assert e.value.key == "algorithm.acquisition.xii" and e.value.line is not None
+    with pytest.raises(varbo.ConfigError, match="optimizes the Python function") as e:
+        varbo.minimize(lambda p: 0.0, {"task": {"type": "branin"}, "budget": 3})  # would never call fun
+    assert e.value.key == "task"
+    assert not os.path.exists(tmp_path / "never")
+
+
+CTRL_C_CHILD = r'''
+import csv, sys, time, varbo
+out = sys.argv[1]
+def f(p):
+    time.sleep(0.02)
+    return (p["x"] - 0.3) ** 2
+try:
+    varbo.minimize(f, {"x": (0, 1)}, budget=500, seed=1, output=out)
+    print("finished")
+except KeyboardInterrupt:
+    rows = list(csv.DictReader(open(out + "/trials.csv")))
+    res = varbo.minimize(f, {"x": (0, 1)}, budget=len(rows) + 2, seed=1, output=out, resume=True)
+    print("interrupted", len(rows), "resumed", res.evaluations)
+'''
+
+
+def test_ctrl_c_from_outside(tmp_path):
+    """A real SIGINT to a process running minimize (while the engine or the objective runs): KeyboardInterrupt in
+    the caller, the run folder complete up to the last recorded trial, and resume continues it."""
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "run"
+    p = subprocess.Popen([sys.executable, "-c", CTRL_C_CHILD, str(out)], stdout=subprocess.PIPE,
+                         stderr=subprocess.DEVNULL, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        if (out / "trials.csv").exists() and len(read_trials_csv(out / "trials.csv")) >= 8:
+            break
+        time.sleep(0.05)
+    p.send_signal(signal.SIGINT)
+    stdout, _ = p.communicate(timeout=300)
+    assert p.returncode == 0
+    words = stdout.split()
+    assert words[0] == "interrupted", stdout
+    assert int(words[1]) >= 8 and int(words[3]) == int(words[1]) + 2
+
+
+def test_study_open_on_a_minimize_run(tmp_path):
+    """varbo.Study.open reads and continues a study minimize wrote (its task `python` gives the domain)."""
+    res = varbo.minimize(lambda p: (p["a"] - 0.2) ** 2, {"budget": 8, "algorithm": {"type": "random"}},
+                         space={"a": (0, 1)}, callback=lambda t: t.id == 4, output=str(tmp_path / "r"))
+    s = varbo.Study.open(res.study_path)
+    assert s.names == ["a"] and s.bounds == [(0.0, 1.0)]
+    assert [t.params for t in s.trials(as_frame=False)] == [t.params for t in res.trials]
+    assert s.best().id == res.best.id
+    assert len(res.trials) == 5
+    (t,) = s.ask()  # the budget is 8: three more
+    s.tell(t, 0.5)
+    assert len(s.trials(as_frame=False)) == 6

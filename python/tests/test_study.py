@@ -1,0 +1,153 @@
+"""varbo.Study: ask/tell round trips, shared with the CLI on the same study file."""
+import json
+
+import numpy as np
+import pytest
+
+import varbo
+from conftest import run_cli
+
+CONFIG = {
+    "task": {"type": "branin"},
+    "budget": 8,
+    "seed": 3,
+    "algorithm": {"type": "bo", "initial_points": 4, "surrogate": {"type": "gp", "restarts": 1}},
+}
+
+
+def test_create_ask_tell_best(tmp_path):
+    study = varbo.Study.create(tmp_path / "s.db", CONFIG)
+    assert study.names == ["x1", "x2"]
+    assert study.bounds == [(-5.0, 10.0), (0.0, 15.0)]
+    costs = {}
+    for _ in range(5):
+        (trial,) = study.ask()
+        assert trial.state == "pending" and set(trial.params) == {"x1", "x2"}
+        assert np.array_equal(trial.x, [trial.params["x1"], trial.params["x2"]])
+        cost = trial.params["x1"] ** 2 + trial.params["x2"]
+        study.tell(trial, cost, components={"a": 1.0})
+        costs[trial.id] = cost
+    best = study.best()
+    assert best.id == min(costs, key=costs.get) and best.cost == min(costs.values())
+    assert best.components == {"a": 1.0}
+    states = [t.state for t in study.trials(as_frame=False)]
+    assert states == ["complete"] * 5
+
+
+def test_config_forms_agree(tmp_path):
+    """A dict, YAML text and a YAML file give the same study (the same first suggestions)."""
+    yaml_text = ("task: {type: branin}\nbudget: 8\nseed: 3\n"
+                 "algorithm: {type: bo, initial_points: 4, surrogate: {type: gp, restarts: 1}}\n")
+    (tmp_path / "c.yaml").write_text(yaml_text)
+    firsts = []
+    for i, cfg in enumerate([CONFIG, yaml_text, str(tmp_path / "c.yaml"), tmp_path / "c.yaml"]):
+        s = varbo.Study.create(tmp_path / f"s{i}.db", cfg)
+        firsts.append([t.x for t in s.ask(3)])
+    for other in firsts[1:]:
+        np.testing.assert_array_equal(np.array(firsts[0]), np.array(other))
+
+
+def test_round_trip_with_cli(tmp_path):
+    """Python asks and tells, the CLI suggests and observes on the same file, each sees the other's trials; and
+    the sequence equals a study driven by the CLI alone (same config and seed)."""
+    db = tmp_path / "mixed.db"
+    study = varbo.Study.create(db, CONFIG)
+    f = lambda x: (x[0] - 1.0) ** 2 + (x[1] - 2.0) ** 2  # noqa: E731
+    points = []
+    for k in range(6):
+        if k % 2 == 0:  # Python
+            (t,) = study.ask()
+            points.append(t.x)
+            study.tell(t.id, f(t.x))
+        else:  # the CLI on the same file
+            out = json.loads(run_cli("suggest", db, "--json").stdout)
+            trial = out[0] if isinstance(out, list) else out
+            x = np.array(trial["theta"], dtype=float)
+            points.append(x)
+            run_cli("observe", db, trial["id"], repr(f(x)))
+    # Python sees the CLI's results
+    trials = study.trials(as_frame=False)
+    assert [t.state for t in trials] == ["complete"] * 6
+    np.testing.assert_allclose([t.cost for t in trials], [f(p) for p in points], rtol=0, atol=0)
+    status = run_cli("status", db).stdout
+    assert "6" in status
+    # The same study driven by the CLI alone suggests the same points.
+    cli_db = tmp_path / "cli.db"
+    cfg = tmp_path / "c.json"
+    cfg.write_text(json.dumps(CONFIG))
+    run_cli("study", "create", cli_db, cfg)
+    for p in points:
+        out = json.loads(run_cli("suggest", cli_db, "--json").stdout)
+        trial = out[0] if isinstance(out, list) else out
+        np.testing.assert_allclose(trial["theta"], p, rtol=0, atol=1e-12)
+        run_cli("observe", cli_db, trial["id"], repr(f(np.array(trial["theta"]))))
+
+
+def test_open_continues(tmp_path):
+    db = tmp_path / "s.db"
+    s = varbo.Study.create(db, CONFIG)
+    (t,) = s.ask()
+    s.tell(t, 1.5)
+    (pending,) = s.ask()
+    del s
+    s2 = varbo.Study.open(db)
+    assert [t.state for t in s2.trials(as_frame=False)] == ["complete", "pending"]
+    s2.tell(pending.id, {"cost": 2.0, "components": {"e": 0.5}})
+    assert s2.trials(as_frame=False)[1].components == {"e": 0.5}
+
+
+def test_fail_and_budget(tmp_path):
+    s = varbo.Study.create(tmp_path / "s.db", dict(CONFIG, budget=3, algorithm={"type": "random"}))
+    a, b = s.ask(2)
+    s.fail(a, "robot fell")
+    s.tell(b, 1.0)
+    (c,) = s.ask(5)  # one left in the budget
+    s.tell(c, 2.0)
+    assert s.ask() == []
+    t = s.trials(as_frame=False)
+    assert t[0].state == "failed" and t[0].error == "robot fell" and t[0].cost is None
+
+
+def test_select_kappas(tmp_path):
+    s = varbo.Study.create(tmp_path / "s.db", dict(CONFIG, algorithm={"type": "random"}, budget=12))
+    rng = np.random.default_rng(0)
+    for t in s.ask(10):
+        s.tell(t, float(t.params["x1"] ** 2 + rng.normal(0, 0.1)))
+    sel = s.select([2.0, -2.0])
+    assert [x.kappa for x in sel] == [2.0, -2.0]
+    for x in sel:
+        assert x.value == pytest.approx(x.mean + x.kappa * x.std)
+        assert x.params == dict(zip(s.names, x.x.tolist()))
+    one = s.select(0.0)
+    assert one.value == pytest.approx(one.mean)
+
+
+def test_tell_point_and_errors(tmp_path):
+    s = varbo.Study.create(tmp_path / "s.db", CONFIG)
+    i = s.tell_point({"x1": 1.0, "x2": 2.0}, 3.0)
+    assert s.trials(as_frame=False)[i].phase == "manual"
+    with pytest.raises(varbo.InputError):
+        s.tell_point([100.0, 2.0], 3.0)  # outside the domain
+    (t,) = s.ask()
+    with pytest.raises(ValueError, match="finite"):
+        s.tell(t, float("nan"))
+    with pytest.raises(varbo.InputError, match="no trial with id"):
+        s.tell(999, 1.0)
+    s.tell(t, 1.0)
+    with pytest.raises(varbo.InputError, match="already complete"):
+        s.tell(t, 1.0)
+    with pytest.raises(TypeError):
+        s.tell("x", 1.0)
+    with pytest.raises(varbo.InputError):
+        varbo.Study.create(tmp_path / "s.db", CONFIG)  # exists
+    with pytest.raises(varbo.InputError):
+        varbo.Study.open(tmp_path / "missing.db")
+
+
+def test_trials_dataframe_when_pandas(tmp_path):
+    pd = pytest.importorskip("pandas")
+    s = varbo.Study.create(tmp_path / "s.db", CONFIG)
+    (t,) = s.ask()
+    s.tell(t, 1.0)
+    df = s.trials()
+    assert isinstance(df, pd.DataFrame) and list(df["params_x1"]) == [t.params["x1"]]

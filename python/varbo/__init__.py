@@ -1,0 +1,345 @@
+"""varbo — risk-aware and cautious Bayesian optimization (C++ engine) from Python.
+
+    import varbo
+    res = varbo.minimize(lambda p: (p["x"] - 1) ** 2 + p["y"] ** 2, {"x": (-5, 5), "y": (-5, 5)}, budget=30)
+    res.x, res.fun, res.recommended_params
+
+Studies (durable ask/tell, shared by processes and with the ``varbo`` CLI): ``Study.create`` / ``Study.open``.
+Models: ``fit`` (the numbers of ``varbo fit``). Components: ``plugins``, ``describe``, ``load_plugin``.
+Optuna users: ``varbo.optuna.VarboSampler``. Reference: docs/python.md.
+"""
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _varbo
+from ._config import has_task, is_path, to_yaml
+from ._types import OptimizeResult, Prediction, Selection, Trial, trial_from
+from ._varbo import (ConfigError, Error, InputError, NumericalError, PluginLoadError, UnknownComponentError,
+                     describe, load_plugin, plugins, set_log_level, skipped_plugins)
+
+__version__ = _varbo.__version__
+# Quiet by default, as Python's logging is: warnings and errors on stderr; a run folder's log.txt still gets every
+# info line. varbo.set_log_level("info") shows the engine's progress messages as the CLI does.
+set_log_level("warn")
+__all__ = [
+    "Study", "Trial", "Selection", "Model", "Prediction", "OptimizeResult", "minimize", "fit", "plugins",
+    "describe", "load_plugin", "skipped_plugins", "set_log_level", "Error", "ConfigError",
+    "UnknownComponentError", "InputError", "PluginLoadError", "NumericalError",
+]
+
+Config = Union[Mapping[str, Any], str, "os.PathLike[str]"]
+
+
+def _trial_id(trial_or_id: Union[Trial, int]) -> int:
+    if isinstance(trial_or_id, Trial):
+        return trial_or_id.id
+    if isinstance(trial_or_id, (int, np.integer)) and not isinstance(trial_or_id, bool):
+        return int(trial_or_id)
+    raise TypeError(f"expected a Trial or a trial id (int), got {type(trial_or_id).__name__}")
+
+
+def _cost_and_components(cost: Any, components: Optional[Mapping[str, float]]):
+    if isinstance(cost, Mapping):
+        if "cost" not in cost:
+            raise InputError("a result dict needs 'cost' (and optionally 'components')")
+        return float(cost["cost"]), dict(cost.get("components") or {}) if components is None else dict(components)
+    return float(cost), None if components is None else dict(components)
+
+
+class Study:
+    """A durable ask/tell study (``varbo::Study``): a SQLite file holding the configuration, every trial and the
+    algorithm's state. Several processes (and the ``varbo`` CLI: ``varbo status/suggest/observe``) may share it;
+    every call commits to the store, so a crash loses nothing that was told.
+
+    Methods release the GIL while the engine works; one Study may be used from several threads (calls are
+    serialized), and different studies run in parallel.
+    """
+
+    def __init__(self, impl: "_varbo._Study") -> None:
+        self._impl = impl
+
+    @classmethod
+    def create(cls, path_or_url: Union[str, "os.PathLike[str]"], config: Config) -> "Study":
+        """Creates a new study at ``path_or_url`` from a study configuration (a dict, YAML text or a YAML file: the
+        file ``varbo run`` takes: task, algorithm, budget, seed, ...). An existing file is an InputError; a bad
+        configuration a ConfigError naming file:line:col and the key."""
+        location = os.fspath(path_or_url)
+        if is_path(config):
+            return cls(_varbo._Study.create_from_file(location, os.fspath(config)))
+        text, name = to_yaml(config)
+        return cls(_varbo._Study.create_from_yaml(location, text, name))
+
+    @classmethod
+    def open(cls, path_or_url: Union[str, "os.PathLike[str]"]) -> "Study":
+        """Opens an existing study (the algorithm is restored from its saved state)."""
+        return cls(_varbo._Study.open(os.fspath(path_or_url)))
+
+    def ask(self, n: int = 1) -> List[Trial]:
+        """Up to ``n`` new pending trials (fewer, possibly none, once the budget is spent)."""
+        return [trial_from(d) for d in self._impl.ask(int(n))]
+
+    def tell(self, trial_or_id: Union[Trial, int], cost: Union[float, Mapping[str, Any]],
+             components: Optional[Mapping[str, float]] = None) -> None:
+        """Records the result of a pending trial: a finite cost (or ``{"cost": c, "components": {...}}``).
+        A NaN or infinite cost is an InputError: report a trial that could not be measured with ``fail``."""
+        c, comps = _cost_and_components(cost, components)
+        self._impl.tell(_trial_id(trial_or_id), c, comps)
+
+    def fail(self, trial_or_id: Union[Trial, int], reason: str = "failed") -> None:
+        """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
+        self._impl.fail(_trial_id(trial_or_id), str(reason))
+
+    def tell_point(self, x: Union[Mapping[str, float], Sequence[float], np.ndarray], cost: float,
+                   components: Optional[Mapping[str, float]] = None) -> int:
+        """Records the cost of a point no suggestion produced (phase "manual"); returns its trial id."""
+        if isinstance(x, Mapping):
+            missing = [n for n in self.names if n not in x]
+            if missing:
+                raise InputError(f"tell_point: no value for {', '.join(missing)} (parameters: {', '.join(self.names)})")
+            x = [x[n] for n in self.names]
+        return self._impl.tell_point(np.asarray(x, dtype=float), float(cost), components)
+
+    def best(self) -> Optional[Trial]:
+        """The complete trial with the lowest observed cost (None before the first result)."""
+        d = self._impl.best()
+        return None if d is None else trial_from(d)
+
+    def trials(self, as_frame: Optional[bool] = None):
+        """Every trial by id: a ``pandas.DataFrame`` when pandas is importable (columns ``params_<name>`` and
+        ``components_<name>``, as Optuna's ``trials_dataframe``), else a list of Trial. ``as_frame`` forces either."""
+        records = [trial_from(d) for d in self._impl.trials()]
+        if as_frame is False:
+            return records
+        try:
+            import pandas as pd
+        except ImportError:
+            if as_frame:
+                raise
+            return records
+        rows = []
+        for t in records:
+            row = {k: getattr(t, k) for k in ("id", "state", "phase", "cost", "error", "worker", "created_at",
+                                             "finished_at", "fit_seconds", "acquisition_seconds",
+                                             "evaluation_seconds")}
+            row.update({f"params_{k}": v for k, v in t.params.items()})
+            row.update({f"components_{k}": v for k, v in t.components.items()})
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def select(self, kappas: Union[float, Iterable[float]] = 0.0):
+        """Risk after learning (Kuindersma 2013, section 3.4): among complete trials, the one minimizing
+        E[y] + κ·sqrt(V[y]) under the study's surrogate refitted on every result; κ > 0 is risk-averse. One
+        Selection for a number, a list for a sequence of κ; None when nothing is complete."""
+        if isinstance(kappas, (int, float, np.floating, np.integer)):
+            d = self._impl.select(float(kappas))
+            return None if d is None else Selection(**d)
+        out = []
+        for k in kappas:
+            d = self._impl.select(float(k))
+            out.append(None if d is None else Selection(**d))
+        return out
+
+    def abandon(self, older_than: float = 0.0) -> List[int]:
+        """Marks pending trials abandoned (all, or those older than ``older_than`` seconds); returns their ids."""
+        return list(self._impl.abandon(float(older_than)))
+
+    def heartbeat(self, state: str = "running") -> None:
+        """A sign of life of this worker: once sent, a worker silent for longer than the study's heartbeat_timeout
+        has its pending trials abandoned by the next ask of any process."""
+        self._impl.heartbeat(state)
+
+    def set_worker(self, name: str) -> None:
+        """Name recorded as the worker of the trials this object asks for (default "host:pid")."""
+        self._impl.set_worker(name)
+
+    @property
+    def names(self) -> List[str]:
+        return list(self._impl.names)
+
+    @property
+    def bounds(self) -> List[tuple]:
+        """[(low, high)] per parameter, in your units."""
+        return list(zip(self._impl.lower.tolist(), self._impl.upper.tolist()))
+
+    @property
+    def budget(self) -> int:
+        return self._impl.budget
+
+    @property
+    def seed(self) -> int:
+        return self._impl.seed
+
+    @property
+    def location(self) -> str:
+        return self._impl.location
+
+    @property
+    def config(self) -> str:
+        """The resolved configuration (YAML, every default filled in)."""
+        return self._impl.config
+
+    def __repr__(self) -> str:
+        return f"varbo.Study({self.location!r}, parameters={self.names}, budget={self.budget})"
+
+
+# ---- minimize ---------------------------------------------------------------------------------------------------
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+
+
+def _is_bounds(v: Any) -> bool:
+    return isinstance(v, (tuple, list)) and len(v) == 2 and all(_is_number(b) for b in v)
+
+
+def _space_task(space: Any) -> Dict[str, Any]:
+    """{name: (low, high)} or [(low, high), ...] as the task `python`."""
+    if isinstance(space, Mapping):
+        names = [str(k) for k in space]
+        bounds = list(space.values())
+    else:
+        bounds = [tuple(b) if isinstance(b, (list, tuple, np.ndarray)) else b for b in space]
+        names = None
+    for i, b in enumerate(bounds):
+        if not _is_bounds(b):
+            where = names[i] if names else f"entry {i}"
+            raise ConfigError(f"space: {where}: expected (low, high), got {b!r}")
+    task = {"type": "python", "lower": [float(b[0]) for b in bounds], "upper": [float(b[1]) for b in bounds]}
+    if names:
+        task["names"] = names
+    return task
+
+
+def _looks_like_space(obj: Any) -> bool:
+    if isinstance(obj, Mapping):
+        return len(obj) > 0 and all(_is_bounds(v) for v in obj.values())
+    return isinstance(obj, (list, tuple)) and len(obj) > 0 and all(_is_bounds(b) for b in obj)
+
+
+def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None, *, space: Any = None,
+             budget: Optional[int] = None, seed: Optional[int] = None,
+             callback: Optional[Callable[[Trial], Any]] = None, threads: Optional[int] = None,
+             output: Optional[str] = None, resume: bool = False, overwrite: bool = False,
+             progress: bool = False) -> OptimizeResult:
+    """Minimizes ``fun`` in this process with varbo's engine, exactly as ``varbo run`` runs a study.
+
+    ``fun(params)`` gets a dict {name: value} and returns a number or ``{"cost": c, "components": {...}}``; an
+    exception, None, NaN or ±inf is a failed trial (recorded with the reason; bo learns where trials fail).
+    ``config_or_space``: a search space — ``{"x": (low, high), ...}`` or ``[(low, high), ...]`` — or a study
+    configuration (dict, YAML text or file) whose ``task:`` is left out (``space=`` gives the space) or is
+    ``{type: python, lower: [...], upper: [...], names: [...]}``. Default algorithm: the plain ``{type: bo}``.
+    ``callback(trial)`` runs after each recorded trial; returning True ends the run, raising ends it and re-raises.
+
+    The GIL is released while the engine fits and optimizes (other Python threads run). Ctrl-C stops between
+    trials or during ``fun``: the trial in flight is abandoned, every recorded trial stays in the run folder, and
+    KeyboardInterrupt is raised; ``minimize(..., output=that_folder, resume=True)`` continues. The run folder is
+    ``output``, else the config's ``output:``, else a new temporary folder.
+    """
+    if not callable(fun):
+        raise TypeError("minimize: fun must be callable")
+    if callback is not None and not callable(callback):
+        raise TypeError("minimize: callback must be callable or None")
+    if config_or_space is not None and space is None and _looks_like_space(config_or_space):
+        space, config_or_space = config_or_space, None
+    if config_or_space is None:
+        config_or_space = {}
+    if isinstance(config_or_space, Mapping):
+        cfg = dict(config_or_space)
+        if space is not None:
+            if "task" in cfg:
+                raise ConfigError("minimize: give the space either as space= or as the config's task, not both")
+            cfg["task"] = _space_task(space)
+        elif "task" not in cfg:
+            raise ConfigError("minimize: no search space: pass {name: (low, high), ...} or a config with "
+                              "task: {type: python, lower: [...], upper: [...]}")
+        text, name = to_yaml(cfg)
+        given_output = "output" in cfg
+    else:
+        text, name = to_yaml(config_or_space)
+        if space is not None:
+            if has_task(text):
+                raise ConfigError(f"{name}: give the space either as space= or as the config's task, not both")
+            import json
+            text = text.rstrip("\n") + "\ntask: " + json.dumps(_space_task(space)) + "\n"
+        elif not has_task(text):
+            raise ConfigError(f"{name}: no search space: pass space={{name: (low, high), ...}} or give the config "
+                              "task: {type: python, lower: [...], upper: [...]}")
+        given_output = _has_output(text)
+    if output is None and not given_output:
+        output = tempfile.mkdtemp(prefix="varbo-minimize-")
+        overwrite = True
+    user_callback = callback
+
+    def on_trial(d: Dict[str, Any]) -> Any:
+        return user_callback(trial_from(d))
+
+    r = _varbo._minimize(fun, text, name, None if callback is None else on_trial, seed, budget, threads,
+                         None if output is None else os.fspath(output), resume, overwrite, progress)
+    names = r["names"]
+
+    def params(x):
+        return None if x is None else dict(zip(names, x.tolist()))
+
+    return OptimizeResult(x=r["best_x"], fun=r["best_cost"], params=params(r["best_x"]),
+                          recommended_x=r["recommended_x"], recommended_params=params(r["recommended_x"]),
+                          recommendation_rule=r["recommendation_rule"],
+                          trials=[trial_from(d) for d in r["trials"]], output=r["output"],
+                          evaluations=r["evaluations"], failed=r["failed"], seconds=r["seconds"])
+
+
+def _has_output(yaml_text: str) -> bool:
+    import re
+    return re.search(r"^output\s*:", yaml_text, re.MULTILINE) is not None
+
+
+# ---- fit --------------------------------------------------------------------------------------------------------
+
+class Model:
+    """A surrogate fitted by ``fit``: ``predict(X)``, and the fit's ``hyperparameters``, ``objective`` (log marginal
+    likelihood or bound + log hyperprior), ``objective_without_prior``, ``log_prior``, ``state`` (VHGP: log Λ, ...),
+    ``ok``, ``optimized``, ``message`` — the fields of ``varbo fit``'s JSON."""
+
+    def __init__(self, impl: "_varbo._Model") -> None:
+        self._impl = impl
+        info = impl.info()
+        self.surrogate: str = info["surrogate"]
+        self.config: str = info["config"]
+        self.ok: bool = info["ok"]
+        self.optimized: bool = info["optimized"]
+        self.objective: float = info["objective"]
+        self.objective_without_prior: float = info["objective_without_prior"]
+        self.log_prior: float = info["log_prior"]
+        self.message: str = info["message"]
+        self.hyperparameters: Dict[str, float] = info["hyperparameters"]
+        self.state: Dict[str, np.ndarray] = info["state"]
+        self.dim: int = impl.dim
+
+    def predict(self, X: Any, gradients: bool = False) -> Prediction:
+        """The predictive distribution at each row of X (n × d; a 1-D X is one point)."""
+        X = np.asarray(X, dtype=float)
+        if X.ndim == 1:
+            X = X.reshape(1, -1) if X.size == self.dim else X.reshape(-1, 1)
+        return Prediction(**self._impl.predict(X, bool(gradients)))
+
+    def __repr__(self) -> str:
+        return f"varbo.Model({self.surrogate}, objective={self.objective:.6g}, ok={self.ok})"
+
+
+def fit(surrogate_config: Config, X: Any, y: Any, *, seed: int = 1, optimize: bool = True,
+        threads: int = 0) -> Model:
+    """Fits a surrogate (``"gp"``, ``{"type": "vhgp", ...}``, YAML text or file: a surrogate map or a study file's
+    ``surrogate:``/``algorithm.surrogate:``) to X (n × d, used as given) and y, exactly as ``varbo fit`` does:
+    the same seed gives the same numbers. ``optimize=False`` only conditions on the hyperparameters the config gives
+    (``varbo fit --no-optimize``). The GIL is released during the fit."""
+    text, name = to_yaml(surrogate_config, "surrogate")
+    X = np.asarray(X, dtype=float)
+    if X.ndim == 1:
+        X = X.reshape(-1, 1)
+    return Model(_varbo._fit(text, name, X, np.asarray(y, dtype=float).ravel(), int(seed), bool(optimize),
+                             int(threads)))

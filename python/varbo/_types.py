@@ -1,0 +1,111 @@
+"""The plain records the API returns: trials, selections, predictions, results."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional
+
+import numpy as np
+
+
+@dataclass
+class Trial:
+    """One trial of a study.
+
+    ``params`` maps each parameter's name to its value in your units (``x1, x2, …`` until the search space names
+    them); ``x`` is the same point as an array, ``x_unit`` in the unit cube the algorithm works in. ``state`` is
+    pending, complete, failed or abandoned; ``cost`` is None until a result is told.
+    """
+
+    id: int
+    state: str
+    phase: str
+    params: Dict[str, float]
+    x: np.ndarray
+    x_unit: np.ndarray
+    cost: Optional[float] = None
+    components: Dict[str, float] = field(default_factory=dict)
+    error: str = ""
+    worker: str = ""
+    created_at: float = 0.0
+    finished_at: float = 0.0
+    fit_seconds: float = 0.0
+    acquisition_seconds: float = 0.0
+    evaluation_seconds: float = 0.0
+
+
+@dataclass
+class Selection:
+    """The evaluated point minimizing E[y] + κ·sqrt(V[y]) under the refitted surrogate (``Study.select``)."""
+
+    kappa: float
+    trial_id: int
+    params: Dict[str, float]
+    x: np.ndarray
+    mean: float
+    std: float
+    value: float
+
+
+@dataclass
+class Prediction:
+    """The predictive distribution at each row of X, in cost units (Kuindersma 2013, eq. 7).
+
+    ``mean`` E[y]; ``latent_var`` the variance of the latent cost f; ``noise_var`` E[exp g], the expected noise
+    variance (constant for a GP); ``variance`` their sum V[y]. With ``gradients=True`` the derivatives with
+    respect to x, one row per point: ``d_mean``, ``d_latent_var``, ``d_noise_var``.
+    """
+
+    mean: np.ndarray
+    latent_var: np.ndarray
+    noise_var: np.ndarray
+    log_noise_mean: np.ndarray
+    log_noise_var: np.ndarray
+    d_mean: Optional[np.ndarray] = None
+    d_latent_var: Optional[np.ndarray] = None
+    d_noise_var: Optional[np.ndarray] = None
+
+    @property
+    def variance(self) -> np.ndarray:
+        return self.latent_var + self.noise_var
+
+    @property
+    def std(self) -> np.ndarray:
+        return np.sqrt(self.variance)
+
+
+@dataclass
+class OptimizeResult:
+    """What ``minimize`` returns. ``x``/``fun``/``params``: the best observed point and its cost;
+    ``recommended_x``/``recommended_params``: the point the algorithm recommends deploying (bo: the evaluated point
+    with the lowest posterior mean by default); ``output``: the run folder (trials.csv, summary.json, study.db)."""
+
+    x: Optional[np.ndarray]
+    fun: Optional[float]
+    params: Optional[Dict[str, float]]
+    recommended_x: Optional[np.ndarray]
+    recommended_params: Optional[Dict[str, float]]
+    recommendation_rule: str
+    trials: List[Trial]
+    output: str
+    evaluations: int
+    failed: int
+    seconds: float
+
+    @property
+    def study_path(self) -> str:
+        return self.output + "/study.db"
+
+    @property
+    def best(self) -> Optional[Trial]:
+        """The complete trial with the lowest cost (the first such by id), as Study.best()."""
+        done = [t for t in self.trials if t.state == "complete"]
+        return min(done, key=lambda t: t.cost) if done else None
+
+    @property
+    def recommended(self) -> Optional[Dict[str, float]]:
+        """The recommended parameters (``recommended_params``)."""
+        return self.recommended_params
+
+
+def trial_from(d: Dict[str, Any]) -> Trial:
+    return Trial(**d)

@@ -1,0 +1,196 @@
+"""``VarboSampler``: varbo's Bayesian optimization as an Optuna sampler.
+
+    import optuna, varbo.optuna
+    study = optuna.create_study(sampler=varbo.optuna.VarboSampler(seed=1))   # the one line that changes
+    study.optimize(objective, n_trials=100)
+
+Optuna keeps its storage, pruners, dashboard and visualizations; varbo only chooses the points. Relative sampling
+covers the intersection search space of the finished trials (every parameter all of them had, with the same
+distribution): each parameter is mapped to [0, 1] — floats linearly or in log scale, integers and steps by
+rounding, categoricals by the index of the choice (an ordinal encoding: varbo's search spaces have no typed
+categoricals yet) — the finished trials are told to a varbo algorithm (``{type: bo}`` unless ``algorithm`` says
+otherwise: any varbo algorithm config), and its next point is asked. Failed trials are told as failures (bo's
+failure model avoids where trials fail); pending trials are passed as pending points. Parameters outside that space
+(the first trial, conditional parameters) come from the independent sampler (Optuna's RandomSampler by default).
+"""
+from __future__ import annotations
+
+import math
+import threading
+from typing import Any, Dict, List, Optional, Sequence
+
+import numpy as np
+import optuna
+from optuna.distributions import BaseDistribution, CategoricalDistribution, FloatDistribution, IntDistribution
+from optuna.samplers import BaseSampler, RandomSampler
+from optuna.study import StudyDirection
+from optuna.trial import FrozenTrial, TrialState
+
+from . import _varbo
+from ._config import to_yaml
+
+try:  # Optuna >= 3.2 moved it
+    from optuna.search_space import IntersectionSearchSpace
+except ImportError:  # pragma: no cover - Optuna 3.1 (Debian 12)
+    from optuna.samplers import IntersectionSearchSpace
+
+__all__ = ["VarboSampler"]
+
+
+def _encode(dist: BaseDistribution, value: Any) -> float:
+    """A parameter value as a coordinate in [0, 1]."""
+    if isinstance(dist, CategoricalDistribution):
+        n = len(dist.choices)
+        return (dist.to_internal_repr(value) + 0.5) / n
+    low, high = float(dist.low), float(dist.high)
+    v = float(value)
+    if isinstance(dist, IntDistribution) and not dist.log:
+        # Integer k owns [k - step/2, k + step/2]: every integer gets the same share of the unit interval.
+        s = dist.step
+        return (v - low + 0.5 * s) / (high - low + s)
+    if dist.log:
+        return (math.log(v) - math.log(low)) / (math.log(high) - math.log(low))
+    return (v - low) / (high - low)
+
+
+def _decode(dist: BaseDistribution, u: float) -> Any:
+    """The value at coordinate u in [0, 1] (the inverse of _encode, rounded to the distribution's grid)."""
+    u = min(max(float(u), 0.0), 1.0)
+    if isinstance(dist, CategoricalDistribution):
+        n = len(dist.choices)
+        return dist.to_external_repr(min(int(u * n), n - 1))
+    low, high = float(dist.low), float(dist.high)
+    if isinstance(dist, IntDistribution):
+        if dist.log:
+            v = math.exp(math.log(low) + u * (math.log(high) - math.log(low)))
+            return int(min(max(round(v), dist.low), dist.high))
+        s = dist.step
+        k = math.floor(u * (high - low + s) / s)
+        return int(min(dist.low + k * s, dist.high - (dist.high - dist.low) % s))
+    if dist.log:
+        v = math.exp(math.log(low) + u * (math.log(high) - math.log(low)))  # low and high up to rounding
+    else:
+        v = low + u * (high - low)
+    if dist.step is not None:
+        v = low + round((v - low) / dist.step) * dist.step
+    return float(min(max(v, low), high))
+
+
+class VarboSampler(BaseSampler):
+    """An Optuna sampler choosing points with a varbo algorithm (default: varbo's plain ``{type: bo}``).
+
+    Args:
+        algorithm: a varbo algorithm configuration (dict, YAML text or file), e.g.
+            ``{"type": "bo", "surrogate": {"type": "vhgp"}, "acquisition": {"type": "ei", "xi": 0.1}}``.
+        seed: the algorithm's seed (and the independent sampler's); a random one when None.
+        independent_sampler: for parameters outside the intersection search space (default RandomSampler(seed)).
+        budget: the number of trials the study will run, if known: bo caps its initial design by it (0: no cap).
+        threads: worker threads of the C++ engine (0 = all cores).
+        warn_independent_sampling: warn when a parameter is sampled independently after the first trial.
+    """
+
+    def __init__(self, algorithm: Any = None, *, seed: Optional[int] = None,
+                 independent_sampler: Optional[BaseSampler] = None, budget: int = 0, threads: int = 0,
+                 warn_independent_sampling: bool = True) -> None:
+        self._yaml, self._yaml_name = to_yaml(algorithm if algorithm is not None else {"type": "bo"}, "algorithm")
+        self._seed = int(seed) if seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
+        self._independent = independent_sampler or RandomSampler(seed=self._seed)
+        self._budget = int(budget)
+        self._threads = int(threads)
+        self._warn = warn_independent_sampling
+        self._search_space = IntersectionSearchSpace()
+        # The live algorithm and the trial numbers told to it, in order: a later call that only adds results
+        # tells those (as a varbo study does) instead of refitting from scratch.
+        self._alg: Optional[_varbo._Algorithm] = None
+        self._alg_key: Optional[tuple] = None
+        self._told: List[int] = []
+        self._handed_out: Dict[int, tuple] = {}  # trial number -> (search space key, unit point) while running
+        self._lock = threading.Lock()  # study.optimize(n_jobs > 1) samples from several threads
+        # Configuration errors surface here, not at the first relative sample.
+        _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads)
+
+    def reseed_rng(self) -> None:
+        self._independent.reseed_rng()
+
+    def __getstate__(self) -> Dict[str, Any]:
+        # The live algorithm (C++) is not pickled: the next relative sample rebuilds it from the study's trials.
+        state = self.__dict__.copy()
+        state.update(_alg=None, _alg_key=None, _told=[], _handed_out={}, _lock=None)
+        return state
+
+    def __setstate__(self, state: Dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
+    def infer_relative_search_space(self, study: optuna.Study, trial: FrozenTrial) -> Dict[str, BaseDistribution]:
+        if study._is_multi_objective():
+            return {}
+        space = {}
+        for name, dist in self._search_space.calculate(study).items():
+            if dist.single():
+                continue  # nothing to choose
+            space[name] = dist
+        return space
+
+    def sample_relative(self, study: optuna.Study, trial: FrozenTrial,
+                        search_space: Dict[str, BaseDistribution]) -> Dict[str, Any]:
+        if not search_space:
+            return {}
+        with self._lock:
+            return self._sample_relative(study, trial, search_space)
+
+    def _sample_relative(self, study: optuna.Study, trial: FrozenTrial,
+                         search_space: Dict[str, BaseDistribution]) -> Dict[str, Any]:
+        names = sorted(search_space)
+        sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
+        key = (tuple(names), tuple(repr(search_space[n]) for n in names), sign)
+        trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.RUNNING))
+        done: List[FrozenTrial] = []
+        pending: List[List[float]] = []
+        for t in trials:
+            if t.number == trial.number:
+                continue
+            if t.state == TrialState.RUNNING:
+                # A point this sampler handed out is pending even before its trial stores it (Optuna sets a
+                # relative sample's params only when the objective suggests them).
+                if t.number in self._handed_out and self._handed_out[t.number][0] == key:
+                    pending.append(self._handed_out[t.number][1])
+                elif all(n in t.params for n in names):
+                    pending.append([_encode(search_space[n], t.params[n]) for n in names])
+            elif all(n in t.params for n in names):
+                done.append(t)
+        running = {t.number for t in trials if t.state == TrialState.RUNNING}
+        self._handed_out = {k: v for k, v in self._handed_out.items() if k in running}
+        done.sort(key=lambda t: (t.datetime_complete or t.datetime_start, t.number))
+        numbers = [t.number for t in done]
+        if self._alg is None or self._alg_key != key or numbers[:len(self._told)] != self._told:
+            self._alg = _varbo._Algorithm(self._yaml, self._yaml_name, len(names), self._seed, self._budget,
+                                          self._threads)
+            self._alg_key = key
+            self._told = []
+        new = done[len(self._told):]
+        if new:
+            X = np.array([[_encode(search_space[n], t.params[n]) for n in names] for t in new], dtype=float)
+            y = np.array([sign * t.value if t.state == TrialState.COMPLETE and t.value is not None else math.nan
+                          for t in new], dtype=float)
+            for i in range(len(new)):  # one result per tell, in finish order, as a varbo study tells them
+                self._alg.tell(X[i:i + 1], y[i:i + 1])
+            self._told.extend(t.number for t in new)
+        self._alg.set_pending(np.array(pending, dtype=float).reshape(-1, len(names)))
+        X, _phases = self._alg.ask(1)
+        if len(X) == 0:
+            return {}
+        self._handed_out[trial.number] = (key, X[0].tolist())
+        if pending:
+            # As varbo::Study does: an algorithm asked with pending points is not continued (its state after such
+            # an ask is not the serial one); the next sample rebuilds it from the finished trials.
+            self._alg = None
+        return {n: _decode(search_space[n], u) for n, u in zip(names, X[0])}
+
+    def sample_independent(self, study: optuna.Study, trial: FrozenTrial, param_name: str,
+                           param_distribution: BaseDistribution) -> Any:
+        if self._warn and trial.number > 0 and not study._is_multi_objective():
+            optuna.logging.get_logger(__name__).warning(
+                f"VarboSampler: parameter '{param_name}' of trial {trial.number} is outside the intersection search "
+                f"space; sampled by {type(self._independent).__name__}")
+        return self._independent.sample_independent(study, trial, param_name, param_distribution)
