@@ -194,6 +194,10 @@ Runner add_plot(CLI::App& app) {
     if (a->kappas.empty()) a->kappas = {-1.5, 0.0, 1.5};
     Registry& registry = default_registry();
     const RunFolder run = load_run_folder(a->run, registry);
+    if (run.space)  // its axes would be encoded coordinates, not parameters
+      throw InputError(fmt::format("{}: plot does not draw studies with typed parameters or constraints yet "
+                                   "(docs/search_space.md); use `varbo select`",
+                                   a->run));
     const Index d = run.domain.box.dim();
     if (d != 1 && d != 2)
       throw InputError(fmt::format("{}: the task has {} parameters; plot draws 1-D and 2-D tasks only", a->run, d));

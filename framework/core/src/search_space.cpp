@@ -213,6 +213,24 @@ Vec SearchSpace::round_discrete(const Vec& x) const {
   return y;
 }
 
+Box SearchSpace::widen_for_discrete(const Box& box) const {
+  Box out = box;
+  for (std::size_t i = 0; i < params_.size(); ++i) {
+    const Parameter& p = params_[i];
+    const Index o = offset_[i];
+    if (p.type == ParameterType::Int) {
+      const double v = std::clamp(std::round(from_coordinate(i, 0.5 * (box.lower[o] + box.upper[o]))), p.low, p.high);
+      out.lower[o] = std::min(box.lower[o], to_coordinate(i, std::max(v - 1, p.low)));
+      out.upper[o] = std::max(box.upper[o], to_coordinate(i, std::min(v + 1, p.high)));
+    } else if (p.type == ParameterType::Categorical) {
+      const auto k = static_cast<Index>(p.choices.size());
+      out.lower.segment(o, k).setZero();
+      out.upper.segment(o, k).setOnes();
+    }
+  }
+  return out;
+}
+
 Vec SearchSpace::admissible(const Vec& x) const {
   const Vec y = round_discrete(Box::unit(encoded_dim_).clamp(x));
   if (constraints_.empty() || satisfies_constraints(y)) return y;

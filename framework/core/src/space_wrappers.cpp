@@ -86,9 +86,16 @@ void RoundedSurrogate::restore_state(const std::string& state) {
 ConstrainedRegion::ConstrainedRegion(std::unique_ptr<RegionConstraint> inner, SharedSpace space)
     : inner_(std::move(inner)), space_(std::move(space)) {
   if (!inner_ || !space_) throw std::invalid_argument("ConstrainedRegion: null region or space");
+  refresh();
+}
+
+void ConstrainedRegion::update(const Surrogate* model, const Dataset& data, Rng& rng) {
+  inner_->update(model, data, rng);
+  refresh();
 }
 
 double ConstrainedRegion::constraint(const Vec& x, Vec* grad) const {
+  if (!space_->has_constraints()) return inner_->constraint(x, grad);
   Vec g;
   const double c = space_->constraint_slack(x, grad ? &g : nullptr);
   if (!inner_->has_constraint()) {
@@ -106,7 +113,7 @@ Mat ConstrainedRegion::seeds() const {
   Mat out(s.rows(), s.cols());
   Index n = 0;
   for (Index i = 0; i < s.rows(); ++i)
-    if (space_->constraint_slack(s.row(i).transpose(), nullptr) >= 0) out.row(n++) = s.row(i);
+    if (!space_->has_constraints() || space_->constraint_slack(s.row(i).transpose(), nullptr) >= 0) out.row(n++) = s.row(i);
   return out.topRows(n);
 }
 
@@ -117,6 +124,7 @@ std::string ConstrainedRegion::save_state() const {
 
 void ConstrainedRegion::restore_state(const std::string& state) {
   if (ComponentState* s = state_of(inner_.get())) s->restore_state(state);
+  refresh();
 }
 
 std::unique_ptr<Surrogate> respect_types(std::unique_ptr<Surrogate> surrogate, const SharedSpace& space) {
@@ -126,7 +134,7 @@ std::unique_ptr<Surrogate> respect_types(std::unique_ptr<Surrogate> surrogate, c
 
 std::unique_ptr<RegionConstraint> respect_constraints(std::unique_ptr<RegionConstraint> region,
                                                       const SharedSpace& space) {
-  if (!space || !space->has_constraints()) return region;
+  if (!space || !(space->has_constraints() || space->has_discrete())) return region;
   return std::make_unique<ConstrainedRegion>(std::move(region), space);
 }
 

@@ -76,6 +76,10 @@ class SearchSpace {
   /// True when some parameter is int or categorical (the surrogate then needs the rounding transformation).
   bool has_discrete() const;
   bool has_log() const;
+  /// `box` (encoded) widened so that from its centre the neighbouring integers (±1) of every int parameter and
+  /// every category are inside: a trust region smaller than an integer's cell would otherwise round every
+  /// candidate to the same point.
+  Box widen_for_discrete(const Box& box) const;
   /// True for an encoded coordinate of an integer or a category.
   bool is_discrete_coordinate(Index k) const { return discrete_[static_cast<std::size_t>(k)] != 0; }
   /// A box over θ (user units): [low, high] for numbers, [0, k−1] for categories, [v, v] for fixed values.

@@ -51,15 +51,17 @@ class RoundedSurrogate final : public Surrogate, public ComponentState {
   std::unique_ptr<RoundedSurrogate> acquisition_view_;
 };
 
-/// A region intersected with the space's linear constraints (a polytope in encoded coordinates): the box is the
-/// inner region's, the constraint c(x) = min(inner c(x), min_j slack_j(x)), each slack a row's signed distance
-/// (b_j − a_j·x)/‖a_j‖, so samplers, hit-and-run and constrained optimizers (SLSQP, COBYLA) keep to it.
+/// A region seen in a typed space: its box widened so that the neighbouring integers and every category stay
+/// reachable (SearchSpace::widen_for_discrete; a trust region shrunk below one integer's cell would round every
+/// candidate to the same point), and intersected with the space's linear constraints (a polytope in encoded
+/// coordinates): c(x) = min(inner c(x), min_j slack_j(x)), each slack a row's signed distance (b_j − a_j·x)/‖a_j‖,
+/// so samplers, hit-and-run and constrained optimizers (SLSQP, COBYLA) keep to it.
 class ConstrainedRegion final : public RegionConstraint, public ComponentState {
  public:
   ConstrainedRegion(std::unique_ptr<RegionConstraint> inner, SharedSpace space);
-  void update(const Surrogate* model, const Dataset& data, Rng& rng) override { inner_->update(model, data, rng); }
-  const Box& bounds() const override { return inner_->bounds(); }
-  bool has_constraint() const override { return true; }
+  void update(const Surrogate* model, const Dataset& data, Rng& rng) override;
+  const Box& bounds() const override { return box_; }
+  bool has_constraint() const override { return space_->has_constraints() || inner_->has_constraint(); }
   double constraint(const Vec& x, Vec* grad) const override;
   Mat seeds() const override;
   std::string state() const override { return inner_->state(); }
@@ -68,13 +70,15 @@ class ConstrainedRegion final : public RegionConstraint, public ComponentState {
   const RegionConstraint& inner() const { return *inner_; }
 
  private:
+  void refresh() { box_ = space_->has_discrete() ? space_->widen_for_discrete(inner_->bounds()) : inner_->bounds(); }
   std::unique_ptr<RegionConstraint> inner_;
   SharedSpace space_;
+  Box box_;
 };
 
 /// `surrogate` wrapped in RoundedSurrogate when the space has integer or categorical parameters.
 std::unique_ptr<Surrogate> respect_types(std::unique_ptr<Surrogate> surrogate, const SharedSpace& space);
-/// `region` wrapped in ConstrainedRegion when the space has constraints.
+/// `region` wrapped in ConstrainedRegion when the space has integers, categories or constraints.
 std::unique_ptr<RegionConstraint> respect_constraints(std::unique_ptr<RegionConstraint> region, const SharedSpace& space);
 
 }  // namespace varbo
