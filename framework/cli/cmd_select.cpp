@@ -26,8 +26,9 @@ nlohmann::json theta_json(const std::vector<std::string>& names, const Vec& thet
 std::string theta_text(const Vec& theta, const SharedSpace& space) {
   std::string s = "[";
   for (Index i = 0; i < theta.size(); ++i)
-    s += space ? fmt::format("{}{}", i ? ", " : "", space->format_value(static_cast<std::size_t>(i), theta[i]))
-               : fmt::format("{}{:.4f}", i ? ", " : "", theta[i]);
+    s += space && space->parameters()[static_cast<std::size_t>(i)].type != ParameterType::Real
+             ? fmt::format("{}{}", i ? ", " : "", space->format_value(static_cast<std::size_t>(i), theta[i]))
+             : space ? fmt::format("{}{:.4g}", i ? ", " : "", theta[i]) : fmt::format("{}{:.4f}", i ? ", " : "", theta[i]);
   return s + "]";
 }
 }  // namespace

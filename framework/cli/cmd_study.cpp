@@ -180,8 +180,8 @@ Runner add_observe(CLI::App& app) {
       std::printf("trial %lld: cost %s recorded at the given θ\n", static_cast<long long>(id), exact(cost).c_str());
       return 0;
     }
-    if (!a->theta.empty() || !a->params.empty())
-      throw InputError("observe: --theta and --param go with ID 'new' (a point no suggestion produced)");
+    if (!a->theta.empty()) throw InputError("observe: --theta goes with ID 'new' (a point no suggestion produced)");
+    if (!a->params.empty()) throw InputError("observe: --param goes with ID 'new' (a point no suggestion produced)");
     const std::int64_t id = parse_id(a->id);
     const double cost = parse_number(a->cost, "COST");
     Components comps;
