@@ -285,3 +285,42 @@ TEST_CASE("the rounded surrogate is constant between admissible values and keeps
   model.condition(d);
   CHECK(Vec(raw->seen.row(0).transpose()) == space->round_discrete(d.X.row(0).transpose()));
 }
+
+TEST_CASE("a region in a typed space: neighbouring integers and every category stay reachable; constraints kept") {
+  auto space = std::make_shared<SearchSpace>(issue_space());
+  space->add_constraint(parse_linear_constraint("gain + 0.25*waypoints <= 1.5", space->parameters()));
+  REQUIRE(space->finalize());
+  const SharedSpace shared = space;
+  Vec theta(6);
+  theta << 1e-3, 5, 16, 1, -0.5, 3;
+  const Vec c = shared->encode(theta);
+  // A trust region far smaller than one integer's cell (1/8 for waypoints).
+  const Box tiny{(c.array() - 1e-3).matrix(), (c.array() + 1e-3).matrix()};
+  ConstrainedRegion region(std::make_unique<BoxRegion>(tiny), shared);
+  const Box& b = region.bounds();
+  for (const double w : {4.0, 5.0, 6.0}) {
+    Vec t = theta;
+    t[1] = w;
+    CHECK(b.contains(shared->encode(t), 1e-12));  // waypoints 4 and 6 reachable
+  }
+  CHECK(b.lower.segment(3, 3) == Vec::Zero(3));  // every category
+  CHECK(b.upper.segment(3, 3) == Vec::Ones(3));
+  CHECK(b.lower[0] == tiny.lower[0]);  // continuous coordinates as the inner region's
+  CHECK(b.upper[6] == tiny.upper[6]);
+  // The constraint: c(x) ≥ 0 exactly where the decoded θ satisfies it (away from rounding of the integer).
+  CHECK(region.has_constraint());
+  Rng rng(2);
+  for (int k = 0; k < 200; ++k) {
+    const Vec x = shared->round_discrete(rng.uniform_vec(shared->encoded_dim()));
+    const Vec t = shared->decode(x);
+    const double lhs = t[4] + 0.25 * t[1];
+    if (std::abs(lhs - 1.5) < 1e-9) continue;
+    CHECK((region.constraint(x, nullptr) >= 0) == (lhs <= 1.5));
+    Vec g;
+    region.constraint(x, &g);
+    Vec a = x, d = x;
+    a[6] -= 1e-6;  // gain's coordinate (linear: the gradient is exact)
+    d[6] += 1e-6;
+    CHECK(g[6] == doctest::Approx((region.constraint(d, nullptr) - region.constraint(a, nullptr)) / 2e-6).epsilon(1e-5));
+  }
+}
