@@ -265,3 +265,28 @@ TEST_CASE("a mixed, constrained study is the same with 1 and 2 threads and repla
   CHECK_MESSAGE(rep.divergence.empty(), rep.divergence);
   CHECK(rep.replayed == 12);
 }
+
+TEST_CASE("varbo select and plot --slice on a run folder with typed parameters") {
+  set_log_level(LogLevel::Error);
+  const std::string dir = test::temp_folder("typed_run_tools");
+  RunOverrides ov;
+  ov.output = dir + "/run";
+  test::run_yaml("task: mixed_ackley\nbudget: 10\nseed: 2\nalgorithm: {type: bo, initial_points: 6}\n", test::registry(), ov);
+  const std::string varbo = VARBO_EXE;
+  int st = 0;
+  const std::string sel = run_command(fmt::format("{} select {}/run --among-evaluated --json 2>&1", varbo, dir), &st);
+  REQUIRE_MESSAGE(st == 0, sel);
+  const nlohmann::json j = nlohmann::json::parse(sel);
+  for (const auto& s : j["selections"]) {
+    CHECK(s["params"]["c1"].is_string());
+    CHECK(s["params"]["x1"].is_number());
+  }
+  for (const char* p : {"c2", "x1"}) {
+    const std::string out = run_command(fmt::format("{} plot {}/run --slice {} -o {}/{}.svg 2>&1", varbo, dir, p, dir, p), &st);
+    CHECK_MESSAGE(st == 0, out);
+    CHECK(test::slurp(fmt::format("{}/{}.svg", dir, p)).find(fmt::format("along '{}'", p)) != std::string::npos);
+  }
+  const std::string no_slice = run_command(fmt::format("{} plot {}/run 2>&1", varbo, dir), &st);
+  CHECK(st == 2);
+  CHECK(no_slice.find("--slice NAME") != std::string::npos);
+}
