@@ -12,8 +12,8 @@
 namespace varbo {
 
 void SearchSpace::add_constraint(LinearConstraint c) {
-  for (const auto& [i, a] : c.terms) {
-    const Parameter& p = params_.at(i);
+  for (const auto& term : c.terms) {
+    const Parameter& p = params_.at(term.first);
     if (p.type == ParameterType::Categorical || (p.type == ParameterType::Fixed && !p.choices.empty()))
       throw ConfigError(fmt::format("constraint '{}': parameter '{}' is categorical; constraints take real and int "
                                     "parameters",
@@ -22,7 +22,6 @@ void SearchSpace::add_constraint(LinearConstraint c) {
       throw ConfigError(fmt::format("constraint '{}': parameter '{}' is log-scaled; a linear constraint on it is not "
                                     "linear where the model searches (log space), so it is not supported",
                                     c.text, p.name));
-    (void)a;
   }
   constraints_.push_back(std::move(c));
 }
@@ -103,7 +102,6 @@ bool SearchSpace::finalize() {
 
 bool SearchSpace::satisfies_constraints(const Vec& x, double tol) const {
   if (constraints_.empty()) return true;
-  std::string why;
   return contains(decode(x), nullptr, tol);
 }
 
