@@ -183,7 +183,7 @@ TEST_CASE("every algorithm and every compatible bo combination suggests only adm
   int runs = 0, refused = 0;
   long trials = 0;
   auto check_run = [&](const std::string& task, const std::string& constraint, const std::string& algo) {
-    const std::string yaml = fmt::format("task: {}\nbudget: 9\nseed: 5\noutput: {}/run\nconstraints: [\"{}\"]\nalgorithm: {}\n",
+    const std::string yaml = fmt::format("task: {}\nbudget: 7\nseed: 5\noutput: {}/run\nconstraints: [\"{}\"]\nalgorithm: {}\n",
                                          task, out, constraint, algo);
     INFO(yaml);
     StudyConfig cfg;
