@@ -83,10 +83,12 @@ const OptionSet<BoSettings>& bo_options() {
                   "risk-averse for κ > 0); or the lowest observed cost"),
       opt::real("recommendation_kappa", &BoSettings::recommendation_kappa,
                 "κ of the lowest_bound_evaluated recommendation rule"),
-      opt::choice("discrete", &BoSettings::round_in_model, {{"transform", true}, {"relax", false}},
-                  "integer and categorical parameters: transform = the surrogate sees them rounded, constant between "
-                  "admissible values (Garrido-Merchán & Hernández-Lobato 2020); relax = a continuous model, rounded "
-                  "only at evaluation (a baseline)"),
+      // Unset unless given (read by hand below), so that the resolved configuration, and with it the identity of
+      // every study stored before typed parameters existed, is unchanged.
+      opt::choice("discrete", "", {"transform", "relax"},
+                  "integer and categorical parameters: transform (the default) = the surrogate sees them rounded, "
+                  "constant between admissible values (Garrido-Merchán & Hernández-Lobato 2020); relax = a continuous "
+                  "model, rounded only at evaluation (a baseline)"),
       opt::node("phases", "",
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
@@ -156,7 +158,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   data_ = Dataset::empty(dim_);
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
-  round_in_model_ = settings.round_in_model;
+  round_in_model_ = !o.is_set("discrete") || o.str("discrete") == "transform";
 }
 
 void BayesianOptimization::set_search_space(SharedSpace space) {

@@ -18,10 +18,6 @@ struct BoSettings {
   BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;
   RecommendationRule recommendation = RecommendationRule::LowestMeanEvaluated;
   double recommendation_kappa = 1.0;  ///< κ of lowest_bound_evaluated
-  /// Integer and categorical parameters (docs/search_space.md): true = the model sees them rounded
-  /// (Garrido-Merchán & Hernández-Lobato 2020); false = a continuous model, rounded only at evaluation (the
-  /// naive baseline of the mixed benchmarks).
-  bool round_in_model = true;
 };
 
 /// Every top-level option of `bo`, in the order --describe shows them; the BoSettings fields are bound.
