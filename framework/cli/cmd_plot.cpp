@@ -24,6 +24,7 @@ namespace {
 
 struct PlotArgs {
   std::string run, output, gp = "gp", vhgp = "vhgp", surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
+  std::string slice;  ///< typed parameters: the parameter along which the model is cut
   std::vector<double> kappas;
   long long seed = 1;
   int threads = 0, grid = 0;
@@ -171,6 +172,83 @@ svg::Figure plot_2d(const RunFolder& run, const Registry& registry, const PlotAr
   return fig;
 }
 
+/// Typed parameters (docs/search_space.md): the model's mean ± 2 s along one named parameter, the others held at
+/// the best observed trial's values; the data projected on that parameter. A log parameter is drawn over
+/// log10 of its value; a category at its index (labels in the legend).
+svg::Figure plot_slice(const RunFolder& run, const Registry& registry, const PlotArgs& a) {
+  const SearchSpace& space = *run.space;
+  const auto pi = space.index_of(a.slice);
+  if (!pi) {
+    const std::string near = closest_match(a.slice, run.names);
+    throw InputError(fmt::format("--slice: the run has no parameter '{}' (it has {}){}", a.slice, join(run.names),
+                                 near.empty() ? "" : "; did you mean '" + near + "'?"));
+  }
+  const std::size_t i = *pi;
+  const Parameter& par = space.parameters()[i];
+  if (par.type == ParameterType::Fixed) throw InputError(fmt::format("--slice: '{}' is fixed", a.slice));
+  if (run.data.size() < 2) throw InputError(fmt::format("{}: fewer than 2 successful trials", run.folder));
+  const auto seed = static_cast<std::uint64_t>(a.seed);
+  const ResolvedComponent* own = run_surrogate_spec(run);
+  const ResolvedComponent spec =
+      own ? *own : registry.resolve(Kind::Surrogate, component_arg(a.gp, "surrogate", "--gp"));
+  const Fitted m = fit(run, registry, spec, seed);
+  Index best = 0;
+  run.cost.minCoeff(&best);
+  const Vec base = run.theta.row(best).transpose();
+  // The values along the cut: a grid (geometric for log), every integer up to 400, every category.
+  std::vector<double> values;
+  if (par.type == ParameterType::Categorical) {
+    for (std::size_t j = 0; j < par.choices.size(); ++j) values.push_back(static_cast<double>(j));
+  } else {
+    const int n = a.grid > 0 ? a.grid : 400;
+    const bool every_integer = par.type == ParameterType::Int && par.high - par.low < n;
+    const int count = every_integer ? static_cast<int>(par.high - par.low) + 1 : n;
+    for (int k = 0; k < count; ++k) {
+      const double u = static_cast<double>(k) / std::max(1, count - 1);
+      double v = par.log ? std::exp(std::log(par.low) + u * (std::log(par.high) - std::log(par.low)))
+                         : par.low + u * (par.high - par.low);
+      if (par.type == ParameterType::Int) v = every_integer ? par.low + k : std::round(v);
+      values.push_back(std::clamp(v, par.low, par.high));
+    }
+  }
+  auto axis = [&](double v) { return par.log ? std::log10(v) : v; };
+  std::vector<double> xs, mean, lo, hi;
+  for (const double v : values) {
+    Vec t = base;
+    t[static_cast<Index>(i)] = v;
+    const Prediction p = m.model->predict(space.encode(t), false);
+    xs.push_back(axis(v));
+    mean.push_back(p.mean);
+    lo.push_back(p.mean - 2 * p.total_std());
+    hi.push_back(p.mean + 2 * p.total_std());
+  }
+  std::vector<double> dx, dy(run.cost.data(), run.cost.data() + run.cost.size());
+  for (Index r = 0; r < run.theta.rows(); ++r) dx.push_back(axis(run.theta(r, static_cast<Index>(i))));
+  double ylo = std::min(*std::min_element(lo.begin(), lo.end()), run.cost.minCoeff());
+  double yhi = std::max(*std::max_element(hi.begin(), hi.end()), run.cost.maxCoeff());
+  const svg::Range xr = par.type == ParameterType::Categorical
+                            ? svg::Range{-0.5, static_cast<double>(par.choices.size()) - 0.5}
+                            : svg::Range{axis(par.low), axis(par.high)};
+  svg::Figure fig(1000, 520, fmt::format("{}: {} along '{}', the others at the best trial ({} successful trials)",
+                                         run.study.task.info->name, m.name, par.name, run.data.size()));
+  svg::Panel& p = fig.panel(80, 50, 560, 400, xr, svg::padded(ylo, yhi, 0.04));
+  p.labels(par.log ? "log10(" + par.name + ")" : par.name, "cost", "");
+  p.legend_place(svg::Panel::LegendPlace::Right);
+  if (par.type == ParameterType::Categorical) {
+    p.markers(xs, mean, svg::Marker::Diamond, "#b35900", 6.5, "mean", "mean E");
+    p.markers(xs, lo, svg::Marker::Cross, "#e69f00", 5, "band", "±2 s");
+    p.markers(xs, hi, svg::Marker::Cross, "#e69f00", 5, "band", "");
+    for (std::size_t j = 0; j < par.choices.size(); ++j)
+      p.vline(static_cast<double>(j), "#dddddd", "2 3", fmt::format("{} = {}", j, par.choices[j]));
+  } else {
+    p.band(xs, lo, hi, "#e69f00", 0.30, "±2 s");
+    p.line(xs, mean, "#b35900", 2.2, "", "mean E");
+  }
+  p.markers(dx, dy, svg::Marker::Circle, "#0b3d91", 3.6, "data", "data (all trials, projected)");
+  p.vline(axis(base[static_cast<Index>(i)]), "#222222", "5 4", fmt::format("best trial: {}", space.format_value(i, base[static_cast<Index>(i)])));
+  return fig;
+}
+
 }  // namespace
 
 Runner add_plot(CLI::App& app) {
@@ -188,12 +266,26 @@ Runner add_plot(CLI::App& app) {
   cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));
   cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")->capture_default_str();
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--slice", a->slice,
+                  "typed parameters: draw the model along this parameter, the others at the best trial");
   return [a, gp_opt, vh_opt]() {
     ThreadLimit limit(a->threads);
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
     if (a->kappas.empty()) a->kappas = {-1.5, 0.0, 1.5};
     Registry& registry = default_registry();
     const RunFolder run = load_run_folder(a->run, registry);
+    if (run.space) {  // typed parameters: a cut along one named parameter (its axes are not encoded coordinates)
+      if (a->slice.empty())
+        throw InputError(fmt::format("{}: the run has typed parameters or constraints; name the parameter to draw "
+                                     "with --slice NAME (one of {})",
+                                     a->run, join(run.names)));
+      const svg::Figure fig = plot_slice(run, registry, *a);
+      const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
+      fig.save(out);
+      std::printf("%s\n", out.c_str());
+      return 0;
+    }
+    if (!a->slice.empty()) throw InputError("--slice: for runs with typed parameters (`parameters:`, docs/search_space.md)");
     const Index d = run.domain.box.dim();
     if (d != 1 && d != 2)
       throw InputError(fmt::format("{}: the task has {} parameters; plot draws 1-D and 2-D tasks only", a->run, d));

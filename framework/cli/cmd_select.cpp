@@ -23,9 +23,12 @@ nlohmann::json theta_json(const std::vector<std::string>& names, const Vec& thet
   for (Index i = 0; i < theta.size(); ++i) j[names[static_cast<std::size_t>(i)]] = theta[i];
   return j;
 }
-std::string theta_text(const Vec& theta) {
+std::string theta_text(const Vec& theta, const SharedSpace& space) {
   std::string s = "[";
-  for (Index i = 0; i < theta.size(); ++i) s += fmt::format("{}{:.4f}", i ? ", " : "", theta[i]);
+  for (Index i = 0; i < theta.size(); ++i)
+    s += space && space->parameters()[static_cast<std::size_t>(i)].type != ParameterType::Real
+             ? fmt::format("{}{}", i ? ", " : "", space->format_value(static_cast<std::size_t>(i), theta[i]))
+             : space ? fmt::format("{}{:.4g}", i ? ", " : "", theta[i]) : fmt::format("{}{:.4f}", i ? ", " : "", theta[i]);
   return s + "]";
 }
 }  // namespace
@@ -82,15 +85,16 @@ Runner add_select(CLI::App& app) {
     const FitReport rep = fit_run_surrogate(*model, run, seed);
 
     BuildContext octx;
-    octx.dim = run.domain.box.dim();
+    octx.dim = run.data.dim();
     octx.seed = seed;
     const ResolvedComponent ospec =
         registry.resolve(Kind::Optimizer, component_arg(a->optimizer, "acquisition_optimizer", "--optimizer"));
     const std::unique_ptr<Optimizer> optimizer = registry.create<Optimizer>(ospec, octx);
     // The evaluated points are starts too, so a minimum at a data point is never missed.
     const std::vector<RiskSelection> sel =
-        a->among_evaluated ? select_among(*model, run.domain, kappas, run.data.X)
-                           : select_policies(*model, run.domain, kappas, *optimizer, Rng(seed).stream(0x5e1), run.data.X);
+        a->among_evaluated
+            ? select_among(*model, run.domain, kappas, run.data.X, run.space)
+            : select_policies(*model, run.domain, kappas, *optimizer, Rng(seed).stream(0x5e1), run.data.X, run.space);
     // A selection where the latent sd is most of σ_f lies where the model knows little: its E and s are
     // extrapolations (issue 10 saw predicted means far below the true minimum there).
     constexpr double kExtrapolating = 0.5;
@@ -110,6 +114,7 @@ Runner add_select(CLI::App& app) {
         nlohmann::json e = {{"kappa", s.kappa}, {"ok", s.ok}, {"message", s.message}};
         if (s.ok) {
           e["theta"] = theta_json(run.names, s.theta);
+          if (run.space) e["params"] = nlohmann::json::parse(run.space->params(s.theta).to_json());
           e["mean"] = s.mean;
           e["std"] = s.std;
           e["criterion"] = s.criterion;
@@ -130,7 +135,7 @@ Runner add_select(CLI::App& app) {
           std::printf("  %8.3g  no selection: %s\n", s.kappa, s.message.c_str());
           continue;
         }
-        std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g%s\n", s.kappa, theta_text(s.theta).c_str(), s.mean, s.std,
+        std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g%s\n", s.kappa, theta_text(s.theta, run.space).c_str(), s.mean, s.std,
                     s.criterion, s.relative_latent_std > kExtrapolating ? "  (far from the data)" : "");
       }
     }

@@ -15,10 +15,12 @@ namespace varbo::cli {
 
 namespace {
 
-std::string theta_text(const Vec& theta, const std::vector<std::string>& names) {
+std::string theta_text(const Vec& theta, const std::vector<std::string>& names, const SharedSpace& space = nullptr) {
   std::string s;
   for (Index i = 0; i < theta.size(); ++i)
-    s += fmt::format("{}{}={:.6g}", i ? " " : "", names[static_cast<std::size_t>(i)], theta[i]);
+    s += space ? fmt::format("{}{}={}", i ? " " : "", names[static_cast<std::size_t>(i)],
+                             space->format_value(static_cast<std::size_t>(i), theta[i]))  // labels, integers
+               : fmt::format("{}{}={:.6g}", i ? " " : "", names[static_cast<std::size_t>(i)], theta[i]);
   return s;
 }
 
@@ -45,7 +47,7 @@ Runner add_status(CLI::App& app) {
                 static_cast<long>(std::max<Index>(0, s.config().budget - finished - n[0])));
     if (auto b = s.best())
       std::printf("  best       trial %lld: cost %.8g at %s\n", static_cast<long long>(b->id), b->cost,
-                  theta_text(b->theta, names).c_str());
+                  theta_text(b->theta, names, s.space()).c_str());
     else
       std::printf("  best       (no complete trial yet)\n");
     const double now = unix_time();
@@ -54,7 +56,7 @@ Runner add_status(CLI::App& app) {
       for (const auto& t : trials)
         if (t.state == TrialState::Pending)
           std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), t.worker.c_str(),
-                      now - t.created_at, theta_text(t.theta, names).c_str());
+                      now - t.created_at, theta_text(t.theta, names, s.space()).c_str());
     }
     // Workers that send heartbeats (`varbo worker`): a running one silent past heartbeat_timeout is presumed dead,
     // and the next ask abandons its pending trials.
@@ -76,7 +78,7 @@ Runner add_status(CLI::App& app) {
     for (std::size_t i = first; i < trials.size(); ++i) {
       const auto& t = trials[i];
       std::printf("    %-6lld %-10s %-10s %14.8g  %s%s\n", static_cast<long long>(t.id), state_name(t.state).c_str(),
-                  t.phase.c_str(), t.cost, theta_text(t.theta, names).c_str(),
+                  t.phase.c_str(), t.cost, theta_text(t.theta, names, s.space()).c_str(),
                   t.error.empty() ? "" : ("  (" + t.error + ")").c_str());
     }
     return 0;
@@ -107,7 +109,9 @@ Runner add_export(CLI::App& app) {
     out += ",error,worker,created_at,finished_at,finish_seq\n";
     for (const auto& t : trials) {
       out += fmt::format("{},{},{}", t.id, state_name(t.state), csv_cell(t.phase));
-      for (Index i = 0; i < t.theta.size(); ++i) out.append(",").append(exact(t.theta[i]));
+      for (Index i = 0; i < t.theta.size(); ++i)  // labels for categories when the study declares parameters
+        out.append(",").append(s.space() ? csv_cell(s.space()->format_value(static_cast<std::size_t>(i), t.theta[i]))
+                                         : exact(t.theta[i]));
       out.append(",").append(std::isnan(t.cost) ? std::string("nan") : exact(t.cost));
       for (const auto& c : comps) {
         std::string v = "nan";

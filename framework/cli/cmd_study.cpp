@@ -15,6 +15,38 @@
 
 namespace varbo::cli {
 
+namespace {
+/// θ of `--param name=value` words: every parameter of the study named once (a fixed one may be left out).
+Vec theta_from_params(const Study& s, const std::vector<std::string>& words) {
+  const std::vector<std::string>& names = s.domain().names;
+  const SearchSpace space = s.space() ? *s.space() : SearchSpace::from_box(s.domain().box, names);
+  Vec theta = space.user_box().lower;
+  std::vector<bool> given(names.size(), false);
+  for (const auto& w : words) {
+    const auto eq = w.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw InputError(fmt::format("--param '{}': expected name=value, e.g. --param {}=...", w, names.front()));
+    const std::string name = w.substr(0, eq);
+    const auto i = space.index_of(name);
+    if (!i) {
+      const std::string near = closest_match(name, names);
+      throw InputError(fmt::format("--param '{}': the study has no parameter '{}' (it has {}){}; nothing written", w,
+                                   name, join(names), near.empty() ? "" : "; did you mean '" + near + "'?"));
+    }
+    if (given[*i]) throw InputError(fmt::format("--param: '{}' is given twice; nothing written", name));
+    given[*i] = true;
+    theta[static_cast<Index>(*i)] = space.parse_value(*i, w.substr(eq + 1));
+  }
+  std::vector<std::string> missing;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    if (!given[i] && space.parameters()[i].type != ParameterType::Fixed) missing.push_back(names[i]);
+  if (!missing.empty())
+    throw InputError(fmt::format("--param: missing {} (every parameter of the study needs a value); nothing written",
+                                 join(missing)));
+  return theta;
+}
+}  // namespace
+
 Runner add_study(CLI::App& app) {
   auto* cmd = app.add_subcommand("study", "Manage study files (durable ask/tell studies)");
   auto* create = cmd->add_subcommand("create", "Create STUDY.db from a study configuration (task: gives the domain)");
@@ -81,17 +113,20 @@ Runner add_suggest(CLI::App& app) {
     const auto& names = s.domain().names;
     if (a->json) {
       nlohmann::json out = nlohmann::json::array();
-      for (const auto& t : trials)
+      for (const auto& t : trials) {
         out.push_back({{"id", t.id},
                        {"theta", std::vector<double>(t.theta.data(), t.theta.data() + t.theta.size())},
                        {"names", names},
                        {"phase", t.phase}});
+        if (s.space()) out.back()["params"] = nlohmann::json::parse(s.space()->params(t.theta).to_json());
+      }
       std::printf("%s\n", out.dump().c_str());
     } else {
       for (const auto& t : trials) {
         std::string line = fmt::format("trial {}", t.id);
         for (Index i = 0; i < t.theta.size(); ++i)
-          line += fmt::format(" {}={}", names[static_cast<std::size_t>(i)], exact(t.theta[i]));
+          line += fmt::format(" {}={}", names[static_cast<std::size_t>(i)],
+                              s.space() ? s.space()->format_value(static_cast<std::size_t>(i), t.theta[i]) : exact(t.theta[i]));
         std::printf("%s  (%s)\n", line.c_str(), t.phase.c_str());
       }
     }
@@ -105,6 +140,7 @@ Runner add_observe(CLI::App& app) {
     std::string store, id, cost;
     std::vector<std::string> components;
     std::string theta;
+    std::vector<std::string> params;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
@@ -112,9 +148,23 @@ Runner add_observe(CLI::App& app) {
   cmd->add_option("cost", a->cost, "the observed cost (a finite number)")->required();
   cmd->add_option("--component", a->components, "a named cost component, name=value (repeatable)");
   cmd->add_option("--theta", a->theta, "with ID 'new': the θ evaluated, user units, comma-separated (e.g. 0.5,2)");
+  cmd->add_option("--param", a->params,
+                  "with ID 'new': one parameter of the θ evaluated, name=value (a label for a category; repeatable)");
   return [a]() {
+    if (a->id == "new" && !a->params.empty()) {
+      if (!a->theta.empty()) throw InputError("observe new: give either --theta or --param, not both");
+      const double cost = parse_number(a->cost, "COST");
+      Components comps;
+      for (const auto& c : a->components) comps.push_back(parse_component(c));
+      Study s = Study::open(a->store);
+      const Vec theta = theta_from_params(s, a->params);
+      const auto id = s.tell_point(theta, cost, comps);
+      std::printf("trial %lld: cost %s recorded at the given parameters\n", static_cast<long long>(id), exact(cost).c_str());
+      return 0;
+    }
     if (a->id == "new") {
-      if (a->theta.empty()) throw InputError("observe new: give the evaluated point with --theta v1,v2,...");
+      if (a->theta.empty())
+        throw InputError("observe new: give the evaluated point with --theta v1,v2,... or --param name=value ...");
       std::vector<double> v;
       std::size_t start = 0;
       while (start <= a->theta.size()) {
@@ -131,6 +181,7 @@ Runner add_observe(CLI::App& app) {
       return 0;
     }
     if (!a->theta.empty()) throw InputError("observe: --theta goes with ID 'new' (a point no suggestion produced)");
+    if (!a->params.empty()) throw InputError("observe: --param goes with ID 'new' (a point no suggestion produced)");
     const std::int64_t id = parse_id(a->id);
     const double cost = parse_number(a->cost, "COST");
     Components comps;

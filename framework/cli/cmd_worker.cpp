@@ -44,6 +44,16 @@ std::unique_ptr<Task> external_task(const Study& study, const std::string& comma
   YAML::Emitter em;
   em << YAML::Flow << YAML::BeginMap << YAML::Key << "type" << YAML::Value << "external";
   em << YAML::Key << "command" << YAML::Value << YAML::DoubleQuoted << command;
+  if (study.space()) {  // typed parameters: the task takes the study's space (and sends "params")
+    em << YAML::Key << "timeout" << YAML::Value << exact(timeout) << YAML::EndMap;
+    const ResolvedComponent spec =
+        study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<varbo worker --command>"));
+    BuildContext ctx;
+    ctx.seed = study.config().seed;
+    std::unique_ptr<Task> task = study.registry().create<Task>(spec, ctx);
+    if (auto* aware = dynamic_cast<SpaceAware*>(task.get())) aware->set_search_space(study.space());
+    return task;
+  }
   em << YAML::Key << "lower" << YAML::Value << YAML::BeginSeq;
   for (Index i = 0; i < d.box.dim(); ++i) em << exact(d.box.lower[i]);
   em << YAML::EndSeq << YAML::Key << "upper" << YAML::Value << YAML::BeginSeq;

@@ -37,6 +37,15 @@ std::vector<OptionSpec> external_options() { return external_option_set().specs(
 std::unique_ptr<Task> make_external_task(const Options& o) {
   ExternalTaskSettings s = external_option_set().read(o);
   if (s.command.find_first_not_of(" \t\n") == std::string::npos) o.node("command").fail("expected a non-empty command");
+  // Keys that define the domain here, for set_search_space to refuse when the study declares `parameters:`.
+  for (const char* key : {"dim", "bounds", "lower", "upper", "names"})
+    if (o.given(key) && !(std::string(key) == "dim" && o.integer("dim") == 0))  // dim: 0 is the resolved default
+      s.domain_keys.push_back(o.node(key));
+  if (s.domain_keys.empty()) {
+    // No domain of its own: the study's `parameters:` give it one (set_search_space), or the study refuses it.
+    s.box = Box{Vec(0), Vec(0)};
+    return std::make_unique<ExternalTask>(std::move(s));
+  }
 
   // Every source of the dimension must agree.
   Index dim = static_cast<Index>(o.integer("dim"));
@@ -79,7 +88,7 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
     }
     agree(static_cast<Index>(names.size()), "names");
   }
-  if (dim == 0) o.source().fail("cannot tell the number of parameters: give dim, lower/upper or names");
+  if (dim == 0) o.source().fail("cannot tell the number of parameters: give dim, lower/upper or names (or declare the study's `parameters:`)");
 
   if (has_lower) {
     s.box = Box{Eigen::Map<const Vec>(lower.data(), dim), Eigen::Map<const Vec>(upper.data(), dim)};

@@ -30,8 +30,18 @@ ExternalTask::ExternalTask(ExternalTaskSettings settings) : s_(std::move(setting
 
 Domain ExternalTask::domain() const { return Domain{s_.box, s_.names}; }
 
+void ExternalTask::set_search_space(SharedSpace space) {
+  // A second definition of the domain could only disagree with the parameters.
+  if (!s_.domain_keys.empty())
+    s_.domain_keys.front().fail("the study declares `parameters:`, which define the names and the domain; remove this key");
+  s_.space = std::move(space);
+  s_.box = s_.space->user_box();
+  s_.names = s_.space->names();
+}
+
 std::string ExternalTask::json_input(const Vec& theta, long trial) const {
   nlohmann::json j;
+  if (s_.space) j["params"] = nlohmann::json::parse(s_.space->params(theta).to_json());
   j["theta"] = std::vector<double>(theta.data(), theta.data() + theta.size());
   j["names"] = s_.names;
   j["trial"] = trial;
@@ -40,6 +50,16 @@ std::string ExternalTask::json_input(const Vec& theta, long trial) const {
 
 std::string ExternalTask::command_with_args(const Vec& theta) const {
   std::string c = s_.command;
+  if (s_.space) {
+    // name=value words; a label is quoted for the shell.
+    for (Index i = 0; i < theta.size(); ++i) {
+      std::string v = s_.space->format_value(static_cast<std::size_t>(i), theta[i]);
+      std::string quoted = "'";
+      for (const char ch : v) quoted += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+      c += fmt::format(" {}={}'", s_.names[static_cast<std::size_t>(i)], quoted);
+    }
+    return c;
+  }
   for (Index i = 0; i < theta.size(); ++i) c += fmt::format(" {:.17g}", theta[i]);
   return c;
 }

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "subprocess.hpp"
+#include "varbo/config.hpp"
+#include "varbo/search_space.hpp"
 #include "varbo/task.hpp"
 
 namespace varbo::tasks {
@@ -19,16 +21,23 @@ struct ExternalTaskSettings {
   std::vector<std::string> names; ///< one per dimension
   InputMode input = InputMode::Json;
   ProcessOptions process;         ///< timeout, working directory
+  SharedSpace space;              ///< the study's typed parameters (then "params" is sent too), or null
+  std::vector<ConfigNode> domain_keys;  ///< dim, bounds, lower, upper, names as given (to refuse `parameters:`)
 };
 
-class ExternalTask : public Task {
+class ExternalTask : public Task, public SpaceAware {
  public:
   explicit ExternalTask(ExternalTaskSettings settings);
   Domain domain() const override;
+  SharedSpace search_space() const override { return s_.space; }
+  /// The study's `parameters:`: they define the names and the domain (ConfigError at a key that also does).
+  void set_search_space(SharedSpace space) override;
   Evaluation evaluate(const Vec& theta, Rng& rng) override;
 
-  /// What is sent: the JSON document {"theta": [...], "names": [...], "trial": k} or the shell text
-  /// appended to the command (numbers with 17 significant digits, so θ round-trips exactly).
+  /// What is sent: the JSON document {"theta": [...], "names": [...], "trial": k} (with typed parameters also
+  /// "params": {"lr": 0.001, "waypoints": 4, "solver": "lqr"}) or the shell text appended to the command
+  /// (numbers with 17 significant digits, so θ round-trips exactly; with typed parameters name=value words,
+  /// labels for categories).
   std::string json_input(const Vec& theta, long trial) const;
   std::string command_with_args(const Vec& theta) const;
 

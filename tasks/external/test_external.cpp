@@ -280,7 +280,6 @@ TEST_CASE("external task through the registry: options") {
   }
   SUBCASE("inconsistent or missing settings are ConfigErrors") {
     for (const char* y : {"{type: external, dim: 2}",
-                          "{type: external, command: 'echo 1'}",
                           "{type: external, command: 'echo 1', dim: 2, names: [a]}",
                           "{type: external, command: 'echo 1', names: [a, a]}",
                           "{type: external, command: 'echo 1', lower: [0, 0]}",

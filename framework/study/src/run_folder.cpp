@@ -1,4 +1,5 @@
 // Reads a run folder written by `varbo run` (run_writer.cpp) back into memory.
+#include "varbo/space_wrappers.hpp"
 #include "varbo/run_folder.hpp"
 
 #include <fmt/format.h>
@@ -62,7 +63,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   BuildContext tctx;
   tctx.seed = run.study.seed;
   const std::unique_ptr<Task> task = registry.create<Task>(run.study.task, tctx);
-  run.domain = task->domain();
+  run.space = resolve_study_space(run.study, *task, run.domain);
   const Index d = run.domain.box.dim();
   run.names = run.domain.names;
   run.initial_point = run.study.initial_point ? run.study.initial_point : task->initial_point();
@@ -101,7 +102,18 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
     const std::string where = fmt::format("{}:{}", csv, lineno);
     if (cells[ok_col] != "1") continue;  // failed trials inform no model (as in the algorithm)
     Vec t(d);
-    for (Index j = 0; j < d; ++j) t[j] = parse_number(cells[xcols[static_cast<std::size_t>(j)]], where);
+    for (Index j = 0; j < d; ++j) {
+      const std::string& cell = cells[xcols[static_cast<std::size_t>(j)]];
+      if (!run.space) {
+        t[j] = parse_number(cell, where);
+        continue;
+      }
+      try {  // labels for categories
+        t[j] = run.space->parse_value(static_cast<std::size_t>(j), cell);
+      } catch (const InputError& e) {
+        throw InputError(fmt::format("{}: {}", where, e.what()));
+      }
+    }
     const double y = parse_number(cells[cost_col], where);
     if (!t.allFinite() || !std::isfinite(y)) continue;
     Vec v(static_cast<Index>(run.components.size()));
@@ -117,14 +129,15 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   const Index n = static_cast<Index>(thetas.size());
   run.theta.resize(n, d);
   run.cost.resize(n);
-  run.data = Dataset::empty(d);
+  run.data = Dataset::empty(run.space ? run.space->encoded_dim() : d);
   run.component_values.resize(n, static_cast<Index>(run.components.size()));
   for (Index i = 0; i < n; ++i) {
     run.component_values.row(i) = values[static_cast<std::size_t>(i)].transpose();
     run.theta.row(i) = thetas[static_cast<std::size_t>(i)].transpose();
     run.cost[i] = costs[static_cast<std::size_t>(i)];
     // The same clamp as the runner: a θ written in user units maps back into the unit cube.
-    run.data.add(Box::unit(d).clamp(to_unit(thetas[static_cast<std::size_t>(i)], run.domain.box)), run.cost[i]);
+    const Vec& t = thetas[static_cast<std::size_t>(i)];
+    run.data.add(run.space ? run.space->encode(t) : Vec(Box::unit(d).clamp(to_unit(t, run.domain.box))), run.cost[i]);
   }
   run.fits = read_model_yaml(folder + "/model.yaml");
   return run;
@@ -142,9 +155,9 @@ const ResolvedComponent* run_surrogate_spec(const RunFolder& run) {
 std::unique_ptr<Surrogate> make_run_surrogate(const RunFolder& run, const ResolvedComponent& spec,
                                               const Registry& registry, std::uint64_t seed, bool warm_start) {
   BuildContext ctx;
-  ctx.dim = run.domain.box.dim();
+  ctx.dim = run.space ? run.space->encoded_dim() : run.domain.box.dim();
   ctx.seed = seed;
-  std::unique_ptr<Surrogate> model = registry.create<Surrogate>(spec, ctx);
+  std::unique_ptr<Surrogate> model = respect_types(registry.create<Surrogate>(spec, ctx), run.space);
   const ResolvedComponent* own = run_surrogate_spec(run);
   if (warm_start && !run.fits.empty() && own != nullptr && own->info == spec.info && !run.fits.back().empty()) {
     try {

@@ -17,8 +17,8 @@ namespace varbo {
 static std::string csv_escape(const std::string& s) { return csv_text(s); }
 
 RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
-                     std::vector<std::string> component_names, bool with_regret)
-    : folder_(folder), components_(std::move(component_names)), with_regret_(with_regret) {
+                     std::vector<std::string> component_names, bool with_regret, SharedSpace space)
+    : folder_(folder), components_(std::move(component_names)), with_regret_(with_regret), space_(std::move(space)) {
   std::error_code ec;
   fs::create_directories(folder_, ec);
   if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", folder_, ec.message()));
@@ -47,7 +47,8 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
 void RunWriter::trial(const TrialRow& r) {
   const TrialRecord& t = r.trial;
   trials_ << r.index << "," << t.phase;
-  for (Index i = 0; i < t.theta.size(); ++i) trials_ << "," << exact(t.theta[i]);
+  for (Index i = 0; i < t.theta.size(); ++i)  // labels for categories, integers as integers
+    trials_ << "," << (space_ ? csv_escape(space_->format_value(static_cast<std::size_t>(i), t.theta[i])) : exact(t.theta[i]));
   trials_ << "," << (r.ok() ? exact(t.cost) : std::string("nan")) << "," << (r.ok() ? 1 : 0);
   for (const auto& c : components_) {
     std::string v = "nan";
@@ -104,6 +105,11 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
     j["best_cost"] = s.best_cost;
   }
   if (s.recommended_theta) j["recommended_theta"] = vec_json(*s.recommended_theta);
+  // Named, typed values (labels for categories) beside the θ vectors, when the study declares parameters.
+  if (space_) {
+    if (s.best_theta) j["best_params"] = nlohmann::json::parse(space_->params(*s.best_theta).to_json());
+    if (s.recommended_theta) j["recommended_params"] = nlohmann::json::parse(space_->params(*s.recommended_theta).to_json());
+  }
   if (optimum) j["known_optimum"] = optimum->cost;
   if (!s.recommendation_rule.empty()) j["recommendation_rule"] = s.recommendation_rule;
   // Where the optimum is known: the regret of what the run recommends (what a user deploys) and the oracle

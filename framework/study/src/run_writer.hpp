@@ -27,7 +27,7 @@ struct TrialRow {
 class RunWriter {
  public:
   RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
-            std::vector<std::string> component_names, bool with_regret = false);
+            std::vector<std::string> component_names, bool with_regret = false, SharedSpace space = nullptr);
   void trial(const TrialRow& row);
   void model(const ModelSnapshot& snapshot);
   void summary(const RunSummary& summary, const Domain& domain, const std::optional<Optimum>& optimum);
@@ -39,6 +39,7 @@ class RunWriter {
   std::ofstream trials_, model_;
   bool warned_extra_ = false;
   bool with_regret_ = false;  ///< trials.csv carries regret_best_observed and regret_recommended
+  SharedSpace space_;         ///< typed parameters: θ written as labels and integers
 };
 
 }  // namespace varbo

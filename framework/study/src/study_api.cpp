@@ -14,6 +14,8 @@
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
+#include "varbo/search_space_config.hpp"
+#include "varbo/space_wrappers.hpp"
 #include "varbo/state.hpp"
 
 namespace fs = std::filesystem;
@@ -61,6 +63,9 @@ std::string study_identity(const StudyConfig& c) {
   n["algorithm"] = c.algorithm.resolved();
   n["seed"] = c.seed;
   if (c.initial_point) n["initial_point"] = std::vector<double>(c.initial_point->data(), c.initial_point->data() + c.initial_point->size());
+  // Only when present: the identity of a study without them is unchanged.
+  if (c.parameters) n["parameters"] = YAML::Clone(c.source.child("parameters").yaml());
+  if (c.constraints.defined()) n["constraints"] = YAML::Clone(c.constraints.yaml());
   return emit(n);
 }
 
@@ -71,6 +76,7 @@ struct Study::Impl {
   StudyConfig config;
   std::unique_ptr<Task> task;
   Domain domain;
+  SharedSpace space;  ///< typed parameters and constraints (docs/search_space.md); null for a plain box
   std::optional<Vec> initial_unit;
   std::unique_ptr<StudyStore> store;
   std::string worker = default_worker_name();
@@ -95,11 +101,14 @@ struct Study::Impl {
     BuildContext tctx;
     tctx.seed = config.seed;
     task = reg.create<Task>(config.task, tctx);
-    domain = task->domain();
+    init_space();
     const Index d = domain.box.dim();
     if (d < 1)
-      throw ConfigError(fmt::format("{}: task '{}' has no parameters", config.task.source.where(), config.task.info->name));
-    if (!(domain.box.upper.array() > domain.box.lower.array()).all())
+      throw ConfigError(fmt::format("{}: task '{}' has no parameters{}", config.task.source.where(), config.task.info->name,
+                                    dynamic_cast<SpaceAware*>(task.get())
+                                        ? ": give its dim, lower/upper or names, or declare the study's `parameters:`"
+                                        : ""));
+    if (!space && !(domain.box.upper.array() > domain.box.lower.array()).all())
       throw ConfigError(fmt::format("{}: task '{}' has an empty domain (every upper bound must exceed its lower bound)",
                                     config.task.source.where(), config.task.info->name));
     for (Index i = static_cast<Index>(domain.names.size()); i < d; ++i) domain.names.push_back(fmt::format("x{}", i + 1));
@@ -109,19 +118,35 @@ struct Study::Impl {
       if (theta0->size() != d)
         config.source.child("initial_point")
             .fail(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
+      std::string why;
+      if (space && !space->contains(*theta0, &why))
+        config.source.child("initial_point").fail("the initial point is not admissible: " + why);
       if (!domain.box.contains(*theta0))
         config.source.child("initial_point").fail("the initial point lies outside the task's domain");
-      initial_unit = to_unit(*theta0, domain.box);
+      initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
     }
   }
 
+  void init_space() { space = resolve_study_space(config, *task, domain); }
+
+  /// The point a trial records for the algorithm's suggestion x (unit cube): admissible in the space.
+  Vec trial_x(const Vec& x) const {
+    const Index d = x.size();
+    return space ? space->admissible(x) : Vec(Box::unit(d).clamp(x));
+  }
+  Vec theta_of(const Vec& x) const { return space ? space->decode(x) : from_unit(x, domain.box); }
+  Index encoded_dim() const { return space ? space->encoded_dim() : domain.box.dim(); }
+
   std::unique_ptr<Algorithm> make_algorithm() const {
     BuildContext actx;
-    actx.dim = domain.box.dim();
+    actx.dim = encoded_dim();
     actx.seed = config.seed;
     actx.budget = config.budget;
     actx.initial_point = initial_unit;
-    return registry->create<Algorithm>(config.algorithm, actx);
+    std::unique_ptr<Algorithm> a = registry->create<Algorithm>(config.algorithm, actx);
+    if (space)
+      if (auto* aware = dynamic_cast<SpaceAware*>(a.get())) aware->set_search_space(space);
+    return a;
   }
 
   static std::vector<Observation> observations_of(const std::vector<TrialRecord>& trials, std::size_t n) {
@@ -226,7 +251,7 @@ struct Study::Impl {
                         t.finished_before == static_cast<std::int64_t>(told_ids.size());
     if (serial) {
       const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
-                        (Box::unit(t.x.size()).clamp(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
+                        (trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
       if (!same) {
         ++mismatches;
         log_warn("{}: replaying trial {}: the algorithm now suggests a different point than it did (is the run "
@@ -458,7 +483,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
     m.dirty = true;  // until the suggestion is stored
     m.alg->set_pending(pending);
     std::vector<Suggestion> sugg = m.alg->ask(n);
-    const Index d = m.domain.box.dim();
+    const Index d = m.encoded_dim();
     const double now = unix_time();
     for (std::size_t j = 0; j < sugg.size(); ++j) {
       TrialRecord r;
@@ -468,8 +493,12 @@ std::vector<TrialRecord> Study::ask(Index q) {
         throw InputError(fmt::format("algorithm '{}' suggested a point of dimension {}, expected {}",
                                      m.config.algorithm.info->name, sugg[j].x.size(), d));
       if (!Box::unit(d).contains(sugg[j].x, 1e-9)) log_warn("algorithm suggested a point outside the unit cube; clamping it");
-      r.x = Box::unit(d).clamp(sugg[j].x);
-      r.theta = from_unit(r.x, m.domain.box);
+      r.x = m.trial_x(sugg[j].x);
+      r.theta = m.theta_of(r.x);
+      std::string why;
+      if (m.space && !m.space->contains(r.theta, &why))
+        log_warn("algorithm '{}' suggested a point that could not be made admissible: {}", m.config.algorithm.info->name,
+                 why);
       r.worker = m.worker;
       r.created_at = now;
       r.finished_before = n_finished;
@@ -526,6 +555,9 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
   const std::string where = m.store->location();
   check_result(where + ": new trial", cost, components);
   const Box& box = m.domain.box;
+  std::string why;
+  if (m.space && !m.space->contains(theta, &why))
+    throw InputError(fmt::format("{}: θ is not admissible: {}; nothing written", where, why));
   if (theta.size() != box.dim())
     throw InputError(fmt::format("{}: θ has {} values, the study has {} parameters ({}); nothing written", where,
                                  theta.size(), box.dim(), join(m.domain.names)));
@@ -539,7 +571,7 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
     r.state = TrialState::Complete;
     r.phase = "manual";
     r.theta = theta;
-    r.x = Box::unit(box.dim()).clamp(to_unit(theta, box));
+    r.x = m.space ? m.space->encode(theta) : Vec(Box::unit(box.dim()).clamp(to_unit(theta, box)));
     r.cost = cost;
     r.components = components;
     r.worker = m.worker;
@@ -629,7 +661,7 @@ std::optional<Selection> Study::select(double kappa) const {
   for (const auto& t : m.store->trials())
     if (t.state == TrialState::Complete) done.push_back(t);
   if (done.empty()) return std::nullopt;
-  const Index d = m.domain.box.dim();
+  const Index d = m.encoded_dim();
   Dataset data = Dataset::empty(d);
   for (const auto& t : done) data.add(t.x, t.cost);
   ResolvedComponent spec;
@@ -639,7 +671,7 @@ std::optional<Selection> Study::select(double kappa) const {
   BuildContext ctx;
   ctx.dim = d;
   ctx.seed = m.config.seed;
-  std::unique_ptr<Surrogate> model = m.registry->create<Surrogate>(spec, ctx);
+  std::unique_ptr<Surrogate> model = respect_types(m.registry->create<Surrogate>(spec, ctx), m.space);
   Rng rng = Rng(m.config.seed).stream(0x5e1ec7);
   Selection s;
   if (data.size() >= 2) model->fit(data, rng);
@@ -664,6 +696,11 @@ std::optional<Selection> Study::select(double kappa) const {
 std::vector<TrialRecord> Study::trials() const { return impl_->store->trials(); }
 const StudyConfig& Study::config() const { return impl_->config; }
 const Domain& Study::domain() const { return impl_->domain; }
+const SharedSpace& Study::space() const { return impl_->space; }
+Params Study::params(const Vec& theta) const {
+  const Domain& d = impl_->domain;
+  return impl_->space ? impl_->space->params(theta) : SearchSpace::from_box(d.box, d.names).params(theta);
+}
 StudyStore& Study::store() { return *impl_->store; }
 void Study::transaction(const std::function<void()>& body) { impl_->store->transaction(body); }
 std::optional<std::string> Study::meta(const std::string& key) const { return impl_->store->meta(key); }
@@ -733,11 +770,11 @@ VerifyReport Study::verify() {
         t.batch_size == 1 && t.pending_before == 0 && t.finished_before == static_cast<std::int64_t>(i);
     if (serial) {
       const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
-                        (Box::unit(t.x.size()).clamp(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
+                        (m.trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
       if (!same) {
         rep.divergence = fmt::format(
             "trial {} (result {} in finish order): the replay suggests {} instead of the stored {}", t.id, i,
-            s.empty() ? std::string("nothing") : join_numbers(from_unit(Box::unit(t.x.size()).clamp(s[0].x), m.domain.box)),
+            s.empty() ? std::string("nothing") : join_numbers(m.theta_of(m.trial_x(s[0].x))),
             join_numbers(t.theta));
         return rep;
       }

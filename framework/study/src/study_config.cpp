@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "varbo/errors.hpp"
+#include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo {
@@ -24,6 +25,12 @@ const std::vector<OptionSpec>& study_options() {
       opt::real("heartbeat_timeout", 60,
                 "seconds without a heartbeat after which a `varbo worker`'s pending trial is abandoned (0 = never)")
           .at_least(0),
+      opt::node("parameters", "",
+                "typed parameters for tasks that take a domain (external): a list of {name, type: real|int|"
+                "categorical|fixed, low, high, log, choices, value} (docs/search_space.md)"),
+      opt::node("constraints", "",
+                "linear inequalities in user units over real/int parameters, e.g. [\"t1 + t2 + t3 <= 5.5\"]; "
+                "every suggestion satisfies them (docs/search_space.md)"),
       opt::boolean("retry_abandoned", false,
                    "hand an abandoned trial's θ out again as it is (phase 'retry') instead of letting the algorithm "
                    "suggest anew"),
@@ -76,6 +83,8 @@ YAML::Node StudyConfig::resolved() const {
     std::vector<double> v(initial_point->data(), initial_point->data() + initial_point->size());
     out["initial_point"] = v;
   }
+  if (parameters) out["parameters"] = YAML::Clone(source.child("parameters").yaml());
+  if (constraints.defined()) out["constraints"] = YAML::Clone(constraints.yaml());
   return out;
 }
 
@@ -148,6 +157,8 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
     auto v = o.reals("initial_point");
     s.initial_point = Eigen::Map<const Vec>(v.data(), static_cast<Index>(v.size()));
   }
+  if (o.is_set("parameters")) s.parameters = std::make_shared<const SearchSpace>(parse_search_space(o.node("parameters")));
+  if (o.is_set("constraints")) s.constraints = o.node("constraints");
   return s;
 }
 

@@ -138,7 +138,7 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       "interrupted: the run stopped before the result was recorded");
 
   const std::optional<Optimum> optimum = task.optimum();
-  RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value());
+  RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value(), st.space());
   set_log_file(study.output + "/log.txt");
   log_info("run {}: task {}, algorithm {}, budget {}, seed {}, threads {}", study.output, study.task.info->name,
            study.algorithm.info->name, study.budget, study.seed,
@@ -158,7 +158,7 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     if (!a) return;
     const std::optional<Vec> r = a->recommendation();
     if (!r) return;
-    summary.recommended_theta = from_unit(*r, domain.box);
+    summary.recommended_theta = st.space() ? st.space()->decode(st.space()->admissible(*r)) : from_unit(*r, domain.box);
     if (!optimum) return;
     const std::optional<double> v = task.noiseless_cost(*summary.recommended_theta);
     if (v && std::isfinite(*v)) summary.regret_recommended = *v - optimum->cost;

@@ -61,6 +61,10 @@ Weights run_weights(const StudyConfig& study, const std::vector<std::string>& co
 ComponentRun load_component_run(const std::string& folder, const Registry& registry) {
   // The one reader of run folders (run_folder.hpp); here only the successful trials with every component.
   const RunFolder rf = load_run_folder(folder, registry);
+  if (rf.space)  // its model and steps would be in encoded coordinates
+    throw InputError(fmt::format("{}: rescore does not handle studies with typed parameters or constraints yet "
+                                 "(docs/search_space.md)",
+                                 folder));
   const std::string trials = folder + "/trials.csv";
   ComponentRun run;
   run.folder = folder;

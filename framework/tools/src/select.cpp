@@ -11,6 +11,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/math.hpp"
+#include "varbo/space_wrappers.hpp"
 
 namespace varbo {
 
@@ -28,13 +29,14 @@ double NegativeConfidenceBound::value(const Vec& x, Vec* grad) const {
 
 namespace {
 // Fills the selection for κ at x (unit cube) from the model's prediction there.
-void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain, const Vec& x, const Prediction& p) {
+void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain, const Vec& x, const Prediction& p,
+                 const SharedSpace& space) {
   r.x = x;
   r.mean = p.mean;
   r.std = p.total_std();
   r.criterion = r.mean + r.kappa * r.std;
   r.relative_latent_std = std::sqrt(std::max(0.0, p.latent_var) / std::max(model.signal_variance(), 1e-300));
-  r.theta = from_unit(r.x, domain.box);
+  r.theta = space ? space->decode(r.x) : from_unit(r.x, domain.box);
   r.ok = std::isfinite(r.criterion);
 }
 
@@ -56,20 +58,20 @@ std::vector<RiskSelection> for_each_kappa(const std::vector<double>& kappas, Cho
 
 std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
                                            const std::vector<double>& kappas, const Optimizer& optimizer,
-                                           const Rng& rng, const Mat& starts) {
+                                           const Rng& rng, const Mat& starts, const SharedSpace& space) {
   if (!model.ready()) throw InputError("select: the model is not fitted (no data?)");
-  const Index d = domain.box.dim();
+  const Index d = space ? space->encoded_dim() : domain.box.dim();
   if (d < 1) throw InputError("select: the domain has no parameters");
   if (starts.size() > 0 && starts.cols() != d)
     throw InputError(fmt::format("select: starting points have {} columns, the domain {}", starts.cols(), d));
-  const BoxRegion unit(Box::unit(d));
+  const std::unique_ptr<RegionConstraint> unit = respect_constraints(std::make_unique<BoxRegion>(Box::unit(d)), space);
   return for_each_kappa(kappas, [&](RiskSelection& r) {
     const NegativeConfidenceBound f(model, d, r.kappa);
     // The stream depends only on κ's value: selecting [2, -2] or [-2] gives the same answer for -2.
     Rng krng = rng.stream(0x5e1ec7, std::bit_cast<std::uint64_t>(r.kappa == 0.0 ? 0.0 : r.kappa));
     OptimizeResult res;
     try {
-      res = optimizer.maximize(f, unit, starts, krng);
+      res = optimizer.maximize(f, *unit, starts, krng);
     } catch (const std::exception& e) {
       res.success = false;
       res.message = e.what();
@@ -78,8 +80,8 @@ std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain&
       r.message = fmt::format("the optimizer found no point ({})", res.message);
       return;
     }
-    const Vec x = Box::unit(d).clamp(res.x);
-    describe_at(r, model, domain, x, model.predict(x, false));
+    const Vec x = space ? space->admissible(res.x) : Vec(Box::unit(d).clamp(res.x));
+    describe_at(r, model, domain, x, model.predict(x, false), space);
     r.message = r.ok ? res.message : "non-finite prediction at the optimizer's point";
   });
 }
@@ -89,9 +91,9 @@ std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain&
 namespace varbo {
 
 std::vector<RiskSelection> select_among(const Surrogate& model, const Domain& domain,
-                                        const std::vector<double>& kappas, const Mat& points) {
+                                        const std::vector<double>& kappas, const Mat& points, const SharedSpace& space) {
   if (!model.ready()) throw InputError("select: the model is not fitted (no data?)");
-  const Index d = domain.box.dim();
+  const Index d = space ? space->encoded_dim() : domain.box.dim();
   if (points.rows() == 0 || points.cols() != d)
     throw InputError(fmt::format("select: {} candidate points of dimension {}, the domain has {}", points.rows(),
                                  points.cols(), d));
@@ -109,7 +111,7 @@ std::vector<RiskSelection> select_among(const Surrogate& model, const Domain& do
       r.message = "no candidate has a finite E + kappa*s";
       return;
     }
-    describe_at(r, model, domain, points.row(best).transpose(), p[static_cast<std::size_t>(best)]);
+    describe_at(r, model, domain, points.row(best).transpose(), p[static_cast<std::size_t>(best)], space);
   });
 }
 

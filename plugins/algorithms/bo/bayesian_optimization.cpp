@@ -11,6 +11,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
+#include "varbo/space_wrappers.hpp"
 
 namespace varbo::bo {
 
@@ -82,6 +83,12 @@ const OptionSet<BoSettings>& bo_options() {
                   "risk-averse for κ > 0); or the lowest observed cost"),
       opt::real("recommendation_kappa", &BoSettings::recommendation_kappa,
                 "κ of the lowest_bound_evaluated recommendation rule"),
+      // Unset unless given (read by hand below), so that the resolved configuration, and with it the identity of
+      // every study stored before typed parameters existed, is unchanged.
+      opt::choice("discrete", "", {"transform", "relax"},
+                  "integer and categorical parameters: transform (the default) = the surrogate sees them rounded, "
+                  "constant between admissible values (Garrido-Merchán & Hernández-Lobato 2020); relax = a continuous "
+                  "model, rounded only at evaluation (a baseline)"),
       opt::node("phases", "",
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
@@ -151,6 +158,20 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   data_ = Dataset::empty(dim_);
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
+  round_in_model_ = !o.is_set("discrete") || o.str("discrete") == "transform";
+}
+
+void BayesianOptimization::set_search_space(SharedSpace space) {
+  if (told_ > 0 || fits_ > 0) throw std::logic_error("bo: set_search_space after the run started");
+  if (!space || space->encoded_dim() != dim_)
+    throw std::logic_error("bo: the search space's encoded dimension differs from the problem dimension");
+  // Typed parameters (docs/search_space.md): the surrogate sees integers and categories rounded (unless
+  // `discrete: relax`), the region keeps to the linear constraints; neither wrapper is there for a plain box.
+  space_ = std::move(space);
+  const SharedSpace model_space = round_in_model_ ? space_ : nullptr;
+  surrogate_ = respect_types(std::move(surrogate_), model_space);
+  region_ = respect_constraints(std::move(region_), space_);
+  recommender_->wrap_model(model_space);
 }
 
 const Phase& BayesianOptimization::phase_at(Index evaluation) const {
@@ -407,6 +428,9 @@ std::vector<Suggestion> BayesianOptimization::ask(Index q) {
   }
   for (Index j = 0; j < q; ++j) {
     Suggestion s = suggest(told_ + offset + j, fantasy, j == 0);
+    // The acquisition was maximized over the relaxation (piecewise constant in the integer and categorical
+    // coordinates); what is evaluated, and what later points of the batch see, is its admissible point.
+    if (space_) s.x = space_->admissible(s.x);
     if (j == 0) s.fit_seconds += prefit_seconds;
     if (j + 1 < q) {
       const double believed = batch_strategy_ == BatchStrategy::KrigingBeliever

@@ -12,6 +12,7 @@
 #include "recommender.hpp"
 #include "varbo/function.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/search_space.hpp"
 #include "varbo/state.hpp"
 
 namespace varbo::bo {
@@ -28,9 +29,11 @@ struct Phase {
 
 std::vector<OptionSpec> options();  ///< bo_options().specs()
 
-class BayesianOptimization final : public Algorithm, public AlgorithmState {
+class BayesianOptimization final : public Algorithm, public AlgorithmState, public SpaceAware {
  public:
   BayesianOptimization(const Options& options, const BuildContext& ctx);
+  /// Typed parameters and constraints (docs/search_space.md), before the first ask().
+  void set_search_space(SharedSpace space) override;
   std::vector<Suggestion> ask(Index q) override;
   void tell(const std::vector<Observation>& observations) override;
   /// Pending points enter the next batches as fantasies (batch_strategy) and shift the trial index.
@@ -69,6 +72,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState {
   Index dim_;
   Index budget_;
   Rng rng_;
+  SharedSpace space_;  ///< typed parameters and constraints (null: a plain box)
+  bool round_in_model_ = true;  ///< `discrete: transform` (else relax)
   std::unique_ptr<Sampler> design_sampler_;
   std::unique_ptr<Surrogate> surrogate_;
   std::unique_ptr<RegionConstraint> region_;

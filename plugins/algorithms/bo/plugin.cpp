@@ -8,5 +8,8 @@ VARBO_PLUGIN("bo", "0.1.0", "Bayesian optimization composed from a surrogate, ac
       "trial; optional phases and ε-random exploration",
       varbo::bo::options(), [](const varbo::Options& o, const varbo::BuildContext& ctx) {
         return std::make_unique<varbo::bo::BayesianOptimization>(o, ctx);
-      }));
+      },
+      // Typed parameters and constraints (docs/search_space.md): the surrogate sees rounded inputs, the region
+      // is intersected with the constraints and every suggestion is made admissible.
+      {"search_space:mixed"}));
 }

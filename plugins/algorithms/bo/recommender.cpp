@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "varbo/space_wrappers.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 
@@ -143,5 +144,7 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const R
   cached_ = out;
   return out;
 }
+
+void Recommender::wrap_model(const SharedSpace& space) { model_ = respect_types(std::move(model_), space); }
 
 }  // namespace varbo::bo

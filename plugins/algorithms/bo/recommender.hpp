@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "varbo/search_space.hpp"
 #include "varbo/registry.hpp"
 
 namespace varbo::bo {
@@ -41,6 +42,9 @@ class Recommender {
                 const Optimizer& optimizer, Rng& rng, bool refit);
 
   RecommendationRule rule() const { return rule_; }
+  /// Wraps the recommendation model so that it sees integers and categories rounded (varbo/space_wrappers.hpp);
+  /// nothing for a null space or one without them.
+  void wrap_model(const SharedSpace& space);
   /// The recommendation model after the latest recommend() (nullptr if none was usable).
   const Surrogate* model() const { return ready_ ? model_.get() : nullptr; }
 

@@ -50,7 +50,14 @@ void CmaEs::draw_candidate() {
   // Stream per (generation, draw): the sequence of candidates does not depend on how ask() is batched.
   Rng r = rng_.stream(static_cast<std::uint64_t>(generation_), static_cast<std::uint64_t>(draws_++));
   const Vec z = m_ + sigma_ * (B_ * D_.cwiseProduct(r.normal_vec(d_)));
-  pop_.push_back(Candidate{z, z.cwiseMax(0.0).cwiseMin(1.0), false, false, 0.0});
+  const Vec clipped = z.cwiseMax(0.0).cwiseMin(1.0);
+  pop_.push_back(Candidate{z, o_.space ? o_.space->admissible(clipped) : clipped, false, false, 0.0});
+}
+
+void CmaEs::set_search_space(SharedSpace space) {
+  o_.space = std::move(space);
+  for (auto& c : pop_)
+    if (!c.asked) c.x = o_.space ? o_.space->admissible(c.z.cwiseMax(0.0).cwiseMin(1.0)) : Vec(c.z.cwiseMax(0.0).cwiseMin(1.0));
 }
 
 void CmaEs::new_generation() {
@@ -114,7 +121,7 @@ void CmaEs::update() {
   const double range = std::isfinite(hi - lo) && hi > lo ? hi - lo : 1.0;
   std::vector<double> rank_cost(told.size());
   for (std::size_t i = 0; i < told.size(); ++i)
-    rank_cost[i] = told[i]->cost + o_.penalty * range * (told[i]->z - told[i]->x).squaredNorm();
+    rank_cost[i] = told[i]->cost + o_.penalty * range * (told[i]->z - told[i]->z.cwiseMax(0.0).cwiseMin(1.0)).squaredNorm();
   std::vector<std::size_t> order(told.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return rank_cost[a] < rank_cost[b]; });

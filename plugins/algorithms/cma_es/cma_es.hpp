@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "varbo/search_space.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/state.hpp"
 
@@ -23,11 +24,17 @@ struct CmaEsOptions {
   /// Recommend the distribution mean m (clipped to the box) instead of the best observed candidate: under
   /// noise the best observed cost is a lucky draw, while m averages the μ best of each generation.
   bool recommend_mean = false;
+  /// Typed parameters (docs/search_space.md): each candidate is handed out at its admissible point (integers
+  /// rounded, categories by argmax, constraints repaired), while the distribution is updated with the unrounded
+  /// sample, as in CMA-ES with rounding at evaluation; the boundary penalty is on the clipping distance only.
+  SharedSpace space;
 };
 
-class CmaEs final : public Algorithm, public AlgorithmState {
+class CmaEs final : public Algorithm, public AlgorithmState, public SpaceAware {
  public:
   CmaEs(Index dim, CmaEsOptions options);
+  /// Typed parameters (CmaEsOptions::space), before the first ask().
+  void set_search_space(SharedSpace space) override;
   /// The next q candidates of the current generation; when all λ have been handed out and their results are
   /// still pending, further candidates of the same distribution are drawn (they are used if told first).
   std::vector<Suggestion> ask(Index q = 1) override;

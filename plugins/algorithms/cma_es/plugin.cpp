@@ -41,5 +41,6 @@ VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's d
           c.x0 = *ctx.initial_point;
         }
         return std::make_unique<CmaEs>(ctx.dim, c);
-      }));
+      },
+      {"search_space:mixed"}));
 }

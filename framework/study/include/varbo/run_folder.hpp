@@ -16,6 +16,7 @@ struct RunFolder {
   std::string folder;
   StudyConfig study;                ///< parsed from config.resolved.yaml
   Domain domain;                    ///< from the task built from the resolved config (user units)
+  SharedSpace space;                ///< typed parameters and constraints (docs/search_space.md); null: a box
   std::vector<std::string> names;   ///< parameter names (domain.names, x1.. when the task gives none)
   std::optional<Vec> initial_point; ///< the config's initial_point, else the task's (user units)
   Index trials = 0;                 ///< rows of trials.csv, failed ones included

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 #include "varbo/registry.hpp"
+#include "varbo/search_space.hpp"
 
 namespace varbo {
 
@@ -22,8 +23,19 @@ struct StudyConfig {
   std::optional<Vec> initial_point;  ///< user units
   double heartbeat_timeout = 60;     ///< a silent `varbo worker`'s pending trials are abandoned after it (0: never)
   bool retry_abandoned = false;      ///< re-queue an abandoned trial's θ as it is
+  /// `parameters:` (typed parameters, docs/search_space.md), validated; null when absent (the task's domain).
+  SharedSpace parameters;
+  /// `constraints:` as given (checked against the parameter names when the study is built); undefined if absent.
+  ConfigNode constraints;
   YAML::Node resolved() const;       ///< every key with defaults, for config.resolved.yaml
 };
+
+/// The study's search space (docs/search_space.md), and `domain` (set from task.domain()) made its user box and
+/// names: the declared `parameters:` given to the task (which must take them), or the task's own typed space, or —
+/// with `constraints:` only — the task's box as real parameters; null for a plain box, which keeps every run
+/// without these keys exactly as before. Throws ConfigError at the offending key, also when the algorithm or its
+/// acquisition optimizer cannot handle the space (capability tags).
+SharedSpace resolve_study_space(const StudyConfig& config, Task& task, Domain& domain);
 
 /// Declared top-level keys (for validation and `varbo plugins --describe study`).
 const std::vector<OptionSpec>& study_options();

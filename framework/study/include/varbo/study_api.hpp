@@ -109,6 +109,10 @@ class Study {
   std::vector<TrialRecord> trials() const;
   const StudyConfig& config() const;
   const Domain& domain() const;  ///< names filled in (x1, x2, ... when the task gives none)
+  /// Typed parameters and constraints (docs/search_space.md); null for a plain box of reals.
+  const SharedSpace& space() const;
+  /// The typed, named view of a θ of this study (e.g. a trial's theta): params.real("lr"), .label("solver").
+  Params params(const Vec& theta) const;
   /// The store itself, for tests and tools; programs use the methods above.
   StudyStore& store();
   /// The live algorithm, in step with the store after the latest ask(); for snapshots and recommendations.

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "varbo/search_space.hpp"
 #include "varbo/optimizer.hpp"
 #include "varbo/surrogate.hpp"
 #include "varbo/task.hpp"
@@ -45,13 +46,16 @@ class NegativeConfidenceBound : public DifferentiableFunction {
 /// (e.g. the evaluated points; may be empty) and the optimizer's own candidates. `model` must be ready.
 /// Each κ draws from its own stream of `rng` (derived from κ's value), so one κ's answer does not depend on
 /// the others in the list. The result is in the order of `kappas`; θ is mapped to `domain.box`.
+/// With a search space (typed parameters, docs/search_space.md) the cube is its encoding, the search keeps to its
+/// constraints and θ is the admissible point decoded.
 std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
                                            const std::vector<double>& kappas, const Optimizer& optimizer,
-                                           const Rng& rng, const Mat& starts = Mat());
+                                           const Rng& rng, const Mat& starts = Mat(), const SharedSpace& space = nullptr);
 
 /// For each κ, the row of `points` (unit cube, e.g. the evaluated θ) minimizing E + κ·s: the selection that
 /// never leaves the data (Kuindersma 2013, Alg. 2 picks among evaluated policies the same way).
 std::vector<RiskSelection> select_among(const Surrogate& model, const Domain& domain,
-                                        const std::vector<double>& kappas, const Mat& points);
+                                        const std::vector<double>& kappas, const Mat& points,
+                                        const SharedSpace& space = nullptr);
 
 }  // namespace varbo

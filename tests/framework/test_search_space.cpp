@@ -1,0 +1,326 @@
+// SearchSpace (varbo/search_space.hpp): encoding round trips, the rounding transformation, constraint parsing
+// and feasibility, the typed Params view, and the surrogate wrapper's constancy between admissible values.
+#include <cmath>
+
+#include "varbo/errors.hpp"
+#include "varbo/search_space.hpp"
+#include "varbo/search_space_config.hpp"
+#include "varbo/space_wrappers.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+SearchSpace issue_space() {
+  // The example of issue 15.
+  return parse_search_space(ConfigNode::parse(R"(
+- {name: lr, type: real, low: 1.0e-5, high: 0.1, log: true}
+- {name: waypoints, type: int, low: 2, high: 9}
+- {name: step, type: int, low: 8, high: 256, log: true}
+- {name: solver, type: categorical, choices: [pd, lqr, mpc]}
+- {name: gain, type: real, low: -1, high: 1}
+- {name: horizon, type: fixed, value: 3.0}
+)", "p.yaml"));
+}
+
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_search_space(ConfigNode::parse(yaml, "p.yaml"));
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string constraint_error(const std::string& text) {
+  const SearchSpace s = issue_space();
+  try {
+    parse_linear_constraint(text, s.parameters());
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("the layout: one coordinate per real or int, one per category, none for a fixed value") {
+  const SearchSpace s = issue_space();
+  CHECK(s.size() == 6);
+  CHECK(s.encoded_dim() == 1 + 1 + 1 + 3 + 1);
+  CHECK(s.has_discrete());
+  CHECK(s.has_log());
+  const Box b = s.user_box();
+  CHECK(b.lower[3] == 0);
+  CHECK(b.upper[3] == 2);
+  CHECK(b.lower[5] == 3.0);
+  CHECK(b.upper[5] == 3.0);
+}
+
+TEST_CASE("encode then decode returns every admissible θ exactly") {
+  const SearchSpace s = issue_space();
+  Rng rng(3);
+  for (int k = 0; k < 500; ++k) {
+    Vec theta(6);
+    theta << std::exp(std::log(1e-5) + rng.uniform() * (std::log(0.1) - std::log(1e-5))), 2 + rng.index(8),
+        8 + rng.index(249), static_cast<double>(rng.index(3)), rng.uniform(-1, 1), 3.0;
+    const Vec back = s.decode(s.encode(theta));
+    CHECK(back[1] == theta[1]);
+    CHECK(back[2] == theta[2]);
+    CHECK(back[3] == theta[3]);
+    CHECK(back[5] == 3.0);
+    CHECK(back[0] == doctest::Approx(theta[0]).epsilon(1e-12));
+    CHECK(back[4] == doctest::Approx(theta[4]).epsilon(1e-12));
+    CHECK(s.contains(back));
+  }
+}
+
+TEST_CASE("log parameters are encoded in log space; integers own equal cells") {
+  const SearchSpace s = issue_space();
+  Vec theta(6);
+  theta << 1e-3, 2, 8, 0, 0, 3;
+  // (ln 1e-3 − ln 1e-5) / (ln 0.1 − ln 1e-5) = 2/4.
+  CHECK(s.encode(theta)[0] == doctest::Approx(0.5).epsilon(1e-12));
+  // waypoints ∈ {2..9}: 8 cells of width 1/8; the value 2 sits at the centre of the first, 1/16.
+  CHECK(s.encode(theta)[1] == doctest::Approx(1.0 / 16).epsilon(1e-12));
+  Vec x = s.encode(theta);
+  for (int n = 0; n < 8; ++n) {
+    x[1] = (n + 0.01) / 8;
+    CHECK(s.decode(x)[1] == 2 + n);
+    x[1] = (n + 0.99) / 8;
+    CHECK(s.decode(x)[1] == 2 + n);
+  }
+}
+
+TEST_CASE("categories: one-hot encoding, argmax decoding, and the rounding transformation") {
+  const SearchSpace s = issue_space();
+  Vec x = Vec::Constant(s.encoded_dim(), 0.3);
+  x.segment(3, 3) << 0.2, 0.7, 0.4;
+  CHECK(s.decode(x)[3] == 1);
+  const Vec t = s.round_discrete(x);
+  CHECK(t.segment(3, 3) == (Vec(3) << 0, 1, 0).finished());
+  CHECK(t[0] == x[0]);  // continuous coordinates untouched
+  CHECK(t[6] == x[6]);
+  CHECK(s.admissible(s.admissible(x)) == s.admissible(x));
+}
+
+TEST_CASE("the typed Params view and values from text") {
+  const SearchSpace s = issue_space();
+  Vec theta(6);
+  theta << 1e-3, 4, 16, 1, -0.5, 3;
+  const Params p = s.params(theta);
+  CHECK(p.real("lr") == 1e-3);
+  CHECK(p.integer("waypoints") == 4);
+  CHECK(p.label("solver") == "lqr");
+  CHECK(p.real("horizon") == 3.0);
+  CHECK_THROWS_AS(p.label("gain"), std::invalid_argument);
+  CHECK_THROWS_AS(p.real("solver"), std::invalid_argument);
+  CHECK(p.to_json() == R"({"lr": 0.001, "waypoints": 4, "step": 16, "solver": "lqr", "gain": -0.5, "horizon": 3})");
+  CHECK(s.theta(p) == theta);
+  CHECK(s.parse_value(3, "mpc") == 2);
+  CHECK(s.parse_value(1, "7") == 7);
+  CHECK_THROWS_AS(s.parse_value(1, "7.5"), InputError);
+  CHECK_THROWS_AS(s.parse_value(1, "12"), InputError);
+  CHECK_THROWS_AS(s.parse_value(3, "lqe"), InputError);
+  CHECK_THROWS_AS(s.parse_value(5, "4"), InputError);
+  CHECK(s.format_value(3, 2) == "mpc");
+  CHECK(s.format_value(1, 4) == "4");
+}
+
+TEST_CASE("each bad parameter declaration is refused at its key") {
+  CHECK(error_of("- {name: a, type: real, low: 1, high: 1}").find("p.yaml:1:39: key '[0].high'") == 0);
+  CHECK(error_of("- {name: a, type: real, low: 2, high: 1}").find("must exceed low") != std::string::npos);
+  CHECK(error_of("- {name: a, type: real, low: 0, high: 1, log: true}").find("p.yaml:1:30") == 0);
+  CHECK(error_of("- {name: a, type: real, low: 0, high: 1, log: true}").find("log-scaled parameter needs low > 0") != std::string::npos);
+  CHECK(error_of("- {name: a, type: int, low: 0.5, high: 3}").find("integer bounds") != std::string::npos);
+  CHECK(error_of("- {name: a, type: categorical, choices: []}").find("non-empty list") != std::string::npos);
+  CHECK(error_of("- {name: a, type: categorical, choices: [x, y, x]}").find("duplicate choice 'x'") != std::string::npos);
+  CHECK(error_of("- {name: a, type: real, low: 0, high: 1}\n- {name: a, type: int, low: 0, high: 3}")
+            .find("p.yaml:2:10: key '[1].name': duplicate parameter name 'a'") == 0);
+  CHECK(error_of("- {name: a, type: rael, low: 0, high: 1}").find("did you mean 'real'") != std::string::npos);
+  CHECK(error_of("- {name: a, type: real, low: 0, hihg: 1}").find("needs high") != std::string::npos);
+  CHECK(error_of("- {name: a, type: real, low: 0, high: 1, choices: [x]}").find("unknown key") != std::string::npos);
+  CHECK(error_of("- {name: a, type: fixed, value: 1}").find("every parameter is fixed") != std::string::npos);
+  CHECK(error_of("- {name: 2a, type: real, low: 0, high: 1}").find("starts with a letter") != std::string::npos);
+  CHECK(error_of("- {type: real, low: 0, high: 1}").find("needs a name") != std::string::npos);
+  CHECK(error_of("{}").find("non-empty list of parameters") != std::string::npos);
+}
+
+TEST_CASE("constraints parse into Σ a·v ≤ b, whatever side the terms are on") {
+  const SearchSpace s = issue_space();
+  const LinearConstraint c = parse_linear_constraint("gain + 2*waypoints - 0.5 horizon <= 5.5", s.parameters());
+  REQUIRE(c.terms.size() == 3);
+  CHECK(c.bound == 5.5);
+  const LinearConstraint d = parse_linear_constraint("3 >= waypoints*2 - gain + 1", s.parameters());
+  // 2·w − g + 1 ≤ 3  →  2·w − g ≤ 2
+  CHECK(d.bound == 2);
+  for (const auto& [i, a] : d.terms) CHECK(a == (i == 1 ? 2.0 : -1.0));
+  const LinearConstraint e = parse_linear_constraint("gain >= -0.5", s.parameters());
+  CHECK(e.bound == 0.5);
+  CHECK(e.terms[0].second == -1.0);
+}
+
+TEST_CASE("each bad constraint is refused with the reason") {
+  CHECK(constraint_error("gain + wayponts <= 3").find("unknown parameter 'wayponts'") != std::string::npos);
+  CHECK(constraint_error("gain + wayponts <= 3").find("did you mean 'waypoints'") != std::string::npos);
+  CHECK(constraint_error("gain + waypoints").find("no comparison") != std::string::npos);
+  CHECK(constraint_error("gain = 1").find("an equality") != std::string::npos);
+  CHECK(constraint_error("gain + * 2 <= 1").find("character 8") != std::string::npos);
+  CHECK(constraint_error("gain ^ 2 <= 1").find("unexpected character '^'") != std::string::npos);
+  CHECK(constraint_error("gain - gain <= 1").find("names no parameter") != std::string::npos);
+  SearchSpace s = issue_space();
+  CHECK_THROWS_WITH_AS(s.add_constraint(parse_linear_constraint("solver <= 1", s.parameters())),
+                       doctest::Contains("is categorical"), ConfigError);
+  CHECK_THROWS_WITH_AS(s.add_constraint(parse_linear_constraint("lr <= 0.01", s.parameters())),
+                       doctest::Contains("log-scaled"), ConfigError);
+}
+
+TEST_CASE("admissible points satisfy every constraint; an empty feasible set is detected") {
+  SearchSpace s(std::vector<Parameter>{
+      Parameter{"t1", ParameterType::Real, 0, 4, false, {}, 0}, Parameter{"t2", ParameterType::Real, 0, 4, false, {}, 0},
+      Parameter{"n", ParameterType::Int, 0, 5, false, {}, 0}});
+  s.add_constraint(parse_linear_constraint("t1 + t2 + n <= 5.5", s.parameters()));
+  s.add_constraint(parse_linear_constraint("t1 - t2 >= -1", s.parameters()));
+  REQUIRE(s.finalize());
+  Rng rng(5);
+  int repaired = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Vec x = rng.uniform_vec(s.encoded_dim());
+    const Vec a = s.admissible(x);
+    const Vec theta = s.decode(a);
+    std::string why;
+    CHECK_MESSAGE(s.contains(theta, &why), why);
+    CHECK(s.admissible(a) == a);
+    repaired += !s.satisfies_constraints(s.round_discrete(x));
+  }
+  CHECK(repaired > 100);  // the test exercised the repair
+  // A feasible point is kept as it is.
+  const Vec inside = s.encode((Vec(3) << 1.0, 1.5, 2).finished());
+  CHECK(s.admissible(inside) == inside);
+
+  SearchSpace empty(std::vector<Parameter>{Parameter{"t1", ParameterType::Real, 0, 4, false, {}, 0},
+                                           Parameter{"t2", ParameterType::Real, 0, 4, false, {}, 0}});
+  empty.add_constraint(parse_linear_constraint("t1 + t2 >= 9", empty.parameters()));
+  CHECK_FALSE(empty.finalize());
+  // The relaxation is feasible (n ∈ [1.5, 1.75]) but no integer is.
+  SearchSpace no_integer(std::vector<Parameter>{Parameter{"n", ParameterType::Int, 0, 5, false, {}, 0},
+                                                Parameter{"g", ParameterType::Real, 0, 1, false, {}, 0}});
+  no_integer.add_constraint(parse_linear_constraint("2*n >= 3", no_integer.parameters()));
+  no_integer.add_constraint(parse_linear_constraint("2*n <= 3.5", no_integer.parameters()));
+  CHECK_FALSE(no_integer.finalize());
+}
+
+TEST_CASE("constraints: file:line:col for a bad constraint and for an empty feasible set") {
+  SearchSpace s = issue_space();
+  const ConfigNode bad = ConfigNode::parse("- \"gain <= 1\"\n- \"solver + gain <= 1\"\n", "c.yaml");
+  CHECK_THROWS_WITH_AS(add_constraints(s, bad), doctest::Contains("c.yaml:2:3: key '[1]'"), ConfigError);
+  SearchSpace t = issue_space();
+  const ConfigNode empty = ConfigNode::parse("- \"gain >= 0.5\"\n- \"gain <= 0.25\"\n", "c.yaml");
+  CHECK_THROWS_WITH_AS(add_constraints(t, empty), doctest::Contains("no admissible point satisfies every constraint"),
+                       ConfigError);
+}
+
+namespace {
+/// A smooth stand-in surrogate: mean = Σ_k sin(3 x_k) + x_k², variance 0.1 + x_0², with analytic gradients.
+class SmoothModel final : public Surrogate {
+ public:
+  FitReport fit(const Dataset& d, Rng&) override { return condition(d); }
+  FitReport condition(const Dataset& d) override {
+    seen = d.X;
+    return {};
+  }
+  Prediction predict(const Vec& x, bool g) const override {
+    Prediction p;
+    p.mean = (3 * x.array()).sin().sum() + x.squaredNorm();
+    p.latent_var = 0.1 + x[0] * x[0];
+    if (g) {
+      p.d_mean = (3 * (3 * x.array()).cos() + 2 * x.array()).matrix();
+      p.d_latent_var = Vec::Zero(x.size());
+      p.d_latent_var[0] = 2 * x[0];
+      p.d_log_noise_mean = p.d_log_noise_var = Vec::Zero(x.size());
+    }
+    return p;
+  }
+  double signal_variance() const override { return 1; }
+  Hyperparameters hyperparameters() const override { return {}; }
+  void set_hyperparameters(const Hyperparameters&) override {}
+  bool ready() const override { return true; }
+  Mat seen;
+};
+}  // namespace
+
+TEST_CASE("the rounded surrogate is constant between admissible values and keeps the continuous gradient") {
+  auto space = std::make_shared<const SearchSpace>(issue_space());
+  auto inner = std::make_unique<SmoothModel>();
+  SmoothModel* raw = inner.get();
+  RoundedSurrogate model(std::move(inner), space);
+  Rng rng(9);
+  Vec base = space->admissible(rng.uniform_vec(space->encoded_dim()));
+  // Moving an integer coordinate within its cell, or a category's scores without changing the argmax, changes
+  // nothing; the prediction equals the inner model's at the admissible point.
+  const double at = raw->predict(base, false).mean;
+  for (int k = 0; k < 50; ++k) {
+    Vec x = base;
+    x[1] = std::clamp(base[1] + (rng.uniform() - 0.5) / 8 * 0.98, 0.0, 1.0);  // waypoints: cells of width 1/8
+    x.segment(3, 3) = 0.5 * base.segment(3, 3) + 0.4 * rng.uniform_vec(3).cwiseProduct(base.segment(3, 3));
+    CHECK(model.predict(x, false).mean == at);
+  }
+  // Gradient: zero in the discrete coordinates, the inner model's (checked by central differences) elsewhere.
+  const Prediction p = model.predict(base, true);
+  for (Index k = 0; k < base.size(); ++k) {
+    if (space->is_discrete_coordinate(k)) {
+      CHECK(p.d_mean[k] == 0);
+      continue;
+    }
+    Vec a = base, b = base;
+    a[k] -= 1e-6;
+    b[k] += 1e-6;
+    const double fd = (model.predict(b, false).mean - model.predict(a, false).mean) / 2e-6;
+    CHECK(p.d_mean[k] == doctest::Approx(fd).epsilon(1e-6));
+  }
+  // The data reach the inner model rounded.
+  Dataset d = Dataset::empty(space->encoded_dim());
+  d.add(rng.uniform_vec(space->encoded_dim()), 1.0);
+  model.condition(d);
+  CHECK(Vec(raw->seen.row(0).transpose()) == space->round_discrete(d.X.row(0).transpose()));
+}
+
+TEST_CASE("a region in a typed space: neighbouring integers and every category stay reachable; constraints kept") {
+  auto space = std::make_shared<SearchSpace>(issue_space());
+  space->add_constraint(parse_linear_constraint("gain + 0.25*waypoints <= 1.5", space->parameters()));
+  REQUIRE(space->finalize());
+  const SharedSpace shared = space;
+  Vec theta(6);
+  theta << 1e-3, 5, 16, 1, -0.5, 3;
+  const Vec c = shared->encode(theta);
+  // A trust region far smaller than one integer's cell (1/8 for waypoints).
+  const Box tiny{(c.array() - 1e-3).matrix(), (c.array() + 1e-3).matrix()};
+  ConstrainedRegion region(std::make_unique<BoxRegion>(tiny), shared);
+  const Box& b = region.bounds();
+  for (const double w : {4.0, 5.0, 6.0}) {
+    Vec t = theta;
+    t[1] = w;
+    CHECK(b.contains(shared->encode(t), 1e-12));  // waypoints 4 and 6 reachable
+  }
+  CHECK(b.lower.segment(3, 3) == Vec::Zero(3));  // every category
+  CHECK(b.upper.segment(3, 3) == Vec::Ones(3));
+  CHECK(b.lower[0] == tiny.lower[0]);  // continuous coordinates as the inner region's
+  CHECK(b.upper[6] == tiny.upper[6]);
+  // The constraint: c(x) ≥ 0 exactly where the decoded θ satisfies it (away from rounding of the integer).
+  CHECK(region.has_constraint());
+  Rng rng(2);
+  for (int k = 0; k < 200; ++k) {
+    const Vec x = shared->round_discrete(rng.uniform_vec(shared->encoded_dim()));
+    const Vec t = shared->decode(x);
+    const double lhs = t[4] + 0.25 * t[1];
+    if (std::abs(lhs - 1.5) < 1e-9) continue;
+    CHECK((region.constraint(x, nullptr) >= 0) == (lhs <= 1.5));
+    Vec g;
+    region.constraint(x, &g);
+    Vec a = x, d = x;
+    a[6] -= 1e-6;  // gain's coordinate (linear: the gradient is exact)
+    d[6] += 1e-6;
+    CHECK(g[6] == doctest::Approx((region.constraint(d, nullptr) - region.constraint(a, nullptr)) / 2e-6).epsilon(1e-5));
+  }
+}
