@@ -29,6 +29,12 @@ const Case kCases[] = {
     {"bo", "{type: bo, initial_points: 4}", 12},  // the defaults: trust_region, gp with full_fit_growth
     {"bo_box", "{type: bo, initial_points: 4, region: box}", 11},
     {"bo_vhgp", "{type: bo, initial_points: 4, surrogate: vhgp}", 10},  // vhgp_state.cpp
+    // A trust region that collapses after two failures and restarts afresh (a new design, a model of the new
+    // points): the fresh-start counters are part of the state.
+    {"bo_fresh_start",
+     "{type: bo, initial_points: 3, region: {type: trust_region, restart_center: new_points, failure_tolerance: 1, "
+     "length_min: 0.3}}",
+     16},
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
     {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},
@@ -67,6 +73,11 @@ TEST_CASE("snapshots: one process per ask and per tell gives the uninterrupted r
         a.record(t.id, evaluate(a, i, t.theta), 0.0);
       }
       straight = a.trials();
+    }
+    if (name == "bo_fresh_start") {  // the case is only a test of fresh starts if one happened
+      Index restarts = 0;
+      for (const TrialRecord& t : straight) restarts += t.phase == "restart";
+      CHECK(restarts >= 3);
     }
     // One fresh Study per call.
     const std::string db = dir + "/" + c.name + "_b.db";

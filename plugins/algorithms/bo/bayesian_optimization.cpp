@@ -22,7 +22,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 // Purposes of the random streams derived from the run seed: one per (purpose, evaluation index), so a
 // suggestion depends only on the seed, the data and its index.
 enum Stream : std::uint64_t {
-  kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6, kRecommend = 7
+  kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6, kRecommend = 7, kFreshDesign = 8
 };
 
 // epsilon's -1 ("the algorithm's") is not a value of Phase::epsilon: declared here only.
@@ -63,6 +63,13 @@ const OptionSet<BoSettings>& bo_options() {
       // (docs/defaults.md).
       opt::component("region", Kind::Region, "trust_region", "where the acquisition may search"),
       opt::component("acquisition_optimizer", Kind::Optimizer, "multistart", "maximizer of the acquisition"),
+      opt::integer("refine_last", &BoSettings::refine_last,
+                   "when the region restarted afresh (trust_region with restart_center: new_points), the last "
+                   "trials of the budget go back to the incumbent of all the data to refine it (-1 = d + 1)")
+          .at_least(-1),
+      opt::component("refine_acquisition", Kind::Acquisition, "{type: cb, kappa: 0}",
+                     "acquisition of the final refinement after fresh starts (refine_last); the default minimizes "
+                     "the posterior mean"),
       opt::integer("refit_every", &BoSettings::refit_every,
                    "optimize hyperparameters every k model iterations (else only condition)")
           .at_least(1),
@@ -114,10 +121,12 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   // The recommender's own instance: an optimizer may carry state from call to call (hit_and_run's chains), and
   // recommending must change no trial, also when a resumed run replays the trials without recommending.
   recommend_optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
+  refine_acquisition_ = r.create<Acquisition>(o.component("refine_acquisition"), ctx);
   std::shared_ptr<Acquisition> default_acq = r.create<Acquisition>(o.component("acquisition"), ctx);
   const BoSettings settings = bo_options().read(o);
   const double epsilon = settings.epsilon;
   refit_every_ = settings.refit_every;
+  refine_last_ = settings.refine_last >= 0 ? settings.refine_last : dim_ + 1;
   batch_strategy_ = settings.batch_strategy;
   initial_points_ = settings.initial_points >= 0 ? settings.initial_points : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
@@ -280,6 +289,12 @@ void BayesianOptimization::fit_model(Index k, const Dataset& data) {
   snapshot_.note = rep.ok ? "" : rep.message;
 }
 
+Vec BayesianOptimization::fresh_design_point(int start, Index row) const {
+  Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(start));
+  const Mat design = design_sampler_->sample(BoxRegion(Box::unit(dim_)), initial_points_, drng);
+  return design.row(row).transpose();
+}
+
 double BayesianOptimization::lie(const Vec& x) const {
   // Ginsbourger, Le Riche & Carraro 2010, "Kriging is well-suited to parallelize optimization", section 3:
   // kriging believer = the posterior mean; constant liar = one constant (min or mean of the observed costs).
@@ -322,12 +337,32 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     log_info("bo: fewer than 2 successful trials; choosing trial {} at random", k);
     return s;
   }
+  // After a fresh start of the region (TuRBO's restart, Eriksson 2019, section 2): first a new design, then a
+  // model of the observations since the restart only, so the search is not drawn back to the old basin.
+  auto* fresh_region = dynamic_cast<FreshStartRegion*>(region_.get());
+  // The last refine_last trials of the budget refine the best basin found, on a model of all the data.
+  if (fresh_starts_ > 0 && fresh_region && budget_ > 0 && k >= budget_ - refine_last_) {
+    if (!refining_) log_info("bo: trial {}: the last {} trials refine the incumbent of all the data", k, budget_ - k);
+    refining_ = true;
+    fresh_region->return_to_incumbent();
+  }
+  if (fresh_starts_ > 0 && !refining_ && k - fresh_trial_ < initial_points_) {
+    s.x = fresh_design_point(fresh_starts_, k - fresh_trial_);
+    s.phase = "restart";
+    return s;
+  }
+  Dataset local;
+  if (fresh_starts_ > 0 && data.size() > fresh_from_) {
+    local.X = data.X.bottomRows(data.size() - fresh_from_);
+    local.y = data.y.tail(data.size() - fresh_from_);
+  }
+  const Dataset& model_data = fresh_starts_ > 0 && !refining_ && local.size() >= 2 ? local : data;
   const auto t_fit = std::chrono::steady_clock::now();
   FitReport rep;
   if ((refit || !model_ready_) && !prefitted_) {  // a batch that started in the initial design fits here
-    fit_model(k, data);
+    fit_model(k, model_data);
   } else {
-    rep = surrogate_->condition(data);  // batch: condition on fantasized data, keep hyperparameters
+    rep = surrogate_->condition(model_data);  // batch: condition on fantasized data, keep hyperparameters
   }
   s.fit_seconds = seconds_since(t_fit);
   if (!model_ready_) {
@@ -341,6 +376,17 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const auto t_acq = std::chrono::steady_clock::now();
   Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
   region_->update(surrogate_.get(), data, region_rng);
+  if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && initial_points_ > 0) {
+    fresh_starts_ = fresh_region->fresh_starts();
+    fresh_trial_ = k;
+    fresh_from_ = data.size();
+    log_info("bo: trial {}: the region restarts afresh ({}): a new design of {} points, then a model of the new "
+             "points", k, fresh_starts_, initial_points_);
+    s.x = fresh_design_point(fresh_starts_, 0);
+    s.phase = "restart";
+    s.acquisition_seconds = seconds_since(t_acq);
+    return s;
+  }
   if (refit) {
     // The region's state (e.g. CRBO's cautiousness report, Fröhlich 2021 section 4.1) goes to the log and,
     // via the snapshot, to model.yaml of the run.
@@ -362,15 +408,17 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     return s;
   }
   Rng arng = rng_.stream(kAcquisition, uk);
-  AcquisitionContext actx{surrogate_.get(), &data, k, &arng};
-  phase.acquisition->prepare(actx);
+  AcquisitionContext actx{surrogate_.get(), &model_data, k, &arng};
+  // The final refinement exploits: by default the posterior mean's minimum in the small box (κ = 0).
+  Acquisition& base = refining_ ? *refine_acquisition_ : *phase.acquisition;
+  base.prepare(actx);
   // With failures seen, maximize the acquisition weighted by P(success) (failure_aware.hpp).
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(
-        *phase.acquisition, *feasibility_, failure_utility(*phase.acquisition, data_.X),
+        base, *feasibility_, failure_utility(base, data_.X),
         exclusion_threshold_);
-  const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : *phase.acquisition;
+  const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : base;
   AcquisitionFunction f(acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
   const Mat starts = starts_near(region_->seeds(), orng);
@@ -400,7 +448,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     return s;
   }
   s.x = Box::unit(dim_).clamp(res.x);
-  s.phase = phase.name;
+  s.phase = refining_ ? "refine" : phase.name;
   log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
   return s;
 }

@@ -56,6 +56,9 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// The start inside the region with the highest finite f (the first inside one if none is finite).
   std::optional<Vec> best_feasible(const DifferentiableFunction& f, const Mat& starts) const;
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
+  /// Row `row` of the initial design of fresh start `start` (drawn anew from its own stream, so a restored run
+  /// draws the same).
+  Vec fresh_design_point(int start, Index row) const;
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have
   /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
@@ -93,6 +96,13 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   double exclusion_threshold_ = 0;  ///< θ with P(success) below it are never suggested
   Index fits_ = 0;
   bool model_ready_ = false;
+  /// Fresh starts asked for by the region (varbo::FreshStartRegion): how many were seen, the trial at which the
+  /// latest began (its design comes first) and the number of successful observations before it.
+  int fresh_starts_ = 0;
+  Index fresh_trial_ = 0, fresh_from_ = 0;
+  Index refine_last_ = 0;  ///< see BoSettings::refine_last
+  std::unique_ptr<Acquisition> refine_acquisition_;
+  bool refining_ = false;  ///< the final refinement after fresh starts has begun
   ModelSnapshot snapshot_;
   std::unique_ptr<Recommender> recommender_;  ///< its own model: recommending changes no trial
 };

@@ -14,6 +14,7 @@ enum class BatchStrategy { KrigingBeliever, ConstantLiarMin, ConstantLiarMean };
 struct BoSettings {
   Index initial_points = -1;  ///< initial design size; -1 = 2·(d+1), capped by the budget
   Index refit_every = 1;      ///< optimize hyperparameters every k model iterations (else only condition)
+  Index refine_last = -1;     ///< after fresh starts, the last trials refine the incumbent; -1 = d + 1
   double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice
   BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;
   RecommendationRule recommendation = RecommendationRule::LowestMeanEvaluated;

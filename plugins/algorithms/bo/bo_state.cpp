@@ -39,6 +39,10 @@ std::optional<std::string> BayesianOptimization::save_state() const {
   m.put("feasibility_on", feasibility_on_);
   m.put("exclusion_threshold", exclusion_threshold_);
   m.put("snapshot", snapshot_);
+  m.put_int("fresh_starts", fresh_starts_);
+  m.put_int("fresh_trial", fresh_trial_);
+  m.put_int("fresh_from", fresh_from_);
+  m.put("refining", refining_);
   m.put("surrogate", surrogate->save_state());
   save_if_stateful(m, "region", region_.get());
   save_if_stateful(m, "design_sampler", design_sampler_.get());
@@ -57,6 +61,12 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
   feasibility_on_ = m.boolean("feasibility_on");
   exclusion_threshold_ = m.real("exclusion_threshold");
   snapshot_ = m.model_snapshot("snapshot");
+  if (m.has("fresh_starts")) {  // absent in states saved before fresh starts existed (none happened then)
+    fresh_starts_ = static_cast<int>(m.integer("fresh_starts"));
+    fresh_trial_ = static_cast<Index>(m.integer("fresh_trial"));
+    fresh_from_ = static_cast<Index>(m.integer("fresh_from"));
+    refining_ = m.boolean("refining");
+  }
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");
   surrogate->restore_state(m.str("surrogate"));

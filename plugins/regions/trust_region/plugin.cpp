@@ -24,7 +24,10 @@ const varbo::OptionSet<TrustRegionOptions>& trust_region_options() {
       opt::real("restart_length", &TrustRegionOptions::restart_length,
                 "L after a restart; the data are kept and the box re-centres on the incumbent, so a value ≥ 2 "
                 "(the whole unit cube) makes the search after a collapse global")
-          .above(0)};
+          .above(0),
+      opt::choice("restart_center", &TrustRegionOptions::restart_center, {"incumbent", "new_points"},
+                  "after a restart, centre the box on the incumbent of all the data, or on the best point found "
+                  "since the restart (TuRBO's fresh start; the model keeps every observation)")};
   return set;
 }
 }  // namespace

@@ -114,3 +114,71 @@ TEST_CASE("trust_region: restart_length sets L after a collapse; 2 makes the box
   CHECK(tr.length() == 1.0);
   CHECK(tr.bounds().lower.isApprox((Vec(2) << 0.4, 0.45).finished()));
 }
+
+TEST_CASE("trust_region: restart_center new_points restarts afresh around the points found since the restart") {
+  TrustRegionOptions o;
+  o.restart_center = "new_points";
+  o.failure_tolerance = 1;
+  TrustRegion tr(2, o);
+  CHECK(tr.fresh_starts() == 0);
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.9, 0.95).finished(), 1.0);  // the incumbent of all the data
+  for (int k = 0; k < 7; ++k) observe(tr, data, (Vec(2) << 0.1 * k, 0.1).finished(), 5.0);
+  CHECK(tr.restarts() == 1);
+  CHECK(tr.fresh_starts() == 1);  // the algorithm is asked for a new design and a model of the new points
+  CHECK(tr.length() == doctest::Approx(o.length_init));
+  // The new design: every point worse than the old incumbent. The box centres on the best new point (not on
+  // the incumbent at (0.9, 0.95)), and the first update after the restart only sets the reference.
+  data.add((Vec(2) << 0.2, 0.3).finished(), 4.0);
+  data.add((Vec(2) << 0.6, 0.7).finished(), 3.0);
+  Rng rng(0);
+  tr.update(nullptr, data, rng);
+  CHECK(tr.center().isApprox((Vec(2) << 0.6, 0.7).finished()));
+  CHECK(tr.failures() == 0);
+  CHECK(tr.successes() == 0);
+  // Successes are counted against the best new point: 2.5 < 3 is one, although the incumbent is 1.
+  observe(tr, data, (Vec(2) << 0.55, 0.7).finished(), 2.5);
+  CHECK(tr.successes() == 1);
+  CHECK(tr.center().isApprox((Vec(2) << 0.55, 0.7).finished()));
+  // The snapshot carries the restart: a restored region continues identically.
+  TrustRegion copy(2, o);
+  copy.restore_state(tr.save_state());
+  observe(tr, data, (Vec(2) << 0.5, 0.7).finished(), 2.0);
+  copy.update(nullptr, data, rng);
+  CHECK(copy.center() == tr.center());
+  CHECK(copy.successes() == tr.successes());
+  CHECK(copy.fresh_starts() == 1);
+  // The default (incumbent) never asks for a fresh start.
+  TrustRegionOptions d;
+  d.failure_tolerance = 1;
+  TrustRegion plain(2, d);
+  Dataset pd = Dataset::empty(2);
+  for (int k = 0; k < 9; ++k) observe(plain, pd, (Vec(2) << 0.1 * k, 0.1).finished(), k == 0 ? 1.0 : 5.0);
+  CHECK(plain.restarts() == 1);
+  CHECK(plain.fresh_starts() == 0);
+}
+
+TEST_CASE("trust_region: return_to_incumbent ends the fresh starts: a small box around the incumbent of all the data") {
+  TrustRegionOptions o;
+  o.restart_center = "new_points";
+  o.failure_tolerance = 1;
+  o.length_min = 0.05;
+  TrustRegion tr(2, o);
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.9, 0.95).finished(), 1.0);
+  for (int k = 0; k < 5; ++k) observe(tr, data, (Vec(2) << 0.1 * k, 0.1).finished(), 5.0);  // 0.8 → 0.025
+  REQUIRE(tr.fresh_starts() == 1);
+  observe(tr, data, (Vec(2) << 0.3, 0.3).finished(), 4.0);  // the new design's best
+  CHECK(tr.center().isApprox((Vec(2) << 0.3, 0.3).finished()));
+  tr.return_to_incumbent();
+  tr.return_to_incumbent();  // idempotent
+  CHECK(tr.returned());
+  CHECK(tr.length() == doctest::Approx(0.2));  // 4·length_min
+  observe(tr, data, (Vec(2) << 0.35, 0.3).finished(), 4.5);
+  CHECK(tr.center().isApprox((Vec(2) << 0.9, 0.95).finished()));  // the incumbent of all the data
+  // Failures shrink the box down to length_min, never below, and never restart again.
+  for (int k = 0; k < 10; ++k) observe(tr, data, (Vec(2) << 0.5, 0.02 * k).finished(), 5.0);
+  CHECK(tr.length() == doctest::Approx(0.05));
+  CHECK(tr.fresh_starts() == 1);
+  CHECK(tr.restarts() == 1);
+}

@@ -32,10 +32,21 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   if (data.size() == 0) return;
   if (data.dim() != box_.dim())
     throw InputError(fmt::format("trust_region: data have dimension {}, the region {}", data.dim(), box_.dim()));
+  // The points that count: all of them, or (restart_center: new_points) those since the last restart.
+  const bool fresh = options_.restart_center == "new_points" && !returned_;
+  const Index from = fresh ? std::min(restart_at_, data.size()) : 0;
   Index arg = 0;
-  const double best = data.y.minCoeff(&arg);
-  if (seen_ == 0) {
-    best_ = best;  // the first update (initial design) sets the reference; no success or failure yet
+  if (from == data.size()) {
+    data.y.minCoeff(&arg);  // no point since the restart yet: the box is the restart box around the incumbent
+    seen_ = data.size();
+    center_ = data.X.row(arg).transpose();
+    set_box();
+    return;
+  }
+  const double best = data.y.tail(data.size() - from).minCoeff(&arg);
+  arg += from;
+  if (seen_ == 0 || (fresh && restarts_ > 0 && seen_ == restart_at_)) {
+    best_ = best;  // the first update (initial design, or the first point after a restart) sets the reference
   } else if (data.size() > seen_) {
     if (best < best_ - options_.improvement * std::abs(best_)) {
       ++successes_;
@@ -52,17 +63,35 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       length_ /= 2.0;
       failures_ = 0;
     }
-    if (length_ < options_.length_min) {
+    if (length_ < options_.length_min && returned_) {
+      length_ = options_.length_min;  // refining the incumbent at the end of the budget: no restart any more
+    } else if (length_ < options_.length_min) {
       ++restarts_;
-      log_info("trust_region: side length {:.3g} < {:.3g}: restart {} (L reset to {}, data kept)", length_,
-               options_.length_min, restarts_, options_.restart_length);
-      length_ = options_.restart_length;
+      log_info("trust_region: side length {:.3g} < {:.3g}: restart {} ({})", length_, options_.length_min,
+               restarts_, fresh ? "a fresh start: new design, model of the new points" : "L reset, data kept");
+      length_ = fresh ? options_.length_init : options_.restart_length;
       successes_ = failures_ = 0;
+      if (fresh) {
+        restart_at_ = data.size();
+        data.y.minCoeff(&arg);
+      }
     }
   }
   seen_ = data.size();
   center_ = data.X.row(arg).transpose();
   set_box();
+}
+
+void TrustRegion::return_to_incumbent() {
+  if (returned_) return;
+  returned_ = true;
+  if (restarts_ == 0) return;  // never left the incumbent
+  // Refine the incumbent's basin in a small box; the next update re-centres it on the best of all the data and
+  // sets the reference (seen_ = 0), as after the initial design.
+  restart_at_ = 0;
+  seen_ = 0;
+  successes_ = failures_ = 0;
+  length_ = std::min(4.0 * options_.length_min, options_.length_init);
 }
 
 Mat TrustRegion::seeds() const { return center_.transpose(); }

@@ -21,9 +21,14 @@ struct TrustRegionOptions {
   /// until failures shrink it again: restarting at 0.8 around the same incumbent repeated the same collapse
   /// (Branin with SE-ARD, seeds 15 and 19: stuck at (10, 3.0), regret 1.5; docs/defaults.md).
   double restart_length = 2.0;
+  /// What a restart does: `incumbent` keeps searching around the best point of all the data with L =
+  /// restart_length (the box returns to the basin that collapsed as soon as L shrinks); `new_points` is TuRBO's
+  /// fresh start: the algorithm draws a new initial design and models the points since the restart only, and
+  /// the box (L = length_init) centres on their best and counts successes against it.
+  std::string restart_center = "incumbent";
 };
 
-class TrustRegion final : public RegionConstraint, public ComponentState {
+class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion {
  public:
   TrustRegion(Index dim, TrustRegionOptions options);
   /// Compares the best cost in `data` with the best at the previous update (only when new points arrived),
@@ -42,6 +47,11 @@ class TrustRegion final : public RegionConstraint, public ComponentState {
   int successes() const { return successes_; }
   int failures() const { return failures_; }
   int restarts() const { return restarts_; }
+  /// restart_center: new_points asks the algorithm for a fresh start (new design, model of the new data).
+  int fresh_starts() const override { return options_.restart_center == "new_points" ? restarts_ : 0; }
+  /// Back to the incumbent of all the data with L = 4·length_min (a box for refinement), no fresh start after.
+  void return_to_incumbent() override;
+  bool returned() const { return returned_; }
   int failure_tolerance() const { return failure_tolerance_; }
   const Vec& center() const { return center_; }
 
@@ -55,6 +65,8 @@ class TrustRegion final : public RegionConstraint, public ComponentState {
   double length_;
   double best_ = 0;
   Index seen_ = 0;  ///< data size at the previous update
+  Index restart_at_ = 0;  ///< data size at the last restart (restart_center: new_points)
+  bool returned_ = false;  ///< return_to_incumbent() was called: no fresh start any more
   int successes_ = 0, failures_ = 0, restarts_ = 0;
 };
 

@@ -13,6 +13,8 @@ std::string TrustRegion::save_state() const {
   m.put_int("successes", successes_);
   m.put_int("failures", failures_);
   m.put_int("restarts", restarts_);
+  m.put_int("restart_at", restart_at_);
+  m.put("returned", returned_);
   return m.text();
 }
 
@@ -27,6 +29,8 @@ void TrustRegion::restore_state(const std::string& text) {
   successes_ = static_cast<int>(m.integer("successes"));
   failures_ = static_cast<int>(m.integer("failures"));
   restarts_ = static_cast<int>(m.integer("restarts"));
+  restart_at_ = m.has("restart_at") ? static_cast<Index>(m.integer("restart_at")) : 0;  // older snapshots
+  returned_ = m.has("returned") && m.boolean("returned");
   set_box();
 }
 

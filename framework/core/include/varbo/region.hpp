@@ -24,4 +24,19 @@ class RegionConstraint {
   virtual std::string state() const { return {}; }
 };
 
+/// Optional mixin of a region that restarts its search afresh, as TuRBO does after its trust region collapses
+/// (Eriksson et al. 2019, section 2): from the trial at which fresh_starts() grows, the algorithm draws a new
+/// initial design and models only the observations made since (the region then centres on their best). The
+/// study keeps every observation, and so does the recommendation. Found with dynamic_cast, like
+/// ComponentState, so regions without it need nothing.
+class FreshStartRegion {
+ public:
+  virtual ~FreshStartRegion();
+  /// How many fresh starts the region has asked for so far.
+  virtual int fresh_starts() const = 0;
+  /// The end of the search afresh (e.g. the last trials of the budget): the region goes back to the incumbent
+  /// of all the data, to refine the best basin found, and asks for no more fresh starts. Idempotent.
+  virtual void return_to_incumbent() = 0;
+};
+
 }  // namespace varbo

@@ -21,6 +21,7 @@ DifferentiableFunction::~DifferentiableFunction() = default;
 Surrogate::~Surrogate() = default;
 Acquisition::~Acquisition() = default;
 RegionConstraint::~RegionConstraint() = default;
+FreshStartRegion::~FreshStartRegion() = default;
 Sampler::~Sampler() = default;
 Optimizer::~Optimizer() = default;
 Task::~Task() = default;

@@ -1,0 +1,82 @@
+// `bo` with a region that restarts afresh (trust_region, restart_center: new_points; TuRBO's restart, Eriksson
+// et al. 2019, section 2): a collapse is followed by a new design of initial_points trials, and the last
+// refine_last trials of the budget go back to the incumbent of all the data.
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "varbo/algorithm.hpp"
+#include "varbo/log.hpp"
+#include "varbo/registry.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+double bowl(const Vec& x) { return (x.array() - 0.3).square().sum(); }
+
+struct Trial {
+  Vec x;
+  std::string phase;
+};
+
+std::vector<Trial> run(const std::string& algorithm, Index budget) {
+  BuildContext ctx;
+  ctx.dim = 2;
+  ctx.budget = budget;
+  ctx.seed = 5;
+  auto a = test::registry().create<Algorithm>(algorithm, ctx);
+  std::vector<Trial> out;
+  for (Index k = 0; k < budget; ++k) {
+    const Suggestion s = a->ask(1).front();
+    out.push_back({s.x, s.phase});
+    a->tell({Observation{s.x, bowl(s.x), true, {}}});
+  }
+  return out;
+}
+}  // namespace
+
+TEST_CASE("bo: a fresh start of the trust region draws a new design; the last trials refine the incumbent") {
+  set_log_level(LogLevel::Error);
+  // Two failures collapse the region (0.8 → 0.4 → 0.2 < 0.3); the bowl's improvements soon stay below 1e-3.
+  const std::string algorithm =
+      "{type: bo, initial_points: 3, refine_last: 4, region: {type: trust_region, restart_center: new_points, "
+      "failure_tolerance: 1, length_min: 0.3}}";
+  const Index budget = 30;
+  const std::vector<Trial> t = run(algorithm, budget);
+  // Fresh starts: runs of exactly initial_points "restart" trials, each a new design (not the first design).
+  Index restarts = 0;
+  for (Index k = 0; k < budget; ++k) {
+    if (t[k].phase != "restart") continue;
+    ++restarts;
+    const bool starts_run = k == 0 || t[k - 1].phase != "restart";
+    if (starts_run) {
+      REQUIRE(k + 2 < budget - 4);  // a design never runs into the final refinement
+      CHECK(t[k + 1].phase == "restart");
+      CHECK(t[k + 2].phase == "restart");
+      if (k + 3 < budget) CHECK(t[k + 3].phase != "restart");
+      for (Index j = 0; j < 3; ++j) CHECK((t[k].x - t[j].x).norm() > 1e-9);
+    }
+  }
+  CHECK(restarts >= 3);
+  // The last refine_last trials: no restart, inside the refinement box (side 4·length_min, capped by
+  // length_init = 0.8) around the best point of all the data before them.
+  for (Index k = budget - 4; k < budget; ++k) {
+    CAPTURE(k);
+    CHECK(t[k].phase != "restart");
+    Index best = 0;
+    for (Index i = 1; i < k; ++i)
+      if (bowl(t[i].x) < bowl(t[best].x)) best = i;
+    CHECK((t[k].x - t[best].x).lpNorm<Eigen::Infinity>() <= 0.4 + 1e-9);
+  }
+  // The same run twice: identical (the fresh designs come from their own streams).
+  const std::vector<Trial> again = run(algorithm, budget);
+  for (Index k = 0; k < budget; ++k) CHECK(again[k].x == t[k].x);
+}
+
+TEST_CASE("bo: the default trust region (restart_center: incumbent) never draws a fresh design") {
+  set_log_level(LogLevel::Error);
+  const std::vector<Trial> t =
+      run("{type: bo, initial_points: 3, region: {type: trust_region, failure_tolerance: 1, length_min: 0.3}}", 20);
+  for (const Trial& x : t) CHECK(x.phase != "restart");
+}
