@@ -56,7 +56,7 @@ class RoundedSurrogate final : public Surrogate, public ComponentState {
 /// candidate to the same point), and intersected with the space's linear constraints (a polytope in encoded
 /// coordinates): c(x) = min(inner c(x), min_j slack_j(x)), each slack a row's signed distance (b_j − a_j·x)/‖a_j‖,
 /// so samplers, hit-and-run and constrained optimizers (SLSQP, COBYLA) keep to it.
-class ConstrainedRegion final : public RegionConstraint, public ComponentState {
+class ConstrainedRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion {
  public:
   ConstrainedRegion(std::unique_ptr<RegionConstraint> inner, SharedSpace space);
   void update(const Surrogate* model, const Dataset& data, Rng& rng) override;
@@ -68,6 +68,9 @@ class ConstrainedRegion final : public RegionConstraint, public ComponentState {
   std::string save_state() const override;
   void restore_state(const std::string& state) override;
   const RegionConstraint& inner() const { return *inner_; }
+  /// Forwarded to the inner region (0 and nothing when it does not restart afresh).
+  int fresh_starts() const override;
+  void return_to_incumbent() override;
 
  private:
   void refresh() { box_ = space_->has_discrete() ? space_->widen_for_discrete(inner_->bounds()) : inner_->bounds(); }

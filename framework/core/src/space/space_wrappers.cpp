@@ -117,6 +117,15 @@ Mat ConstrainedRegion::seeds() const {
   return out.topRows(n);
 }
 
+int ConstrainedRegion::fresh_starts() const {
+  const auto* f = dynamic_cast<const FreshStartRegion*>(inner_.get());
+  return f ? f->fresh_starts() : 0;
+}
+
+void ConstrainedRegion::return_to_incumbent() {
+  if (auto* f = dynamic_cast<FreshStartRegion*>(inner_.get())) f->return_to_incumbent();
+}
+
 std::string ConstrainedRegion::save_state() const {
   const ComponentState* s = state_of(inner_.get());
   return s ? s->save_state() : std::string();
