@@ -59,24 +59,26 @@ TEST_CASE("bo: a fresh start of the trust region draws a new design; the last tr
     }
   }
   CHECK(restarts >= 3);
-  // The last refine_last trials: no restart, inside the refinement box (side 4·length_min, capped by
-  // length_init = 0.8) around the best point of all the data before them.
+  // The last refine_last trials: no restart, inside the refinement box (side length_init / 4 = 0.2, or
+  // length_min = 0.3 when larger) around the best point of all the data before them.
   for (Index k = budget - 4; k < budget; ++k) {
     CAPTURE(k);
     CHECK(t[k].phase != "restart");
     Index best = 0;
     for (Index i = 1; i < k; ++i)
       if (bowl(t[i].x) < bowl(t[best].x)) best = i;
-    CHECK((t[k].x - t[best].x).lpNorm<Eigen::Infinity>() <= 0.4 + 1e-9);
+    CHECK((t[k].x - t[best].x).lpNorm<Eigen::Infinity>() <= 0.15 + 1e-9);
   }
   // The same run twice: identical (the fresh designs come from their own streams).
   const std::vector<Trial> again = run(algorithm, budget);
   for (Index k = 0; k < budget; ++k) CHECK(again[k].x == t[k].x);
 }
 
-TEST_CASE("bo: the default trust region (restart_center: incumbent) never draws a fresh design") {
+TEST_CASE("bo: a trust region with restart_center: incumbent never draws a fresh design") {
   set_log_level(LogLevel::Error);
-  const std::vector<Trial> t =
-      run("{type: bo, initial_points: 3, region: {type: trust_region, failure_tolerance: 1, length_min: 0.3}}", 20);
+  const std::vector<Trial> t = run(
+      "{type: bo, initial_points: 3, region: {type: trust_region, restart_center: incumbent, failure_tolerance: 1, "
+      "length_min: 0.3}}",
+      20);
   for (const Trial& x : t) CHECK(x.phase != "restart");
 }

@@ -22,12 +22,18 @@ const varbo::OptionSet<TrustRegionOptions>& trust_region_options() {
                 "a success improves the best cost by more than this fraction of |best|")
           .at_least(0),
       opt::real("restart_length", &TrustRegionOptions::restart_length,
-                "L after a restart; the data are kept and the box re-centres on the incumbent, so a value ≥ 2 "
-                "(the whole unit cube) makes the search after a collapse global")
+                "with restart_center: incumbent, L after a restart (the box re-centres on the incumbent, so a value "
+                "≥ 2, the whole unit cube, makes the search after a collapse global)")
           .above(0),
       opt::choice("restart_center", &TrustRegionOptions::restart_center, {"incumbent", "new_points"},
                   "after a restart, centre the box on the incumbent of all the data, or on the best point found "
-                  "since the restart (TuRBO's fresh start; the model keeps every observation)")};
+                  "since the restart (TuRBO's fresh start; the model keeps every observation)"),
+      opt::real("stall_distance", &TrustRegionOptions::stall_distance,
+                "a failure whose new point lies within this distance (∞-norm, unit cube) of the incumbent is a stall")
+          .at_least(0),
+      opt::integer("stall_tolerance", &TrustRegionOptions::stall_tolerance,
+                   "consecutive stalls that restart the region at once (converged); 0 = failure_tolerance, -1 = off")
+          .at_least(-1)};
   return set;
 }
 }  // namespace
@@ -37,7 +43,9 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
   registry.add(make_component<RegionConstraint>(
       "trust_region",
       "Box of side L around the best observed point; L doubles after success_tolerance successes, halves after "
-      "failure_tolerance failures, resets when below length_min (Eriksson 2019, TuRBO-1); data are kept on restart",
+      "failure_tolerance failures (or after stall_tolerance trials next to the incumbent without improvement) "
+      "restarts: by default afresh, a new design and a model of the new points (Eriksson 2019, TuRBO-1), the last "
+      "trials of bo's budget refining the incumbent of all the data",
       trust_region_options().specs(),
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<RegionConstraint> {
         if (ctx.dim <= 0) throw ConfigError("region 'trust_region' needs the problem dimension (got 0)");

@@ -24,7 +24,9 @@ TEST_CASE("trust_region: defaults follow Eriksson et al. 2019") {
 }
 
 TEST_CASE("trust_region: scripted successes double L, failures halve it, collapse restarts") {
-  TrustRegion tr(2, {});
+  TrustRegionOptions keep;
+  keep.restart_center = "incumbent";
+  TrustRegion tr(2, keep);
   Dataset data = Dataset::empty(2);
   observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 10.0);  // initial design: reference only
   CHECK(tr.length() == 0.8);
@@ -97,6 +99,7 @@ TEST_CASE("trust_region: registered as a box region") {
 
 TEST_CASE("trust_region: restart_length sets L after a collapse; 2 makes the box the whole unit cube") {
   TrustRegionOptions o;
+  o.restart_center = "incumbent";
   o.restart_length = 2.0;
   o.failure_tolerance = 1;
   TrustRegion tr(2, o);
@@ -148,8 +151,9 @@ TEST_CASE("trust_region: restart_center new_points restarts afresh around the po
   CHECK(copy.center() == tr.center());
   CHECK(copy.successes() == tr.successes());
   CHECK(copy.fresh_starts() == 1);
-  // The default (incumbent) never asks for a fresh start.
+  // restart_center: incumbent never asks for a fresh start.
   TrustRegionOptions d;
+  d.restart_center = "incumbent";
   d.failure_tolerance = 1;
   TrustRegion plain(2, d);
   Dataset pd = Dataset::empty(2);
@@ -173,7 +177,7 @@ TEST_CASE("trust_region: return_to_incumbent ends the fresh starts: a small box 
   tr.return_to_incumbent();
   tr.return_to_incumbent();  // idempotent
   CHECK(tr.returned());
-  CHECK(tr.length() == doctest::Approx(0.2));  // 4·length_min
+  CHECK(tr.length() == doctest::Approx(0.2));  // length_init / 4
   observe(tr, data, (Vec(2) << 0.35, 0.3).finished(), 4.5);
   CHECK(tr.center().isApprox((Vec(2) << 0.9, 0.95).finished()));  // the incumbent of all the data
   // Failures shrink the box down to length_min, never below, and never restart again.
@@ -181,4 +185,37 @@ TEST_CASE("trust_region: return_to_incumbent ends the fresh starts: a small box 
   CHECK(tr.length() == doctest::Approx(0.05));
   CHECK(tr.fresh_starts() == 1);
   CHECK(tr.restarts() == 1);
+}
+
+TEST_CASE("trust_region: stall_tolerance consecutive failures next to the incumbent restart at once") {
+  TrustRegionOptions o;  // the defaults: a fresh start after 3 stalls within 1e-3 of the incumbent
+  TrustRegion tr(2, o);
+  Dataset data = Dataset::empty(2);
+  const Vec inc = (Vec(2) << 0.4, 0.6).finished();
+  observe(tr, data, inc, 1.0);
+  // Failures far from the incumbent are no stalls.
+  observe(tr, data, (Vec(2) << 0.1, 0.1).finished(), 2.0);
+  CHECK(tr.failures() == 1);
+  CHECK(tr.stalls() == 0);
+  // Two stalls, then a failure farther than 1e-3 resets the count.
+  observe(tr, data, inc + Vec::Constant(2, 5e-4), 1.0);
+  observe(tr, data, inc - Vec::Constant(2, 5e-4), 1.0);
+  CHECK(tr.stalls() == 2);
+  observe(tr, data, inc + Vec::Constant(2, 2e-3), 1.0);
+  CHECK(tr.stalls() == 0);
+  CHECK(tr.restarts() == 0);
+  // Three in a row: converged there, a fresh start although L (0.8) is far above length_min.
+  for (int k = 0; k < 3; ++k) observe(tr, data, inc + Vec::Constant(2, 1e-4 * k), 1.0);
+  CHECK(tr.restarts() == 1);
+  CHECK(tr.fresh_starts() == 1);
+  CHECK(tr.stalls() == 0);
+  // Off (−1): the same stalls only count as failures.
+  TrustRegionOptions off;
+  off.stall_tolerance = -1;
+  TrustRegion plain(2, off);
+  Dataset pd = Dataset::empty(2);
+  observe(plain, pd, inc, 1.0);
+  for (int k = 0; k < 3; ++k) observe(plain, pd, inc + Vec::Constant(2, 1e-4 * k), 1.0);
+  CHECK(plain.restarts() == 0);
+  CHECK(plain.failures() == 3);
 }

@@ -51,9 +51,15 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
     if (best < best_ - options_.improvement * std::abs(best_)) {
       ++successes_;
       failures_ = 0;
+      stalls_ = 0;
     } else {
       ++failures_;
       successes_ = 0;
+      // A stall: every new point next to the incumbent (the centre of the previous update).
+      bool near = true;
+      for (Index i = std::max(seen_, from); i < data.size(); ++i)
+        near = near && (data.X.row(i).transpose() - center_).lpNorm<Eigen::Infinity>() <= options_.stall_distance;
+      stalls_ = near ? stalls_ + 1 : 0;
     }
     best_ = std::min(best_, best);
     if (successes_ >= options_.success_tolerance) {
@@ -63,6 +69,12 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       length_ /= 2.0;
       failures_ = 0;
     }
+    const int stall_tolerance = options_.stall_tolerance == 0 ? failure_tolerance_ : options_.stall_tolerance;
+    if (stall_tolerance > 0 && stalls_ >= stall_tolerance && !returned_) {
+      log_info("trust_region: {} trials in a row next to the incumbent without improvement: converged there",
+               stalls_);
+      length_ = 0;  // restart below
+    }
     if (length_ < options_.length_min && returned_) {
       length_ = options_.length_min;  // refining the incumbent at the end of the budget: no restart any more
     } else if (length_ < options_.length_min) {
@@ -70,7 +82,7 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       log_info("trust_region: side length {:.3g} < {:.3g}: restart {} ({})", length_, options_.length_min,
                restarts_, fresh ? "a fresh start: new design, model of the new points" : "L reset, data kept");
       length_ = fresh ? options_.length_init : options_.restart_length;
-      successes_ = failures_ = 0;
+      successes_ = failures_ = stalls_ = 0;
       if (fresh) {
         restart_at_ = data.size();
         data.y.minCoeff(&arg);
@@ -90,8 +102,8 @@ void TrustRegion::return_to_incumbent() {
   // sets the reference (seen_ = 0), as after the initial design.
   restart_at_ = 0;
   seen_ = 0;
-  successes_ = failures_ = 0;
-  length_ = std::min(4.0 * options_.length_min, options_.length_init);
+  successes_ = failures_ = stalls_ = 0;
+  length_ = std::max(0.25 * options_.length_init, options_.length_min);
 }
 
 Mat TrustRegion::seeds() const { return center_.transpose(); }

@@ -1,6 +1,8 @@
 #pragma once
 // TuRBO-1's trust region (Eriksson et al. 2019, section 2): a box of side L around the incumbent, doubled
-// after τ_succ consecutive successes, halved after τ_fail consecutive failures, and restarted when L < L_min.
+// after τ_succ consecutive successes, halved after τ_fail consecutive failures, and restarted when L < L_min or
+// when the search has converged next to the incumbent (stalls). A restart is TuRBO's fresh start by default
+// (FreshStartRegion: the algorithm draws a new design and models the new points; docs/defaults.md).
 // It is a plain box region (no constraint), so every optimizer can search it.
 #include <string>
 
@@ -17,15 +19,21 @@ struct TrustRegionOptions {
   int failure_tolerance = 0;                ///< τ_fail; 0 = ceil(max(4/q, d/q))
   int batch_size = 1;                       ///< q, only used for the default τ_fail
   double improvement = 1e-3;                ///< success: new best < old best − improvement·|old best|
-  /// L after a restart. 2 covers the whole unit cube from any centre, so after a collapse the search is global
-  /// until failures shrink it again: restarting at 0.8 around the same incumbent repeated the same collapse
+  /// With restart_center: incumbent, L after a restart. 2 covers the whole unit cube from any centre, so after a
+  /// collapse the search is global until failures shrink it again: restarting at 0.8 around the same incumbent repeated the same collapse
   /// (Branin with SE-ARD, seeds 15 and 19: stuck at (10, 3.0), regret 1.5; docs/defaults.md).
   double restart_length = 2.0;
   /// What a restart does: `incumbent` keeps searching around the best point of all the data with L =
   /// restart_length (the box returns to the basin that collapsed as soon as L shrinks); `new_points` is TuRBO's
   /// fresh start: the algorithm draws a new initial design and models the points since the restart only, and
   /// the box (L = length_init) centres on their best and counts successes against it.
-  std::string restart_center = "incumbent";
+  std::string restart_center = "new_points";
+  /// A stall: a failure whose new point lies within stall_distance (∞-norm, unit cube) of the incumbent, i.e.
+  /// the model has converged there. stall_tolerance consecutive stalls restart the region at once instead of
+  /// after the ~7·τ_fail failures that halve L below length_min (Hartmann-6: 31 stalls in a row in a local
+  /// minimum; Ackley-5's ripples: at most 3, docs/defaults.md). 0 = τ_fail, −1 = off.
+  double stall_distance = 1e-3;
+  int stall_tolerance = 3;
 };
 
 class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion {
@@ -46,10 +54,11 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   double length() const { return length_; }
   int successes() const { return successes_; }
   int failures() const { return failures_; }
+  int stalls() const { return stalls_; }
   int restarts() const { return restarts_; }
   /// restart_center: new_points asks the algorithm for a fresh start (new design, model of the new data).
   int fresh_starts() const override { return options_.restart_center == "new_points" ? restarts_ : 0; }
-  /// Back to the incumbent of all the data with L = 4·length_min (a box for refinement), no fresh start after.
+  /// Back to the incumbent of all the data with L = length_init / 4 (a box for refinement), no fresh start after.
   void return_to_incumbent() override;
   bool returned() const { return returned_; }
   int failure_tolerance() const { return failure_tolerance_; }
@@ -68,6 +77,7 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   Index restart_at_ = 0;  ///< data size at the last restart (restart_center: new_points)
   bool returned_ = false;  ///< return_to_incumbent() was called: no fresh start any more
   int successes_ = 0, failures_ = 0, restarts_ = 0;
+  int stalls_ = 0;  ///< consecutive stalls (see TrustRegionOptions::stall_distance)
 };
 
 }  // namespace varbo

@@ -15,6 +15,7 @@ std::string TrustRegion::save_state() const {
   m.put_int("restarts", restarts_);
   m.put_int("restart_at", restart_at_);
   m.put("returned", returned_);
+  m.put_int("stalls", stalls_);
   return m.text();
 }
 
@@ -31,6 +32,7 @@ void TrustRegion::restore_state(const std::string& text) {
   restarts_ = static_cast<int>(m.integer("restarts"));
   restart_at_ = m.has("restart_at") ? static_cast<Index>(m.integer("restart_at")) : 0;  // older snapshots
   returned_ = m.has("returned") && m.boolean("returned");
+  stalls_ = m.has("stalls") ? static_cast<int>(m.integer("stalls")) : 0;
   set_box();
 }
 
