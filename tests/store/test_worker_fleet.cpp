@@ -99,7 +99,9 @@ void run_fleet(test::Backend backend, const std::string& dir, int budget, bool t
     CAPTURE(t.id);
     CHECK(t.state != TrialState::Pending);
     CHECK(t.state != TrialState::Failed);
-    CHECK(runs_of(t) <= 2);  // at most once, and once more after its worker was killed
+    // At most once, and once more after each killed worker that held it: a θ re-queued from the first killed
+    // worker can be taken by the second before it too is killed (3 runs, seen once under load).
+    CHECK(runs_of(t) <= 1 + killed);
     hosts.insert(worker_host_pid(t.worker).first);
     if (t.state == TrialState::Complete) {
       ++complete;
