@@ -55,10 +55,21 @@ std::string describe(const py::error_already_set& e) {
   return fmt::format("{}: {}", type, e.value() ? py::cast<std::string>(py::str(e.value())) : std::string());
 }
 
-class PythonTask : public Task {
+/// The task `python`: a box (lower/upper/names), or — with no box of its own — the study's `parameters:` (typed:
+/// the function then receives ints, labels and fixed values, as the external task's JSON "params").
+class PythonTask : public Task, public SpaceAware {
  public:
-  PythonTask(Domain domain, Objective* objective) : domain_(std::move(domain)), objective_(objective) {}
+  PythonTask(Domain domain, std::vector<ConfigNode> domain_keys, Objective* objective)
+      : domain_(std::move(domain)), domain_keys_(std::move(domain_keys)), objective_(objective) {}
   Domain domain() const override { return domain_; }
+  SharedSpace search_space() const override { return space_; }
+  void set_search_space(SharedSpace space) override {
+    // A second definition of the domain could only disagree with the parameters (as the external task).
+    if (!domain_keys_.empty())
+      domain_keys_.front().fail("the study declares `parameters:`, which define the names and the domain; remove this key");
+    space_ = std::move(space);
+    domain_ = Domain{space_->user_box(), space_->names()};
+  }
 
   Evaluation evaluate(const Vec& theta, Rng& /*rng*/) override {
     Evaluation ev;
@@ -66,7 +77,7 @@ class PythonTask : public Task {
     py::gil_scoped_acquire gil;
     if (objective_->check_signals()) return failed(ev, "interrupted");
     try {
-      py::object r = objective_->fun(params_of(theta, domain_.names));
+      py::object r = objective_->fun(params_of(theta, domain_.names, space_.get()));
       read_result(r, ev);
     } catch (py::error_already_set& e) {
       if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
@@ -112,10 +123,19 @@ class PythonTask : public Task {
   }
 
   Domain domain_;
+  std::vector<ConfigNode> domain_keys_;
+  SharedSpace space_;
   Objective* objective_;
 };
 
 std::unique_ptr<Task> make_python_task(const Options& o) {
+  std::vector<ConfigNode> keys;
+  for (const char* key : {"lower", "upper", "names"})
+    if (o.given(key)) keys.push_back(o.node(key));
+  if (keys.empty())  // the study's `parameters:` give the domain (set_search_space), or the study refuses it
+    return std::make_unique<PythonTask>(Domain{Box{Vec(0), Vec(0)}, {}}, std::move(keys), t_objective);
+  if (!o.given("lower") || !o.given("upper"))
+    o.source().fail("expected lower and upper (one bound per parameter), or no box at all and the study's `parameters:`");
   const auto lower = o.reals("lower"), upper = o.reals("upper");
   if (lower.empty()) o.node("lower").fail("expected at least one value");
   if (lower.size() != upper.size())
@@ -133,7 +153,7 @@ std::unique_ptr<Task> make_python_task(const Options& o) {
   }
   for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
   // Outside minimize() (varbo.Study.open on a study minimize wrote) the task gives the domain only.
-  return std::make_unique<PythonTask>(std::move(dom), t_objective);
+  return std::make_unique<PythonTask>(std::move(dom), std::move(keys), t_objective);
 }
 
 }  // namespace
@@ -141,8 +161,8 @@ std::unique_ptr<Task> make_python_task(const Options& o) {
 void add_python_task(Registry& registry) {
   ComponentInfo info = make_component<Task>(
       "python", "a Python function (varbo.minimize): the box lower..upper, parameters named by names",
-      {opt::reals("lower", "", "lower bound per parameter").must(),
-       opt::reals("upper", "", "upper bound per parameter").must(),
+      {opt::reals("lower", "", "lower bound per parameter (leave the box out when the study declares `parameters:`)"),
+       opt::reals("upper", "", "upper bound per parameter"),
        opt::node("names", "", "parameter names (default x1, x2, ...)")},
       Factory<Task>([](const Options& o, const BuildContext&) { return make_python_task(o); }));
   info.plugin = "python";
@@ -188,11 +208,12 @@ void bind_minimize(py::module_& m) {
           return objective.stop;
         };
         std::vector<std::string> names;
-        ov.on_trial = [&objective, &names](const TrialRecord& t) {
+        SharedSpace space;  // typed parameters, or null
+        ov.on_trial = [&objective, &names, &space](const TrialRecord& t) {
           py::gil_scoped_acquire gil;
           if (objective.callback.is_none()) return true;
           try {
-            return !py::cast<bool>(py::bool_(objective.callback(trial_dict(t, names))));
+            return !py::cast<bool>(py::bool_(objective.callback(trial_dict(t, names, space.get()))));
           } catch (py::error_already_set& e) {
             objective.error = std::make_unique<py::error_already_set>(std::move(e));
             return false;
@@ -216,9 +237,12 @@ void bind_minimize(py::module_& m) {
                 "python, lower: [...], upper: [...]}}, not the task '{}'",
                 study.task.info->name));
           {
-            // The names the callback's trials are shown with (as the task gives them).
+            // The names (and typed space) the callback's trials are shown with, as the study resolves them.
             BuildContext ctx;
-            names = registry.create<Task>(study.task, ctx)->domain().names;
+            const auto task = registry.create<Task>(study.task, ctx);
+            Domain domain;
+            space = resolve_study_space(study, *task, domain);
+            names = domain.names;
           }
           try {
             summary = run_study(study, registry, ov);
@@ -232,13 +256,19 @@ void bind_minimize(py::module_& m) {
           throw py::error_already_set();
         }
         py::dict out = summary_dict(*summary);
+        auto typed = [&](const std::optional<Vec>& x) {
+          return x ? py::object(params_of(*x, names, space.get())) : py::object(py::none());
+        };
+        out["best_params"] = typed(summary->best_theta);
+        out["recommended_params"] = typed(summary->recommended_theta);
+        out["parameters"] = space ? py::object(parameters_of(*space)) : py::object(py::none());
         std::vector<TrialRecord> trials;
         {
           py::gil_scoped_release release;
           trials = open_sqlite_store(summary->output + "/study.db")->trials();
         }
         py::list ts;
-        for (const auto& t : trials) ts.append(trial_dict(t, names));
+        for (const auto& t : trials) ts.append(trial_dict(t, names, space.get()));
         out["trials"] = ts;
         out["names"] = names;
         return out;
