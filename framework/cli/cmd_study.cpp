@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/named_values.hpp"
 #include "varbo/study_api.hpp"
 
 namespace varbo::cli {
@@ -27,7 +28,7 @@ Vec theta_from_params(const Study& s, const std::vector<std::string>& words) {
       throw InputError(fmt::format("--param '{}': expected name=value, e.g. --param {}=...", w, names.front()));
     values.emplace_back(w.substr(0, eq), w.substr(eq + 1));
   }
-  return space.theta_of_named(values, "--param");
+  return theta_of_named(space, values, "--param");
 }
 }  // namespace
 

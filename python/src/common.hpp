@@ -30,7 +30,7 @@ py::dict params_of(const Vec& theta, const std::vector<std::string>& names, cons
 /// Every field of a stored trial, as the dict varbo.Trial is built from.
 py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names, const SearchSpace* space = nullptr);
 /// θ (user units) of a {name: value} mapping given by the user: each value (int, float, str label) is written as
-/// text and parsed as `varbo observe new --param name=value` parses it (SearchSpace::theta_of_named); `space` null:
+/// text and parsed as `varbo observe new --param name=value` parses it (varbo/named_values.hpp); `space` null:
 /// the box of reals `box` named `names`. InputError (a ValueError) naming the parameter otherwise.
 Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const Box& box,
                      const std::vector<std::string>& names, const std::string& what);

@@ -6,6 +6,7 @@
 #include "common.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/named_values.hpp"
 
 namespace varbo::python {
 
@@ -129,8 +130,8 @@ Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const 
     const auto name = py::cast<std::string>(k);
     values.emplace_back(name, value_text(v, what, name));
   }
-  if (space) return space->theta_of_named(values, what);
-  return SearchSpace::from_box(box, names).theta_of_named(values, what);
+  if (space) return theta_of_named(*space, values, what);
+  return theta_of_named(SearchSpace::from_box(box, names), values, what);
 }
 
 Components components_of(const py::handle& obj) {

@@ -113,10 +113,6 @@ class SearchSpace {
   Vec theta(const Params& p) const;
   /// The value of parameter i from text ("0.001", "4", "lqr"); InputError with the expected form otherwise.
   double parse_value(std::size_t i, const std::string& text) const;
-  /// θ of (name, text) pairs, each value parsed by parse_value: every parameter named once (a fixed one may be
-  /// left out, it keeps its value). InputError naming the parameter, prefixed by `what` ("--param", "tell_point"),
-  /// otherwise. The parsing behind `varbo observe new --param` and Python's Study.tell_point.
-  Vec theta_of_named(const std::vector<std::pair<std::string, std::string>>& values, const std::string& what) const;
   /// θ_i as text: a label, an integer, or a real with 17 significant digits.
   std::string format_value(std::size_t i, double v) const;
 

@@ -344,35 +344,6 @@ double SearchSpace::parse_value(std::size_t i, const std::string& text) const {
   return *v;
 }
 
-Vec SearchSpace::theta_of_named(const std::vector<std::pair<std::string, std::string>>& values,
-                                const std::string& what) const {
-  const std::vector<std::string> all = names();
-  Vec theta = user_box().lower;  // fixed parameters keep their value
-  std::vector<bool> given(params_.size(), false);
-  for (const auto& [name, text] : values) {
-    const auto i = index_of(name);
-    if (!i) {
-      const std::string near = closest_match(name, all);
-      throw InputError(fmt::format("{}: the study has no parameter '{}' (it has {}){}; nothing written", what, name,
-                                   join(all), near.empty() ? "" : "; did you mean '" + near + "'?"));
-    }
-    if (given[*i]) throw InputError(fmt::format("{}: '{}' is given twice; nothing written", what, name));
-    given[*i] = true;
-    try {
-      theta[static_cast<Index>(*i)] = parse_value(*i, text);
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("{}: {}; nothing written", what, e.what()));
-    }
-  }
-  std::vector<std::string> missing;
-  for (std::size_t i = 0; i < params_.size(); ++i)
-    if (!given[i] && params_[i].type != ParameterType::Fixed) missing.push_back(params_[i].name);
-  if (!missing.empty())
-    throw InputError(fmt::format("{}: missing {} (every parameter of the study needs a value); nothing written", what,
-                                 join(missing)));
-  return theta;
-}
-
 std::string SearchSpace::format_value(std::size_t i, double v) const {
   const Parameter& p = params_.at(i);
   if (p.type == ParameterType::Categorical) {
