@@ -218,3 +218,18 @@ def test_optuna_sampler_on_a_mixed_space():
         assert r["solver"] in ("pd", "lqr", None, 7)
     for t in study.trials[1:]:
         assert t.params == relative[t.number]
+
+
+def test_cli_status_and_export_read_a_minimize_study(tmp_path):
+    """`varbo status` and `varbo export` open a study varbo.minimize wrote (task `python`), typed values as labels."""
+    r = varbo.minimize(cost_of, {"parameters": PARAMETERS, "algorithm": ALGORITHM}, budget=5, seed=1,
+                       output=str(tmp_path / "run"))
+    status = run_cli("status", r.study_path).stdout
+    assert "task python" in status and "5 complete" in status
+    import csv
+    import io
+    rows = list(csv.DictReader(io.StringIO(run_cli("export", r.study_path, "--csv").stdout)))
+    assert [int(row["id"]) for row in rows] == [t.id for t in r.trials]
+    for row, t in zip(rows, r.trials):
+        assert row["solver"] == t.params["solver"] and int(row["waypoints"]) == t.params["waypoints"]
+        assert float(row["cost"]) == t.cost
