@@ -29,7 +29,7 @@ def cost_of(p):
 
 def assert_admissible(params):
     """Right names, types (int for int, str label for categorical, float for real) and bounds."""
-    assert list(params) == ["lr", "waypoints", "step", "solver", "gain", "horizon"]
+    assert sorted(params) == sorted(["lr", "waypoints", "step", "solver", "gain", "horizon"])
     assert isinstance(params["lr"], float) and 1e-5 <= params["lr"] <= 0.1
     assert type(params["waypoints"]) is int and 2 <= params["waypoints"] <= 9
     assert type(params["step"]) is int and 8 <= params["step"] <= 256
@@ -57,6 +57,7 @@ def test_typed_ask_tell_round_trip_with_cli(tmp_path):
         if k % 2 == 0:
             (t,) = study.ask()
             assert_admissible(t.params)
+            assert list(t.params) == study.names  # in declaration order
             # x is θ in user units: a category by its index.
             assert t.x[3] == CHOICES.index(t.params["solver"]) and t.x[1] == t.params["waypoints"]
             study.tell(t, cost_of(t.params))
