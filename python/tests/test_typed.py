@@ -234,3 +234,17 @@ def test_cli_status_and_export_read_a_minimize_study(tmp_path):
     for row, t in zip(rows, r.trials):
         assert row["solver"] == t.params["solver"] and int(row["waypoints"]) == t.params["waypoints"]
         assert float(row["cost"]) == t.cost
+
+
+def test_optuna_sampler_falls_back_for_continuous_algorithms():
+    """An algorithm without the capability search_space:mixed (rssgd) gets the ordinal encoding, and still returns
+    values Optuna accepts (ints integral, within bounds)."""
+    import varbo.optuna
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    assert varbo.optuna.VarboSampler(seed=1)._typed
+    sampler = varbo.optuna.VarboSampler({"type": "rssgd"}, seed=1, warn_independent_sampling=False)
+    assert not sampler._typed
+    study = optuna.create_study(sampler=sampler)
+    study.optimize(lambda t: (t.suggest_int("n", 0, 5) - 2) ** 2 + t.suggest_float("x", -1, 1) ** 2, n_trials=6)
+    for t in study.trials:
+        assert type(t.params["n"]) is int and 0 <= t.params["n"] <= 5 and -1 <= t.params["x"] <= 1

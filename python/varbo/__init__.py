@@ -238,7 +238,7 @@ def _looks_like_space(obj: Any) -> bool:
     return isinstance(obj, (list, tuple)) and len(obj) > 0 and all(_is_bounds(b) for b in obj)
 
 
-def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None, *, space: Any = None,
+def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, *, space: Any = None,
              budget: Optional[int] = None, seed: Optional[int] = None,
              callback: Optional[Callable[[Trial], Any]] = None, threads: Optional[int] = None,
              output: Optional[str] = None, resume: bool = False, overwrite: bool = False,

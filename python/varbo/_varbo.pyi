@@ -68,7 +68,7 @@ class _Study:
     @property
     def config(self) -> str: ...
 
-def _minimize(fun: Callable[[Dict[str, float]], Any], yaml: str, name: str,
+def _minimize(fun: Callable[[Dict[str, Any]], Any], yaml: str, name: str,
               callback: Optional[Callable[[Dict[str, Any]], Any]], seed: Optional[int], budget: Optional[int],
               threads: Optional[int], output: Optional[str], resume: bool, overwrite: bool,
               progress: bool) -> Dict[str, Any]: ...

@@ -11,8 +11,8 @@ distribution). That space becomes a typed varbo search space (docs/search_space.
 s > 1 (no log) → an ``int`` index k, the value being low + k·s, CategoricalDistribution → a ``categorical``
 parameter (one-hot with argmax in the model, as the typed spaces do). The finished trials are told to a varbo
 algorithm (``{type: bo}`` unless ``algorithm`` says otherwise: any varbo algorithm that handles typed spaces) and
-its next admissible point is asked. A space varbo cannot type (a FloatDistribution with ``step``) falls back to an
-ordinal encoding of the whole space on [0, 1]^d (floats linearly or in log scale, integers and steps by rounding,
+its next admissible point is asked. A space varbo cannot type (a FloatDistribution with ``step``), and any space when
+the algorithm does not handle mixed spaces (no capability ``search_space:mixed``), falls back to an ordinal encoding of the whole space on [0, 1]^d (floats linearly or in log scale, integers and steps by rounding,
 categoricals by the index of the choice). Failed trials are told as failures (bo's failure model avoids where
 trials fail); pending trials are passed as pending points. Parameters outside that space (the first trial,
 conditional parameters) come from the independent sampler (Optuna's RandomSampler by default).
@@ -150,6 +150,15 @@ class VarboSampler(BaseSampler):
         self._lock = threading.Lock()  # study.optimize(n_jobs > 1) samples from several threads
         # Configuration errors surface here, not at the first relative sample.
         _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads)
+        # An algorithm without the capability search_space:mixed (e.g. trust_region) gets the ordinal encoding.
+        try:
+            _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads,
+                              '[{name: k, type: int, low: 0, high: 1}]')
+            self._typed = True
+        except _varbo.ConfigError as e:
+            if "search_space:mixed" not in str(e):
+                raise
+            self._typed = False
 
     def reseed_rng(self) -> None:
         self._independent.reseed_rng()
@@ -187,7 +196,7 @@ class VarboSampler(BaseSampler):
         sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
         key = (tuple(names), tuple(repr(search_space[n]) for n in names), sign)
         typed = [_typed_parameter(i, search_space[n]) for i, n in enumerate(names)]
-        parameters = json.dumps(typed) if all(p is not None for p in typed) else ""
+        parameters = json.dumps(typed) if self._typed and all(p is not None for p in typed) else ""
         if parameters:
             def encode(n: str, v: Any) -> float:
                 return _to_theta(search_space[n], v)
