@@ -134,6 +134,27 @@ Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const 
   return theta_of_named(SearchSpace::from_box(box, names), values, what);
 }
 
+/// The declarations of a typed space as dicts (what `parameters:` says, every default filled in).
+py::list parameters_of(const SearchSpace& space) {
+  py::list out;
+  for (const Parameter& p : space.parameters()) {
+    py::dict d;
+    d["name"] = p.name;
+    d["type"] = parameter_type_name(p.type);
+    if (p.type == ParameterType::Real || p.type == ParameterType::Int) {
+      d["low"] = p.type == ParameterType::Int ? py::object(py::int_(std::llround(p.low))) : py::object(py::float_(p.low));
+      d["high"] = p.type == ParameterType::Int ? py::object(py::int_(std::llround(p.high))) : py::object(py::float_(p.high));
+      d["log"] = p.log;
+    } else if (p.type == ParameterType::Categorical) {
+      d["choices"] = p.choices;
+    } else {
+      d["value"] = p.choices.empty() ? py::object(py::float_(p.value)) : py::object(py::str(p.choices[0]));
+    }
+    out.append(d);
+  }
+  return out;
+}
+
 Components components_of(const py::handle& obj) {
   Components out;
   if (obj.is_none()) return out;

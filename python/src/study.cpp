@@ -59,31 +59,6 @@ py::object optional_trial(const std::optional<TrialRecord>& t, const PyStudy& s)
 
 }  // namespace
 
-/// The declarations of a typed space as dicts (what `parameters:` says, every default filled in).
-py::list parameters_of(const SearchSpace& space) {
-  py::list out;
-  for (const Parameter& p : space.parameters()) {
-    py::dict d;
-    d["name"] = p.name;
-    d["type"] = parameter_type_name(p.type);
-    if (p.type == ParameterType::Real || p.type == ParameterType::Int) {
-      d["low"] = p.type == ParameterType::Int ? py::object(py::int_(std::llround(p.low))) : py::object(py::float_(p.low));
-      d["high"] = p.type == ParameterType::Int ? py::object(py::int_(std::llround(p.high))) : py::object(py::float_(p.high));
-      d["log"] = p.log;
-    } else if (p.type == ParameterType::Categorical) {
-      d["choices"] = p.choices;
-    } else {
-      d["value"] = p.choices.empty() ? py::object(py::float_(p.value)) : py::object(py::str(p.choices[0]));
-    }
-    out.append(d);
-  }
-  return out;
-}
-
-namespace {
-
-}  // namespace
-
 void bind_study(py::module_& m) {
   py::class_<PyStudy>(m, "_Study", "varbo::Study; use varbo.Study.")
       .def_static(
