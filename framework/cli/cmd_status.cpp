@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/host_task.hpp"
 #include "varbo/study_api.hpp"
 
 namespace varbo::cli {
@@ -26,6 +27,10 @@ std::string theta_text(const Vec& theta, const std::vector<std::string>& names, 
 
 std::string csv_cell(const std::string& s) { return csv_text(s); }
 
+/// Studies varbo.minimize wrote name the task `python`, which only the Python module evaluates: its domain is
+/// enough to show and export them.
+void read_only_components(Registry& registry) { add_host_python_task(registry); }
+
 }  // namespace
 
 Runner add_status(CLI::App& app) {
@@ -33,7 +38,7 @@ Runner add_status(CLI::App& app) {
   auto store = std::make_shared<std::string>();
   cmd->add_option("store", *store, "study file, or postgresql://...?study=NAME URL")->required();
   return [store]() {
-    Study s = Study::open(*store);
+    Study s = Study::open(*store, read_only_components);
     const auto trials = s.trials();
     const auto& names = s.domain().names;
     Index n[4] = {0, 0, 0, 0};
@@ -96,7 +101,7 @@ Runner add_export(CLI::App& app) {
   cmd->add_flag("--csv", a->csv, "CSV with a header row (the only format so far)")->required();
   cmd->add_option("-o,--output", a->output, "file to write (default: standard output)");
   return [a]() {
-    Study s = Study::open(a->store);
+    Study s = Study::open(a->store, read_only_components);
     const auto trials = s.trials();
     std::vector<std::string> comps;
     for (const auto& t : trials)

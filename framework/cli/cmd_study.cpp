@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/named_values.hpp"
 #include "varbo/study_api.hpp"
 
 namespace varbo::cli {
@@ -20,30 +21,14 @@ namespace {
 Vec theta_from_params(const Study& s, const std::vector<std::string>& words) {
   const std::vector<std::string>& names = s.domain().names;
   const SearchSpace space = s.space() ? *s.space() : SearchSpace::from_box(s.domain().box, names);
-  Vec theta = space.user_box().lower;
-  std::vector<bool> given(names.size(), false);
+  std::vector<std::pair<std::string, std::string>> values;
   for (const auto& w : words) {
     const auto eq = w.find('=');
     if (eq == std::string::npos || eq == 0)
       throw InputError(fmt::format("--param '{}': expected name=value, e.g. --param {}=...", w, names.front()));
-    const std::string name = w.substr(0, eq);
-    const auto i = space.index_of(name);
-    if (!i) {
-      const std::string near = closest_match(name, names);
-      throw InputError(fmt::format("--param '{}': the study has no parameter '{}' (it has {}){}; nothing written", w,
-                                   name, join(names), near.empty() ? "" : "; did you mean '" + near + "'?"));
-    }
-    if (given[*i]) throw InputError(fmt::format("--param: '{}' is given twice; nothing written", name));
-    given[*i] = true;
-    theta[static_cast<Index>(*i)] = space.parse_value(*i, w.substr(eq + 1));
+    values.emplace_back(w.substr(0, eq), w.substr(eq + 1));
   }
-  std::vector<std::string> missing;
-  for (std::size_t i = 0; i < names.size(); ++i)
-    if (!given[i] && space.parameters()[i].type != ParameterType::Fixed) missing.push_back(names[i]);
-  if (!missing.empty())
-    throw InputError(fmt::format("--param: missing {} (every parameter of the study needs a value); nothing written",
-                                 join(missing)));
-  return theta;
+  return theta_of_named(space, values, "--param");
 }
 }  // namespace
 

@@ -2,11 +2,13 @@
 // keeps its trials in Optuna's storage and tells them to a fresh algorithm when it needs a suggestion).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/search_space_config.hpp"
 
 namespace varbo::python {
 
@@ -14,17 +16,34 @@ namespace {
 
 class PyAlgorithm {
  public:
+  /// `parameters`: empty for the unit cube of dimension `dim`; else a `parameters:` list (YAML) of a typed space,
+  /// and then points in and out are θ in user units (a category by its index), as a study's trials hold them.
   PyAlgorithm(const std::string& yaml, const std::string& name, Index dim, std::uint64_t seed, Index budget,
-              int threads)
+              int threads, const std::string& parameters)
       : dim_(dim), threads_(threads) {
-    if (dim < 1) throw InputError(fmt::format("Algorithm: the dimension must be at least 1, got {}", dim));
     const Registry& registry = module_registry();
     const ResolvedComponent rc = registry.resolve(Kind::Algorithm, ConfigNode::parse(yaml, name));
+    if (!parameters.empty()) {
+      space_ = std::make_shared<const SearchSpace>(parse_search_space(ConfigNode::parse(parameters, "<parameters>")));
+      const auto& provides = rc.info->provides;
+      if ((space_->has_discrete()) &&
+          std::find(provides.begin(), provides.end(), "search_space:mixed") == provides.end())
+        throw ConfigError(fmt::format("{}: algorithm '{}' does not handle integer or categorical parameters (it lacks "
+                                      "the capability 'search_space:mixed'); use bo, random or cma_es",
+                                      rc.source.where(), rc.info->name));
+      dim_ = space_->encoded_dim();
+      theta_dim_ = static_cast<Index>(space_->size());
+    } else {
+      theta_dim_ = dim;
+    }
+    if (dim_ < 1) throw InputError(fmt::format("Algorithm: the dimension must be at least 1, got {}", dim_));
     BuildContext ctx;
-    ctx.dim = dim;
+    ctx.dim = dim_;
     ctx.seed = seed;
     ctx.budget = budget;
     alg_ = registry.create<Algorithm>(rc, ctx);
+    if (space_)
+      if (auto* aware = dynamic_cast<SpaceAware*>(alg_.get())) aware->set_search_space(space_);
   }
 
   py::tuple ask(Index q) {
@@ -35,11 +54,13 @@ class PyAlgorithm {
       ThreadLimit limit(threads_);
       s = alg_->ask(q);
     }
-    Mat X(static_cast<Index>(s.size()), dim_);
+    Mat X(static_cast<Index>(s.size()), theta_dim_);
     py::list phases;
     for (std::size_t i = 0; i < s.size(); ++i) {
       if (s[i].x.size() != dim_) throw Error("the algorithm suggested a point of the wrong dimension");
-      X.row(static_cast<Index>(i)) = Box::unit(dim_).clamp(s[i].x).transpose();
+      const Vec x = Box::unit(dim_).clamp(s[i].x);
+      // Typed: the admissible θ the study would record for this suggestion (study_api.cpp, trial_x/theta_of).
+      X.row(static_cast<Index>(i)) = (space_ ? space_->decode(space_->admissible(x)) : x).transpose();
       phases.append(s[i].phase);
     }
     return py::make_tuple(to_array(X), phases);
@@ -70,11 +91,26 @@ class PyAlgorithm {
 
   py::object recommendation() const {
     const auto r = alg_->recommendation();
-    return r ? py::object(to_array(*r)) : py::object(py::none());
+    if (!r) return py::none();
+    return to_array(space_ ? Vec(space_->decode(space_->admissible(*r))) : *r);
   }
 
  private:
   Mat unit_points(const py::object& X_in, const std::string& what) const {
+    if (space_) {
+      // θ rows in user units, each admissible, encoded as a study encodes its trials.
+      Mat T = to_mat(X_in, what);
+      if (T.rows() > 0 && T.cols() != theta_dim_)
+        throw InputError(fmt::format("{}: {} columns, the space has {} parameters", what, T.cols(), theta_dim_));
+      Mat X(T.rows(), dim_);
+      for (Index i = 0; i < T.rows(); ++i) {
+        const Vec t = T.row(i).transpose();
+        std::string why;
+        if (!space_->contains(t, &why)) throw InputError(fmt::format("{}: row {} is not admissible: {}", what, i, why));
+        X.row(i) = space_->encode(t).transpose();
+      }
+      return X;
+    }
     Mat X = to_mat(X_in, what);
     if (X.rows() > 0 && X.cols() != dim_)
       throw InputError(fmt::format("{}: {} columns, the algorithm has dimension {}", what, X.cols(), dim_));
@@ -85,8 +121,10 @@ class PyAlgorithm {
     return X;
   }
 
-  Index dim_;
+  Index dim_;        ///< the algorithm's unit cube (the encoded dimension of a typed space)
+  Index theta_dim_;  ///< columns of the points given and returned
   int threads_;
+  SharedSpace space_;
   std::unique_ptr<Algorithm> alg_;
 };
 
@@ -94,8 +132,9 @@ class PyAlgorithm {
 
 void bind_algorithm(py::module_& m) {
   py::class_<PyAlgorithm>(m, "_Algorithm", "An algorithm on the unit cube, ask/tell without a store.")
-      .def(py::init<const std::string&, const std::string&, Index, std::uint64_t, Index, int>(), py::arg("yaml"),
-           py::arg("name"), py::arg("dim"), py::arg("seed"), py::arg("budget"), py::arg("threads") = 0)
+      .def(py::init<const std::string&, const std::string&, Index, std::uint64_t, Index, int, const std::string&>(),
+           py::arg("yaml"), py::arg("name"), py::arg("dim"), py::arg("seed"), py::arg("budget"), py::arg("threads") = 0,
+           py::arg("parameters") = "")
       .def("ask", &PyAlgorithm::ask, py::arg("n") = 1)
       .def("tell", &PyAlgorithm::tell, py::arg("X"), py::arg("y"))
       .def("set_pending", &PyAlgorithm::set_pending, py::arg("X"))

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "varbo/registry.hpp"
+#include "varbo/search_space.hpp"
 #include "varbo/store.hpp"
 
 namespace varbo::python {
@@ -23,10 +24,18 @@ py::array_t<double> to_array(const Mat& m);
 Vec to_vec(const py::handle& obj, const std::string& what);
 /// A 2-D array-like (a 1-D one is one row per value when dim == 1, else one row) as a matrix.
 Mat to_mat(const py::handle& obj, const std::string& what);
-/// {name: value} for a θ in user units.
-py::dict params_of(const Vec& theta, const std::vector<std::string>& names);
+/// {name: value} for a θ in user units: with a typed space (docs/search_space.md) its typed view
+/// (SearchSpace::params: int for int parameters, str labels for categories, fixed values included), else floats.
+py::dict params_of(const Vec& theta, const std::vector<std::string>& names, const SearchSpace* space = nullptr);
 /// Every field of a stored trial, as the dict varbo.Trial is built from.
-py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names);
+py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names, const SearchSpace* space = nullptr);
+/// θ (user units) of a {name: value} mapping given by the user: each value (int, float, str label) is written as
+/// text and parsed as `varbo observe new --param name=value` parses it (varbo/named_values.hpp); `space` null:
+/// the box of reals `box` named `names`. InputError (a ValueError) naming the parameter otherwise.
+Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const Box& box,
+                     const std::vector<std::string>& names, const std::string& what);
+/// The declarations of a typed space as a list of dicts {name, type, low, high, log | choices | value}.
+py::list parameters_of(const SearchSpace& space);
 /// Cost components from a dict {name: value} (None or empty: none).
 Components components_of(const py::handle& obj);
 

@@ -4,7 +4,9 @@
 #include <cmath>
 
 #include "common.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/named_values.hpp"
 
 namespace varbo::python {
 
@@ -50,8 +52,22 @@ Mat to_mat(const py::handle& obj, const std::string& what) {
   return m;
 }
 
-py::dict params_of(const Vec& theta, const std::vector<std::string>& names) {
+py::dict params_of(const Vec& theta, const std::vector<std::string>& names, const SearchSpace* space) {
   py::dict d;
+  if (space && static_cast<std::size_t>(theta.size()) == space->size()) {
+    const Params p = space->params(theta);
+    for (std::size_t i = 0; i < p.names.size(); ++i) {
+      const ParamValue& v = p.values[i];
+      py::str key(p.names[i]);
+      if (v.is_label())
+        d[key] = py::str(v.label);
+      else if (v.type == ParameterType::Int && std::abs(v.number) < 9e15)
+        d[key] = py::int_(static_cast<long long>(std::llround(v.number)));
+      else
+        d[key] = py::float_(v.number);
+    }
+    return d;
+  }
   for (Index i = 0; i < theta.size(); ++i) {
     const auto k = static_cast<std::size_t>(i);
     d[py::str(k < names.size() ? names[k] : fmt::format("x{}", i + 1))] = theta[i];
@@ -63,12 +79,12 @@ namespace {
 py::object number_or_none(double v) { return std::isnan(v) ? py::object(py::none()) : py::object(py::float_(v)); }
 }  // namespace
 
-py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names) {
+py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names, const SearchSpace* space) {
   py::dict d;
   d["id"] = t.id;
   d["state"] = state_name(t.state);
   d["phase"] = t.phase;
-  d["params"] = params_of(t.theta, names);
+  d["params"] = params_of(t.theta, names, space);
   d["x"] = to_array(t.theta);
   d["x_unit"] = to_array(t.x);
   d["cost"] = number_or_none(t.cost);
@@ -83,6 +99,60 @@ py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names)
   d["acquisition_seconds"] = t.acquisition_seconds;
   d["evaluation_seconds"] = t.evaluation_seconds;
   return d;
+}
+
+namespace {
+/// A user's value as the text `--param name=value` would carry: a label as is, an integer exactly, a real with 17
+/// significant digits (so the parsed double is the one given).
+std::string value_text(const py::handle& v, const std::string& what, const std::string& name) {
+  if (py::isinstance<py::str>(v)) return py::cast<std::string>(v);
+  if (!py::isinstance<py::bool_>(v) && !py::isinstance<py::float_>(v) && py::hasattr(v, "__index__"))
+    return py::cast<std::string>(py::str(py::int_(py::reinterpret_borrow<py::object>(v))));
+  if (!py::isinstance<py::bool_>(v)) {
+    try {
+      return exact(py::cast<double>(v));
+    } catch (const py::cast_error&) {
+    }
+  }
+  throw InputError(fmt::format("{}: parameter '{}': expected a number or a label (str), got {} (type {}); nothing "
+                               "written",
+                               what, name, py::cast<std::string>(py::repr(v)),
+                               py::cast<std::string>(v.get_type().attr("__name__"))));
+}
+}  // namespace
+
+Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const Box& box,
+                     const std::vector<std::string>& names, const std::string& what) {
+  if (!py::isinstance<py::dict>(mapping)) throw InputError(fmt::format("{}: expected a dict {{name: value}}", what));
+  std::vector<std::pair<std::string, std::string>> values;
+  for (const auto& [k, v] : py::reinterpret_borrow<py::dict>(mapping)) {
+    if (!py::isinstance<py::str>(k)) throw InputError(fmt::format("{}: every parameter name must be a str", what));
+    const auto name = py::cast<std::string>(k);
+    values.emplace_back(name, value_text(v, what, name));
+  }
+  if (space) return theta_of_named(*space, values, what);
+  return theta_of_named(SearchSpace::from_box(box, names), values, what);
+}
+
+/// The declarations of a typed space as dicts (what `parameters:` says, every default filled in).
+py::list parameters_of(const SearchSpace& space) {
+  py::list out;
+  for (const Parameter& p : space.parameters()) {
+    py::dict d;
+    d["name"] = p.name;
+    d["type"] = parameter_type_name(p.type);
+    if (p.type == ParameterType::Real || p.type == ParameterType::Int) {
+      d["low"] = p.type == ParameterType::Int ? py::object(py::int_(std::llround(p.low))) : py::object(py::float_(p.low));
+      d["high"] = p.type == ParameterType::Int ? py::object(py::int_(std::llround(p.high))) : py::object(py::float_(p.high));
+      d["log"] = p.log;
+    } else if (p.type == ParameterType::Categorical) {
+      d["choices"] = p.choices;
+    } else {
+      d["value"] = p.choices.empty() ? py::object(py::float_(p.value)) : py::object(py::str(p.choices[0]));
+    }
+    out.append(d);
+  }
+  return out;
 }
 
 Components components_of(const py::handle& obj) {

@@ -1,6 +1,6 @@
 // varbo._minimize: `varbo run` in-process with a Python objective. The study's task is the component `python`
-// (a box with names); its evaluate() calls the Python function with the GIL held, everything else (fits,
-// acquisition optimization, the store) runs with the GIL released. Stop paths: Ctrl-C (seen by
+// (varbo/host_task.hpp: a box with names, or the study's `parameters:`); its evaluation calls the Python function
+// with the GIL held, everything else (fits, acquisition optimization, the store) runs with the GIL released. Stop paths: Ctrl-C (seen by
 // PyErr_CheckSignals before each trial and between trials) stops like SIGINT stops `varbo run`: the trial in
 // flight is abandoned, every recorded trial stays, and KeyboardInterrupt is raised; a callback returning True ends
 // the run after that trial; a callback raising ends it and re-raises.
@@ -12,6 +12,7 @@
 
 #include "common.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/host_task.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/study.hpp"
@@ -55,99 +56,72 @@ std::string describe(const py::error_already_set& e) {
   return fmt::format("{}: {}", type, e.value() ? py::cast<std::string>(py::str(e.value())) : std::string());
 }
 
-class PythonTask : public Task {
- public:
-  PythonTask(Domain domain, Objective* objective) : domain_(std::move(domain)), objective_(objective) {}
-  Domain domain() const override { return domain_; }
+/// A failed trial saying why.
+Evaluation failed(std::string why) {
+  Evaluation ev;
+  ev.ok = false;
+  ev.cost = std::nan("");
+  ev.error = std::move(why);
+  return ev;
+}
 
-  Evaluation evaluate(const Vec& theta, Rng& /*rng*/) override {
-    Evaluation ev;
-    if (!objective_) return failed(ev, "the task 'python' evaluates only inside varbo.minimize(), which gives it the function");
-    py::gil_scoped_acquire gil;
-    if (objective_->check_signals()) return failed(ev, "interrupted");
-    try {
-      py::object r = objective_->fun(params_of(theta, domain_.names));
-      read_result(r, ev);
-    } catch (py::error_already_set& e) {
-      if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
-        objective_->stop = SIGINT;
-        objective_->error = std::make_unique<py::error_already_set>(std::move(e));
-        return failed(ev, "interrupted");
-      }
-      return failed(ev, describe(e));
-    } catch (const std::exception& e) {
-      return failed(ev, e.what());
+double number(const py::handle& h) {
+  if (h.is_none()) return std::nan("");
+  try {
+    return py::cast<double>(h);
+  } catch (const py::cast_error&) {
+    throw InputError(fmt::format("the objective returned {} (type {}); expected a number or a dict with 'cost'",
+                                 py::cast<std::string>(py::repr(h)),
+                                 py::cast<std::string>(h.get_type().attr("__name__"))));
+  }
+}
+
+/// A number, or a dict {cost: number, components: {name: number}}. NaN or ±inf: a failed trial (the runner).
+void read_result(const py::object& r, Evaluation& ev) {
+  if (py::isinstance<py::dict>(r)) {
+    py::dict d = py::reinterpret_borrow<py::dict>(r);
+    if (!d.contains("cost")) throw InputError("the objective returned a dict without 'cost'");
+    ev.cost = number(d["cost"]);
+    if (d.contains("components")) ev.components = components_of(d["components"]);
+    return;
+  }
+  ev.cost = number(r);
+}
+
+/// The evaluation of the task `python` (varbo/host_task.hpp) inside minimize(): the function called with the GIL
+/// held on the params (typed with `parameters:`).
+Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<std::string>& names,
+                    const SearchSpace* space) {
+  py::gil_scoped_acquire gil;
+  if (objective->check_signals()) return failed("interrupted");
+  Evaluation ev;
+  try {
+    py::object r = objective->fun(params_of(theta, names, space));
+    read_result(r, ev);
+  } catch (py::error_already_set& e) {
+    if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
+      objective->stop = SIGINT;
+      objective->error = std::make_unique<py::error_already_set>(std::move(e));
+      return failed("interrupted");
     }
-    return ev;
+    return failed(describe(e));
+  } catch (const std::exception& e) {
+    return failed(e.what());
   }
-
- private:
-  static Evaluation& failed(Evaluation& ev, std::string why) {
-    ev.ok = false;
-    ev.cost = std::nan("");
-    ev.error = std::move(why);
-    return ev;
-  }
-
-  /// A number, or a dict {cost: number, components: {name: number}}. NaN or ±inf: a failed trial (the runner).
-  static void read_result(const py::object& r, Evaluation& ev) {
-    if (py::isinstance<py::dict>(r)) {
-      py::dict d = py::reinterpret_borrow<py::dict>(r);
-      if (!d.contains("cost")) throw InputError("the objective returned a dict without 'cost'");
-      ev.cost = number(d["cost"]);
-      if (d.contains("components")) ev.components = components_of(d["components"]);
-      return;
-    }
-    ev.cost = number(r);
-  }
-  static double number(const py::handle& h) {
-    if (h.is_none()) return std::nan("");
-    try {
-      return py::cast<double>(h);
-    } catch (const py::cast_error&) {
-      throw InputError(fmt::format("the objective returned {} (type {}); expected a number or a dict with 'cost'",
-                                   py::cast<std::string>(py::repr(h)),
-                                   py::cast<std::string>(h.get_type().attr("__name__"))));
-    }
-  }
-
-  Domain domain_;
-  Objective* objective_;
-};
-
-std::unique_ptr<Task> make_python_task(const Options& o) {
-  const auto lower = o.reals("lower"), upper = o.reals("upper");
-  if (lower.empty()) o.node("lower").fail("expected at least one value");
-  if (lower.size() != upper.size())
-    o.node("upper").fail(fmt::format("has {} entries but lower has {}", upper.size(), lower.size()));
-  for (std::size_t i = 0; i < lower.size(); ++i)
-    if (!(lower[i] < upper[i])) o.node("upper").fail(fmt::format("entry {} is not above lower[{}]", i, i));
-  const auto d = static_cast<Index>(lower.size());
-  Domain dom;
-  dom.box = Box{Eigen::Map<const Vec>(lower.data(), d), Eigen::Map<const Vec>(upper.data(), d)};
-  if (o.is_set("names")) {
-    const ConfigNode n = o.node("names");
-    if (!n.is_sequence() || static_cast<Index>(n.size()) != d)
-      n.fail(fmt::format("expected a list of {} parameter names (one per bound)", d));
-    for (std::size_t i = 0; i < n.size(); ++i) dom.names.push_back(n.item(i).scalar());
-  }
-  for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
-  // Outside minimize() (varbo.Study.open on a study minimize wrote) the task gives the domain only.
-  return std::make_unique<PythonTask>(std::move(dom), t_objective);
+  return ev;
 }
 
 }  // namespace
 
 void add_python_task(Registry& registry) {
-  ComponentInfo info = make_component<Task>(
-      "python", "a Python function (varbo.minimize): the box lower..upper, parameters named by names",
-      {opt::reals("lower", "", "lower bound per parameter").must(),
-       opt::reals("upper", "", "upper bound per parameter").must(),
-       opt::node("names", "", "parameter names (default x1, x2, ...)")},
-      Factory<Task>([](const Options& o, const BuildContext&) { return make_python_task(o); }));
-  info.plugin = "python";
-  info.library = "<varbo Python module>";
-  registry.add(std::move(info));
+  // Outside minimize() (varbo.Study.open on a study minimize wrote) the task gives the domain only.
+  add_host_python_task(registry, [] {
+    Objective* o = t_objective;
+    return o ? HostEvaluator([o](const Vec& theta, const std::vector<std::string>& names, const SearchSpace* space) {
+      return evaluate(o, theta, names, space);
+    })
+             : HostEvaluator();
+  });
 }
 
 namespace {
@@ -188,11 +162,12 @@ void bind_minimize(py::module_& m) {
           return objective.stop;
         };
         std::vector<std::string> names;
-        ov.on_trial = [&objective, &names](const TrialRecord& t) {
+        SharedSpace space;  // typed parameters, or null
+        ov.on_trial = [&objective, &names, &space](const TrialRecord& t) {
           py::gil_scoped_acquire gil;
           if (objective.callback.is_none()) return true;
           try {
-            return !py::cast<bool>(py::bool_(objective.callback(trial_dict(t, names))));
+            return !py::cast<bool>(py::bool_(objective.callback(trial_dict(t, names, space.get()))));
           } catch (py::error_already_set& e) {
             objective.error = std::make_unique<py::error_already_set>(std::move(e));
             return false;
@@ -216,9 +191,12 @@ void bind_minimize(py::module_& m) {
                 "python, lower: [...], upper: [...]}}, not the task '{}'",
                 study.task.info->name));
           {
-            // The names the callback's trials are shown with (as the task gives them).
+            // The names (and typed space) the callback's trials are shown with, as the study resolves them.
             BuildContext ctx;
-            names = registry.create<Task>(study.task, ctx)->domain().names;
+            const auto task = registry.create<Task>(study.task, ctx);
+            Domain domain;
+            space = resolve_study_space(study, *task, domain);
+            names = domain.names;
           }
           try {
             summary = run_study(study, registry, ov);
@@ -232,13 +210,19 @@ void bind_minimize(py::module_& m) {
           throw py::error_already_set();
         }
         py::dict out = summary_dict(*summary);
+        auto typed = [&](const std::optional<Vec>& x) {
+          return x ? py::object(params_of(*x, names, space.get())) : py::object(py::none());
+        };
+        out["best_params"] = typed(summary->best_theta);
+        out["recommended_params"] = typed(summary->recommended_theta);
+        out["parameters"] = space ? py::object(parameters_of(*space)) : py::object(py::none());
         std::vector<TrialRecord> trials;
         {
           py::gil_scoped_release release;
           trials = open_sqlite_store(summary->output + "/study.db")->trials();
         }
         py::list ts;
-        for (const auto& t : trials) ts.append(trial_dict(t, names));
+        for (const auto& t : trials) ts.append(trial_dict(t, names, space.get()));
         out["trials"] = ts;
         out["names"] = names;
         return out;

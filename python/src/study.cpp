@@ -33,6 +33,8 @@ class PyStudy {
   }
   double engine_seconds() const { return engine_seconds_; }
   const std::vector<std::string>& names() const { return study_.domain().names; }
+  /// The study's typed space (null: a box of reals).
+  const SearchSpace* space() const { return study_.space().get(); }
   Study& study() { return study_; }
 
  private:
@@ -51,8 +53,8 @@ std::unique_ptr<PyStudy> make(Study (*fn)(const std::string&, const std::string&
   return std::make_unique<PyStudy>(std::move(*s));
 }
 
-py::object optional_trial(const std::optional<TrialRecord>& t, const std::vector<std::string>& names) {
-  return t ? py::object(trial_dict(*t, names)) : py::object(py::none());
+py::object optional_trial(const std::optional<TrialRecord>& t, const PyStudy& s) {
+  return t ? py::object(trial_dict(*t, s.names(), s.space())) : py::object(py::none());
 }
 
 }  // namespace
@@ -90,7 +92,7 @@ void bind_study(py::module_& m) {
           [](PyStudy& s, Index n) {
             std::vector<TrialRecord> asked = s.locked([&](Study& st) { return st.ask(n); });
             py::list out;
-            for (const auto& t : asked) out.append(trial_dict(t, s.names()));
+            for (const auto& t : asked) out.append(trial_dict(t, s.names(), s.space()));
             return out;
           },
           py::arg("n") = 1)
@@ -110,6 +112,15 @@ void bind_study(py::module_& m) {
           },
           py::arg("theta"), py::arg("cost"), py::arg("components") = py::none())
       .def(
+          "tell_params",
+          [](PyStudy& s, const py::object& params, double cost, const py::object& components) {
+            const Domain& dom = s.study().domain();
+            const Vec v = theta_of_mapping(params, s.space(), dom.box, dom.names, "tell_point");
+            const Components c = components_of(components);
+            return s.locked([&](Study& st) { return st.tell_point(v, cost, c); });
+          },
+          py::arg("params"), py::arg("cost"), py::arg("components") = py::none())
+      .def(
           "fail",
           [](PyStudy& s, std::int64_t id, const std::string& reason) {
             s.locked([&](Study& st) { st.fail(id, reason); });
@@ -124,13 +135,13 @@ void bind_study(py::module_& m) {
       .def("best",
            [](PyStudy& s) {
              auto b = s.locked([](Study& st) { return st.best(); });
-             return optional_trial(b, s.names());
+             return optional_trial(b, s);
            })
       .def("trials",
            [](PyStudy& s) {
              auto ts = s.locked([](Study& st) { return st.trials(); });
              py::list out;
-             for (const auto& t : ts) out.append(trial_dict(t, s.names()));
+             for (const auto& t : ts) out.append(trial_dict(t, s.names(), s.space()));
              return out;
            })
       .def(
@@ -142,7 +153,7 @@ void bind_study(py::module_& m) {
             d["kappa"] = kappa;
             d["trial_id"] = sel->trial_id;
             d["x"] = to_array(sel->theta);
-            d["params"] = params_of(sel->theta, s.names());
+            d["params"] = params_of(sel->theta, s.names(), s.space());
             d["mean"] = sel->mean;
             d["std"] = sel->std;
             d["value"] = sel->value;
@@ -155,6 +166,10 @@ void bind_study(py::module_& m) {
       .def_property_readonly("engine_seconds", &PyStudy::engine_seconds,
                              "seconds the C++ engine spent in the latest call (the rest is the Python layer)")
       .def_property_readonly("names", [](PyStudy& s) { return s.names(); })
+      .def_property_readonly("parameters",
+                             [](PyStudy& s) -> py::object {
+                               return s.space() ? py::object(parameters_of(*s.space())) : py::object(py::none());
+                             })
       .def_property_readonly("lower", [](PyStudy& s) { return to_array(s.study().domain().box.lower); })
       .def_property_readonly("upper", [](PyStudy& s) { return to_array(s.study().domain().box.upper); })
       .def_property_readonly("budget", [](PyStudy& s) { return s.study().config().budget; })

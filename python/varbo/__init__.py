@@ -18,7 +18,7 @@ from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Seque
 import numpy as np
 
 from . import _varbo
-from ._config import has_task, is_path, to_yaml
+from ._config import has_parameters, has_task, is_path, to_yaml
 from ._types import OptimizeResult, Prediction, Selection, Trial, trial_from
 from ._varbo import (ConfigError, Error, InputError, NumericalError, PluginLoadError, UnknownComponentError,
                      describe, load_plugin, plugins, set_log_level, skipped_plugins)
@@ -95,14 +95,16 @@ class Study:
         """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
         self._impl.fail(_trial_id(trial_or_id), str(reason))
 
-    def tell_point(self, x: Union[Mapping[str, float], Sequence[float], np.ndarray], cost: float,
+    def tell_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], cost: float,
                    components: Optional[Mapping[str, float]] = None) -> int:
-        """Records the cost of a point no suggestion produced (phase "manual"); returns its trial id."""
+        """Records the cost of a point no suggestion produced (phase "manual"); returns its trial id.
+
+        ``x``: ``{name: value}`` in your units — numbers for real and int parameters, labels (str) for categorical
+        ones; a fixed parameter may be left out — parsed exactly as ``varbo observe new --param name=value``; or
+        θ as an array (a category by its index). An unknown, missing or inadmissible value is an InputError (a
+        ValueError) naming the parameter, with nothing written."""
         if isinstance(x, Mapping):
-            missing = [n for n in self.names if n not in x]
-            if missing:
-                raise InputError(f"tell_point: no value for {', '.join(missing)} (parameters: {', '.join(self.names)})")
-            x = [x[n] for n in self.names]
+            return self._impl.tell_params(dict(x), float(cost), components)
         return self._impl.tell_point(np.asarray(x, dtype=float), float(cost), components)
 
     def best(self) -> Optional[Trial]:
@@ -163,6 +165,12 @@ class Study:
         return list(self._impl.names)
 
     @property
+    def parameters(self) -> Optional[List[Dict[str, Any]]]:
+        """The typed parameters (``parameters:`` with defaults filled in: name, type, low/high/log, choices or
+        value), or None for a plain box of reals."""
+        return self._impl.parameters
+
+    @property
     def bounds(self) -> List[tuple]:
         """[(low, high)] per parameter, in your units."""
         return list(zip(self._impl.lower.tolist(), self._impl.upper.tolist()))
@@ -216,24 +224,34 @@ def _space_task(space: Any) -> Dict[str, Any]:
     return task
 
 
+def _is_typed_space(obj: Any) -> bool:
+    """A list of parameter declarations, as the study file's ``parameters:`` ([{name, type, ...}, ...])."""
+    return (isinstance(obj, (list, tuple)) and len(obj) > 0
+            and all(isinstance(p, Mapping) and "name" in p for p in obj))
+
+
 def _looks_like_space(obj: Any) -> bool:
+    if _is_typed_space(obj):
+        return True
     if isinstance(obj, Mapping):
         return len(obj) > 0 and all(_is_bounds(v) for v in obj.values())
     return isinstance(obj, (list, tuple)) and len(obj) > 0 and all(_is_bounds(b) for b in obj)
 
 
-def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None, *, space: Any = None,
+def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, *, space: Any = None,
              budget: Optional[int] = None, seed: Optional[int] = None,
              callback: Optional[Callable[[Trial], Any]] = None, threads: Optional[int] = None,
              output: Optional[str] = None, resume: bool = False, overwrite: bool = False,
              progress: bool = False) -> OptimizeResult:
     """Minimizes ``fun`` in this process with varbo's engine, exactly as ``varbo run`` runs a study.
 
-    ``fun(params)`` gets a dict {name: value} and returns a number or ``{"cost": c, "components": {...}}``; an
+    ``fun(params)`` gets a dict {name: value} (typed with ``parameters:``: int for int parameters, the label
+    (str) for categorical ones, fixed values included) and returns a number or ``{"cost": c, "components": {...}}``; an
     exception, None, NaN or ±inf is a failed trial (recorded with the reason; bo learns where trials fail).
-    ``config_or_space``: a search space — ``{"x": (low, high), ...}`` or ``[(low, high), ...]`` — or a study
-    configuration (dict, YAML text or file) whose ``task:`` is left out (``space=`` gives the space) or is
-    ``{type: python, lower: [...], upper: [...], names: [...]}``. Default algorithm: the plain ``{type: bo}``.
+    ``config_or_space``: a search space — ``{"x": (low, high), ...}``, ``[(low, high), ...]`` or typed parameters
+    ``[{"name": "lr", "type": "real", "low": 1e-5, "high": 0.1, "log": True}, ...]`` as the study file's
+    ``parameters:`` — or a study configuration (dict, YAML text or file) whose ``task:`` is left out (``space=`` or
+    its ``parameters:`` give the space) or is ``{type: python, lower: [...], upper: [...], names: [...]}``. Default algorithm: the plain ``{type: bo}``.
     ``callback(trial)`` runs after each recorded trial; returning True ends the run, raising ends it and re-raises.
 
     The GIL is released while the engine fits and optimizes (other Python threads run). Ctrl-C stops between
@@ -252,9 +270,16 @@ def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None
     if isinstance(config_or_space, Mapping):
         cfg = dict(config_or_space)
         if space is not None:
-            if "task" in cfg:
-                raise ConfigError("minimize: give the space either as space= or as the config's task, not both")
-            cfg["task"] = _space_task(space)
+            if "task" in cfg or "parameters" in cfg:
+                raise ConfigError("minimize: give the space either as space= or as the config's task or parameters, "
+                                  "not both")
+            if _is_typed_space(space):
+                cfg["parameters"] = [dict(p) for p in space]
+                cfg["task"] = {"type": "python"}
+            else:
+                cfg["task"] = _space_task(space)
+        elif "parameters" in cfg and "task" not in cfg:
+            cfg["task"] = {"type": "python"}  # the typed space of `parameters:` (docs/search_space.md)
         elif "task" not in cfg:
             raise ConfigError("minimize: no search space: pass {name: (low, high), ...} or a config with "
                               "task: {type: python, lower: [...], upper: [...]}")
@@ -262,11 +287,18 @@ def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None
         given_output = "output" in cfg
     else:
         text, name = to_yaml(config_or_space)
+        import json
         if space is not None:
-            if has_task(text):
-                raise ConfigError(f"{name}: give the space either as space= or as the config's task, not both")
-            import json
-            text = text.rstrip("\n") + "\ntask: " + json.dumps(_space_task(space)) + "\n"
+            if has_task(text) or has_parameters(text):
+                raise ConfigError(f"{name}: give the space either as space= or as the config's task or parameters, "
+                                  "not both")
+            if _is_typed_space(space):
+                text = (text.rstrip("\n") + "\nparameters: " + json.dumps([dict(p) for p in space])
+                        + "\ntask: {type: python}\n")
+            else:
+                text = text.rstrip("\n") + "\ntask: " + json.dumps(_space_task(space)) + "\n"
+        elif has_parameters(text) and not has_task(text):
+            text = text.rstrip("\n") + "\ntask: {type: python}\n"
         elif not has_task(text):
             raise ConfigError(f"{name}: no search space: pass space={{name: (low, high), ...}} or give the config "
                               "task: {type: python, lower: [...], upper: [...]}")
@@ -281,13 +313,8 @@ def minimize(fun: Callable[[Dict[str, float]], Any], config_or_space: Any = None
 
     r = _varbo._minimize(fun, text, name, None if callback is None else on_trial, seed, budget, threads,
                          None if output is None else os.fspath(output), resume, overwrite, progress)
-    names = r["names"]
-
-    def params(x):
-        return None if x is None else dict(zip(names, x.tolist()))
-
-    return OptimizeResult(x=r["best_x"], fun=r["best_cost"], params=params(r["best_x"]),
-                          recommended_x=r["recommended_x"], recommended_params=params(r["recommended_x"]),
+    return OptimizeResult(x=r["best_x"], fun=r["best_cost"], params=r["best_params"],
+                          recommended_x=r["recommended_x"], recommended_params=r["recommended_params"],
                           recommendation_rule=r["recommendation_rule"],
                           trials=[trial_from(d) for d in r["trials"]], output=r["output"],
                           evaluations=r["evaluations"], failed=r["failed"], seconds=r["seconds"])

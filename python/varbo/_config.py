@@ -11,6 +11,7 @@ import re
 from typing import Any, Tuple
 
 _TOP_LEVEL_TASK = re.compile(r"^task\s*:", re.MULTILINE)
+_TOP_LEVEL_PARAMETERS = re.compile(r"^parameters\s*:", re.MULTILINE)
 
 
 def _plain(value: Any) -> Any:
@@ -49,3 +50,7 @@ def to_yaml(config: Any, what: str = "config") -> Tuple[str, str]:
 
 def has_task(yaml_text: str) -> bool:
     return bool(_TOP_LEVEL_TASK.search(yaml_text))
+
+
+def has_parameters(yaml_text: str) -> bool:
+    return bool(_TOP_LEVEL_PARAMETERS.search(yaml_text))

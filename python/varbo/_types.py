@@ -2,7 +2,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Union
+
+ParamValue = Union[float, int, str]
 
 import numpy as np
 
@@ -12,14 +14,15 @@ class Trial:
     """One trial of a study.
 
     ``params`` maps each parameter's name to its value in your units (``x1, x2, …`` until the search space names
-    them); ``x`` is the same point as an array, ``x_unit`` in the unit cube the algorithm works in. ``state`` is
+    them); with typed ``parameters:`` an ``int`` for an int parameter, the label (``str``) of a categorical one, a
+    ``float`` for a real one, fixed values included; ``x`` is the same point as an array, ``x_unit`` in the unit cube the algorithm works in. ``state`` is
     pending, complete, failed or abandoned; ``cost`` is None until a result is told.
     """
 
     id: int
     state: str
     phase: str
-    params: Dict[str, float]
+    params: Dict[str, ParamValue]
     x: np.ndarray
     x_unit: np.ndarray
     cost: Optional[float] = None
@@ -39,7 +42,7 @@ class Selection:
 
     kappa: float
     trial_id: int
-    params: Dict[str, float]
+    params: Dict[str, ParamValue]
     x: np.ndarray
     mean: float
     std: float
@@ -81,9 +84,9 @@ class OptimizeResult:
 
     x: Optional[np.ndarray]
     fun: Optional[float]
-    params: Optional[Dict[str, float]]
+    params: Optional[Dict[str, ParamValue]]
     recommended_x: Optional[np.ndarray]
-    recommended_params: Optional[Dict[str, float]]
+    recommended_params: Optional[Dict[str, ParamValue]]
     recommendation_rule: str
     trials: List[Trial]
     output: str
@@ -102,7 +105,7 @@ class OptimizeResult:
         return min(done, key=lambda t: t.cost) if done else None
 
     @property
-    def recommended(self) -> Optional[Dict[str, float]]:
+    def recommended(self) -> Optional[Dict[str, ParamValue]]:
         """The recommended parameters (``recommended_params``)."""
         return self.recommended_params
 

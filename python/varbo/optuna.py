@@ -6,15 +6,20 @@
 
 Optuna keeps its storage, pruners, dashboard and visualizations; varbo only chooses the points. Relative sampling
 covers the intersection search space of the finished trials (every parameter all of them had, with the same
-distribution): each parameter is mapped to [0, 1] — floats linearly or in log scale, integers and steps by
-rounding, categoricals by the index of the choice (an ordinal encoding: varbo's search spaces have no typed
-categoricals yet) — the finished trials are told to a varbo algorithm (``{type: bo}`` unless ``algorithm`` says
-otherwise: any varbo algorithm config), and its next point is asked. Failed trials are told as failures (bo's
-failure model avoids where trials fail); pending trials are passed as pending points. Parameters outside that space
-(the first trial, conditional parameters) come from the independent sampler (Optuna's RandomSampler by default).
+distribution). That space becomes a typed varbo search space (docs/search_space.md): FloatDistribution → a
+``real`` parameter (``log`` kept), IntDistribution with step 1 → an ``int`` parameter (``log`` kept), with a step
+s > 1 (no log) → an ``int`` index k, the value being low + k·s, CategoricalDistribution → a ``categorical``
+parameter (one-hot with argmax in the model, as the typed spaces do). The finished trials are told to a varbo
+algorithm (``{type: bo}`` unless ``algorithm`` says otherwise: any varbo algorithm that handles typed spaces) and
+its next admissible point is asked. A space varbo cannot type (a FloatDistribution with ``step``), and any space when
+the algorithm does not handle mixed spaces (no capability ``search_space:mixed``), falls back to an ordinal encoding of the whole space on [0, 1]^d (floats linearly or in log scale, integers and steps by rounding,
+categoricals by the index of the choice). Failed trials are told as failures (bo's failure model avoids where
+trials fail); pending trials are passed as pending points. Parameters outside that space (the first trial,
+conditional parameters) come from the independent sampler (Optuna's RandomSampler by default).
 """
 from __future__ import annotations
 
+import json
 import math
 import threading
 from typing import Any, Dict, List, Optional, Sequence
@@ -76,6 +81,43 @@ def _decode(dist: BaseDistribution, u: float) -> Any:
     return float(min(max(v, low), high))
 
 
+def _typed_parameter(i: int, dist: BaseDistribution) -> Optional[Dict[str, Any]]:
+    """The varbo parameter declaration of an Optuna distribution (named p<i>: Optuna's names need not be
+    identifiers), or None when varbo's typed spaces cannot represent it exactly."""
+    name = f"p{i}"
+    if isinstance(dist, CategoricalDistribution):
+        # Labels of our own: Optuna's choices may be None, numbers or booleans; the index maps back.
+        return {"name": name, "type": "categorical", "choices": [f"c{j}" for j in range(len(dist.choices))]}
+    if isinstance(dist, IntDistribution):
+        if dist.step == 1:
+            return {"name": name, "type": "int", "low": int(dist.low), "high": int(dist.high), "log": bool(dist.log)}
+        if not dist.log:
+            return {"name": name, "type": "int", "low": 0, "high": (int(dist.high) - int(dist.low)) // int(dist.step)}
+        return None
+    if isinstance(dist, FloatDistribution) and dist.step is None:
+        return {"name": name, "type": "real", "low": float(dist.low), "high": float(dist.high), "log": bool(dist.log)}
+    return None
+
+
+def _to_theta(dist: BaseDistribution, value: Any) -> float:
+    """An Optuna value as θ of its typed varbo parameter (a category by its index)."""
+    if isinstance(dist, CategoricalDistribution):
+        return float(dist.to_internal_repr(value))
+    if isinstance(dist, IntDistribution) and dist.step != 1:
+        return float((int(value) - int(dist.low)) // int(dist.step))
+    return float(value)
+
+
+def _from_theta(dist: BaseDistribution, t: float) -> Any:
+    """The Optuna value of θ (admissible: integral for int parameters and categories)."""
+    if isinstance(dist, CategoricalDistribution):
+        return dist.to_external_repr(int(round(t)))
+    if isinstance(dist, IntDistribution):
+        k = int(round(t))
+        return int(dist.low) + k * int(dist.step) if dist.step != 1 else min(max(k, int(dist.low)), int(dist.high))
+    return float(min(max(float(t), float(dist.low)), float(dist.high)))
+
+
 class VarboSampler(BaseSampler):
     """An Optuna sampler choosing points with a varbo algorithm (default: varbo's plain ``{type: bo}``).
 
@@ -108,6 +150,15 @@ class VarboSampler(BaseSampler):
         self._lock = threading.Lock()  # study.optimize(n_jobs > 1) samples from several threads
         # Configuration errors surface here, not at the first relative sample.
         _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads)
+        # An algorithm without the capability search_space:mixed (e.g. trust_region) gets the ordinal encoding.
+        try:
+            _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads,
+                              '[{name: k, type: int, low: 0, high: 1}]')
+            self._typed = True
+        except _varbo.ConfigError as e:
+            if "search_space:mixed" not in str(e):
+                raise
+            self._typed = False
 
     def reseed_rng(self) -> None:
         self._independent.reseed_rng()
@@ -144,6 +195,20 @@ class VarboSampler(BaseSampler):
         names = sorted(search_space)
         sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
         key = (tuple(names), tuple(repr(search_space[n]) for n in names), sign)
+        typed = [_typed_parameter(i, search_space[n]) for i, n in enumerate(names)]
+        parameters = json.dumps(typed) if self._typed and all(p is not None for p in typed) else ""
+        if parameters:
+            def encode(n: str, v: Any) -> float:
+                return _to_theta(search_space[n], v)
+
+            def decode(n: str, t: float) -> Any:
+                return _from_theta(search_space[n], t)
+        else:  # the ordinal fallback on [0, 1]^d
+            def encode(n: str, v: Any) -> float:
+                return _encode(search_space[n], v)
+
+            def decode(n: str, t: float) -> Any:
+                return _decode(search_space[n], t)
         trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.RUNNING))
         done: List[FrozenTrial] = []
         pending: List[List[float]] = []
@@ -156,7 +221,7 @@ class VarboSampler(BaseSampler):
                 if t.number in self._handed_out and self._handed_out[t.number][0] == key:
                     pending.append(self._handed_out[t.number][1])
                 elif all(n in t.params for n in names):
-                    pending.append([_encode(search_space[n], t.params[n]) for n in names])
+                    pending.append([encode(n, t.params[n]) for n in names])
             elif all(n in t.params for n in names):
                 done.append(t)
         running = {t.number for t in trials if t.state == TrialState.RUNNING}
@@ -165,12 +230,12 @@ class VarboSampler(BaseSampler):
         numbers = [t.number for t in done]
         if self._alg is None or self._alg_key != key or numbers[:len(self._told)] != self._told:
             self._alg = _varbo._Algorithm(self._yaml, self._yaml_name, len(names), self._seed, self._budget,
-                                          self._threads)
+                                          self._threads, parameters)
             self._alg_key = key
             self._told = []
         new = done[len(self._told):]
         if new:
-            X = np.array([[_encode(search_space[n], t.params[n]) for n in names] for t in new], dtype=float)
+            X = np.array([[encode(n, t.params[n]) for n in names] for t in new], dtype=float)
             y = np.array([sign * t.value if t.state == TrialState.COMPLETE and t.value is not None else math.nan
                           for t in new], dtype=float)
             for i in range(len(new)):  # one result per tell, in finish order, as a varbo study tells them
@@ -185,7 +250,7 @@ class VarboSampler(BaseSampler):
             # As varbo::Study does: an algorithm asked with pending points is not continued (its state after such
             # an ask is not the serial one); the next sample rebuilds it from the finished trials.
             self._alg = None
-        return {n: _decode(search_space[n], u) for n, u in zip(names, X[0])}
+        return {n: decode(n, u) for n, u in zip(names, X[0])}
 
     def sample_independent(self, study: optuna.Study, trial: FrozenTrial, param_name: str,
                            param_distribution: BaseDistribution) -> Any:

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "varbo/errors.hpp"
+#include "varbo/named_values.hpp"
 #include "varbo/search_space.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/space_wrappers.hpp"
@@ -126,6 +127,45 @@ TEST_CASE("the typed Params view and values from text") {
   CHECK_THROWS_AS(s.parse_value(5, "4"), InputError);
   CHECK(s.format_value(3, 2) == "mpc");
   CHECK(s.format_value(1, 4) == "4");
+}
+
+namespace {
+std::string named_error(const std::vector<std::pair<std::string, std::string>>& values) {
+  try {
+    theta_of_named(issue_space(), values, "--param");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST_CASE("θ of name=value texts (observe new --param, Python's tell_point): each parameter once, fixed optional") {
+  const SearchSpace s = issue_space();
+  const Vec t = theta_of_named(
+      s, {{"solver", "mpc"}, {"lr", "0.001"}, {"waypoints", "4"}, {"step", "16"}, {"gain", "-0.5"}}, "--param");
+  Vec expected(6);
+  expected << 0.001, 4, 16, 2, -0.5, 3;  // the category by its index; the fixed value kept
+  CHECK(t == expected);
+  const std::vector<std::pair<std::string, std::string>> good = {
+      {"lr", "0.001"}, {"waypoints", "4"}, {"step", "16"}, {"solver", "lqr"}, {"gain", "0"}};
+  auto with = [&](std::pair<std::string, std::string> extra, const std::string& drop = "") {
+    std::vector<std::pair<std::string, std::string>> v;
+    for (const auto& p : good)
+      if (p.first != drop) v.push_back(p);
+    if (!extra.first.empty()) v.push_back(extra);
+    return v;
+  };
+  CHECK(named_error(with({"horizon", "3"})).empty());
+  CHECK(named_error(with({"horizon", "4"})).find("--param: parameter 'horizon' is fixed at 3") == 0);
+  CHECK(named_error(with({"gainn", "1"})).find("no parameter 'gainn'") != std::string::npos);
+  CHECK(named_error(with({"gainn", "1"})).find("did you mean 'gain'?") != std::string::npos);
+  CHECK(named_error(with({"gain", "1"})).find("'gain' is given twice") != std::string::npos);
+  CHECK(named_error(with({}, "step")).find("missing step") != std::string::npos);
+  CHECK(named_error(with({"solver", "lqe"}, "solver")).find("did you mean 'lqr'?") != std::string::npos);
+  CHECK(named_error(with({"waypoints", "4.5"}, "waypoints")).find("'waypoints' is an int parameter") !=
+        std::string::npos);
+  CHECK(named_error(with({}, "step")).find("nothing written") != std::string::npos);
 }
 
 TEST_CASE("each bad parameter declaration is refused at its key") {
