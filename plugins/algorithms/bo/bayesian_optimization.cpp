@@ -289,10 +289,17 @@ void BayesianOptimization::fit_model(Index k, const Dataset& data) {
   snapshot_.note = rep.ok ? "" : rep.message;
 }
 
-Vec BayesianOptimization::fresh_design_point(int start, Index row) const {
-  Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(start));
+Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
+  Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(fresh_starts_));
   const Mat design = design_sampler_->sample(BoxRegion(Box::unit(dim_)), initial_points_, drng);
-  return design.row(row).transpose();
+  const Vec x = design.row(k - fresh_trial_).transpose();
+  // A design point where failure is likely (the failure model of every trial so far) is replaced by a random
+  // point where success is likely: a new design must not repeat known failures (issue 11).
+  if (update_feasibility(k, refit) && feasibility_->probability(x) < exclusion_threshold_) {
+    Rng rr = rng_.stream(kRandom, static_cast<std::uint64_t>(k));
+    return random_point_avoiding_failures(rr);
+  }
+  return x;
 }
 
 double BayesianOptimization::lie(const Vec& x) const {
@@ -347,7 +354,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     fresh_region->return_to_incumbent();
   }
   if (fresh_starts_ > 0 && !refining_ && k - fresh_trial_ < initial_points_) {
-    s.x = fresh_design_point(fresh_starts_, k - fresh_trial_);
+    s.x = fresh_design_point(k, refit);
     s.phase = "restart";
     return s;
   }
@@ -382,7 +389,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     fresh_from_ = data.size();
     log_info("bo: trial {}: the region restarts afresh ({}): a new design of {} points, then a model of the new "
              "points", k, fresh_starts_, initial_points_);
-    s.x = fresh_design_point(fresh_starts_, 0);
+    s.x = fresh_design_point(k, refit);
     s.phase = "restart";
     s.acquisition_seconds = seconds_since(t_acq);
     return s;

@@ -56,9 +56,9 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// The start inside the region with the highest finite f (the first inside one if none is finite).
   std::optional<Vec> best_feasible(const DifferentiableFunction& f, const Mat& starts) const;
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);
-  /// Row `row` of the initial design of fresh start `start` (drawn anew from its own stream, so a restored run
-  /// draws the same).
-  Vec fresh_design_point(int start, Index row) const;
+  /// Trial k's point of the current fresh start's design (drawn anew from its own stream, so a restored run
+  /// draws the same), or a random point where success is likely when failure is likely there.
+  Vec fresh_design_point(Index k, bool refit);
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have
   /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
