@@ -43,9 +43,10 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
   registry.add(make_component<RegionConstraint>(
       "trust_region",
       "Box of side L around the best observed point; L doubles after success_tolerance successes, halves after "
-      "failure_tolerance failures (or after stall_tolerance trials next to the incumbent without improvement) "
-      "restarts: by default afresh, a new design and a model of the new points (Eriksson 2019, TuRBO-1), the last "
-      "trials of bo's budget refining the incumbent of all the data",
+      "failure_tolerance failures, restarts when below length_min (Eriksson 2019, TuRBO-1), or after "
+      "stall_tolerance trials next to the incumbent without improvement; a restart keeps the data and the incumbent, "
+      "or (restart_center: new_points) starts afresh: a new design and a model of the new points, bo's last trials "
+      "refining the incumbent of all the data",
       trust_region_options().specs(),
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<RegionConstraint> {
         if (ctx.dim <= 0) throw ConfigError("region 'trust_region' needs the problem dimension (got 0)");

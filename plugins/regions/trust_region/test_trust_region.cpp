@@ -188,7 +188,9 @@ TEST_CASE("trust_region: return_to_incumbent ends the fresh starts: a small box 
 }
 
 TEST_CASE("trust_region: stall_tolerance consecutive failures next to the incumbent restart at once") {
-  TrustRegionOptions o;  // the defaults: a fresh start after 3 stalls within 1e-3 of the incumbent
+  TrustRegionOptions o;  // a fresh start after 3 stalls within 1e-3 of the incumbent
+  o.restart_center = "new_points";
+  o.stall_tolerance = 3;
   TrustRegion tr(2, o);
   Dataset data = Dataset::empty(2);
   const Vec inc = (Vec(2) << 0.4, 0.6).finished();
@@ -210,8 +212,8 @@ TEST_CASE("trust_region: stall_tolerance consecutive failures next to the incumb
   CHECK(tr.fresh_starts() == 1);
   CHECK(tr.stalls() == 0);
   // Off (−1): the same stalls only count as failures.
-  TrustRegionOptions off;
-  off.stall_tolerance = -1;
+  TrustRegionOptions off;  // the default: no stalls
+  off.restart_center = "new_points";
   TrustRegion plain(2, off);
   Dataset pd = Dataset::empty(2);
   observe(plain, pd, inc, 1.0);
