@@ -37,6 +37,13 @@ std::string make_study(const std::string& dir, int budget, const std::string& ex
 
 void wait_ms(int ms) { std::this_thread::sleep_for(std::chrono::milliseconds(ms)); }
 
+/// Waits (up to 60 s) until the study holds `n` trials, so that a signal lands while a worker runs its trial
+/// however slowly a loaded machine starts the process (a fixed sleep was too short under load).
+void wait_for_trials(const std::string& db, std::size_t n) {
+  for (int i = 0; i < 1200 && open_sqlite_store(db)->trials().size() < n; ++i) wait_ms(50);
+  wait_ms(100);
+}
+
 }  // namespace
 
 TEST_CASE("workers: 4 processes, 2 SIGKILLed mid-trial: each result once, abandoned trials re-run, budget kept") {
@@ -90,7 +97,7 @@ TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs 
   const std::string slow = trial_script(dir, 0.8);
   // SIGTERM during a trial: it completes, then the worker exits 128 + 15.
   const pid_t term = test::spawn({VARBO_EXE, "worker", db, "--command", slow}, dir + "/worker.log");
-  wait_ms(500);
+  wait_for_trials(db, 1);
   kill(term, SIGTERM);
   CHECK(test::wait_for(term).exit_code == 143);
   {
@@ -100,7 +107,7 @@ TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs 
   }
   // SIGKILL during a trial: its trial stays pending until the heartbeat times out, then is retried as it was.
   const pid_t killed = test::spawn({VARBO_EXE, "worker", db, "--command", slow}, dir + "/worker.log");
-  wait_ms(500);
+  wait_for_trials(db, 2);
   kill(killed, SIGKILL);
   CHECK(test::wait_for(killed).killed);
   const auto before = open_sqlite_store(db)->trials();
