@@ -164,10 +164,12 @@ class PostgresStore final : public StudyStore {
         log_debug("{}: {}; retrying in {} ms (attempt {})", location(), cause(e), ms, attempt);
         std::this_thread::sleep_for(std::chrono::milliseconds(jitter(ms)));
       } catch (const pqxx::in_doubt_error& e) {
+        conn_.reset();
         throw StoreConnectionError(fmt::format("{}: the connection was lost while committing ({}); the transaction may or may "
                                      "not have been written: check with `varbo status {}`",
                                      location(), cause(e), location()));
       } catch (const pqxx::broken_connection& e) {
+        conn_.reset();  // a dead connection can still report itself open: the next call connects anew
         throw StoreConnectionError(fmt::format("{}: lost the connection to the database server ({}); the transaction was "
                                      "rolled back, nothing of it was written",
                                      location(), cause(e)));
@@ -409,6 +411,7 @@ class PostgresStore final : public StudyStore {
     try {
       return f();
     } catch (const pqxx::broken_connection& e) {
+      conn_.reset();  // a dead connection can still report itself open: the next call connects anew
       throw StoreConnectionError(fmt::format("{}: cannot {}: lost the connection to the database server ({})", location(), what,
                                    cause(e)));
     } catch (const pqxx::insufficient_privilege& e) {
