@@ -195,9 +195,13 @@ TEST_CASE("postgresql: a worker outlives dropped connections (reconnects, retrie
   const std::string log = dir + "/worker.log";
   const pid_t worker = test::spawn({VARBO_EXE, "worker", url, "--command", "cat > /dev/null; sleep 0.4; echo 2.5"}, log);
   pqxx::connection killer(test::pg_base_url());
+  // Until the worker runs its first trial: a session killed while the worker starts (opening the study) is a
+  // start-up error, exit 2, and a loaded machine can take longer than a fixed sleep to get there.
+  for (int i = 0; i < 1200 && open_store(url)->trials().empty(); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
   int terminated = 0;
   for (int round = 0; round < 2; ++round) {  // twice, while the command runs: the next statements find the session gone
-    std::this_thread::sleep_for(std::chrono::milliseconds(round == 0 ? 200 : 500));
+    std::this_thread::sleep_for(std::chrono::milliseconds(round == 0 ? 100 : 500));
     pqxx::nontransaction k(killer);
     terminated += static_cast<int>(
         k.exec("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name = 'varbo_reconnect_test'")
