@@ -51,8 +51,7 @@ MixedBenchmark mixed_ackley() {
     z[4] = t[4];
     return ackley(z);
   };
-  b.f_min = 0;
-  b.argmin = (Vec(5) << 1, 2, 0, 0, 0).finished();
+  b.locate_minimum = [] { return Optimum{0, {(Vec(5) << 1, 2, 0, 0, 0).finished()}}; };
   return b;
 }
 
@@ -65,8 +64,7 @@ MixedBenchmark integer_rosenbrock() {
   for (int i = 1; i <= 6; ++i) ps.push_back(integer(fmt::format("n{}", i), -5, 10));
   b.space = std::make_shared<const SearchSpace>(std::move(ps));
   b.f = [](const Vec& t) { return rosenbrock(t); };
-  b.f_min = 0;
-  b.argmin = Vec::Ones(6);
+  b.locate_minimum = [] { return Optimum{0, {Vec::Ones(6)}}; };
   return b;
 }
 
@@ -87,41 +85,42 @@ MixedBenchmark log_scale() {
                   "near lr = 2.7e-4, m = 0.8";
   b.space = std::make_shared<const SearchSpace>(std::vector<Parameter>{real("lr", 1e-6, 0.1, true), real("m", 0, 0.99)});
   b.f = log_scale_f;
-  // Minimize on a grid over (log10 lr, m), then refine by coordinate golden sections.
-  double best = std::numeric_limits<double>::infinity();
-  Vec arg(2);
-  for (int i = 0; i <= 2000; ++i)
-    for (int j = 0; j <= 400; ++j) {
-      const Vec t = (Vec(2) << std::pow(10.0, -6 + 5.0 * i / 2000), 0.99 * j / 400).finished();
-      const double v = log_scale_f(t);
-      if (v < best) {
-        best = v;
-        arg = t;
+  b.locate_minimum = [] {
+    // Minimize on a grid over (log10 lr, m), then refine by coordinate golden sections.
+    double best = std::numeric_limits<double>::infinity();
+    Vec arg(2);
+    for (int i = 0; i <= 2000; ++i)
+      for (int j = 0; j <= 400; ++j) {
+        const Vec t = (Vec(2) << std::pow(10.0, -6 + 5.0 * i / 2000), 0.99 * j / 400).finished();
+        const double v = log_scale_f(t);
+        if (v < best) {
+          best = v;
+          arg = t;
+        }
       }
-    }
-  for (int round = 0; round < 40; ++round)
-    for (int k = 0; k < 2; ++k) {
-      double a = k == 0 ? std::log10(arg[0]) - 0.01 : std::max(0.0, arg[1] - 0.01);
-      double c = k == 0 ? std::log10(arg[0]) + 0.01 : std::min(0.99, arg[1] + 0.01);
-      auto at = [&](double v) {
-        Vec t = arg;
-        if (k == 0) t[0] = std::pow(10.0, v);
-        else t[1] = v;
-        return t;
-      };
-      for (int it = 0; it < 60; ++it) {
-        const double g = 0.381966 * (c - a);
-        if (log_scale_f(at(a + g)) < log_scale_f(at(c - g))) c = c - g;
-        else a = a + g;
+    for (int round = 0; round < 40; ++round)
+      for (int k = 0; k < 2; ++k) {
+        double a = k == 0 ? std::log10(arg[0]) - 0.01 : std::max(0.0, arg[1] - 0.01);
+        double c = k == 0 ? std::log10(arg[0]) + 0.01 : std::min(0.99, arg[1] + 0.01);
+        auto at = [&](double v) {
+          Vec t = arg;
+          if (k == 0) t[0] = std::pow(10.0, v);
+          else t[1] = v;
+          return t;
+        };
+        for (int it = 0; it < 60; ++it) {
+          const double g = 0.381966 * (c - a);
+          if (log_scale_f(at(a + g)) < log_scale_f(at(c - g))) c = c - g;
+          else a = a + g;
+        }
+        const Vec t = at(0.5 * (a + c));
+        if (log_scale_f(t) < best) {
+          best = log_scale_f(t);
+          arg = t;
+        }
       }
-      const Vec t = at(0.5 * (a + c));
-      if (log_scale_f(t) < best) {
-        best = log_scale_f(t);
-        arg = t;
-      }
-    }
-  b.f_min = best;
-  b.argmin = arg;
+    return Optimum{best, {arg}};
+  };
   return b;
 }
 
@@ -138,40 +137,46 @@ MixedBenchmark branin_constrained() {
   s.finalize();
   b.space = std::make_shared<const SearchSpace>(std::move(s));
   b.f = [](const Vec& t) { return branin(t); };
-  // The feasible boundary: the segment x2 = 4 − x1, x1 ∈ [−5, 4], and the box edges inside the constraint.
-  auto on_line = [](double x1) { return branin((Vec(2) << x1, 4 - x1).finished()); };
-  double best = std::numeric_limits<double>::infinity(), arg1 = 0;
-  for (int i = 0; i <= 90000; ++i) {
-    const double x1 = -5 + 9.0 * i / 90000;
-    if (on_line(x1) < best) {
-      best = on_line(x1);
-      arg1 = x1;
-    }
-  }
-  double a = arg1 - 2e-4, c = arg1 + 2e-4;
-  for (int it = 0; it < 80; ++it) {
-    const double g = 0.381966 * (c - a);
-    if (on_line(a + g) < on_line(c - g)) c = c - g;
-    else a = a + g;
-  }
-  arg1 = 0.5 * (a + c);
-  best = on_line(arg1);
-  Vec arg = (Vec(2) << arg1, 4 - arg1).finished();
-  // The interior and the other edges, on a grid (a check: the boundary minimum must be the lowest).
-  for (int i = 0; i <= 600; ++i)
-    for (int j = 0; j <= 600; ++j) {
-      const Vec t = (Vec(2) << -5 + 15.0 * i / 600, 15.0 * j / 600).finished();
-      if (t[0] + t[1] <= 4 && branin(t) < best) {
-        best = branin(t);
-        arg = t;
+  b.locate_minimum = [] {
+    // The feasible boundary: the segment x2 = 4 − x1, x1 ∈ [−5, 4], and the box edges inside the constraint.
+    auto on_line = [](double x1) { return branin((Vec(2) << x1, 4 - x1).finished()); };
+    double best = std::numeric_limits<double>::infinity(), arg1 = 0;
+    for (int i = 0; i <= 90000; ++i) {
+      const double x1 = -5 + 9.0 * i / 90000;
+      if (on_line(x1) < best) {
+        best = on_line(x1);
+        arg1 = x1;
       }
     }
-  b.f_min = best;
-  b.argmin = arg;
+    double a = arg1 - 2e-4, c = arg1 + 2e-4;
+    for (int it = 0; it < 80; ++it) {
+      const double g = 0.381966 * (c - a);
+      if (on_line(a + g) < on_line(c - g)) c = c - g;
+      else a = a + g;
+    }
+    arg1 = 0.5 * (a + c);
+    best = on_line(arg1);
+    Vec arg = (Vec(2) << arg1, 4 - arg1).finished();
+    // The interior and the other edges, on a grid (a check: the boundary minimum must be the lowest).
+    for (int i = 0; i <= 600; ++i)
+      for (int j = 0; j <= 600; ++j) {
+        const Vec t = (Vec(2) << -5 + 15.0 * i / 600, 15.0 * j / 600).finished();
+        if (t[0] + t[1] <= 4 && branin(t) < best) {
+          best = branin(t);
+          arg = t;
+        }
+      }
+    return Optimum{best, {arg}};
+  };
   return b;
 }
 
 }  // namespace
+
+const Optimum& MixedBenchmark::minimum() const {
+  std::call_once(located->once, [&] { located->value = locate_minimum(); });
+  return located->value;
+}
 
 const std::vector<MixedBenchmark>& mixed_benchmarks() {
   static const std::vector<MixedBenchmark> all = {mixed_ackley(), integer_rosenbrock(), log_scale(), branin_constrained()};

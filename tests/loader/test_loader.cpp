@@ -1,14 +1,17 @@
 // Plugin loading: good, broken, foreign and mismatched libraries each give a clear, file-naming error.
 #include <elf.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
+#include <chrono>
 #include <map>
 
+#include "../../framework/core/src/plugins/plugin_index.hpp"  // the index format (internal to the loader)
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/plugin.hpp"
@@ -332,4 +335,107 @@ TEST_CASE("the build tree's plugins are found next to libvarbo_core") {
     CHECK(contains(e.what(), "unknown algorithm 'bayes'. Known: "));
     CHECK(contains(e.what(), "bo"));
   }
+}
+
+namespace {
+/// The names of every component of `r`, for comparing two registries.
+std::vector<std::string> component_names(const Registry& r) {
+  std::vector<std::string> out;
+  for (const ComponentInfo* c : r.all()) out.push_back(kind_name(c->kind) + " " + c->full_name() + " " + c->library);
+  return out;
+}
+}  // namespace
+
+TEST_CASE("plugins on demand: only the libraries a lookup needs are loaded; lookups and listings as with all") {
+  Registry all;
+  PluginLoader eager(all);
+  eager.load_default();  // loads the built-in folder in full, and indexes it (varbo_plugins.index)
+  REQUIRE(eager.loaded().size() > 3);
+  for (const auto& dir : PluginLoader::builtin_path())
+    if (fs::is_directory(dir)) CHECK(fs::exists(fs::path(dir) / "varbo_plugins.index"));
+
+  Registry lazy;
+  PluginLoader l(lazy);
+  l.set_on_demand(true);
+  l.load_default();
+  CHECK(l.loaded().empty());  // nothing until a name is looked up
+  const ComponentInfo& bo = lazy.find(Kind::Algorithm, "bo");
+  CHECK(bo.library == all.find(Kind::Algorithm, "bo").library);
+  CHECK(is_builtin(bo));
+  REQUIRE(l.loaded().size() == 1);  // bo's library, and no other
+  CHECK(l.loaded()[0].path == bo.library);
+  // A full name "plugin/name" loads that plugin.
+  const ComponentInfo& ei = all.find(Kind::Acquisition, "ei");
+  CHECK(lazy.find(Kind::Acquisition, ei.full_name()).library == ei.library);
+  CHECK(l.loaded().size() == 2);
+  // An unknown name loads everything, so that the error lists every known component.
+  std::string lazy_error, eager_error;
+  try {
+    lazy.find(Kind::Algorithm, "bayes");
+  } catch (const UnknownComponentError& e) {
+    lazy_error = e.what();
+  }
+  try {
+    all.find(Kind::Algorithm, "bayes");
+  } catch (const UnknownComponentError& e) {
+    eager_error = e.what();
+  }
+  CHECK(!lazy_error.empty());
+  CHECK(lazy_error == eager_error);
+  CHECK(l.loaded().size() == eager.loaded().size());
+  CHECK(component_names(lazy) == component_names(all));
+}
+
+TEST_CASE("plugins on demand: a listing loads everything; a third-party short name keeps meaning the built-in") {
+  {
+    Registry all;
+    PluginLoader(all).load_default();  // make sure the built-in folder is indexed
+  }
+  Registry lazy;
+  PluginLoader l(lazy);
+  l.set_on_demand(true);
+  l.load_default({fixture("clash")});
+  // The clash fixture registers "ei": the built-in ei is loaded with it, and wins the short name.
+  REQUIRE(l.shadowed().size() == 1);
+  CHECK(lazy.find(Kind::Acquisition, "ei").plugin == "acquisitions");
+  CHECK(lazy.find(Kind::Acquisition, "thirdparty/ei").library == fixture("clash"));
+  const std::size_t before = l.loaded().size();
+  CHECK(before < 5);
+  CHECK_FALSE(lazy.components(Kind::Algorithm).empty());
+  CHECK(l.loaded().size() > before);
+}
+
+TEST_CASE("a plugin index is trusted only while every library in its folder is as it recorded") {
+  const fs::path dir = fs::temp_directory_path() / ("varbo_index_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::copy_file(fixture("good"), dir / "libvarbo_a.so");
+  fs::copy_file(fixture("clash"), dir / "libvarbo_b.so");
+  CHECK_FALSE(detail::read_plugin_index(dir.string()));  // none yet
+  auto files = detail::list_plugin_files(dir.string());
+  REQUIRE(files);
+  REQUIRE(files->size() == 2);
+  (*files)[0].plugin = "fixture";
+  (*files)[0].components = {"fixture_algorithm", "fixture_kernel"};
+  (*files)[1].plugin = "thirdparty";
+  (*files)[1].components = {"ei"};
+  detail::write_plugin_index(dir.string(), *files);
+  const auto index = detail::read_plugin_index(dir.string());
+  REQUIRE(index);
+  REQUIRE(index->size() == 2);
+  CHECK((*index)[0].file == "libvarbo_a.so");
+  CHECK((*index)[0].components == (*files)[0].components);
+  CHECK((*index)[1].plugin == "thirdparty");
+  // A rebuilt library (another modification time), an added one, a removed one: stale.
+  const auto t = fs::last_write_time(dir / "libvarbo_b.so");
+  fs::last_write_time(dir / "libvarbo_b.so", t + std::chrono::seconds(1));
+  CHECK_FALSE(detail::read_plugin_index(dir.string()));
+  fs::last_write_time(dir / "libvarbo_b.so", t);
+  CHECK(detail::read_plugin_index(dir.string()));
+  fs::copy_file(fixture("good"), dir / "libvarbo_c.so");
+  CHECK_FALSE(detail::read_plugin_index(dir.string()));
+  fs::remove(dir / "libvarbo_c.so");
+  fs::remove(dir / "libvarbo_a.so");
+  CHECK_FALSE(detail::read_plugin_index(dir.string()));
+  fs::remove_all(dir);
 }

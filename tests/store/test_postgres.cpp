@@ -2,6 +2,10 @@
 // unreachable server, wrong credentials, a role without privileges, a URL naming no study, a study written by a
 // newer varbo, a connection dropped mid-transaction. Each is an error naming the study and the cause (exit 2
 // from the CLI) and writes nothing.
+#include <signal.h>
+
+#include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <thread>
@@ -238,4 +242,51 @@ TEST_CASE("postgresql: heartbeats are judged by the server's clock, whatever the
   Study other = Study::open(url);
   REQUIRE(other.ask(1).size() == 1);  // checks every worker's silence first
   CHECK(other.store().trial(t.id)->state == TrialState::Pending);  // alive by the server's clock
+}
+
+TEST_CASE("postgresql: a second varbo run on a study being run exits 2 naming the owner; a killed owner frees it") {
+  const std::string dir = test::temp_folder("pg_run_lock_" + std::to_string(getpid()));
+  const std::string cfg = dir + "/slow.yaml";
+  // Each trial takes 0.2 s: the first run is alive while the others start.
+  std::ofstream(cfg) << "task: {type: external, command: 'sleep 0.2; echo 1.5', dim: 1}\nbudget: 50\nseed: 1\n"
+                        "algorithm: {type: random}\n";
+  const std::string url = test::pg_study_url("run_lock");
+  const pid_t first = test::spawn({VARBO_EXE, "-q", "run", cfg, "-o", dir + "/first", "--study", url, "--no-progress"},
+                                  dir + "/first.log");
+  auto trial_count = [&]() -> std::size_t {
+    try {
+      return open_store(url)->trials().size();
+    } catch (const InputError&) {
+      return 0;  // not created yet
+    }
+  };
+  for (int i = 0; i < 3000 && trial_count() < 1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(trial_count() >= 1);
+
+  // Another run folder, the same database study: refused, naming the owner; nothing written by it.
+  const auto [code, msg] = varbo_cli({"-q", "run", cfg, "-o", dir + "/second", "--study", url, "--no-progress"}, dir);
+  CHECK(code == 2);
+  CHECK(msg.find("in use by another `varbo run`") != std::string::npos);
+  CHECK(msg.find("varbo run pid " + std::to_string(first) + " started") != std::string::npos);
+  CHECK(msg.find("study=run_lock_") != std::string::npos);
+  CHECK(varbo_cli({"-q", "run", "--resume", url, "--no-progress"}, dir).first == 2);
+  // Workers are not locked out, and another study of the same database runs meanwhile.
+  CHECK(varbo_cli({"-q", "status", url}, dir).first == 0);
+  CHECK(varbo_cli({"-q", "run", config_file(dir), "-o", dir + "/other", "--study", test::pg_study_url("run_lock_other"),
+                   "--no-progress"},
+                  dir)
+            .first == 0);
+
+  kill(first, SIGKILL);  // the server ends the session, and its lock with it, when the connection closes
+  test::wait_for(first);
+  const std::size_t before = trial_count();
+  int resumed = 2;
+  // The server notices the closed socket at once, but give it a moment on a loaded machine.
+  for (int i = 0; i < 50 && resumed == 2; ++i) {
+    if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    resumed = varbo_cli({"-q", "run", "--resume", url, "--no-progress", "--budget", std::to_string(before + 1)}, dir).first;
+  }
+  CHECK(resumed == 0);
+  CHECK(trial_count() > before);  // it drove the study on
+  std::filesystem::remove_all(dir);
 }

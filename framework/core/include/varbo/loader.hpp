@@ -1,5 +1,6 @@
 #pragma once
 // Finds and loads plugin libraries. Handles are never closed (components may outlive any scope).
+#include <mutex>
 #include <string>
 #include <vector>
 #include "varbo/registry.hpp"
@@ -17,6 +18,17 @@ struct SkippedLibrary {
 class PluginLoader {
  public:
   explicit PluginLoader(Registry& registry) : registry_(registry) {}
+  ~PluginLoader();
+  PluginLoader(const PluginLoader&) = delete;
+  PluginLoader& operator=(const PluginLoader&) = delete;
+  /// Built-in plugins on demand (a process opening a study: `varbo suggest`, docs/studies.md): when every
+  /// built-in folder has a current index (which library provides which component names, kept in the folder by
+  /// a process that loaded it in full), load_default() loads none of their libraries; the registry loads the
+  /// libraries providing a name when the name is first looked up, and all of them before a listing or when a
+  /// name is unknown, so every lookup resolves as with everything loaded. Each library still passes every
+  /// check of load_file() before any of its code runs. Third-party plugins (`extra`, VARBO_PLUGIN_PATH) load
+  /// at once, with the built-in libraries providing their components' short names (built-in first).
+  void set_on_demand(bool on) { on_demand_ = on; }
   /// Metadata only: every check that needs no plugin code (ELF, the .varbo_meta section: ABI, API,
   /// fingerprint, name, duplicates) is made and loaded() lists the libraries that pass, but none is dlopen'ed,
   /// so no plugin code runs and no component is registered (`varbo plugins --libraries`).
@@ -46,9 +58,22 @@ class PluginLoader {
   void load_file(const std::string& path, bool builtin);
   void load_directory(const std::string& dir, bool builtin);
   void skip(const std::string& path, const std::string& reason);
+  bool defer_builtin_folders(const std::vector<std::string>& folders);
+  void index_builtin_folder(const std::string& dir);
+  /// Loads the deferred libraries providing `name` (a short name, or "plugin/name"); all of them for "".
+  void demand(const std::string& name);
+
+  struct DeferredLibrary {
+    std::string path, plugin;
+    std::vector<std::string> components;
+    bool done = false;
+  };
 
   Registry& registry_;
   bool metadata_only_ = false;
+  bool on_demand_ = false;
+  std::vector<DeferredLibrary> deferred_;
+  std::recursive_mutex demand_mutex_;
   std::vector<LoadedLibrary> loaded_;
   std::vector<SkippedLibrary> skipped_;
   std::vector<const ComponentInfo*> shadowed_;

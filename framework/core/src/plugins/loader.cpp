@@ -13,6 +13,8 @@
 #include <set>
 
 #include "elf_check.hpp"
+#include "on_demand.hpp"
+#include "plugin_index.hpp"
 #include "plugin_meta.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -201,8 +203,72 @@ std::vector<std::string> PluginLoader::search_path(const std::vector<std::string
   return out;
 }
 
+PluginLoader::~PluginLoader() {
+  if (on_demand_) detail::set_on_demand(registry_, nullptr);  // erases by address: safe even if it is gone
+}
+
+bool PluginLoader::defer_builtin_folders(const std::vector<std::string>& folders) {
+  std::vector<DeferredLibrary> deferred;
+  std::set<std::string> seen_dirs, plugins;
+  for (const auto& dir : folders) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) continue;
+    std::string canon = fs::weakly_canonical(dir, ec).string();
+    if (ec) canon = dir;
+    if (!seen_dirs.insert(canon).second) continue;
+    const auto index = detail::read_plugin_index(dir);
+    if (!index) return false;  // a folder without a current index: load everything, as always
+    for (const auto& l : *index) {
+      // First wins across folders (load_file): a plugin name seen earlier shadows this library.
+      if (!l.plugin.empty() && !plugins.insert(l.plugin).second) continue;
+      deferred.push_back(DeferredLibrary{(fs::path(dir) / l.file).string(), l.plugin, l.components, false});
+    }
+  }
+  deferred_ = std::move(deferred);
+  return true;
+}
+
+void PluginLoader::demand(const std::string& name) {
+  std::lock_guard<std::recursive_mutex> lock(demand_mutex_);
+  const std::size_t slash = name.find('/');
+  for (auto& d : deferred_) {
+    if (d.done) continue;
+    const bool wanted = name.empty() || (slash != std::string::npos
+                                             ? d.plugin == name.substr(0, slash)
+                                             : std::find(d.components.begin(), d.components.end(), name) !=
+                                                   d.components.end());
+    if (!wanted) continue;
+    d.done = true;
+    try {
+      load_file(d.path, true);
+    } catch (const PluginLoadError& e) {
+      skip(d.path, e.what());
+    }
+  }
+}
+
+void PluginLoader::index_builtin_folder(const std::string& dir) {
+  if (detail::read_plugin_index(dir)) return;
+  auto files = detail::list_plugin_files(dir);
+  if (!files) return;
+  const auto all = registry_.all();
+  for (auto& f : *files) {
+    const std::string path = (fs::path(dir) / f.file).string();
+    for (const auto& l : loaded_)
+      if (l.path == path) f.plugin = l.name;
+    for (const ComponentInfo* c : all)
+      if (c->library == path) {
+        // A name the index format cannot hold: no index, the folder keeps loading in full.
+        if (c->name.find_first_of(" \t\n\r") != std::string::npos || c->name.empty()) return;
+        f.components.push_back(c->name);
+      }
+  }
+  detail::write_plugin_index(dir, *files);
+}
+
 void PluginLoader::load_default(const std::vector<std::string>& extra) {
   std::set<std::string> seen;
+  const bool deferring = on_demand_ && !metadata_only_ && defer_builtin_folders(builtin_path());
   auto load = [&](const std::string& p, bool builtin, const char* origin) {
     std::error_code ec;
     std::string canon = fs::weakly_canonical(p, ec).string();
@@ -223,9 +289,21 @@ void PluginLoader::load_default(const std::vector<std::string>& extra) {
       load_file(p, false);  // a file named explicitly must load
     }
   };
-  for (const auto& p : builtin_path()) load(p, true, "");
+  if (!deferring)
+    for (const auto& p : builtin_path()) {
+      load(p, true, "");
+      std::error_code ec;
+      if (!metadata_only_ && fs::is_directory(p, ec)) index_builtin_folder(p);
+    }
   for (const auto& p : extra) load(p, false, "plugin_path or --load");
   for (const auto& p : env_path()) load(p, false, "VARBO_PLUGIN_PATH");
+  if (deferring) {
+    // Built-in libraries sharing a short name with a third-party component: loaded now, so that the short
+    // name keeps meaning the built-in one and the warning below names it.
+    std::vector<std::string> names;
+    for (const ComponentInfo* c : registry_.all()) names.push_back(c->name);
+    for (const auto& n : names) demand(n);
+  }
   for (const ComponentInfo* c : shadowed_by_builtin(registry_)) {
     if (std::find(shadowed_.begin(), shadowed_.end(), c) != shadowed_.end()) continue;
     shadowed_.push_back(c);
@@ -235,6 +313,8 @@ void PluginLoader::load_default(const std::vector<std::string>& extra) {
              c->library, c->plugin, kind_name(c->kind), c->name, c->name, b ? b->full_name() : c->name,
              c->full_name());
   }
+  // Installed last: the checks above list the registry, which on demand would load every library.
+  if (deferring) detail::set_on_demand(registry_, [this](const std::string& name) { demand(name); });
 }
 
 bool is_builtin(const ComponentInfo& c) {

@@ -3,12 +3,49 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <map>
+#include <mutex>
 #include <set>
 
+#include "on_demand.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 
 namespace varbo {
+
+namespace detail {
+namespace {
+std::mutex& demand_table_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::map<const Registry*, DemandFn>& demand_table() {
+  static auto* t = new std::map<const Registry*, DemandFn>();  // leaked: registries may outlive static teardown
+  return *t;
+}
+}  // namespace
+
+void set_on_demand(const Registry& registry, DemandFn load) {
+  std::lock_guard<std::mutex> lock(demand_table_mutex());
+  if (load)
+    demand_table()[&registry] = std::move(load);
+  else
+    demand_table().erase(&registry);
+}
+
+bool demand(const Registry& registry, const std::string& name) {
+  DemandFn load;
+  {
+    std::lock_guard<std::mutex> lock(demand_table_mutex());
+    if (demand_table().empty()) return false;
+    const auto it = demand_table().find(&registry);
+    if (it == demand_table().end()) return false;
+    load = it->second;
+  }
+  load(name);  // outside the table's lock: loading a library registers components
+  return true;
+}
+}  // namespace detail
 
 YAML::Node ResolvedComponent::resolved() const {
   YAML::Node out(YAML::NodeType::Map);
@@ -37,24 +74,31 @@ void Registry::add(ComponentInfo info) {
 }
 
 const ComponentInfo* Registry::try_find(Kind kind, const std::string& name) const {
-  const ComponentInfo *found = nullptr, *builtin = nullptr;
-  int matches = 0, builtin_matches = 0;
-  for (const auto& c : items_) {
-    if (c->kind != kind) continue;
-    if (c->full_name() == name) return c.get();
-    if (c->name == name) {
-      found = c.get();
-      ++matches;
-      if (is_builtin(*c)) {
-        builtin = c.get();
-        ++builtin_matches;
+  // With plugins on demand: first the libraries providing `name`, so that it resolves as with every plugin
+  // loaded; when it is still unknown (a stale index?), every library, and a second look.
+  const bool on_demand = detail::demand(*this, name);
+  for (int pass = 0; pass < (on_demand ? 2 : 1); ++pass) {
+    if (pass == 1) detail::demand(*this, "");
+    const ComponentInfo *found = nullptr, *builtin = nullptr;
+    int matches = 0, builtin_matches = 0;
+    for (const auto& c : items_) {
+      if (c->kind != kind) continue;
+      if (c->full_name() == name) return c.get();
+      if (c->name == name) {
+        found = c.get();
+        ++matches;
+        if (is_builtin(*c)) {
+          builtin = c.get();
+          ++builtin_matches;
+        }
       }
     }
+    // Built-in first (loader.hpp): a default such as `acquisition: ei` must keep meaning varbo's ei whatever
+    // third-party plugin is installed; only the full name "plugin/ei" reaches theirs.
+    if (builtin_matches == 1) return builtin;
+    if (matches == 1) return found;
   }
-  // Built-in first (loader.hpp): a default such as `acquisition: ei` must keep meaning varbo's ei whatever
-  // third-party plugin is installed; only the full name "plugin/ei" reaches theirs.
-  if (builtin_matches == 1) return builtin;
-  return matches == 1 ? found : nullptr;
+  return nullptr;
 }
 
 const ComponentInfo& Registry::find(Kind kind, const std::string& name, const ConfigNode* where) const {
@@ -87,6 +131,7 @@ const ComponentInfo& Registry::find(Kind kind, const std::string& name, const Co
 }
 
 std::vector<const ComponentInfo*> Registry::components(Kind kind) const {
+  detail::demand(*this, "");
   std::vector<const ComponentInfo*> out;
   for (const auto& c : items_)
     if (c->kind == kind) out.push_back(c.get());
@@ -95,6 +140,7 @@ std::vector<const ComponentInfo*> Registry::components(Kind kind) const {
 }
 
 std::vector<const ComponentInfo*> Registry::all() const {
+  detail::demand(*this, "");
   std::vector<const ComponentInfo*> out;
   for (const auto& c : items_) out.push_back(c.get());
   std::sort(out.begin(), out.end(), [](auto* a, auto* b) {

@@ -2,6 +2,7 @@
 // One writer per run folder and study: `varbo run` holds an advisory lock (flock) on a small file beside the
 // study store for its whole life. SQLite's own locking is per transaction and cannot keep a second driver
 // out between trials; `varbo study suggest/observe` take no such lock, so external workers stay concurrent.
+#include <memory>
 #include <string>
 
 namespace varbo {
@@ -27,6 +28,28 @@ class RunLock {
   RunLock(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
   int fd_ = -1;
   std::string path_;
+};
+
+/// The same one-writer rule for a study in a PostgreSQL database, where no lock file can be shared: a
+/// session-level advisory lock (`pg_try_advisory_lock`) keyed by the study's name, held by a connection of its
+/// own for the lock's life (the store's connection may be dropped and reopened; a lock on it would vanish
+/// silently). The server releases it when the session ends, however it ends (SIGKILL, a lost connection).
+class DatabaseRunLock {
+ public:
+  /// Takes the lock of the study at `url`; when another session holds it, throws InputError naming the study
+  /// (password hidden) and the owner (pid, host and start of the holding `varbo run`, as it announced itself in its session's
+  /// application_name, and the server's backend pid). Connection errors are InputErrors naming the study.
+  static DatabaseRunLock acquire(const std::string& url);
+
+  DatabaseRunLock(DatabaseRunLock&&) noexcept;
+  DatabaseRunLock& operator=(DatabaseRunLock&&) noexcept;
+  ~DatabaseRunLock();  ///< closes the session, which releases the lock
+
+  struct Session;
+
+ private:
+  explicit DatabaseRunLock(std::unique_ptr<Session> session);
+  std::unique_ptr<Session> session_;
 };
 
 }  // namespace varbo

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <filesystem>
 #include <cmath>
 #include <cstdio>
@@ -108,9 +109,11 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // One driver per study and per run folder (docs/studies.md, "One writer"): held until this function returns,
   // after the store is closed (declared before it).
   std::vector<RunLock> locks;
-  // A database study has no lock file (no shared folder to hold it): one `varbo run` per database study is the
-  // user's to keep (docs/studies.md); the run folder's own lock below still holds.
-  if (!is_database_url(store_path))
+  // A database study has no lock file (no shared folder to hold it): an advisory lock on the server instead.
+  std::optional<DatabaseRunLock> database_lock;
+  if (is_database_url(store_path))
+    database_lock.emplace(DatabaseRunLock::acquire(store_path));
+  else
     locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
   const std::string folder_store = study.output + "/study.db";
   if (!own_store && !same_file(folder_store, store_path))

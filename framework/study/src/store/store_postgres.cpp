@@ -111,8 +111,11 @@ double to_double(const pqxx::field& f) { return f.is_null() ? std::nan("") : std
 std::int64_t to_int(const pqxx::field& f) { return f.is_null() ? 0 : std::strtoll(f.c_str(), nullptr, 10); }
 std::string to_text(const pqxx::field& f) { return f.is_null() ? std::string() : std::string(f.c_str()); }
 
-/// libpq's messages end with a newline and sometimes carry "FATAL:  " / "ERROR:  " prefixes.
-std::string cause(const std::exception& e) {
+std::string cause(const std::exception& e) { return postgres_cause(e); }
+
+}  // namespace
+
+std::string postgres_cause(const std::exception& e) {
   std::string m = e.what();
   while (!m.empty() && (m.back() == '\n' || m.back() == ' ')) m.pop_back();
   for (const char* p : {"FATAL:  ", "ERROR:  "})
@@ -121,6 +124,8 @@ std::string cause(const std::exception& e) {
     if (c == '\n') c = ' ';
   return m;
 }
+
+namespace {
 
 class PostgresStore final : public StudyStore {
  public:

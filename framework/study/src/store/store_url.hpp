@@ -2,6 +2,7 @@
 // The address of a study in a PostgreSQL database: `postgresql://[user[:password]@][host][:port]/db?study=NAME[&...]`
 // (docs/studies.md, "Addresses"). `study` is varbo's; every other parameter is libpq's (host=/socket/dir,
 // sslmode, connect_timeout, ...).
+#include <exception>
 #include <string>
 
 namespace varbo {
@@ -14,5 +15,8 @@ struct PostgresAddress {
 
 /// Throws InputError for a URL without `?study=NAME` or with a name holding other than letters, digits, '_', '-', '.'.
 PostgresAddress parse_postgres_address(const std::string& url);
+
+/// A libpqxx error's message for ours: one line, without libpq's "FATAL:  " / "ERROR:  " prefixes.
+std::string postgres_cause(const std::exception& e);
 
 }  // namespace varbo

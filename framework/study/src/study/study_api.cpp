@@ -372,10 +372,13 @@ Study& Study::operator=(Study&&) noexcept = default;
 Study::~Study() = default;
 
 namespace {
-std::unique_ptr<Study::Impl> impl_with_plugins(const std::vector<std::string>& paths) {
+/// `on_demand`: a study being opened loads only the built-in plugins its configuration looks up (loader.hpp);
+/// `varbo suggest` pays for two or three libraries, not every one installed.
+std::unique_ptr<Study::Impl> impl_with_plugins(const std::vector<std::string>& paths, bool on_demand = false) {
   auto impl = std::make_unique<Study::Impl>();
   impl->own_registry = std::make_unique<Registry>();
   impl->loader = std::make_unique<PluginLoader>(*impl->own_registry);
+  impl->loader->set_on_demand(on_demand);
   impl->loader->load_default(paths);
   return impl;
 }
@@ -411,7 +414,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
   std::vector<std::string> paths;
   for (const auto& l : lines_of(store->meta(store_key::kPluginPaths).value_or("")))
     if (!l.empty()) paths.push_back(l);
-  auto impl = impl_with_plugins(paths);
+  auto impl = impl_with_plugins(paths, true);
   add_components(*impl->own_registry);
   const ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);

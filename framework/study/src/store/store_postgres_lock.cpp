@@ -1,0 +1,82 @@
+// `varbo run`'s one-writer lock on a database study (run_lock.hpp): a session-level advisory lock keyed by the
+// study's name, on a connection of its own. The holder announces itself in its session's application_name, so a
+// second run can name it from pg_stat_activity without any row to write (or to leave stale after a SIGKILL).
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <ctime>
+#include <pqxx/pqxx>
+
+#include "store_url.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/run_lock.hpp"
+
+namespace varbo {
+
+struct DatabaseRunLock::Session {
+  pqxx::connection connection;
+  explicit Session(const std::string& conninfo) : connection(conninfo) {}
+};
+
+namespace {
+
+// One 64-bit advisory key per study name; the prefix keeps it apart from the key that serializes table creation
+// (store_postgres.cpp) and from other applications' keys in the same database.
+constexpr const char* kKey = "hashtextextended('varbo run: ' || $1, 0)";
+
+/// "varbo run pid 4711 started 2026-12-02T03:04:05Z host rig-3": at most 63 bytes are kept by the server,
+/// so the host, the longest part, comes last.
+std::string announcement() {
+  char host[256] = "unknown";
+  gethostname(host, sizeof host - 1);
+  host[sizeof host - 1] = '\0';
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char when[32];
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return fmt::format("varbo run pid {} started {} host {}", static_cast<long>(getpid()), when, host);
+}
+
+/// The session holding the study's lock, as it announced itself ("" when it is gone or cannot be seen).
+std::string owner_of(pqxx::connection& c, const std::string& study) {
+  pqxx::nontransaction n(c);
+  const pqxx::result r = n.exec_params(
+      std::string("SELECT a.pid, a.application_name, COALESCE(host(a.client_addr), 'a local socket') FROM pg_locks l "
+                  "JOIN pg_stat_activity a ON a.pid = l.pid WHERE l.locktype = 'advisory' AND l.granted AND "
+                  "l.objsubid = 1 AND l.database = (SELECT oid FROM pg_database WHERE datname = current_database()) "
+                  "AND ((l.classid::bigint << 32) | l.objid::bigint) = ") +
+          kKey,
+      study);
+  if (r.empty()) return "";
+  return fmt::format("{}; server session {} from {}", r[0][1].c_str(), r[0][0].c_str(), r[0][2].c_str());
+}
+
+}  // namespace
+
+DatabaseRunLock DatabaseRunLock::acquire(const std::string& url) {
+  const PostgresAddress address = parse_postgres_address(url);
+  std::unique_ptr<Session> s;
+  try {
+    s = std::make_unique<Session>(address.conninfo);
+    pqxx::nontransaction n(s->connection);
+    n.exec_params("SELECT set_config('application_name', $1, false)", announcement());
+    if (n.exec_params(std::string("SELECT pg_try_advisory_lock(") + kKey + ")", address.study)[0][0].as<bool>())
+      return DatabaseRunLock(std::move(s));
+    std::string owner = owner_of(s->connection, address.study);
+    if (owner.empty()) owner = "another session, which just ended or cannot be seen";
+    throw InputError(fmt::format("the study {} is in use by another `varbo run` ({}); wait for it to end or stop it; "
+                                 "only one run may drive a study (advisory lock on the database server)",
+                                 address.display, owner));
+  } catch (const pqxx::failure& e) {
+    throw InputError(fmt::format("{}: cannot take the run lock on the database server: {}", address.display,
+                                 postgres_cause(e)));
+  }
+}
+
+DatabaseRunLock::DatabaseRunLock(std::unique_ptr<Session> session) : session_(std::move(session)) {}
+DatabaseRunLock::DatabaseRunLock(DatabaseRunLock&&) noexcept = default;
+DatabaseRunLock& DatabaseRunLock::operator=(DatabaseRunLock&&) noexcept = default;
+DatabaseRunLock::~DatabaseRunLock() = default;
+
+}  // namespace varbo
