@@ -59,10 +59,13 @@ DatabaseRunLock DatabaseRunLock::acquire(const std::string& url) {
   std::unique_ptr<Session> s;
   try {
     s = std::make_unique<Session>(address.conninfo);
-    pqxx::nontransaction n(s->connection);
-    n.exec_params("SELECT set_config('application_name', $1, false)", announcement());
-    if (n.exec_params(std::string("SELECT pg_try_advisory_lock(") + kKey + ")", address.study)[0][0].as<bool>())
-      return DatabaseRunLock(std::move(s));
+    bool locked = false;
+    {
+      pqxx::nontransaction n(s->connection);
+      n.exec_params("SELECT set_config('application_name', $1, false)", announcement());
+      locked = n.exec_params(std::string("SELECT pg_try_advisory_lock(") + kKey + ")", address.study)[0][0].as<bool>();
+    }
+    if (locked) return DatabaseRunLock(std::move(s));
     std::string owner = owner_of(s->connection, address.study);
     if (owner.empty()) owner = "another session, which just ended or cannot be seen";
     throw InputError(fmt::format("the study {} is in use by another `varbo run` ({}); wait for it to end or stop it; "
