@@ -11,6 +11,7 @@
 //
 //   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200,400] [--dir /tmp/x] [--store ADDRESS]
 #include <fmt/format.h>
+#include <malloc.h>
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -68,6 +69,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200,400] [--dir DIR] [--store ADDRESS]\n");
     return 2;
   }
+  // The embedded iterations run with the allocator settings of the `varbo` executable (framework/cli/main.cpp:
+  // freed blocks kept in the heap), so that both sides of the ratio are the same computation on the same heap.
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   const std::string varbo = argv[1];
   std::vector<long> at = {50, 100, 200, 400};
   std::string store;

@@ -1,4 +1,6 @@
 // varbo: risk-aware and cautious Bayesian optimization from YAML configurations.
+#include <malloc.h>
+
 #include <cstdio>
 #include <map>
 
@@ -9,6 +11,13 @@
 #include "varbo/version.hpp"
 
 int main(int argc, char** argv) {
+  // Keep freed blocks in the heap. glibc gives a big block (a GP fit's N × N matrices: 1.3 MB at N = 400) back
+  // to the kernel when it is freed and maps fresh zeroed pages for the next one until its dynamic threshold has
+  // adapted, which a short process never does: `varbo suggest` took 33,000 page faults and ~30 % more CPU for
+  // its one fit than with the blocks kept (docs/studies.md, "Cost of varbo suggest"). Blocks over 256 MB are
+  // still mapped; the heap is trimmed only past 1 GB free.
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   CLI::App app{"varbo " VARBO_VERSION_STRING
                ": sample-efficient, risk-aware and cautious Bayesian optimization\n"
                "Compose an algorithm in YAML, run it, inspect models. See README.md."};
