@@ -108,12 +108,13 @@ TEST_CASE("the feasibility-weighted acquisition's gradient matches central diffe
     if (std::string(yaml) == "{type: ei}") CHECK(u_fail == 0.0);  // EI ≥ 0: a failure improves nothing
     else CHECK(u_fail < 0.0);                                      // cb = −(μ + κσ) is negative on Branin's data
     // weighted: P·(u − u_fail); exclusion only (bo's final refinement): u − u_fail where P ≥ min_probability.
+    std::vector<Vec> xs;  // the same points for both modes
+    for (int t = 0; t < 40; ++t) xs.push_back(rng.uniform_vec(2));
     for (const bool weighted : {true, false}) {
       bo::FeasibilityWeightedAcquisition w(*acq, model, u_fail, 0.2, weighted);
       FunctionRef f(2, [&](const Vec& x, Vec* g) { return w.evaluate(x, g); });
       int allowed = 0, excluded = 0;
-      for (int t = 0; t < 40; ++t) {
-        const Vec x = rng.uniform_vec(2);
+      for (const Vec& x : xs) {
         const double p = model.probability(x);
         if (std::abs(p - 0.2) < 1e-3) continue;  // the kink at min_probability
         const GradientCheck c = check_gradient(f, x, 1e-6, 1e-8);
