@@ -430,13 +430,16 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const auto t_acq = std::chrono::steady_clock::now();
   Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
   region_->update(surrogate_.get(), data, region_rng);
+  Dataset late_refined;
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && initial_points_ > 0 &&
       final_stretch) {
-    // Converged within the last trials: a new design could not be followed up; the refinement begins now.
+    // Converged within the last trials: a new design could not be followed up; the refinement begins now, on its
+    // model.
     fresh_starts_ = fresh_region->fresh_starts();
     begin_refinement(k, data);
-    const Dataset r = refine_attempt_model_ ? refinement_data(data) : Dataset();
-    fit_model(k, r.size() >= 2 ? r : data);
+    if (refine_attempt_model_) late_refined = refinement_data(data);
+    model_data = late_refined.size() >= 2 ? &late_refined : &data;
+    fit_model(k, *model_data);
     region_->update(surrogate_.get(), data, region_rng);
   }
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && initial_points_ > 0) {
