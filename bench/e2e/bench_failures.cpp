@@ -3,6 +3,7 @@
 // of the best observed point, against the same runs without the failure region. Plain defaults ({type: bo}).
 //
 //   nice -n 10 build/bin/bench_failures [--seeds 10] [--first-seed 1] [--threads 2] [--only branin|hartmann6]
+//                                       [--algorithm '{type: bo, ...}']
 //
 // Prints a Markdown table (README and docs/failures.md) and each region's measured volume fraction.
 #include <fmt/format.h>
@@ -11,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <unistd.h>
 #include <vector>
 
 #include "bo_table_config.hpp"
@@ -43,13 +45,15 @@ struct Result {
   int failed_after_design = 0, after_design = 0, failed = 0;
 };
 
-Result run(const Registry& reg, const std::string& task_yaml, int budget, int seed, int threads, const std::string& out) {
+Result run(const Registry& reg, const std::string& task_yaml, const std::string& algorithm, int budget, int seed,
+           int threads, const std::string& out) {
   RunOverrides ov;
   ov.progress = false;
   ov.output = out;
   ov.threads = threads;
+  ov.overwrite = true;  // a benchmark rewrites its scratch folders
   const std::string yaml =
-      fmt::format("task: {{{}}}\nbudget: {}\nseed: {}\nalgorithm: {{type: bo}}\n", task_yaml, budget, seed);
+      fmt::format("task: {{{}}}\nbudget: {}\nseed: {}\nalgorithm: {}\n", task_yaml, budget, seed, algorithm);
   StudyConfig s = parse_study(ConfigNode::parse(yaml, "<bench>"), reg);
   const RunSummary summary = run_study(s, reg, ov);
   Result r;
@@ -91,22 +95,25 @@ std::string cell(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1, threads = 0;
-  std::string only;
+  std::string only, algorithm = "{type: bo}";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--seeds" && i + 1 < argc) seeds = std::atoi(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--first-seed" && i + 1 < argc) first_seed = std::atoi(argv[++i]);
     else if (a == "--only" && i + 1 < argc) only = argv[++i];
+    else if (a == "--algorithm" && i + 1 < argc) algorithm = argv[++i];
     else {
-      std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed S] [--threads N] [--only branin|hartmann6]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed S] [--threads N] [--only branin|hartmann6] [--algorithm YAML]\n",
+                   argv[0]);
       return 2;
     }
   }
   set_log_level(LogLevel::Error);
   Registry& reg = default_registry();
-  const std::string tmp = (std::filesystem::temp_directory_path() / "varbo_bench_failures").string();
-  std::printf("algorithm: {type: bo} (plain defaults); seeds %d-%d; threads %d\n\n", first_seed, first_seed + seeds - 1,
+  const std::string tmp = 
+      (std::filesystem::temp_directory_path() / fmt::format("varbo_bench_failures_{}", getpid())).string();
+  std::printf("algorithm: %s; seeds %d-%d; threads %d\n\n", algorithm.c_str(), first_seed, first_seed + seeds - 1,
               threads);
   std::printf("| problem (budget) | failure region (measured volume) | failed after the design: median [q1, q3] (pooled) "
               "| regret of the recommended θ, with failures | without | ratio of medians | best-observed regret, with "
@@ -120,8 +127,8 @@ int main(int argc, char** argv) {
     std::vector<double> rate, rec_with, rec_without, best_with, best_without;
     int failed_pooled = 0, after_pooled = 0;
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-      const Result w = run(reg, failing, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, lower, seed));
-      const Result o = run(reg, p.task, p.budget, seed, threads, fmt::format("{}/{}_o_{}", tmp, lower, seed));
+      const Result w = run(reg, failing, algorithm, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, lower, seed));
+      const Result o = run(reg, p.task, algorithm, p.budget, seed, threads, fmt::format("{}/{}_o_{}", tmp, lower, seed));
       rate.push_back(static_cast<double>(w.failed_after_design) / std::max(1, w.after_design));
       failed_pooled += w.failed_after_design;
       after_pooled += w.after_design;

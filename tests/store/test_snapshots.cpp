@@ -35,6 +35,11 @@ const Case kCases[] = {
      "{type: bo, initial_points: 3, region: {type: trust_region, restart_center: new_points, failure_tolerance: 1, "
      "length_min: 0.3}}",
      16},
+    // The same with the final refinement on the model of the incumbent's attempt: its bounds are state too.
+    {"bo_fresh_start_attempt_model",
+     "{type: bo, initial_points: 3, refine_last: 4, refine_model: attempt, region: {type: trust_region, "
+     "failure_tolerance: 1, length_min: 0.3}}",
+     16},
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
     {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},

@@ -60,7 +60,11 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// draws the same), or a random point where success is likely when failure is likely there.
   Vec fresh_design_point(Index k, bool refit);
   void fit_model(Index evaluation, const Dataset& data);
-  double lie(const Vec& x) const;  ///< the value a not-yet-observed point is believed to have
+  double lie(const Vec& x) const;
+  /// Starts the final refinement of the incumbent of all the data (see BoSettings::refine_last).
+  void begin_refinement(Index k, const Dataset& data);
+  /// The final refinement's data (refine_model: attempt).
+  Dataset refinement_data(const Dataset& data) const;  ///< the value a not-yet-observed point is believed to have
   /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
   /// yet fitted); true when the acquisition is to be weighted.
   bool update_feasibility(Index evaluation, bool refit);
@@ -102,7 +106,13 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Index fresh_trial_ = 0, fresh_from_ = 0;
   Index refine_last_ = 0;  ///< see BoSettings::refine_last
   std::unique_ptr<Acquisition> refine_acquisition_;
-  bool refining_ = false;  ///< the final refinement after fresh starts has begun
+  bool refine_weighted_ = false;  ///< refine_feasibility: weight
+  bool refine_attempt_model_ = false;  ///< refine_model: attempt
+  bool refining_ = false;
+  std::vector<Index> attempt_starts_;  ///< successful observations before each fresh start
+  /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt
+  /// that found the incumbent) and those from refine_from_ on (the refinement's own).
+  Index refine_lo_ = 0, refine_hi_ = 0, refine_from_ = 0;  ///< the final refinement after fresh starts has begun
   ModelSnapshot snapshot_;
   std::unique_ptr<Recommender> recommender_;  ///< its own model: recommending changes no trial
 };

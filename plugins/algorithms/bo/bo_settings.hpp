@@ -2,6 +2,8 @@
 // bo's own settings: the member initializers below are the defaults of its top-level options (one source,
 // option_set.hpp). Component options (surrogate, acquisition, region, ...) and the `phases` / `failure_model`
 // maps are declared beside them in bo_options() but parsed by hand.
+#include <string>
+
 #include "recommender.hpp"
 #include "varbo/option_set.hpp"
 
@@ -15,6 +17,8 @@ struct BoSettings {
   Index initial_points = -1;  ///< initial design size; -1 = 2·(d+1), capped by the budget
   Index refit_every = 1;      ///< optimize hyperparameters every k model iterations (else only condition)
   Index refine_last = -1;     ///< after fresh starts, the last trials refine the incumbent; -1 = d + 1
+  std::string refine_model = "all";  ///< the final refinement's model: all the data, or the incumbent's attempt
+  std::string refine_feasibility = "exclude";  ///< with failures, the refinement excludes (or weights by) P(fail)
   double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice
   BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;
   RecommendationRule recommendation = RecommendationRule::LowestMeanEvaluated;

@@ -43,6 +43,12 @@ std::optional<std::string> BayesianOptimization::save_state() const {
   m.put_int("fresh_trial", fresh_trial_);
   m.put_int("fresh_from", fresh_from_);
   m.put("refining", refining_);
+  Vec starts(static_cast<Index>(attempt_starts_.size()));
+  for (std::size_t i = 0; i < attempt_starts_.size(); ++i) starts(static_cast<Index>(i)) = static_cast<double>(attempt_starts_[i]);
+  m.put("attempt_starts", starts);
+  m.put_int("refine_lo", refine_lo_);
+  m.put_int("refine_hi", refine_hi_);
+  m.put_int("refine_from", refine_from_);
   m.put("surrogate", surrogate->save_state());
   save_if_stateful(m, "region", region_.get());
   save_if_stateful(m, "design_sampler", design_sampler_.get());
@@ -66,6 +72,13 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
     fresh_trial_ = static_cast<Index>(m.integer("fresh_trial"));
     fresh_from_ = static_cast<Index>(m.integer("fresh_from"));
     refining_ = m.boolean("refining");
+    if (m.has("attempt_starts")) {  // absent before refine_model existed
+      attempt_starts_.clear();
+      for (const double v : m.vec("attempt_starts")) attempt_starts_.push_back(static_cast<Index>(v));
+      refine_lo_ = static_cast<Index>(m.integer("refine_lo"));
+      refine_hi_ = static_cast<Index>(m.integer("refine_hi"));
+      refine_from_ = static_cast<Index>(m.integer("refine_from"));
+    }
   }
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");

@@ -76,14 +76,18 @@ double FeasibilityWeightedAcquisition::evaluate(const Vec& x, Vec* grad) const {
   }
   Vec du;
   const double u = base_.evaluate(x, grad ? &du : nullptr);
+  if (!weighted_) {
+    if (grad) *grad = du;
+    return u - u_fail_;
+  }
   if (grad) *grad = p * du + (u - u_fail_) * dp;
   return p * (u - u_fail_);
 }
 
 std::string FeasibilityWeightedAcquisition::state() const {
   const auto& h = model_.hyper();
-  return fmt::format("{} | feasibility: u_fail {:.3g}, min P {:.3g}, lengthscale ×{:g}, signal std {:g}, prior mean {:.3g}",
-                     base_.state(), u_fail_, p_min_, h.lengthscale_factor, h.signal_std, model_.prior_mean());
+  return fmt::format("{} | feasibility{}: u_fail {:.3g}, min P {:.3g}, lengthscale ×{:g}, signal std {:g}, prior mean {:.3g}",
+                     base_.state(), weighted_ ? "" : " (exclusion only)", u_fail_, p_min_, h.lengthscale_factor, h.signal_std, model_.prior_mean());
 }
 
 }  // namespace varbo::bo

@@ -46,13 +46,16 @@ Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double 
 /// u_fail = min(0, min_i u(x_i)) over the rows of X (see above).
 double failure_utility(const Acquisition& base, const Mat& X);
 
-/// α̃(x) = P(x)·(u(x) − u_fail) where P(x) ≥ min_probability, −(min_probability − P(x)) elsewhere.
+/// α̃(x) = P(x)·(u(x) − u_fail) where P(x) ≥ min_probability, −(min_probability − P(x)) elsewhere; with
+/// `weighted` false (exclusion only) u(x) − u_fail where P(x) ≥ min_probability: bo's final refinement around an
+/// incumbent that succeeded, where weighting by P would pull the point away from a failure boundary next to the
+/// minimizer and cost precision (Branin with failures: docs/defaults.md).
 /// `base` must be prepared; both references must outlive this object.
 class FeasibilityWeightedAcquisition final : public Acquisition {
  public:
   FeasibilityWeightedAcquisition(const Acquisition& base, const FeasibilityModel& model, double failure_utility,
-                                 double min_probability)
-      : base_(base), model_(model), u_fail_(failure_utility), p_min_(min_probability) {}
+                                 double min_probability, bool weighted = true)
+      : base_(base), model_(model), u_fail_(failure_utility), p_min_(min_probability), weighted_(weighted) {}
   void prepare(const AcquisitionContext&) override {}  // the base is prepared by the caller
   double evaluate(const Vec& x, Vec* grad) const override;
   bool has_gradient() const override { return base_.has_gradient(); }
@@ -63,6 +66,7 @@ class FeasibilityWeightedAcquisition final : public Acquisition {
   const FeasibilityModel& model_;
   double u_fail_;
   double p_min_;
+  bool weighted_;
 };
 
 }  // namespace varbo::bo

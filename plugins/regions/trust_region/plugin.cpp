@@ -26,8 +26,10 @@ const varbo::OptionSet<TrustRegionOptions>& trust_region_options() {
                 "≥ 2, the whole unit cube, makes the search after a collapse global)")
           .above(0),
       opt::choice("restart_center", &TrustRegionOptions::restart_center, {"incumbent", "new_points"},
-                  "after a restart, centre the box on the incumbent of all the data, or on the best point found "
-                  "since the restart (TuRBO's fresh start; the model keeps every observation)"),
+                  "after a restart: new_points = TuRBO's fresh start (bo draws a new design, models the points "
+                  "since the restart, and refines the incumbent of all the data in its last trials); incumbent = the "
+                  "box re-centres on the incumbent of all the data with L = restart_length, the model keeps every "
+                  "observation"),
       opt::real("stall_distance", &TrustRegionOptions::stall_distance,
                 "a failure whose new point lies within this distance (∞-norm, unit cube) of the incumbent is a stall")
           .at_least(0),
@@ -44,9 +46,9 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
       "trust_region",
       "Box of side L around the best observed point; L doubles after success_tolerance successes, halves after "
       "failure_tolerance failures, restarts when below length_min (Eriksson 2019, TuRBO-1), or after "
-      "stall_tolerance trials next to the incumbent without improvement; a restart keeps the data and the incumbent, "
-      "or (restart_center: new_points) starts afresh: a new design and a model of the new points, bo's last trials "
-      "refining the incumbent of all the data",
+      "stall_tolerance trials next to the incumbent without improvement; a restart starts afresh (restart_center: "
+      "new_points): a new design and a model of the new points, bo's last trials "
+      "refining the incumbent of all the data; or (restart_center: incumbent) keeps the data and the incumbent",
       trust_region_options().specs(),
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<RegionConstraint> {
         if (ctx.dim <= 0) throw ConfigError("region 'trust_region' needs the problem dimension (got 0)");

@@ -212,8 +212,9 @@ TEST_CASE("trust_region: stall_tolerance consecutive failures next to the incumb
   CHECK(tr.fresh_starts() == 1);
   CHECK(tr.stalls() == 0);
   // Off (−1): the same stalls only count as failures.
-  TrustRegionOptions off;  // the default: no stalls
+  TrustRegionOptions off;
   off.restart_center = "new_points";
+  off.stall_tolerance = -1;
   TrustRegion plain(2, off);
   Dataset pd = Dataset::empty(2);
   observe(plain, pd, inc, 1.0);

@@ -107,26 +107,34 @@ TEST_CASE("the feasibility-weighted acquisition's gradient matches central diffe
     const double u_fail = bo::failure_utility(*acq, data.X);
     if (std::string(yaml) == "{type: ei}") CHECK(u_fail == 0.0);  // EI ≥ 0: a failure improves nothing
     else CHECK(u_fail < 0.0);                                      // cb = −(μ + κσ) is negative on Branin's data
-    bo::FeasibilityWeightedAcquisition w(*acq, model, u_fail, 0.2);
-    FunctionRef f(2, [&](const Vec& x, Vec* g) { return w.evaluate(x, g); });
-    int allowed = 0, excluded = 0;
-    for (int t = 0; t < 40; ++t) {
-      const Vec x = rng.uniform_vec(2);
-      const double p = model.probability(x);
-      if (std::abs(p - 0.2) < 1e-3) continue;  // the kink at min_probability
-      const GradientCheck c = check_gradient(f, x, 1e-6, 1e-8);
-      CAPTURE(yaml);
-      CAPTURE(p);
-      CHECK(c.max_rel_error < 1e-5);
-      (p >= 0.2 ? allowed : excluded)++;
-      if (p >= 0.2) {
-        CHECK(w.evaluate(x, nullptr) >= -1e-12);  // allowed points never score below excluded ones
-      } else {
-        CHECK(w.evaluate(x, nullptr) < 0.0);
+    // weighted: P·(u − u_fail); exclusion only (bo's final refinement): u − u_fail where P ≥ min_probability.
+    std::vector<Vec> xs;  // the same points for both modes
+    for (int t = 0; t < 40; ++t) xs.push_back(rng.uniform_vec(2));
+    for (const bool weighted : {true, false}) {
+      bo::FeasibilityWeightedAcquisition w(*acq, model, u_fail, 0.2, weighted);
+      FunctionRef f(2, [&](const Vec& x, Vec* g) { return w.evaluate(x, g); });
+      int allowed = 0, excluded = 0;
+      for (const Vec& x : xs) {
+        const double p = model.probability(x);
+        if (std::abs(p - 0.2) < 1e-3) continue;  // the kink at min_probability
+        const GradientCheck c = check_gradient(f, x, 1e-6, 1e-8);
+        CAPTURE(yaml);
+        CAPTURE(weighted);
+        CAPTURE(p);
+        CHECK(c.max_rel_error < 1e-5);
+        (p >= 0.2 ? allowed : excluded)++;
+        if (p >= 0.2) {
+          CHECK(w.evaluate(x, nullptr) >= -1e-12);  // allowed points never score below excluded ones
+          // The two modes differ by the factor P, computed independently here.
+          const double u = acq->evaluate(x, nullptr) - u_fail;
+          CHECK(w.evaluate(x, nullptr) == doctest::Approx(weighted ? p * u : u).epsilon(1e-12));
+        } else {
+          CHECK(w.evaluate(x, nullptr) < 0.0);
+        }
       }
+      CHECK(allowed > 0);
+      CHECK(excluded > 0);
     }
-    CHECK(allowed > 0);
-    CHECK(excluded > 0);
   }
 }
 
