@@ -78,6 +78,10 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
                 "a full fit (GP initialization and all restarts) once N has grown by this factor since the last "
                 "one; in between only the warm start is optimized (1: every fit is full)")
           .at_least(1),
+      opt::integer("warm_evaluations", &C::warm_evaluations,
+                   "objective evaluations of the warm start in a fit between full fits (it continues from the "
+                   "previous optimum with one point more); 0: to convergence")
+          .at_least(0),
       opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
       opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
                    "add independent log-normal hyperpriors to the bound (eq. 13)"),

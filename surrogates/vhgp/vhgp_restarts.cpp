@@ -32,6 +32,11 @@ std::vector<RestartResult> optimize_restarts(const VhgpObjective& objective, con
   // fit time (README, benchmark): hence the two stages.
   const Index n_final = std::min<Index>(std::max(settings.finalists, 1), static_cast<Index>(starts.size()));
   const bool staged = settings.restart_evaluations > 0 && static_cast<Index>(starts.size()) > n_final;
+  // A lone start is a warm-only fit between full fits (`warm_evaluations`): the previous optimum moved by one
+  // point, improved within a budget rather than to convergence.
+  const bool lone_budgeted = starts.size() == 1 && settings.single_start_evaluations > 0;
+  RestartSettings budget = settings;
+  if (lone_budgeted) budget.restart_evaluations = settings.single_start_evaluations;
   auto optimize = [&](const Vec& start, Rng& r, bool budgeted, Index k, RestartResult& out) {
     try {
       Vec x0 = box.clamp(start);
@@ -42,7 +47,7 @@ std::vector<RestartResult> optimize_restarts(const VhgpObjective& objective, con
       }
       Vec x;
       if (budgeted) {
-        const BudgetedObjective limited(objective, settings.restart_evaluations);
+        const BudgetedObjective limited(objective, budget.restart_evaluations);
         const OptimizeResult res = optimizer.maximize(limited, region, x0.transpose(), r);
         x = limited.best_x();
         log_debug("vhgp: restart {} (stage 1): objective {:.10g} after {} iterations: {}", k, limited.best_value(),
@@ -76,7 +81,7 @@ std::vector<RestartResult> optimize_restarts(const VhgpObjective& objective, con
           static_cast<Index>(starts.size()), [&](Index k) { return base.stream(2, static_cast<std::uint64_t>(k)); },
           [&](Index k, Rng& r) {
             RestartResult out;
-            optimize(starts[static_cast<std::size_t>(k)].pack(), r, staged, k, out);
+            optimize(starts[static_cast<std::size_t>(k)].pack(), r, staged || lone_budgeted, k, out);
             return out;
           },
           score)

@@ -20,6 +20,7 @@ struct RestartSettings {
   int restart_evaluations = 40;  ///< stage-1 evaluations per start; 0: every start runs to convergence
   int finalists = 2;             ///< starts optimized to convergence after stage 1
   bool lambda_warmup = false;    ///< log Λ alone first (the authors' fixhyp = 2 phase)
+  int single_start_evaluations = 0;  ///< a lone start (a warm-only fit) stops after this many; 0: to convergence
 };
 
 /// Maximizes `objective` over `region` from every start. Stage 1: each start gets `restart_evaluations`

@@ -222,7 +222,8 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   if (heteroscedastic) starts = restart_starts(n, s, homo, warm, full, base);
   const std::vector<RestartResult> results =
       optimize_restarts(objective, region, starts, *optimizer_, base,
-                        RestartSettings{config_.restart_evaluations, config_.finalists, config_.lambda_warmup});
+                        RestartSettings{config_.restart_evaluations, config_.finalists, config_.lambda_warmup,
+                                        full ? 0 : config_.warm_evaluations});
 
   Index failed = 0;
   const Index best =
@@ -349,12 +350,16 @@ Prediction VhgpSurrogate::predict(const Vec& x, bool with_gradient) const {
   const bool c2_clamped = l.c2 < 0, s2_clamped = l.s2 < 0;
   p.latent_var = s2 * std::max(l.c2, 0.0);
   p.log_noise_mean = l.mu + log_s2;
-  p.log_noise_var = std::max(l.s2, 0.0);
+  // The selected constant-noise member (`noise_model: auto`) is the homoscedastic GP: g ≡ μ0, whose variance
+  // is 0 (its σ_g at the lower bound leaves ~1e-8). Reported as 0 so that acquisitions take their closed
+  // homoscedastic forms (EI's Gauss–Hermite over g cost the vhgp twice the gp's acquisition time).
+  const bool constant_noise = homoscedastic_selected_;
+  p.log_noise_var = constant_noise ? 0.0 : std::max(l.s2, 0.0);
   if (with_gradient) {
     p.d_mean = s * l.d_a;
     p.d_latent_var = c2_clamped ? Vec::Zero(dim_) : Vec(s2 * l.d_c2);
     p.d_log_noise_mean = l.d_mu;
-    p.d_log_noise_var = s2_clamped ? Vec::Zero(dim_) : l.d_s2;
+    p.d_log_noise_var = s2_clamped || constant_noise ? Vec::Zero(dim_) : l.d_s2;
   }
   return p;
 }

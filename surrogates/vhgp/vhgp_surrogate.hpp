@@ -36,6 +36,8 @@ struct VhgpConfig {
   /// A full fit (homoscedastic init + all restarts) when N has grown by this factor since the last one; in
   /// between only the warm start is optimized. ≤ 1: every fit is full.
   double full_fit_growth = 1.25;
+  /// Evaluations of the warm start in a fit between full fits; 0: to convergence (docs/noisy.md, study time).
+  int warm_evaluations = 0;
   VhgpHyperprior prior;
 };
 

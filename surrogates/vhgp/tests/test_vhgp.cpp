@@ -379,6 +379,11 @@ TEST_CASE("noise_model auto keeps constant noise on homoscedastic data and the n
       REQUIRE(rep.ok);
       MESSAGE((constant ? "constant noise: " : "growing noise: "), rep.report());
       CHECK(s.homoscedastic_selected() == constant);
+      // The constant-noise member has g ≡ μ0: a log-noise variance of exactly 0 (so acquisitions take their
+      // closed homoscedastic forms), while the noise process keeps its predictive variance.
+      const Prediction mid = s.predict(Vec::Constant(1, 0.5), true);
+      CHECK((mid.log_noise_var == 0) == constant);
+      CHECK((mid.d_log_noise_var.norm() == 0) == constant);
       if (constant) continue;
       // The selected model knows where the noise is: log noise variance at x = 0.95 well above x = 0.05.
       const Prediction lo = s.predict(Vec::Constant(1, 0.05), false), hi = s.predict(Vec::Constant(1, 0.95), false);
@@ -492,7 +497,9 @@ TEST_CASE("the plugin component: options, given hyperparameters and log Lambda, 
   BuildContext ctx;
   ctx.dim = 2;
   auto s = test::registry().create<Surrogate>(
-      "{type: vhgp, kernel_f: matern52_ard, restarts: 2, hyperparameters: {lengthscale_f: [0.2, 0.4], "
+      // noise_model heteroscedastic: on 12 points `auto` keeps the constant-noise member, whose log-noise
+      // variance is 0, and this test checks that the noise process's predictive comes through the interface.
+      "{type: vhgp, kernel_f: matern52_ard, noise_model: heteroscedastic, restarts: 2, hyperparameters: {lengthscale_f: [0.2, 0.4], "
       "signal_std_f: 2.0, mu0: -3.5}, log_lambda: [0.1, -0.2, 0.3]}",
       ctx);
   const auto h = s->hyperparameters();
@@ -625,4 +632,46 @@ TEST_CASE("full_fit_growth: all restarts when N has grown by the factor, only th
   }
   // Up to N = 20 every fit is full; then N = 30 (≥ 1.5 × 20) is the next full one.
   CHECK(restarts == std::vector<int>{4, 4, 1, 1, 1, 1, 1, 1, 1, 1, 1, 4, 1, 1});
+}
+
+TEST_CASE("warm_evaluations: a fit between full fits stops the warm start after the budget, never below its start") {
+  VhgpConfig cfg = se_config();
+  cfg.restarts = 4;
+  cfg.full_fit_growth = 10;  // every fit after the first on N > 20 is warm-only
+  cfg.noise_model = NoiseModel::Heteroscedastic;  // (auto may keep the constant-noise member, fitted apart)
+  const Dataset all = heteroscedastic_data(40, 1, 5);
+  Dataset first = Dataset::empty(1), second = Dataset::empty(1);
+  for (Index i = 0; i < 40; ++i) {
+    if (i < 30) first.add(all.X.row(i).transpose(), all.y(i));
+    second.add(all.X.row(i).transpose(), all.y(i));
+  }
+  // The same full fit on 30 points, then a warm-only fit on 40 (10 new points, so the optimum moves) to
+  // convergence and with a budget of 3 evaluations.
+  auto warm_fit = [&](int budget, double* start_objective) {
+    VhgpConfig c = cfg;
+    c.warm_evaluations = budget;
+    VhgpSurrogate s(1, c, fit_optimizer());
+    Rng rng(7);
+    REQUIRE(s.fit(first, rng).ok);
+    // The warm start on 40 points: the previous solution with log Λ = log ½ for the new points.
+    VhgpSurrogate probe(1, c, fit_optimizer());
+    probe.set_hyperparameters(s.hyperparameters());
+    Vec ll = Vec::Constant(40, std::log(0.5));
+    for (auto [name, value] : s.state())
+      if (name == "log_lambda") ll.head(value.size()) = value;
+    probe.set_state("log_lambda", ll);
+    const FitReport at_start = probe.condition(second);
+    REQUIRE(at_start.ok);
+    *start_objective = at_start.log_likelihood;
+    const FitReport r = s.fit(second, rng);
+    REQUIRE(r.ok);
+    CHECK(r.restarts == 1);
+    return r.log_likelihood;
+  };
+  double start = 0, start2 = 0;
+  const double converged = warm_fit(0, &start), budgeted = warm_fit(3, &start2);
+  MESSAGE("bound at the warm start ", start, ", after 3 evaluations ", budgeted, ", converged ", converged);
+  CHECK(start2 == doctest::Approx(start).epsilon(1e-12));
+  CHECK(budgeted >= start - 1e-9);          // the budget keeps the best point seen, the start included
+  CHECK(converged > budgeted + 1e-3);       // and it binds: 3 evaluations do not reach the optimum
 }

@@ -1,0 +1,162 @@
+// Tests of the augmented EI: closed form of each factor, the incumbent rule, the preference for low noise that
+// motivates it, finite-difference gradients (homoscedastic and heteroscedastic predictions, a GP's empty
+// log-noise gradients), and the plugin's options.
+#include <cmath>
+#include <functional>
+
+#include "augmented_ei.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/math.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+using namespace varbo::acq;
+
+namespace {
+
+class FakeSurrogate final : public Surrogate {
+ public:
+  using Fn = std::function<Prediction(const Vec&, bool)>;
+  explicit FakeSurrogate(Fn fn) : fn_(std::move(fn)) {}
+  FitReport fit(const Dataset&, Rng&) override { return {}; }
+  FitReport condition(const Dataset&) override { return {}; }
+  Prediction predict(const Vec& x, bool with_gradient) const override { return fn_(x, with_gradient); }
+  double signal_variance() const override { return 1.0; }
+  Hyperparameters hyperparameters() const override { return {}; }
+  void set_hyperparameters(const Hyperparameters&) override {}
+  bool ready() const override { return true; }
+
+ private:
+  Fn fn_;
+};
+
+/// A smooth predictive on [0,1]²: every field depends on x (the one of test_acquisitions.cpp).
+Prediction smooth_prediction(const Vec& x, bool with_gradient, bool heteroscedastic) {
+  const double x0 = x[0], x1 = x[1];
+  Prediction p;
+  p.mean = std::sin(3 * x0) + x1 * x1 - 0.5;
+  p.latent_var = 0.05 + 0.04 * (1 + std::cos(2 * x0 + x1));
+  p.log_noise_mean = -2 + 0.5 * std::sin(x0 + 2 * x1);
+  p.log_noise_var = heteroscedastic ? 0.3 + 0.2 * x0 * x0 + 0.1 * x1 : 0.0;
+  if (with_gradient) {
+    p.d_mean = Vec{{3 * std::cos(3 * x0), 2 * x1}};
+    const double s = std::sin(2 * x0 + x1);
+    p.d_latent_var = Vec{{-0.08 * s, -0.04 * s}};
+    const double c = std::cos(x0 + 2 * x1);
+    p.d_log_noise_mean = Vec{{0.5 * c, 1.0 * c}};
+    p.d_log_noise_var = heteroscedastic ? Vec{{0.4 * x0, 0.1}} : Vec(Vec::Zero(2));
+  }
+  return p;
+}
+
+Dataset smooth_data() {
+  Dataset d = Dataset::empty(2);
+  for (const Vec& x : {Vec{{0.2, 0.3}}, Vec{{0.9, 0.1}}, Vec{{0.5, 0.8}}, Vec{{0.6, 0.5}}}) d.add(x, 0.0);
+  return d;
+}
+
+// E[max(m − Z, 0)], Z ~ N(μ, s²), by the textbook formula (no tail care needed at the moderate u used here).
+double plain_ei(double m, double mu, double s) {
+  const double u = (m - mu) / s;
+  return (m - mu) * normal_cdf(u) + s * normal_pdf(u);
+}
+
+}  // namespace
+
+TEST_CASE("aei: incumbent minimizes mu + c s over the data; value = latent EI times Huang's noise factor") {
+  for (bool hetero : {false, true}) {
+    FakeSurrogate model([hetero](const Vec& x, bool g) { return smooth_prediction(x, g, hetero); });
+    const Dataset data = smooth_data();
+    for (double c : {0.0, 1.0, 3.0}) {
+      // The incumbent by brute force, written independently of the class.
+      double best = INFINITY, mu_best = 0;
+      for (Index i = 0; i < data.size(); ++i) {
+        const Prediction p = smooth_prediction(data.X.row(i).transpose(), false, hetero);
+        if (p.mean + c * std::sqrt(p.latent_var) < best) {
+          best = p.mean + c * std::sqrt(p.latent_var);
+          mu_best = p.mean;
+        }
+      }
+      for (bool factor : {false, true}) {
+        AugmentedExpectedImprovement aei(c, factor);
+        aei.prepare({&model, &data, 0, nullptr});
+        for (const Vec& x : {Vec{{0.1, 0.2}}, Vec{{0.7, 0.35}}, Vec{{0.93, 0.88}}}) {
+          const Prediction p = smooth_prediction(x, false, hetero);
+          const double s = std::sqrt(p.latent_var);
+          const double noise_sd = std::exp(0.5 * (p.log_noise_mean + 0.5 * p.log_noise_var));
+          const double expected = plain_ei(mu_best, p.mean, s) *
+                                  (factor ? 1 - noise_sd / std::sqrt(s * s + noise_sd * noise_sd) : 1.0);
+          CHECK(aei.evaluate(x, nullptr) == doctest::Approx(expected).epsilon(1e-12));
+        }
+      }
+    }
+  }
+}
+
+TEST_CASE("aei prefers the quieter of two candidates with the same latent prediction; Kuindersma's EI does not") {
+  // Two candidates, equal latent mean and variance, noise sd 0.01 at x0 < 0.5 and 1 at x0 >= 0.5.
+  FakeSurrogate model([](const Vec& x, bool) {
+    Prediction p;
+    p.mean = 0.0;
+    p.latent_var = 0.04;
+    p.log_noise_mean = x[0] < 0.5 ? 2 * std::log(0.01) : 0.0;
+    return p;
+  });
+  Dataset data = Dataset::empty(2);
+  data.add(Vec{{0.5, 0.5}}, 0.1);
+  AugmentedExpectedImprovement aei(1.0, true);
+  aei.prepare({&model, &data, 0, nullptr});
+  const double quiet = aei.evaluate(Vec{{0.2, 0.2}}, nullptr), loud = aei.evaluate(Vec{{0.8, 0.8}}, nullptr);
+  CHECK(quiet > 2 * loud);
+  // The noisy-y EI, E[max(μ_best − y, 0)] with y ~ N(μ, s² + σ_ε²), is larger where the noise is larger.
+  CHECK(plain_ei(0.2, 0.0, std::sqrt(0.04 + 1.0)) > plain_ei(0.2, 0.0, std::sqrt(0.04 + 1e-4)));
+}
+
+TEST_CASE("aei: analytic gradient against central finite differences") {
+  // Tolerance 1e-6 relative per component (floor 1e-8), step 1e-6.
+  for (bool hetero : {false, true})
+    for (bool factor : {false, true}) {
+      FakeSurrogate model([hetero](const Vec& x, bool g) { return smooth_prediction(x, g, hetero); });
+      const Dataset data = smooth_data();
+      AugmentedExpectedImprovement aei(1.0, factor);
+      aei.prepare({&model, &data, 0, nullptr});
+      const AcquisitionFunction f(aei, 2);
+      for (const Vec& x : {Vec{{0.1, 0.2}}, Vec{{0.45, 0.6}}, Vec{{0.7, 0.35}}, Vec{{0.93, 0.88}}}) {
+        const GradientCheck gc = check_gradient(f, x, 1e-6, 1e-8);
+        CHECK_MESSAGE(gc.max_rel_error < 1e-6, (hetero ? "hetero" : "homo") << (factor ? " factor" : "") << " at "
+                                                                            << x.transpose() << ": analytic "
+                                                                            << gc.analytic.transpose() << " numeric "
+                                                                            << gc.numeric.transpose());
+      }
+    }
+  // A GP leaves the log-noise gradients empty.
+  FakeSurrogate gp([](const Vec& x, bool g) {
+    Prediction p = smooth_prediction(x, g, false);
+    p.log_noise_mean = std::log(0.01);
+    p.d_log_noise_mean.resize(0);
+    p.d_log_noise_var.resize(0);
+    return p;
+  });
+  const Dataset data = smooth_data();
+  AugmentedExpectedImprovement aei(1.0, true);
+  aei.prepare({&gp, &data, 0, nullptr});
+  CHECK(check_gradient(AcquisitionFunction(aei, 2), Vec{{0.4, 0.7}}, 1e-6, 1e-8).max_rel_error < 1e-6);
+}
+
+TEST_CASE("the plugin registers aei with validated options") {
+  Registry& reg = test::registry();
+  BuildContext ctx;
+  ctx.dim = 2;
+  FakeSurrogate model([](const Vec& x, bool g) { return smooth_prediction(x, g, true); });
+  const Dataset data = smooth_data();
+  for (const char* yaml : {"{type: aei}", "{type: aei, c: 0, noise_factor: false}"}) {
+    auto acq = reg.create<Acquisition>(yaml, ctx);
+    acq->prepare({&model, &data, 0, nullptr});
+    Vec grad;
+    CHECK(std::isfinite(acq->evaluate(Vec{{0.3, 0.3}}, &grad)));
+    CHECK(grad.size() == 2);
+    CHECK_FALSE(acq->state().empty());
+  }
+  CHECK_THROWS_AS(reg.create<Acquisition>("{type: aei, c: -1}", ctx), ConfigError);
+  CHECK_THROWS_AS(reg.create<Acquisition>("{type: aei, kappa: 1}", ctx), ConfigError);
+}
