@@ -93,11 +93,12 @@ class Chromium:
             raise RuntimeError(f"{expression}: {r['exceptionDetails']}")
         return r["result"].get("value")
 
-    def screenshot(self, path, full_page=True):
+    def screenshot(self, path, full_page=True, scale=1.0, height=None):
+        """PNG of the page (its whole height, or `height` CSS pixels), scaled by `scale`."""
         params = {"format": "png"}
-        if full_page:
-            h = self.eval("document.documentElement.scrollHeight")
-            params.update(captureBeyondViewport=True, clip={"x": 0, "y": 0, "width": self.width, "height": h, "scale": 1})
+        if full_page or height or scale != 1.0:
+            h = height or self.eval("document.documentElement.scrollHeight")
+            params.update(captureBeyondViewport=True, clip={"x": 0, "y": 0, "width": self.width, "height": h, "scale": scale})
         with open(path, "wb") as f:
             f.write(base64.b64decode(self.send("Page.captureScreenshot", params)["data"]))
 

@@ -26,7 +26,7 @@ def check(cond, what):
 
 
 def page_counts(b):
-    return b.eval("""({rows: document.querySelectorAll('#trials-body tr').length,
+    return b.eval("""!window.dashboard ? {rows: 0, points: 0, failed: 0, polls: 0, pending: -1} : ({rows: document.querySelectorAll('#trials-body tr').length,
                       points: document.querySelectorAll('#history .trial-point').length,
                       failed: document.querySelectorAll('#history .failed-mark').length,
                       polls: window.dashboard.polls,

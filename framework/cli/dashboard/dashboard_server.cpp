@@ -20,8 +20,10 @@ void json_reply(httplib::Response& res, int status, const std::string& body) {
 void serve_dashboard(DashboardApi& api, const std::string& host, int port,
                      const std::function<void(int port)>& on_listening) {
   httplib::Server server;
-  // A few threads: requests are short reads; model requests queue on the model's lock.
-  server.new_task_queue = [] { return new httplib::ThreadPool(4); };
+  // A few threads: requests are short reads; model requests queue on the model's lock. A browser keeps up to 6
+  // connections open, each holding a thread while it idles: a short keep-alive frees them for the next poll.
+  server.new_task_queue = [] { return new httplib::ThreadPool(8); };
+  server.set_keep_alive_timeout(1);
   server.set_default_headers({{"X-Content-Type-Options", "nosniff"},
                               {"Content-Security-Policy",
                                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
