@@ -9,6 +9,7 @@
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "component_arg.hpp"
+#include "slice_values.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
@@ -195,22 +196,7 @@ svg::Figure plot_slice(const RunFolder& run, const Registry& registry, const Plo
   Index best = 0;
   run.cost.minCoeff(&best);
   const Vec base = run.theta.row(best).transpose();
-  // The values along the cut: a grid (geometric for log), every integer up to 400, every category.
-  std::vector<double> values;
-  if (par.type == ParameterType::Categorical) {
-    for (std::size_t j = 0; j < par.choices.size(); ++j) values.push_back(static_cast<double>(j));
-  } else {
-    const int n = a.grid > 0 ? a.grid : 400;
-    const bool every_integer = par.type == ParameterType::Int && par.high - par.low < n;
-    const int count = every_integer ? static_cast<int>(par.high - par.low) + 1 : n;
-    for (int k = 0; k < count; ++k) {
-      const double u = static_cast<double>(k) / std::max(1, count - 1);
-      double v = par.log ? std::exp(std::log(par.low) + u * (std::log(par.high) - std::log(par.low)))
-                         : par.low + u * (par.high - par.low);
-      if (par.type == ParameterType::Int) v = every_integer ? par.low + k : std::round(v);
-      values.push_back(std::clamp(v, par.low, par.high));
-    }
-  }
+  const std::vector<double> values = slice_values(par, a.grid > 0 ? a.grid : 400);
   auto axis = [&](double v) { return par.log ? std::log10(v) : v; };
   std::vector<double> xs, mean, lo, hi;
   for (const double v : values) {

@@ -8,7 +8,7 @@
 
 #include "cli_parse.hpp"
 #include "commands.hpp"
-#include "component_arg.hpp"
+#include "run_selection.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/parallel.hpp"
@@ -18,11 +18,6 @@
 namespace varbo::cli {
 
 namespace {
-nlohmann::json theta_json(const std::vector<std::string>& names, const Vec& theta) {
-  nlohmann::json j = nlohmann::json::object();
-  for (Index i = 0; i < theta.size(); ++i) j[names[static_cast<std::size_t>(i)]] = theta[i];
-  return j;
-}
 std::string theta_text(const Vec& theta, const SharedSpace& space) {
   std::string s = "[";
   for (Index i = 0; i < theta.size(); ++i)
@@ -37,7 +32,7 @@ Runner add_select(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "select", "Pick risk-sensitive policies from a finished run: for each kappa, argmin E + kappa*s (no new trials)");
   struct Args {
-    std::string run, surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
+    std::string run, surrogate, optimizer = kSelectOptimizer;
     std::vector<double> kappas;
     bool from_config = false, json = false, among_evaluated = false;
     long long seed = 1;
@@ -72,32 +67,12 @@ Runner add_select(CLI::App& app) {
     Registry& registry = default_registry();
     const RunFolder run = load_run_folder(a->run, registry);
 
-    ResolvedComponent spec;
-    if (!a->surrogate.empty()) {
-      spec = registry.resolve(Kind::Surrogate, component_arg(a->surrogate, "surrogate", "--surrogate"));
-    } else if (const ResolvedComponent* own = run_surrogate_spec(run)) {
-      spec = *own;
-    } else {
-      throw InputError(fmt::format("{}: the run's algorithm '{}' has no surrogate; name one with --surrogate",
-                                   a->run, run.study.algorithm.info->name));
-    }
-    std::unique_ptr<Surrogate> model = make_run_surrogate(run, spec, registry, seed, !a->from_config);
-    const FitReport rep = fit_run_surrogate(*model, run, seed);
-
-    BuildContext octx;
-    octx.dim = run.data.dim();
-    octx.seed = seed;
-    const ResolvedComponent ospec =
-        registry.resolve(Kind::Optimizer, component_arg(a->optimizer, "acquisition_optimizer", "--optimizer"));
-    const std::unique_ptr<Optimizer> optimizer = registry.create<Optimizer>(ospec, octx);
-    // The evaluated points are starts too, so a minimum at a data point is never missed.
-    const std::vector<RiskSelection> sel =
-        a->among_evaluated
-            ? select_among(*model, run.domain, kappas, run.data.X, run.space)
-            : select_policies(*model, run.domain, kappas, *optimizer, Rng(seed).stream(0x5e1), run.data.X, run.space);
-    // A selection where the latent sd is most of σ_f lies where the model knows little: its E and s are
-    // extrapolations (issue 10 saw predicted means far below the true minimum there).
-    constexpr double kExtrapolating = 0.5;
+    const ResolvedComponent spec = selection_surrogate(run, registry, a->surrogate, a->run);
+    const FittedRunModel fitted = fit_selection_model(run, registry, spec, seed, !a->from_config);
+    const Surrogate* model = fitted.model.get();
+    const FitReport& rep = fitted.report;
+    const std::unique_ptr<Optimizer> optimizer = make_selection_optimizer(run, registry, a->optimizer, "--optimizer", seed);
+    const std::vector<RiskSelection> sel = select_on_run(*model, run, kappas, *optimizer, seed, a->among_evaluated);
 
     if (a->json) {
       nlohmann::json j;
@@ -110,19 +85,7 @@ Runner add_select(CLI::App& app) {
                   {"message", rep.message}};
       for (const auto& h : model->hyperparameters()) j["hyperparameters"][h.name] = h.value;
       j["selections"] = nlohmann::json::array();
-      for (const auto& s : sel) {
-        nlohmann::json e = {{"kappa", s.kappa}, {"ok", s.ok}, {"message", s.message}};
-        if (s.ok) {
-          e["theta"] = theta_json(run.names, s.theta);
-          if (run.space) e["params"] = nlohmann::json::parse(run.space->params(s.theta).to_json());
-          e["mean"] = s.mean;
-          e["std"] = s.std;
-          e["criterion"] = s.criterion;
-          e["relative_latent_std"] = s.relative_latent_std;
-          e["extrapolating"] = s.relative_latent_std > kExtrapolating;
-        }
-        j["selections"].push_back(e);
-      }
+      for (const auto& s : sel) j["selections"].push_back(selection_json(s, run));
       std::printf("%s\n", j.dump(2).c_str());
     } else {
       std::printf("varbo select %s: %s fitted on %lld of %lld trials (objective %.6g%s)\n", a->run.c_str(),

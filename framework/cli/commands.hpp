@@ -21,4 +21,5 @@ Runner add_worker(CLI::App& app);  // cmd_worker.cpp
 Runner add_export(CLI::App& app);
 Runner add_select(CLI::App& app);
 Runner add_plot(CLI::App& app);
+Runner add_dashboard(CLI::App& app);  // cmd_dashboard.cpp, dashboard/
 }  // namespace varbo::cli

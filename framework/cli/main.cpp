@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
   reg(&varbo::cli::add_export);
   reg(&varbo::cli::add_select);
   reg(&varbo::cli::add_plot);
+  reg(&varbo::cli::add_dashboard);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

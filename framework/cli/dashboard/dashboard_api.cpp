@@ -1,0 +1,402 @@
+#include "dashboard_api.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "../slice_values.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/math.hpp"
+#include "varbo/numbers.hpp"
+
+namespace varbo::cli {
+
+namespace {
+
+using json = nlohmann::json;
+
+/// A request the API refuses, with its HTTP status.
+struct RequestError : std::runtime_error {
+  RequestError(int status, const std::string& message) : std::runtime_error(message), status(status) {}
+  int status;
+};
+
+std::optional<std::string> query_value(const ApiQuery& query, const std::string& name) {
+  const auto it = query.find(name);
+  if (it == query.end()) return std::nullopt;
+  return it->second;
+}
+
+double finite_number(const ApiQuery& query, const std::string& name) {
+  const auto text = query_value(query, name);
+  if (!text) throw RequestError(400, fmt::format("missing query parameter '{}' (a finite decimal number)", name));
+  const std::optional<double> v = parse_decimal(*text);
+  if (!v || !std::isfinite(*v))
+    throw RequestError(400, fmt::format("query parameter '{}': expected a finite decimal number, got '{}'", name, *text));
+  return *v;
+}
+
+long long integer(const ApiQuery& query, const std::string& name, long long fallback, long long lo, long long hi) {
+  const auto text = query_value(query, name);
+  if (!text) return fallback;
+  const std::optional<double> v = parse_decimal(*text);
+  if (!v || !std::isfinite(*v) || *v != std::floor(*v) || *v < static_cast<double>(lo) || *v > static_cast<double>(hi))
+    throw RequestError(400, fmt::format("query parameter '{}': expected an integer in [{}, {}], got '{}'", name, lo, hi,
+                                        *text));
+  return static_cast<long long>(*v);
+}
+
+bool flag(const ApiQuery& query, const std::string& name) {
+  const auto text = query_value(query, name);
+  if (!text) return false;
+  if (*text == "1" || *text == "true" || text->empty()) return true;
+  if (*text == "0" || *text == "false") return false;
+  throw RequestError(400, fmt::format("query parameter '{}': expected 1, 0, true or false, got '{}'", name, *text));
+}
+
+json theta_json(const std::vector<std::string>& names, const Vec& theta) {
+  json j = json::object();
+  for (Index i = 0; i < theta.size() && static_cast<std::size_t>(i) < names.size(); ++i)
+    j[names[static_cast<std::size_t>(i)]] = theta[i];
+  return j;
+}
+
+json trial_json(const TrialRecord& t, const std::vector<std::string>& names, const SharedSpace& space) {
+  json j = {{"id", t.id},
+            {"state", state_name(t.state)},
+            {"phase", t.phase},
+            {"theta", theta_json(names, t.theta)},
+            // Only a complete trial has a cost (a failed one is stored with a placeholder): null otherwise.
+            {"cost", t.state == TrialState::Complete ? t.cost : std::nan("")},
+            {"noiseless_cost", t.noiseless_cost},
+            {"error", t.error},
+            {"worker", t.worker},
+            {"created_at", t.created_at},
+            {"finished_at", t.finished_at},
+            {"finish_seq", t.finish_seq},
+            {"fit_seconds", t.fit_seconds},
+            {"acquisition_seconds", t.acquisition_seconds},
+            {"evaluation_seconds", t.evaluation_seconds}};
+  if (space && t.theta.size() == static_cast<Index>(space->parameters().size()) && t.theta.allFinite()) {
+    json labels = json::object();  // typed values as the user declared them: labels, integers
+    for (std::size_t i = 0; i < space->parameters().size(); ++i)
+      labels[space->parameters()[i].name] = space->format_value(i, t.theta[static_cast<Index>(i)]);
+    j["params"] = labels;
+  }
+  json comps = json::object();
+  for (const auto& [name, v] : t.components) comps[name] = v;
+  j["components"] = comps;
+  return j;
+}
+
+/// The parameters as the page draws them: name, type, bounds, log, choices.
+json parameters_json(const Study& study) {
+  json out = json::array();
+  const Domain& domain = study.domain();
+  if (const SharedSpace& space = study.space()) {
+    for (const auto& p : space->parameters())
+      out.push_back({{"name", p.name}, {"type", parameter_type_name(p.type)}, {"low", p.low}, {"high", p.high},
+                     {"log", p.log}, {"choices", p.choices}});
+    return out;
+  }
+  for (Index i = 0; i < domain.box.dim(); ++i)
+    out.push_back({{"name", static_cast<std::size_t>(i) < domain.names.size() ? domain.names[static_cast<std::size_t>(i)]
+                                                                               : fmt::format("x{}", i + 1)},
+                   {"type", "real"}, {"low", domain.box.lower[i]}, {"high", domain.box.upper[i]}, {"log", false},
+                   {"choices", json::array()}});
+  return out;
+}
+
+/// The encoded (unit-cube) point of an admissible θ, as load_run_folder maps trials.
+Vec encode(const RunFolder& run, const Vec& theta) {
+  return run.space ? run.space->encode(theta) : Vec(Box::unit(theta.size()).clamp(to_unit(theta, run.domain.box)));
+}
+
+/// One axis of a model view: the values of parameter `i` along a cut (user units) and how the page draws them.
+struct Axis {
+  std::string name, scale;  // scale: linear | log10 | category
+  std::vector<double> values, coords;
+  std::vector<std::string> labels;
+};
+
+Axis axis_of(const RunFolder& run, std::size_t i, int n) {
+  Axis a;
+  a.name = run.names[i];
+  a.scale = "linear";
+  if (run.space) {
+    const Parameter& p = run.space->parameters()[i];
+    a.values = slice_values(p, n);
+    if (p.type == ParameterType::Categorical) {
+      a.scale = "category";
+      a.labels = p.choices;
+    } else if (p.log) {
+      a.scale = "log10";
+    }
+  } else {
+    const double lo = run.domain.box.lower[static_cast<Index>(i)], hi = run.domain.box.upper[static_cast<Index>(i)];
+    for (int k = 0; k < n; ++k) a.values.push_back(lo + (hi - lo) * k / std::max(1, n - 1));
+  }
+  for (const double v : a.values) a.coords.push_back(a.scale == "log10" ? std::log10(v) : v);
+  return a;
+}
+
+json axis_json(const Axis& a) {
+  return {{"name", a.name}, {"scale", a.scale}, {"values", a.values}, {"coords", a.coords}, {"labels", a.labels}};
+}
+
+std::size_t parameter_index(const RunFolder& run, const std::string& name, const std::string& key) {
+  const auto it = std::find(run.names.begin(), run.names.end(), name);
+  if (it == run.names.end())
+    throw RequestError(400, fmt::format("query parameter '{}': the study has no parameter '{}' (it has {})", key, name,
+                                        join(run.names)));
+  return static_cast<std::size_t>(it - run.names.begin());
+}
+
+json fit_json(const DashboardModel& m) {
+  json hp = json::object();
+  for (const auto& h : m.fitted.model->hyperparameters()) hp[h.name] = h.value;
+  return {{"surrogate", m.fitted.spec.info->full_name()},
+          {"complete", m.complete},
+          {"n", m.run.data.size()},
+          {"trials", m.run.trials},
+          {"seed", m.seed},
+          {"fit", {{"ok", m.fitted.report.ok}, {"objective", m.fitted.report.objective},
+                   {"log_likelihood", m.fitted.report.log_likelihood}, {"message", m.fitted.report.message},
+                   {"seconds", m.fit_seconds}}},
+          {"hyperparameters", hp}};
+}
+
+json error_json(const std::string& message) { return {{"error", message}}; }
+
+}  // namespace
+
+std::string json_text(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
+
+ApiResponse DashboardApi::get(const std::string& path, const ApiQuery& query) {
+  try {
+    if (!study_.present())
+      return {404, json_text(error_json(fmt::format("{}: the study is gone (file removed?)", study_.address())))};
+    if (path == "/api/summary") return {200, summary()};
+    if (path == "/api/trials") return {200, trials(query)};
+    if (path == "/api/history") return {200, history()};
+    if (path == "/api/model") return {200, model()};
+    if (path == "/api/select") return {200, select(query)};
+    if (path == "/api/slices") return {200, slices(query)};
+    if (path == "/api/grid") return {200, grid(query)};
+    if (path == "/api/region") return {200, region()};
+    return {404, json_text(error_json(fmt::format("no such resource '{}' (see docs/dashboard.md)", path)))};
+  } catch (const RequestError& e) {
+    return {e.status, json_text(error_json(e.what()))};
+  } catch (const StoreConnectionError& e) {
+    return {503, json_text(error_json(e.what()))};
+  } catch (const InputError& e) {
+    return {409, json_text(error_json(e.what()))};  // e.g. no model yet: fewer than 2 complete trials
+  } catch (const std::exception& e) {
+    return {500, json_text(error_json(e.what()))};
+  }
+}
+
+std::string DashboardApi::summary() {
+  const Study& s = study_.study();
+  const auto all = study_.trials();
+  json counts = {{"pending", 0}, {"complete", 0}, {"failed", 0}, {"abandoned", 0}};
+  double fit = 0, acq = 0, eval = 0;
+  std::optional<TrialRecord> best;
+  std::vector<std::string> components;
+  for (const auto& t : all) {
+    counts[state_name(t.state)] = counts[state_name(t.state)].get<long long>() + 1;
+    fit += t.fit_seconds;
+    acq += t.acquisition_seconds;
+    eval += t.evaluation_seconds;
+    if (t.state == TrialState::Complete && (!best || t.cost < best->cost)) best = t;
+    for (const auto& [name, v] : t.components)
+      if (std::find(components.begin(), components.end(), name) == components.end()) components.push_back(name);
+  }
+  const long long finished = counts["complete"].get<long long>() + counts["failed"].get<long long>();
+  const long long budget = static_cast<long long>(s.config().budget);
+  const auto& names = s.domain().names;
+  std::string surrogate;
+  for (const auto& o : s.config().algorithm.info->options)
+    if (o.name == "surrogate" && o.type == OptionType::Component && s.config().algorithm.options.is_set("surrogate"))
+      surrogate = s.config().algorithm.options.component("surrogate").info->full_name();
+  json j = {{"study", study_.address()},
+            {"task", s.config().task.info->name},
+            {"algorithm", s.config().algorithm.info->name},
+            {"surrogate", surrogate},
+            {"seed", s.config().seed},
+            {"budget", budget},
+            {"counts", counts},
+            {"finished", finished},
+            {"remaining", std::max(0LL, budget - finished - counts["pending"].get<long long>())},
+            {"names", names},
+            {"parameters", parameters_json(s)},
+            {"components", components},
+            {"phase_seconds", {{"fit", fit}, {"acquisition", acq}, {"evaluation", eval}}},
+            {"workers", study_.workers()},
+            {"last_id", all.empty() ? -1 : all.back().id},
+            {"server_time", unix_time()}};
+  j["best"] = best ? json{{"id", best->id}, {"cost", best->cost}, {"theta", theta_json(names, best->theta)}}
+                   : json(nullptr);
+  return json_text(j);
+}
+
+std::string DashboardApi::trials(const ApiQuery& query) {
+  const long long since = integer(query, "since", -1, -1, std::numeric_limits<int>::max());
+  const auto all = study_.trials();
+  const Study& s = study_.study();
+  json out = json::array();
+  for (const auto& t : all)
+    if (t.id > since) out.push_back(trial_json(t, s.domain().names, s.space()));
+  return json_text({{"since", since}, {"total", all.size()}, {"last_id", all.empty() ? -1 : all.back().id},
+                    {"trials", out}});
+}
+
+std::string DashboardApi::history() {
+  const auto all = study_.trials();
+  std::vector<const TrialRecord*> finished;
+  for (const auto& t : all)
+    if (t.finished()) finished.push_back(&t);
+  std::sort(finished.begin(), finished.end(),
+            [](const TrialRecord* a, const TrialRecord* b) { return a->finish_seq < b->finish_seq; });
+  // `varbo run` records the regret of its recommendation per row when the task knows its optimum; a study
+  // without the first row's value has none (no need to look up the others).
+  const bool with_regret = !finished.empty() && study_.regret_recommended(0).has_value();
+  json points = json::array();
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t row = 0; row < finished.size(); ++row) {
+    const TrialRecord& t = *finished[row];
+    if (t.state == TrialState::Complete && t.cost < best) best = t.cost;
+    json p = {{"seq", t.finish_seq}, {"id", t.id}, {"state", state_name(t.state)},
+              {"cost", t.state == TrialState::Complete ? t.cost : std::nan("")},
+              {"best", std::isfinite(best) ? json(best) : json(nullptr)}};
+    if (with_regret) p["regret_recommended"] = study_.regret_recommended(static_cast<std::int64_t>(row)).value_or(std::nan(""));
+    points.push_back(p);
+  }
+  return json_text({{"points", points}});
+}
+
+std::string DashboardApi::model() {
+  const auto lock = study_.lock_model();
+  const auto m = study_.model();
+  json j = fit_json(*m);
+  j["recommended"] = selection_json(m->recommended, m->run);
+  return json_text(j);
+}
+
+std::string DashboardApi::select(const ApiQuery& query) {
+  const double kappa = finite_number(query, "kappa");
+  const bool among = flag(query, "among_evaluated");
+  const auto lock = study_.lock_model();
+  const auto m = study_.model();
+  const RiskSelection sel = select_on_run(*m->fitted.model, m->run, {kappa}, *m->optimizer, m->seed, among).at(0);
+  json j = fit_json(*m);
+  j["among_evaluated"] = among;
+  j["selection"] = selection_json(sel, m->run);
+  return json_text(j);
+}
+
+std::string DashboardApi::slices(const ApiQuery& query) {
+  const int n = static_cast<int>(integer(query, "n", 60, 2, 400));
+  const auto lock = study_.lock_model();
+  const auto m = study_.model();
+  const RunFolder& run = m->run;
+  const Vec base = m->recommended.theta;
+  json out = json::array();
+  for (std::size_t i = 0; i < run.names.size(); ++i) {
+    if (run.space && run.space->parameters()[i].type == ParameterType::Fixed) continue;
+    const Axis a = axis_of(run, i, n);
+    std::vector<double> mean, lo, hi, data_x;
+    for (const double v : a.values) {
+      Vec t = base;
+      t[static_cast<Index>(i)] = v;
+      const Prediction p = m->fitted.model->predict(encode(run, t), false);
+      mean.push_back(p.mean);
+      lo.push_back(p.mean - 2 * p.total_std());
+      hi.push_back(p.mean + 2 * p.total_std());
+    }
+    for (Index r = 0; r < run.theta.rows(); ++r) {
+      const double v = run.theta(r, static_cast<Index>(i));
+      data_x.push_back(a.scale == "log10" ? std::log10(v) : v);
+    }
+    json s = axis_json(a);
+    s["mean"] = mean;
+    s["lo"] = lo;
+    s["hi"] = hi;
+    s["data_x"] = data_x;
+    s["data_y"] = std::vector<double>(run.cost.data(), run.cost.data() + run.cost.size());
+    s["through"] = a.scale == "log10" ? std::log10(base[static_cast<Index>(i)]) : base[static_cast<Index>(i)];
+    out.push_back(s);
+  }
+  return json_text({{"through", theta_json(run.names, base)}, {"complete", m->complete}, {"slices", out}});
+}
+
+std::string DashboardApi::grid(const ApiQuery& query) {
+  const auto xname = query_value(query, "x");
+  if (!xname) throw RequestError(400, "missing query parameter 'x' (a parameter name)");
+  const auto yname = query_value(query, "y");
+  const int n = static_cast<int>(integer(query, "n", yname ? 30 : 100, 2, yname ? 100 : 1000));
+  const auto lock = study_.lock_model();
+  const auto m = study_.model();
+  const RunFolder& run = m->run;
+  const std::size_t i = parameter_index(run, *xname, "x");
+  const Vec base = m->recommended.theta;
+  const Axis ax = axis_of(run, i, n);
+  json j = {{"through", theta_json(run.names, base)}, {"complete", m->complete}, {"x", axis_json(ax)}};
+  auto predict = [&](const Vec& t) { return m->fitted.model->predict(encode(run, t), false); };
+  if (!yname) {
+    std::vector<double> mean, sd;
+    for (const double v : ax.values) {
+      Vec t = base;
+      t[static_cast<Index>(i)] = v;
+      const Prediction p = predict(t);
+      mean.push_back(p.mean);
+      sd.push_back(p.total_std());
+    }
+    j["mean"] = mean;
+    j["std"] = sd;
+    return json_text(j);
+  }
+  const std::size_t k = parameter_index(run, *yname, "y");
+  if (k == i) throw RequestError(400, "query parameters 'x' and 'y' name the same parameter");
+  const Axis ay = axis_of(run, k, n);
+  json mean = json::array(), sd = json::array();
+  for (const double vy : ay.values) {  // row r along y, column c along x
+    std::vector<double> mr, sr;
+    for (const double vx : ax.values) {
+      Vec t = base;
+      t[static_cast<Index>(i)] = vx;
+      t[static_cast<Index>(k)] = vy;
+      const Prediction p = predict(t);
+      mr.push_back(p.mean);
+      sr.push_back(p.total_std());
+    }
+    mean.push_back(mr);
+    sd.push_back(sr);
+  }
+  std::vector<double> dx, dy;
+  for (Index r = 0; r < run.theta.rows(); ++r) {
+    dx.push_back(ax.scale == "log10" ? std::log10(run.theta(r, static_cast<Index>(i))) : run.theta(r, static_cast<Index>(i)));
+    dy.push_back(ay.scale == "log10" ? std::log10(run.theta(r, static_cast<Index>(k))) : run.theta(r, static_cast<Index>(k)));
+  }
+  j["y"] = axis_json(ay);
+  j["mean"] = mean;
+  j["std"] = sd;
+  j["data_x"] = dx;
+  j["data_y"] = dy;
+  return json_text(j);
+}
+
+std::string DashboardApi::region() {
+  json out = json::array();
+  for (const auto& s : study_.snapshots()) {
+    if (s.snapshot.region_state.empty()) continue;
+    out.push_back({{"after_trials", s.after_trials}, {"iteration", s.snapshot.iteration},
+                   {"objective", s.snapshot.objective}, {"note", s.snapshot.note}, {"state", s.snapshot.region_state}});
+  }
+  return json_text({{"iterations", out}});
+}
+
+}  // namespace varbo::cli

@@ -1,0 +1,148 @@
+#include "dashboard_study.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+
+#include "varbo/errors.hpp"
+#include "varbo/host_task.hpp"
+#include "varbo/log.hpp"
+#include "varbo/math.hpp"
+
+namespace fs = std::filesystem;
+
+namespace varbo::cli {
+
+namespace {
+
+/// Studies varbo.minimize wrote name the task `python`, which only the Python module evaluates; its domain is
+/// enough to show them (as `varbo status` does).
+void read_only_components(Registry& registry) { add_host_python_task(registry); }
+
+Study open_study(const std::string& address) {
+  if (!is_database_url(address) && !fs::is_regular_file(address))
+    throw InputError(fmt::format("{}: no such study (expected a study file, a run folder holding study.db, or a "
+                                 "postgresql:// URL)",
+                                 address));
+  return Study::open(address, read_only_components);
+}
+
+}  // namespace
+
+std::string dashboard_study_address(const std::string& arg) {
+  if (!is_database_url(arg) && fs::is_directory(arg)) {
+    const std::string db = (fs::path(arg) / "study.db").string();
+    if (!fs::is_regular_file(db))
+      throw InputError(fmt::format("{}: a folder without study.db (expected a run folder of `varbo run`, a study "
+                                   "file or a postgresql:// URL)",
+                                   arg));
+    return db;
+  }
+  return arg;
+}
+
+DashboardStudy::DashboardStudy(const std::string& study, std::uint64_t seed)
+    : address_(dashboard_study_address(study)),
+      is_file_(!is_database_url(address_)),
+      seed_(seed),
+      study_(open_study(address_)) {}
+
+bool DashboardStudy::present() const { return !is_file_ || fs::is_regular_file(address_); }
+
+std::vector<TrialRecord> DashboardStudy::trials() const {
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  return study_.trials();
+}
+
+std::vector<StoredSnapshot> DashboardStudy::snapshots() const {
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  return study_.model_snapshots();
+}
+
+std::size_t DashboardStudy::workers() const {
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  return const_cast<Study&>(study_).store().workers().size();
+}
+
+std::optional<double> DashboardStudy::regret_recommended(std::int64_t row) const {
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  if (auto it = regret_cache_.find(row); it != regret_cache_.end()) return it->second;
+  std::optional<double> v;
+  if (auto text = study_.meta(fmt::format("regret_recommended/{}", row))) v = std::strtod(text->c_str(), nullptr);
+  if (v) regret_cache_[row] = v;  // a row without a value yet may get one once `varbo run` writes it
+  return v;
+}
+
+RunFolder DashboardStudy::run_view(const std::vector<TrialRecord>& trials,
+                                   const std::vector<StoredSnapshot>& snapshots) const {
+  RunFolder run;
+  run.folder = address_;
+  run.study = study_.config();
+  run.domain = study_.domain();
+  run.space = study_.space();
+  run.names = run.domain.names;
+  const Index d = run.domain.box.dim();
+  for (Index i = static_cast<Index>(run.names.size()); i < d; ++i) run.names.push_back(fmt::format("x{}", i + 1));
+  run.initial_point = run.study.initial_point;
+  // trials.csv holds the finished trials in finish order; the model learns from the complete ones.
+  std::vector<const TrialRecord*> finished;
+  for (const auto& t : trials)
+    if (t.finished()) finished.push_back(&t);
+  std::sort(finished.begin(), finished.end(),
+            [](const TrialRecord* a, const TrialRecord* b) { return a->finish_seq < b->finish_seq; });
+  run.trials = static_cast<Index>(finished.size());
+  for (const auto* t : finished)
+    for (const auto& [name, v] : t->components)
+      if (std::find(run.components.begin(), run.components.end(), name) == run.components.end())
+        run.components.push_back(name);
+  std::vector<const TrialRecord*> ok;
+  for (const auto* t : finished)
+    if (t->state == TrialState::Complete && t->theta.allFinite() && std::isfinite(t->cost)) ok.push_back(t);
+  const Index n = static_cast<Index>(ok.size());
+  run.theta.resize(n, d);
+  run.cost.resize(n);
+  run.component_values = Mat::Constant(n, static_cast<Index>(run.components.size()), std::nan(""));
+  run.data = Dataset::empty(run.space ? run.space->encoded_dim() : d);
+  for (Index i = 0; i < n; ++i) {
+    const TrialRecord& t = *ok[static_cast<std::size_t>(i)];
+    run.theta.row(i) = t.theta.transpose();
+    run.cost[i] = t.cost;
+    run.phases.push_back(t.phase);
+    for (const auto& [name, v] : t.components)
+      run.component_values(i, std::find(run.components.begin(), run.components.end(), name) - run.components.begin()) = v;
+    // The same mapping as load_run_folder: θ in user units back into the unit cube.
+    run.data.add(run.space ? run.space->encode(t.theta) : Vec(Box::unit(d).clamp(to_unit(t.theta, run.domain.box))),
+                 t.cost);
+  }
+  for (const auto& s : snapshots) run.fits.push_back(s.snapshot.hyperparameters);
+  return run;
+}
+
+std::shared_ptr<const DashboardModel> DashboardStudy::model() {
+  const auto all = trials();
+  const auto complete = static_cast<std::int64_t>(
+      std::count_if(all.begin(), all.end(), [](const TrialRecord& t) { return t.state == TrialState::Complete; }));
+  if (model_ && model_->complete == complete) return model_;
+  if (complete < 2)
+    throw InputError(fmt::format("{}: {} complete trial(s); a model needs at least 2", address_, complete));
+  auto m = std::make_shared<DashboardModel>();
+  m->run = run_view(all, snapshots());
+  m->complete = complete;
+  m->seed = seed_;
+  const Registry& registry = study_.registry();
+  const auto start = std::chrono::steady_clock::now();
+  m->fitted = fit_selection_model(m->run, registry, selection_surrogate(m->run, registry, "", address_), seed_, true);
+  m->fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  m->optimizer = make_selection_optimizer(m->run, registry, kSelectOptimizer, "optimizer", seed_);
+  m->recommended = select_among(*m->fitted.model, m->run.domain, {0.0}, m->run.data.X, m->run.space).at(0);
+  log_info("dashboard: fitted {} on {} complete trials in {:.3f} s", m->fitted.spec.info->full_name(), complete,
+           m->fit_seconds);
+  model_ = std::move(m);
+  return model_;
+}
+
+}  // namespace varbo::cli

@@ -1,0 +1,74 @@
+#pragma once
+// What `varbo dashboard` reads: one study (a study file, a run folder's study.db or a PostgreSQL URL) opened
+// read-only through varbo::Study, and the fitted surrogate of its complete trials, cached until a new trial
+// completes (a κ-slider move then costs a search, never a refit).
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "../run_selection.hpp"
+#include "varbo/run_folder.hpp"
+#include "varbo/study_api.hpp"
+
+namespace varbo::cli {
+
+/// The study seen as the run folder `varbo select` would read (successful trials in finish order, the
+/// hyperparameters of each stored model snapshot), with the model fitted on it.
+struct DashboardModel {
+  RunFolder run;
+  FittedRunModel fitted;
+  std::unique_ptr<Optimizer> optimizer;
+  std::int64_t complete = 0;  ///< complete trials the model was fitted on (the cache key)
+  std::uint64_t seed = 1;
+  double fit_seconds = 0;
+  /// The point the views cut through: among the evaluated θ, argmin of the posterior mean (κ = 0).
+  RiskSelection recommended;
+};
+
+class DashboardStudy {
+ public:
+  /// `study`: a file, a run folder (its study.db) or a postgresql:// URL. InputError when there is no study.
+  /// `seed`: of the fit and the selection search (`varbo select --seed`).
+  DashboardStudy(const std::string& study, std::uint64_t seed);
+
+  const std::string& address() const { return address_; }
+  /// False when the study file has gone since the server started (a request then answers 404).
+  bool present() const;
+  const Study& study() const { return study_; }
+
+  /// Short reads of the store, one at a time (the store object is not shared between threads).
+  std::vector<TrialRecord> trials() const;
+  std::vector<StoredSnapshot> snapshots() const;
+  std::size_t workers() const;
+  /// `varbo run`'s regret of the recommended θ after finished trial `row` (0-based), where the task knows its
+  /// optimum; cached, as a row's value never changes.
+  std::optional<double> regret_recommended(std::int64_t row) const;
+
+  /// The model on the complete trials now in the store, refitted only when that number changed. InputError when
+  /// no model can be had (the algorithm has no surrogate, fewer than 2 complete trials). The caller must hold
+  /// the lock returned by lock_model() while it uses the model (surrogates are not made for concurrent use).
+  std::shared_ptr<const DashboardModel> model();
+  std::unique_lock<std::mutex> lock_model() const { return std::unique_lock<std::mutex>(model_mutex_); }
+
+  /// The run folder `varbo select` would read for these trials and model snapshots.
+  RunFolder run_view(const std::vector<TrialRecord>& trials, const std::vector<StoredSnapshot>& snapshots) const;
+
+ private:
+  std::string address_;
+  bool is_file_ = false;
+  std::uint64_t seed_;
+  Study study_;
+  mutable std::mutex store_mutex_;
+  mutable std::mutex model_mutex_;
+  mutable std::map<std::int64_t, std::optional<double>> regret_cache_;
+  std::shared_ptr<const DashboardModel> model_;
+};
+
+/// The study address of a `varbo dashboard` argument: a run folder's study.db, else the argument itself.
+std::string dashboard_study_address(const std::string& arg);
+
+}  // namespace varbo::cli

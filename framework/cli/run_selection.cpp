@@ -1,0 +1,59 @@
+#include "run_selection.hpp"
+
+#include <fmt/format.h>
+
+#include "component_arg.hpp"
+#include "varbo/errors.hpp"
+
+namespace varbo::cli {
+
+ResolvedComponent selection_surrogate(const RunFolder& run, const Registry& registry, const std::string& surrogate_arg,
+                                      const std::string& where) {
+  if (!surrogate_arg.empty()) return registry.resolve(Kind::Surrogate, component_arg(surrogate_arg, "surrogate", "--surrogate"));
+  if (const ResolvedComponent* own = run_surrogate_spec(run)) return *own;
+  throw InputError(fmt::format("{}: the run's algorithm '{}' has no surrogate; name one with --surrogate", where,
+                               run.study.algorithm.info->name));
+}
+
+FittedRunModel fit_selection_model(const RunFolder& run, const Registry& registry, const ResolvedComponent& spec,
+                                   std::uint64_t seed, bool warm_start) {
+  FittedRunModel f;
+  f.spec = spec;
+  f.model = make_run_surrogate(run, spec, registry, seed, warm_start);
+  f.report = fit_run_surrogate(*f.model, run, seed);
+  return f;
+}
+
+std::unique_ptr<Optimizer> make_selection_optimizer(const RunFolder& run, const Registry& registry,
+                                                    const std::string& text, const std::string& flag,
+                                                    std::uint64_t seed) {
+  BuildContext octx;
+  octx.dim = run.data.dim();
+  octx.seed = seed;
+  return registry.create<Optimizer>(
+      registry.resolve(Kind::Optimizer, component_arg(text, "acquisition_optimizer", flag)), octx);
+}
+
+std::vector<RiskSelection> select_on_run(const Surrogate& model, const RunFolder& run, const std::vector<double>& kappas,
+                                         const Optimizer& optimizer, std::uint64_t seed, bool among_evaluated) {
+  return among_evaluated
+             ? select_among(model, run.domain, kappas, run.data.X, run.space)
+             : select_policies(model, run.domain, kappas, optimizer, Rng(seed).stream(0x5e1), run.data.X, run.space);
+}
+
+nlohmann::json selection_json(const RiskSelection& s, const RunFolder& run) {
+  nlohmann::json e = {{"kappa", s.kappa}, {"ok", s.ok}, {"message", s.message}};
+  if (!s.ok) return e;
+  nlohmann::json theta = nlohmann::json::object();
+  for (Index i = 0; i < s.theta.size(); ++i) theta[run.names[static_cast<std::size_t>(i)]] = s.theta[i];
+  e["theta"] = theta;
+  if (run.space) e["params"] = nlohmann::json::parse(run.space->params(s.theta).to_json());
+  e["mean"] = s.mean;
+  e["std"] = s.std;
+  e["criterion"] = s.criterion;
+  e["relative_latent_std"] = s.relative_latent_std;
+  e["extrapolating"] = s.relative_latent_std > kExtrapolating;
+  return e;
+}
+
+}  // namespace varbo::cli

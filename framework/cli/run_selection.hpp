@@ -1,0 +1,54 @@
+#pragma once
+// The model work shared by `varbo select` and `varbo dashboard` (its κ slider): which surrogate a run's selection
+// uses, how it is fitted, and how argmin E + κ·s is searched. One code path, so the dashboard's answer for a κ is
+// the one `varbo select --kappa K` prints for the same trials.
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "varbo/registry.hpp"
+#include "varbo/run_folder.hpp"
+#include "varbo/select.hpp"
+
+namespace varbo::cli {
+
+/// `varbo select`'s default maximizer of −(E + κ·s).
+inline constexpr const char* kSelectOptimizer = "{type: multistart, candidates: 2000, polish: 8}";
+
+/// The surrogate named by `surrogate_arg` (inline YAML or a file; empty: the run's own). A run whose algorithm has
+/// no surrogate and no `surrogate_arg` is an InputError naming `where`.
+ResolvedComponent selection_surrogate(const RunFolder& run, const Registry& registry, const std::string& surrogate_arg,
+                                      const std::string& where);
+
+struct FittedRunModel {
+  ResolvedComponent spec;
+  std::unique_ptr<Surrogate> model;
+  FitReport report;
+};
+
+/// Builds `spec` for the run and fits it on the run's successful trials; `warm_start`: starting from the last
+/// hyperparameters of model.yaml (`varbo select`'s default).
+FittedRunModel fit_selection_model(const RunFolder& run, const Registry& registry, const ResolvedComponent& spec,
+                                   std::uint64_t seed, bool warm_start);
+
+/// The maximizer of −(E + κ·s) from inline YAML or a file (`flag` names it in messages).
+std::unique_ptr<Optimizer> make_selection_optimizer(const RunFolder& run, const Registry& registry,
+                                                    const std::string& text, const std::string& flag,
+                                                    std::uint64_t seed);
+
+/// For each κ, argmin E + κ·s over the whole domain (the evaluated points are starts too, so a minimum at a data
+/// point is never missed), or among the evaluated θ only.
+std::vector<RiskSelection> select_on_run(const Surrogate& model, const RunFolder& run, const std::vector<double>& kappas,
+                                         const Optimizer& optimizer, std::uint64_t seed, bool among_evaluated);
+
+/// A selection whose latent sd is more than this share of σ_f lies where the model knows little: its E and s
+/// are extrapolations (issue 10 saw predicted means far below the true minimum there).
+inline constexpr double kExtrapolating = 0.5;
+
+/// One selection as `varbo select --json` prints it: kappa, ok, message and, when ok, theta (by name), params
+/// (typed studies), mean, std, criterion, relative_latent_std, extrapolating.
+nlohmann::json selection_json(const RiskSelection& s, const RunFolder& run);
+
+}  // namespace varbo::cli

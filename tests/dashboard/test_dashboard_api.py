@@ -1,0 +1,154 @@
+"""API test of `varbo dashboard` (docs/dashboard.md): JSON shapes, incremental trials, errors (missing study,
+bad κ, malformed requests), escaping of hostile names and error strings, and the κ selection equal to
+`varbo select --kappa K --json` on the same run folder.
+
+usage: test_dashboard_api.py VARBO WORK_DIR"""
+import json
+import os
+import shutil
+import socket
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from dashboard_fixture import (HOSTILE_COMPONENT, HOSTILE_ERROR, HOSTILE_X, HOSTILE_Y, Dashboard, objective_env, run,
+                               write_study)
+
+checks = 0
+
+
+def check(cond, what):
+    global checks
+    checks += 1
+    if not cond:
+        raise AssertionError(what)
+
+
+def raw_request(url, data):
+    """Sends raw bytes, returns the status line and body."""
+    host, port = url.replace("http://", "").split(":")
+    with socket.create_connection((host, int(port)), timeout=10) as s:
+        s.sendall(data)
+        out = b""
+        while True:
+            chunk = s.recv(65536)
+            if not chunk:
+                break
+            out += chunk
+    head, _, body = out.partition(b"\r\n\r\n")
+    return head.split(b"\r\n")[0].decode(), body.decode("utf-8", "replace")
+
+
+def main():
+    varbo, work = sys.argv[1], sys.argv[2]
+    shutil.rmtree(work, ignore_errors=True)
+    cfg = write_study(work, budget=9, initial_points=4)
+    run([varbo, "run", cfg, "--no-progress"], env=objective_env(fail_trial=5))
+    folder = os.path.join(work, "run")
+
+    # A missing study: a user error naming it, exit 2, no server.
+    r = run([varbo, "dashboard", os.path.join(work, "no-such.db"), "--port", "0"], check=False)
+    check(r.returncode == 2 and "no-such.db" in r.stderr, f"missing study: exit {r.returncode}, {r.stderr!r}")
+    r = run([varbo, "dashboard", work, "--port", "0"], check=False)  # a folder without study.db
+    check(r.returncode == 2 and "study.db" in r.stderr, f"folder without study: exit {r.returncode}, {r.stderr!r}")
+
+    with Dashboard(varbo, folder) as d:
+        status, s, _ = d.get("/api/summary")
+        check(status == 200, f"summary: {status}")
+        for key in ("study", "task", "algorithm", "surrogate", "seed", "budget", "counts", "finished", "remaining",
+                    "names", "parameters", "components", "phase_seconds", "best", "last_id"):
+            check(key in s, f"summary lacks {key}")
+        check(s["counts"] == {"pending": 0, "complete": 8, "failed": 1, "abandoned": 0}, f"counts {s['counts']}")
+        check(s["names"] == [HOSTILE_X, HOSTILE_Y], f"names {s['names']}")
+        check(s["components"] == [HOSTILE_COMPONENT], f"components {s['components']}")
+        check(s["budget"] == 9 and s["finished"] == 9 and s["remaining"] == 0, "budget")
+
+        status, t, raw = d.get("/api/trials")
+        check(status == 200 and len(t["trials"]) == 9 and t["last_id"] == 8, "all trials")
+        first = t["trials"][0]
+        for key in ("id", "state", "phase", "theta", "cost", "components", "error", "worker", "created_at",
+                    "finished_at", "finish_seq", "fit_seconds", "acquisition_seconds", "evaluation_seconds"):
+            check(key in first, f"trial lacks {key}")
+        check(set(first["theta"]) == {HOSTILE_X, HOSTILE_Y}, "theta by name")
+        failed = [x for x in t["trials"] if x["state"] == "failed"]
+        check(len(failed) == 1 and HOSTILE_ERROR.replace("\t", "\\t") in failed[0]["error"],
+              f"failure message kept as text: {failed[0]['error']!r}")
+        check(failed[0]["cost"] is None, "a failed trial's cost is null (NaN is not JSON)")
+        # The raw JSON holds no control character and no raw newline: strings are escaped.
+        check(not any(ord(c) < 0x20 for c in raw), "control characters escaped in JSON")
+        complete = [x for x in t["trials"] if x["state"] == "complete"]
+        check(all(abs(x["components"][HOSTILE_COMPONENT] - 0.5 * x["cost"]) < 1e-12 * max(1, abs(x["cost"]))
+                  for x in complete), "cost components by name")
+        status, t5, _ = d.get("/api/trials?since=5")
+        check(status == 200 and [x["id"] for x in t5["trials"]] == [6, 7, 8], "since=5 gives trials 6..8")
+
+        status, h, _ = d.get("/api/history")
+        pts = h["points"]
+        check(status == 200 and len(pts) == 9 and [p["seq"] for p in pts] == list(range(9)), "history in finish order")
+        best, ok = float("inf"), True
+        for p in pts:  # best so far recomputed independently
+            if p["state"] == "complete":
+                best = min(best, p["cost"])
+            ok &= p["best"] == best
+        check(ok, "history best so far")
+
+        status, m, _ = d.get("/api/model")
+        check(status == 200 and m["n"] == 8 and m["complete"] == 8 and m["recommended"]["ok"], f"model {m}")
+
+        # κ selection equals `varbo select --kappa K --json` on the run folder.
+        for kappa in ("2", "0", "-1.5"):
+            status, sel, _ = d.get(f"/api/select?kappa={kappa}")
+            check(status == 200, f"select {kappa}: {status} {sel}")
+            ref = json.loads(run([varbo, "select", folder, "--kappa", kappa, "--json"]).stdout)
+            check(sel["selection"] == ref["selections"][0], f"kappa {kappa}: {sel['selection']} vs {ref['selections'][0]}")
+            check(sel["hyperparameters"] == ref["hyperparameters"], "same fitted hyperparameters")
+            ref = json.loads(run([varbo, "select", folder, "--kappa", kappa, "--json", "--among-evaluated"]).stdout)
+            status, sel, _ = d.get(f"/api/select?kappa={kappa}&among_evaluated=1")
+            check(sel["selection"] == ref["selections"][0], f"among evaluated, kappa {kappa}")
+
+        status, sl, _ = d.get("/api/slices?n=20")
+        check(status == 200 and [x["name"] for x in sl["slices"]] == [HOSTILE_X, HOSTILE_Y], "slices by name")
+        check(all(len(x["mean"]) == 20 and all(lo <= mu <= hi for lo, mu, hi in zip(x["lo"], x["mean"], x["hi"]))
+                  for x in sl["slices"]), "slice bands hold the mean")
+        # The slice through the recommended point passes through its prediction there: the grid's 1-D cut agrees.
+        status, g1, _ = d.get("/api/grid?x=" + urllib_quote(HOSTILE_X) + "&n=20")
+        check(status == 200 and g1["mean"] == sl["slices"][0]["mean"], "1-D grid equals the slice")
+        status, g2, _ = d.get("/api/grid?x=" + urllib_quote(HOSTILE_X) + "&y=" + urllib_quote(HOSTILE_Y) + "&n=7")
+        check(status == 200 and len(g2["mean"]) == 7 and all(len(r) == 7 for r in g2["std"]), "2-D grid shape")
+        status, reg, _ = d.get("/api/region")
+        check(status == 200 and isinstance(reg["iterations"], list), "region")
+
+        # Errors: JSON {"error"} with a 4xx status.
+        for path, code in [("/api/select?kappa=abc", 400), ("/api/select?kappa=nan", 400), ("/api/select?kappa=inf", 400),
+                           ("/api/select", 400), ("/api/select?kappa=1e999", 400), ("/api/trials?since=x", 400),
+                           ("/api/trials?since=1.5", 400), ("/api/slices?n=1", 400), ("/api/grid", 400),
+                           ("/api/grid?x=nope", 400), ("/api/grid?x=" + urllib_quote(HOSTILE_X) + "&y=" + urllib_quote(HOSTILE_X), 400),
+                           ("/api/select?kappa=1&among_evaluated=maybe", 400), ("/api/nothing", 404), ("/nothing", 404)]:
+            status, body, _ = d.get(path)
+            check(status == code and isinstance(body.get("error"), str) and body["error"], f"{path}: {status} {body}")
+        status, body, _ = d.get("/api/grid?x=%3Cscript%3Ealert(1)%3C%2Fscript%3E")
+        check(status == 400 and "<script>alert(1)</script>" in body["error"], "an echoed name stays a JSON string")
+        line, body = raw_request(d.url, b"GARBAGE\r\n\r\n")
+        check(" 400 " in line + " ", f"malformed request line: {line}")
+        line, body = raw_request(d.url, b"POST /api/summary HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")
+        check(line.split()[1].startswith("4") and "error" in json.loads(body), f"POST refused: {line} {body}")
+        status, _, page = d.get("/")
+        check(status == 200 and "varbo dashboard" in page and "innerHTML" not in page, "the page, without innerHTML")
+
+    # A study that goes away while served: 404 with a JSON error.
+    copy = os.path.join(work, "copy.db")
+    shutil.copy(os.path.join(folder, "study.db"), copy)
+    with Dashboard(varbo, copy) as d:
+        check(d.get("/api/summary")[0] == 200, "copy served")
+        os.remove(copy)
+        status, body, _ = d.get("/api/summary")
+        check(status == 404 and "gone" in body["error"], f"removed study: {status} {body}")
+    print(f"{checks} passed, 0 failed")
+
+
+def urllib_quote(s):
+    from urllib.parse import quote
+    return quote(s, safe="")
+
+
+if __name__ == "__main__":
+    main()
