@@ -52,16 +52,22 @@ def main():
         cont = subprocess.Popen([varbo, "run", "--resume", folder, "--budget", "10", "--no-progress"],
                                 env=objective_env(fail_trial=-1, sleep=0.4), stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
-        seen = set()
+        seen, pending_rows = set(), []
         def grown():
             c = page_counts(b)
             seen.add(c["rows"])
+            pending_rows.append(b.eval("document.querySelectorAll('#trials-body tr.pending').length"))
             return c if c["rows"] == 10 and c["points"] == 9 else None
         wait_for(grown, 40, "the page to show the continued run's trials")
         out, err = cont.communicate(timeout=60)
         check(cont.returncode == 0, f"continued run: exit {cont.returncode}: {err}")
         check(len([n for n in seen if 6 < n < 10]) >= 1, f"trials appeared one by one while the page was open: {sorted(seen)}")
+        check(max(pending_rows) >= 1, "a pending trial was shown while it ran")
         check(b.eval("window.sameDocument") == 1, "no reload: the page appended the new trials itself")
+        # A trial seen pending is updated once it finishes (the page asks from before its oldest pending trial).
+        wait_for(lambda: b.eval("document.querySelectorAll('#trials-body tr.pending').length === 0 && "
+                                "document.querySelectorAll('#trials-body tr.complete').length === 9"),
+                 10, "every row complete or failed once the run is over")
 
         # Hostile names are text: no element was made from them, no script ran.
         check(b.eval("window.pwned === undefined"), "no script from the study ran")
