@@ -126,7 +126,8 @@ class VarboSampler(BaseSampler):
             ``{"type": "bo", "surrogate": {"type": "vhgp"}, "acquisition": {"type": "ei", "xi": 0.1}}``.
         seed: the algorithm's seed (and the independent sampler's); a random one when None.
         independent_sampler: for parameters outside the intersection search space (default RandomSampler(seed)).
-        budget: the number of trials the study will run, if known: bo caps its initial design by it (0: no cap).
+        budget: the number of trials the study will run, if known: bo caps its initial design by it and spends the
+            last d + 1 trials refining the best point (0: unknown; docs/python.md shows what that costs).
         threads: worker threads of the C++ engine (0 = all cores).
         warn_independent_sampling: warn when a parameter is sampled independently after the first trial.
     """
