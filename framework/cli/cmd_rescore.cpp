@@ -55,21 +55,23 @@ Runner add_rescore(CLI::App& app) {
     ThreadLimit limit(a->threads);
     Registry& registry = default_registry();
     const ComponentRun run = load_component_run(a->run, registry);
-    const Weights weights = merge_weights(run.weights, parse_weight_list(a->weights, run.components));
-    const Vec original = rescore_costs(run, run.weights);
-    const double mismatch = (original - run.cost).cwiseAbs().maxCoeff();
-    if (mismatch > 1e-9 * (1 + run.cost.cwiseAbs().maxCoeff()))
+    OfflineRequest request;
+    request.weight_changes = parse_weight_list(a->weights, run.components);
+    request.kappas = a->kappa;
+    request.epsilon = a->epsilon;
+    if (!a->critic.empty()) request.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse(a->critic, "--critic"));
+    if (a->seed >= 0) request.seed = static_cast<std::uint64_t>(a->seed);
+    const OfflineAnswer answer = rescore_offline(run, request, registry);
+    if (!answer.follows_convention)
       std::fprintf(stderr,
                    "varbo: warning: the recorded costs are not the weighted sums of the components (max difference "
                    "%.3g); the task does not follow the weights convention and re-scored costs may not compare\n",
-                   mismatch);
-    const Vec costs = rescore_costs(run, weights);
-    OfflineSelectionSettings settings = offline_settings_from(run, registry);
-    if (a->epsilon > 0) settings.radius = a->epsilon;
-    if (!a->critic.empty()) settings.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse(a->critic, "--critic"));
-    if (a->seed >= 0) settings.seed = static_cast<std::uint64_t>(a->seed);
-    const Vec learned = run.recommended ? *run.recommended : (run.best ? *run.best : Vec(run.theta.row(0).transpose()));
-    const Vec centre = to_unit(learned, run.domain.box);
+                   answer.mismatch);
+    const Weights& weights = answer.weights;
+    const Vec& costs = answer.costs;
+    const OfflineSelectionSettings& settings = answer.settings;
+    const Vec& learned = answer.learned;
+    const Vec& centre = answer.centre;
 
     std::printf("run %s: %ld successful trials, components %s\n", a->run.c_str(), static_cast<long>(costs.size()),
                 fmt::format("{}", fmt::join(run.components, ", ")).c_str());
@@ -81,9 +83,8 @@ Runner add_rescore(CLI::App& app) {
                 costs.mean(), costs.maxCoeff(), run.cost.minCoeff(), run.cost.mean());
     std::printf("learned policy (%s): %s\n", run.recommended ? "recommended" : "best", vec_text(learned).c_str());
 
-    LocalModel model;
-    const std::vector<OfflineSelection> sel =
-        select_offline(run, costs, centre, a->kappa, settings, registry, &model);
+    const LocalModel& model = answer.model;
+    const std::vector<OfflineSelection>& sel = answer.selections;
     const Prediction at = model.critic->predict(centre, false);
     std::printf("local model: %s on %ld trials within eps = %.4g; at the learned policy J~ %.6g r~ %.6g\n",
                 settings.critic.info->name.c_str(), static_cast<long>(model.data.size()), settings.radius, at.mean,

@@ -105,6 +105,18 @@ def main():
             status, sel, _ = d.get(f"/api/select?kappa={kappa}&among_evaluated=1")
             check(sel["selection"] == ref["selections"][0], f"among evaluated, kappa {kappa}")
 
+        # RSSGD's re-weighting (compared with `varbo rescore` on an rssgd run below): names escaped, weights merged.
+        status, rs, _ = d.get("/api/rescore?weights=" + urllib_quote(HOSTILE_COMPONENT + "=2") + "&kappa=0,1.5&epsilon=1.5")
+        check(status == 200, f"rescore: {status} {rs}")
+        check(rs["components"] == [HOSTILE_COMPONENT] and rs["weights"] == {HOSTILE_COMPONENT: 2.0}
+              and rs["run_weights"] == {HOSTILE_COMPONENT: 1.0}, f"rescore weights {rs['weights']}")
+        check(not rs["follows_weights_convention"], "the component is half the cost: flagged")
+        check(rs["trials"] == 8 and rs["local_model"]["n"] == 8 and rs["learned"]["from"] == "recommended",
+              f"rescore data {rs['trials']} {rs['local_model']} {rs['learned']}")
+        check(len(rs["selections"]) == 2 and set(rs["selections"][0]["theta"]) == {HOSTILE_X, HOSTILE_Y}, "selections")
+        status, rs2, _ = d.get("/api/rescore?weights=" + urllib_quote(HOSTILE_COMPONENT + "=2") + "&kappa=0,1.5&epsilon=1.5")
+        check(status == 200 and rs2 == rs, "a repeated re-weighting gives the same answer")
+
         status, sl, _ = d.get("/api/slices?n=20")
         check(status == 200 and [x["name"] for x in sl["slices"]] == [HOSTILE_X, HOSTILE_Y], "slices by name")
         check(all(len(x["mean"]) == 20 and all(lo <= mu <= hi for lo, mu, hi in zip(x["lo"], x["mean"], x["hi"]))
@@ -122,7 +134,9 @@ def main():
                            ("/api/select", 400), ("/api/select?kappa=1e999", 400), ("/api/trials?since=x", 400),
                            ("/api/trials?since=1.5", 400), ("/api/slices?n=1", 400), ("/api/grid", 400),
                            ("/api/grid?x=nope", 400), ("/api/grid?x=" + urllib_quote(HOSTILE_X) + "&y=" + urllib_quote(HOSTILE_X), 400),
-                           ("/api/select?kappa=1&among_evaluated=maybe", 400), ("/api/nothing", 404), ("/nothing", 404)]:
+                           ("/api/select?kappa=1&among_evaluated=maybe", 400), ("/api/nothing", 404), ("/nothing", 404),
+                           ("/api/rescore?weights=nope%3D1", 400), ("/api/rescore?weights=" + urllib_quote(HOSTILE_COMPONENT + "=-1"), 400),
+                           ("/api/rescore?kappa=0,x", 400), ("/api/rescore?kappa=", 400), ("/api/rescore?epsilon=-1", 400)]:
             status, body, _ = d.get(path)
             check(status == code and isinstance(body.get("error"), str) and body["error"], f"{path}: {status} {body}")
         status, body, _ = d.get("/api/grid?x=%3Cscript%3Ealert(1)%3C%2Fscript%3E")
@@ -133,6 +147,32 @@ def main():
         check(line.split()[1].startswith("4") and "error" in json.loads(body), f"POST refused: {line} {body}")
         status, _, page = d.get("/")
         check(status == 200 and "varbo dashboard" in page and "innerHTML" not in page, "the page, without innerHTML")
+
+    # RSSGD's re-weighting equals `varbo rescore` (the same library call) on an rssgd run of the gantry task, whose
+    # trials.csv holds the tracking / sway / energy components.
+    rs_cfg = os.path.join(work, "rssgd.yaml")
+    with open(rs_cfg, "w") as f:
+        f.write("task: {type: cartpole_transport, weights: {tracking: 0.25, sway: 2.0, energy: 0.002}}\n"
+                "budget: 10\nseed: 1\nalgorithm: {type: rssgd, critic: {type: vhgp, restarts: 2}}\n")
+    rs_run = os.path.join(work, "rssgd")
+    run([varbo, "run", rs_cfg, "-o", rs_run, "--no-progress"])
+    out = run([varbo, "rescore", rs_run, "--weights", "energy=0.02", "--kappa", "0,2"]).stdout
+    ref = [l.split() for l in out.splitlines() if l.startswith("kappa ")]
+    with Dashboard(varbo, rs_run) as d:
+        names = d.get("/api/summary")[1]["names"]
+        status, rs, _ = d.get("/api/rescore?weights=energy%3D0.02&kappa=0,2")
+        check(status == 200 and rs["follows_weights_convention"], f"rssgd rescore: {status} {rs}")
+        check(rs["weights"] == {"tracking": 0.25, "sway": 2.0, "energy": 0.02}, f"weights {rs['weights']}")
+        check(len(ref) == 2 and len(rs["selections"]) == 2, f"rescore selections: {out}")
+        for sel, r in zip(rs["selections"], ref):
+            # `varbo rescore` prints 6 significant digits of J̃ and r̃, 5 of θ.
+            j_ref, s_ref = float(r[3]), float(r[5])
+            th_ref = [float(x) for x in " ".join(r[r.index("theta") + 1:]).strip("[]").split(",")]
+            check(float(r[1]) == sel["kappa"], f"kappa {r[1]} vs {sel['kappa']}")
+            check(abs(sel["mean"] - j_ref) <= 1e-5 * max(1, abs(j_ref)) and abs(sel["std"] - s_ref) <= 1e-5 * max(1, abs(s_ref)),
+                  f"rescore J/r {sel} vs {r}")
+            th = [sel["theta"][n] for n in names]
+            check(all(abs(a - b) <= 1e-4 * max(1, abs(b)) for a, b in zip(th, th_ref)), f"rescore theta {th} vs {th_ref}")
 
     # A study that goes away while served: 404 with a JSON error.
     copy = os.path.join(work, "copy.db")

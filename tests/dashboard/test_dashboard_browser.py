@@ -1,6 +1,7 @@
 """Browser test of `varbo dashboard` in Debian's headless chromium (DevTools protocol over a pipe): the page shows
 a run's trials, follows the run as it continues while the page is open (history and table grow without a reload),
-moving the κ slider shows the selection `varbo select --kappa K` prints, and hostile names stay text. Screenshots are
+moving the κ slider shows the selection `varbo select --kappa K` prints, the RSSGD re-weighting shows its selections,
+and hostile names stay text. Screenshots are
 kept in WORK_DIR as test artefacts. Fails (never skips) when chromium is missing.
 
 usage: test_dashboard_browser.py VARBO WORK_DIR"""
@@ -93,6 +94,16 @@ def main():
         b.eval("document.querySelector('#trials-head th:nth-child(%d)').click()" % (3 + 2 + 1))  # sort by cost
         costs = b.eval("[...document.querySelectorAll('#trials-body tr.complete')].map(r => parseFloat(r.children[5].textContent))")
         check(costs == sorted(costs), f"sorted by cost: {costs}")
+        # RSSGD's re-weighting: a weight typed in and "Re-select" shows the API's selections for the listed κ.
+        check(b.eval("document.getElementById('rescore-section').hidden") is False, "the re-weighting section is shown")
+        b.eval("""(() => { document.querySelector('#rescore-weights input').value = '2';
+                           document.getElementById('rescore-kappa').value = '0,1';
+                           document.getElementById('rescore-go').click(); })()""")
+        rs = wait_for(lambda: b.eval("window.dashboard.rescore || null"), 30, "the re-weighted selections")
+        check([x["kappa"] for x in rs["selections"]] == [0, 1] and list(rs["weights"].values()) == [2],
+              f"re-weighting asked as typed: {rs['weights']} {[x['kappa'] for x in rs['selections']]}")
+        rows = b.eval("[...document.querySelectorAll('#rescore tr')].map(r => [...r.children].map(c => c.textContent))")
+        check(len(rows) == 2 and rows[1][0] == "1", f"re-weighting table {rows}")
         b.screenshot(os.path.join(work, "dashboard_final.png"))
     print(f"browser test took {time.monotonic() - t0:.1f} s; screenshots in {work}")
     print(f"{checks} passed, 0 failed")

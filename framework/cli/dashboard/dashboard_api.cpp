@@ -11,6 +11,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/rescore.hpp"
 
 namespace varbo::cli {
 
@@ -187,6 +188,7 @@ ApiResponse DashboardApi::get(const std::string& path, const ApiQuery& query) {
     if (path == "/api/slices") return {200, slices(query)};
     if (path == "/api/grid") return {200, grid(query)};
     if (path == "/api/region") return {200, region()};
+    if (path == "/api/rescore") return {200, rescore(query)};
     return {404, json_text(error_json(fmt::format("no such resource '{}' (see docs/dashboard.md)", path)))};
   } catch (const RequestError& e) {
     return {e.status, json_text(error_json(e.what()))};
@@ -397,6 +399,76 @@ std::string DashboardApi::region() {
                    {"objective", s.snapshot.objective}, {"note", s.snapshot.note}, {"state", s.snapshot.region_state}});
   }
   return json_text({{"iterations", out}});
+}
+
+// RSSGD's re-weighting after learning (Kuindersma 2013, section 5.4.2; docs/rssgd.md): the trials' costs
+// re-scored under new component weights (eq. 23), a local model fitted around the learned policy and J̃ + κ r̃
+// minimized in its ε-ball for each κ: `varbo rescore RUN --weights ... --kappa ...` without its continuation
+// or rollouts (no new trials), through the same library call so that the two agree.
+std::string DashboardApi::rescore(const ApiQuery& query) {
+  const auto all = study_.trials();
+  const RunFolder view = study_.run_view(all, study_.snapshots());
+  ComponentRun run = component_run_from(view, study_.address());
+  if (const auto summary = study_.summary_path()) read_run_summary(run, *summary);
+  OfflineRequest request;
+  try {
+    request.weight_changes = parse_weight_list(query_value(query, "weights").value_or(""), run.components);
+  } catch (const InputError& e) {
+    throw RequestError(400, fmt::format("query parameter 'weights': {}", e.what()));
+  }
+  if (const auto text = query_value(query, "kappa")) {
+    request.kappas.clear();
+    std::size_t start = 0;
+    while (start <= text->size()) {
+      const std::size_t end = std::min(text->find(',', start), text->size());
+      const std::string item = text->substr(start, end - start);
+      const std::optional<double> v = parse_decimal(item);
+      if (!v || !std::isfinite(*v))
+        throw RequestError(400, fmt::format("query parameter 'kappa': expected finite decimal numbers separated by "
+                                            "commas, got '{}'", *text));
+      request.kappas.push_back(*v);
+      start = end + 1;
+    }
+  }
+  if (query_value(query, "epsilon")) {
+    request.epsilon = finite_number(query, "epsilon");
+    if (!(request.epsilon > 0)) throw RequestError(400, "query parameter 'epsilon': expected a positive number");
+  }
+  // One answer per request and data: the same key, the same trials → the cached answer (no refit).
+  std::string key = fmt::format("{}|{}|{}|", run.cost.size(), request.epsilon, fmt::join(request.kappas, ","));
+  for (const auto& [c, w] : request.weight_changes) key += fmt::format("{}={};", c, w);
+  {
+    const std::lock_guard<std::mutex> lock(rescore_mutex_);
+    if (const auto it = rescore_cache_.find(key); it != rescore_cache_.end()) return it->second;
+  }
+  const OfflineAnswer a = rescore_offline(run, request, study_.study().registry());
+  const auto& names = view.names;
+  json weights = json::object(), was = json::object();
+  for (const auto& c : run.components) {
+    weights[c] = a.weights.at(c);
+    was[c] = run.weights.at(c);
+  }
+  const Prediction at = a.model.critic->predict(a.centre, false);
+  json selections = json::array();
+  for (const auto& s : a.selections)
+    selections.push_back({{"kappa", s.kappa}, {"theta", theta_json(names, s.theta)}, {"mean", s.mean},
+                          {"std", s.std}, {"bound", s.mean + s.kappa * s.std}});
+  json j = {{"components", run.components},
+            {"weights", weights},
+            {"run_weights", was},
+            {"follows_weights_convention", a.follows_convention},
+            {"trials", run.cost.size()},
+            {"costs", {{"min", a.costs.minCoeff()}, {"mean", a.costs.mean()}, {"max", a.costs.maxCoeff()}}},
+            {"learned", {{"from", a.learned_is_recommended ? "recommended" : "best"}, {"theta", theta_json(names, a.learned)}}},
+            {"local_model", {{"surrogate", a.settings.critic.info->name}, {"n", a.model.data.size()},
+                             {"epsilon", a.settings.radius}, {"seed", a.settings.seed},
+                             {"mean_at_learned", at.mean}, {"std_at_learned", at.total_std()}}},
+            {"selections", selections}};
+  std::string body = json_text(j);
+  const std::lock_guard<std::mutex> lock(rescore_mutex_);
+  if (rescore_cache_.size() >= 32) rescore_cache_.clear();
+  rescore_cache_[key] = body;
+  return body;
 }
 
 }  // namespace varbo::cli

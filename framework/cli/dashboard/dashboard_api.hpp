@@ -4,6 +4,7 @@
 // Errors are {"error": "..."} with a 4xx status: 400 for a malformed request (a κ that is not a finite number, an
 // unknown parameter), 404 for an unknown resource or a study that has gone, 409 when no model can be had yet.
 #include <map>
+#include <mutex>
 #include <string>
 
 #include "dashboard_study.hpp"
@@ -33,7 +34,10 @@ class DashboardApi {
   std::string slices(const ApiQuery& query);
   std::string grid(const ApiQuery& query);
   std::string region();
+  std::string rescore(const ApiQuery& query);
   DashboardStudy& study_;
+  std::mutex rescore_mutex_;
+  std::map<std::string, std::string> rescore_cache_;  ///< request key → answer (a re-weighting refits a critic)
 };
 
 /// JSON text of `j`: control characters escaped, invalid UTF-8 replaced (a hostile name must not break a reply).

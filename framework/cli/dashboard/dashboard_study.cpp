@@ -53,6 +53,11 @@ DashboardStudy::DashboardStudy(const std::string& study, std::uint64_t seed)
 
 bool DashboardStudy::present() const { return !is_file_ || fs::is_regular_file(address_); }
 
+std::optional<std::string> DashboardStudy::summary_path() const {
+  if (!is_file_) return std::nullopt;
+  return (fs::path(address_).parent_path() / "summary.json").string();
+}
+
 std::vector<TrialRecord> DashboardStudy::trials() const {
   std::lock_guard<std::mutex> lock(store_mutex_);
   return study_.trials();

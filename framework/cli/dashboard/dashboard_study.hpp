@@ -54,6 +54,9 @@ class DashboardStudy {
   std::shared_ptr<const DashboardModel> model();
   std::unique_lock<std::mutex> lock_model() const { return std::unique_lock<std::mutex>(model_mutex_); }
 
+  /// summary.json beside a study file (a `varbo run` folder): the learned policy `varbo rescore` starts from.
+  std::optional<std::string> summary_path() const;
+
   /// The run folder `varbo select` would read for these trials and model snapshots.
   RunFolder run_view(const std::vector<TrialRecord>& trials, const std::vector<StoredSnapshot>& snapshots) const;
 

@@ -58,27 +58,24 @@ Weights run_weights(const StudyConfig& study, const std::vector<std::string>& co
 
 }  // namespace
 
-ComponentRun load_component_run(const std::string& folder, const Registry& registry) {
-  // The one reader of run folders (run_folder.hpp); here only the successful trials with every component.
-  const RunFolder rf = load_run_folder(folder, registry);
+ComponentRun component_run_from(const RunFolder& rf, const std::string& label) {
   if (rf.space)  // its model and steps would be in encoded coordinates
     throw InputError(fmt::format("{}: rescore does not handle studies with typed parameters or constraints yet "
                                  "(docs/search_space.md)",
-                                 folder));
-  const std::string trials = folder + "/trials.csv";
+                                 label));
   ComponentRun run;
-  run.folder = folder;
+  run.folder = rf.folder;
   run.study = rf.study;
   run.domain = rf.domain;
   run.initial_point = rf.initial_point;
   run.components = rf.components;
-  if (run.components.empty()) throw InputError(fmt::format("{}: the run recorded no cost components", trials));
+  if (run.components.empty()) throw InputError(fmt::format("{}: the run recorded no cost components", label));
   const Index d = run.domain.box.dim(), k = static_cast<Index>(run.components.size());
   std::vector<Index> keep;
   for (Index i = 0; i < rf.theta.rows(); ++i)
     if (rf.component_values.row(i).allFinite()) keep.push_back(i);
   const auto n = static_cast<Index>(keep.size());
-  if (n == 0) throw InputError(fmt::format("{}: no successful trials with all components", trials));
+  if (n == 0) throw InputError(fmt::format("{}: no successful trials with all components", label));
   run.theta.resize(n, d);
   run.unit.resize(n, d);
   run.values.resize(n, k);
@@ -91,19 +88,44 @@ ComponentRun load_component_run(const std::string& folder, const Registry& regis
     run.cost[i] = rf.cost[r];
   }
   run.weights = run_weights(run.study, run.components);
-
-  const std::string summary = folder + "/summary.json";
-  if (fs::exists(summary)) {
-    try {
-      std::ifstream s(summary);
-      const nlohmann::json j = nlohmann::json::parse(s);
-      run.recommended = json_vec(j, "recommended_theta");
-      run.best = json_vec(j, "best_theta");
-    } catch (const nlohmann::json::exception& e) {
-      throw InputError(fmt::format("{}: {}", summary, e.what()));
-    }
-  }
   return run;
+}
+
+void read_run_summary(ComponentRun& run, const std::string& summary) {
+  if (!fs::exists(summary)) return;
+  try {
+    std::ifstream s(summary);
+    const nlohmann::json j = nlohmann::json::parse(s);
+    run.recommended = json_vec(j, "recommended_theta");
+    run.best = json_vec(j, "best_theta");
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: {}", summary, e.what()));
+  }
+}
+
+ComponentRun load_component_run(const std::string& folder, const Registry& registry) {
+  // The one reader of run folders (run_folder.hpp); here only the successful trials with every component.
+  ComponentRun run = component_run_from(load_run_folder(folder, registry), folder + "/trials.csv");
+  read_run_summary(run, folder + "/summary.json");
+  return run;
+}
+
+OfflineAnswer rescore_offline(const ComponentRun& run, const OfflineRequest& request, const Registry& registry) {
+  OfflineAnswer a;
+  a.weights = merge_weights(run.weights, request.weight_changes);
+  const Vec original = rescore_costs(run, run.weights);
+  a.mismatch = (original - run.cost).cwiseAbs().maxCoeff();
+  a.follows_convention = a.mismatch <= 1e-9 * (1 + run.cost.cwiseAbs().maxCoeff());
+  a.costs = rescore_costs(run, a.weights);
+  a.settings = offline_settings_from(run, registry);
+  if (request.epsilon > 0) a.settings.radius = request.epsilon;
+  if (request.critic) a.settings.critic = *request.critic;
+  if (request.seed) a.settings.seed = *request.seed;
+  a.learned_is_recommended = run.recommended.has_value();
+  a.learned = run.recommended ? *run.recommended : (run.best ? *run.best : Vec(run.theta.row(0).transpose()));
+  a.centre = to_unit(a.learned, run.domain.box);
+  a.selections = select_offline(run, a.costs, a.centre, request.kappas, a.settings, registry, &a.model);
+  return a;
 }
 
 Weights parse_weight_list(const std::string& text, const std::vector<std::string>& components) {

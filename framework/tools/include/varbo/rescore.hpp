@@ -18,6 +18,8 @@
 
 namespace varbo {
 
+struct RunFolder;  // varbo/run_folder.hpp
+
 using Weights = std::map<std::string, double>;
 
 /// A finished run with its cost components (successful trials only).
@@ -38,6 +40,13 @@ struct ComponentRun {
 
 /// Reads config.resolved.yaml, trials.csv and summary.json of `folder`. Throws InputError/ConfigError.
 ComponentRun load_component_run(const std::string& folder, const Registry& registry);
+
+/// The successful trials with every component of a run already read (a run folder, or a study seen as one by
+/// `varbo dashboard`); `label` names it in errors. Leaves `recommended` and `best` empty.
+ComponentRun component_run_from(const RunFolder& run, const std::string& label);
+
+/// Sets `recommended` and `best` from a summary.json, when the file exists. InputError when it does not parse.
+void read_run_summary(ComponentRun& run, const std::string& summary);
 
 /// Parses "energy=0.1,tracking=1"; every name must be one of `components`, every weight finite and >= 0.
 Weights parse_weight_list(const std::string& text, const std::vector<std::string>& components);
@@ -99,6 +108,32 @@ std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec&
                                              const std::vector<double>& kappas,
                                              const OfflineSelectionSettings& settings, const Registry& registry,
                                              LocalModel* model = nullptr);
+
+/// What `varbo rescore` (and the dashboard's re-weighting) asks for.
+struct OfflineRequest {
+  Weights weight_changes;             ///< applied to the run's weights (parse_weight_list)
+  std::vector<double> kappas{0.0, 2.0};
+  double epsilon = -1;                ///< the ball's radius; ≤ 0: the run's (rssgd ε)
+  std::optional<ResolvedComponent> critic;  ///< the local model; none: the run's
+  std::optional<std::uint64_t> seed;        ///< none: the run's
+};
+
+struct OfflineAnswer {
+  Weights weights;                    ///< the run's weights with the changes applied
+  Vec costs;                          ///< every successful trial re-scored (eq. 23)
+  double mismatch = 0;                ///< max |recorded cost − Σ w·component| under the run's own weights
+  bool follows_convention = true;     ///< mismatch within round-off: re-scored costs compare with recorded ones
+  Vec learned;                        ///< the ball's centre, user units: summary's recommended θ, else its best
+  bool learned_is_recommended = false;
+  Vec centre;                         ///< the same in the unit cube
+  OfflineSelectionSettings settings;  ///< as used
+  LocalModel model;
+  std::vector<OfflineSelection> selections;  ///< one per κ, in the request's order
+};
+
+/// Re-weights, fits the local model around the learned policy and selects for every κ: the offline part of
+/// `varbo rescore`, shared with `varbo dashboard` so both give the same selections.
+OfflineAnswer rescore_offline(const ComponentRun& run, const OfflineRequest& request, const Registry& registry);
 
 /// Default settings from the run: the local model of the run's algorithm when it offers RunContinuation
 /// (varbo/continuation.hpp: rssgd's critic and ε), else that of the first loaded algorithm that offers it.
