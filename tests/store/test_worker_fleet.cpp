@@ -6,6 +6,8 @@
 // comes from $VARBO_FLEET_TRIALS (default 200).
 #include <signal.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -57,14 +59,27 @@ void run_fleet(test::Backend backend, const std::string& dir, int budget, bool t
     pids.push_back(test::spawn(args, log));
     unsetenv("VARBO_HOST_ID");
   }
-  // Two workers SIGKILLed at random moments while the fleet is busy.
+  // Two workers SIGKILLed at random moments while the fleet is busy: when the study has finished a random 10–50 %
+  // of its budget (a fixed delay came after the end of the study once the workers got faster).
   std::mt19937 rng(std::random_device{}());
   std::vector<int> order = {0, 1, 2, 3, 4, 5, 6, 7};
   std::shuffle(order.begin(), order.end(), rng);
   const std::set<pid_t> victims = {pids[static_cast<std::size_t>(order[0])], pids[static_cast<std::size_t>(order[1])]};
+  std::uniform_int_distribution<int> progress(std::max(1, budget / 10), std::max(1, budget / 2));
+  std::vector<int> kill_at = {progress(rng), progress(rng)};
+  std::sort(kill_at.begin(), kill_at.end());
+  auto finished = [&]() {
+    int n = 0;
+    for (const auto& t : open_store(study)->trials()) n += t.state != TrialState::Pending;
+    return n;
+  };
+  std::size_t k = 0;
   for (pid_t v : victims) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300 + rng() % 900));
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+    while (finished() < kill_at[k] && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
     kill(v, SIGKILL);
+    ++k;
   }
   int killed = 0;
   for (pid_t p : pids) {
