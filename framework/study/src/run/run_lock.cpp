@@ -8,9 +8,9 @@
 
 #include <cerrno>
 #include <cstring>
-#include <ctime>
 #include <fstream>
 
+#include "owner_identity.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo {
@@ -18,15 +18,8 @@ namespace varbo {
 namespace {
 
 std::string owner_line() {
-  char host[256] = "unknown";
-  gethostname(host, sizeof host - 1);
-  host[sizeof host - 1] = '\0';
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char when[32];
-  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return fmt::format("pid {} on host {}, started {}", static_cast<long>(getpid()), host, when);
+  return fmt::format("pid {} on host {}, started {}", static_cast<long>(getpid()), detail::machine_name(),
+                     detail::utc_timestamp());
 }
 
 }  // namespace

@@ -4,9 +4,9 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
-#include <ctime>
 #include <pqxx/pqxx>
 
+#include "../run/owner_identity.hpp"
 #include "store_url.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/run_lock.hpp"
@@ -27,15 +27,8 @@ constexpr const char* kKey = "hashtextextended('varbo run: ' || $1, 0)";
 /// "varbo run pid 4711 started 2026-12-02T03:04:05Z host rig-3": at most 63 bytes are kept by the server,
 /// so the host, the longest part, comes last.
 std::string announcement() {
-  char host[256] = "unknown";
-  gethostname(host, sizeof host - 1);
-  host[sizeof host - 1] = '\0';
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char when[32];
-  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return fmt::format("varbo run pid {} started {} host {}", static_cast<long>(getpid()), when, host);
+  return fmt::format("varbo run pid {} started {} host {}", static_cast<long>(getpid()), detail::utc_timestamp(),
+                     detail::machine_name());
 }
 
 /// The session holding the study's lock, as it announced itself ("" when it is gone or cannot be seen).
