@@ -48,6 +48,25 @@ r = varbo.minimize(lambda p: (p['x'] - 0.3) ** 2, {'algorithm': {'type': 'bo', '
 assert r.evaluations == 6 and [t.phase for t in r.trials][-1] != 'initial', [t.phase for t in r.trials]
 print('Python load_plugin + minimize with greedy_mean: ok')")
 fi
+# The PostgreSQL store is a library of its own, loaded on the first postgresql:// address: the installed
+# libvarbo_study needs no libpq, and the installed varbo finds the store beside it (a server that refuses the
+# connection is then an error naming the study, exit 2, not a library that cannot be loaded).
+STUDY_LIB=$(find "$PREFIX" -name libvarbo_study.so | head -n 1)
+if readelf -d "$STUDY_LIB" | grep -E 'NEEDED.*(pqxx|libpq)'; then
+  echo "check_sdk: $STUDY_LIB links libpq; the PostgreSQL store should load on demand" >&2
+  exit 1
+fi
+test -f "$(dirname "$STUDY_LIB")/libvarbo_study_postgres.so"
+test -f "$(dirname "$STUDY_LIB")/libvarbo_dashboard_http.so"  # `varbo dashboard`'s server, loaded the same way
+set +e
+"$PREFIX/bin/varbo" status 'postgresql://nobody@127.0.0.1:1/none?study=sdk_check&connect_timeout=3' > "$WORK/pg.out" 2>&1
+rc=$?
+set -e
+if [ "$rc" -ne 2 ] || ! grep -q "study=sdk_check" "$WORK/pg.out" || grep -q "cannot load" "$WORK/pg.out"; then
+  cat "$WORK/pg.out"; echo "check_sdk: expected exit 2 naming the unreachable study, got exit $rc"; exit 1
+fi
+cat "$WORK/pg.out"
+
 export VARBO_PLUGIN_PATH="$WORK/template"
 VARBO="$PREFIX/bin/varbo"
 for c in greedy_mean bowl one_plus_one periodic; do "$VARBO" plugins --describe "$c"; done

@@ -79,3 +79,25 @@ TEST_CASE("CLI: create, suggest --json, observe, fail, malformed numbers, status
   CHECK(test::run({V, "status", dir + "/notes.db"}, log).exit_code == 2);
   CHECK(slurp(log).find("notes.db: not a varbo study store") != std::string::npos);
 }
+
+TEST_CASE("CLI: a process on a SQLite study loads no PostgreSQL library; a postgresql:// address loads it") {
+  // The PostgreSQL store is libvarbo_study_postgres.so, loaded on the first postgresql:// address: libpq and its
+  // ~23 dependencies cost every process ~8 ms (docs/studies.md). The dynamic loader's own log says what it loaded.
+  const std::string dir = test::temp_folder("cli_lazy_store");
+  const std::string cfg = dir + "/cfg.yaml", db = dir + "/s.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 4\nseed: 4\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "study", "create", db, cfg}, log).exit_code == 0);
+  REQUIRE(test::run({"/usr/bin/env", "LD_DEBUG=files", V, "suggest", db}, log).exit_code == 0);
+  const std::string sqlite = slurp(log);
+  CHECK(sqlite.find("file=libvarbo_study.so") != std::string::npos);  // the log is there...
+  CHECK(sqlite.find("libpq") == std::string::npos);                    // ...and names no libpq
+  CHECK(sqlite.find("libvarbo_study_postgres") == std::string::npos);
+  // A database address loads the store (then fails to connect: no server on that socket folder, exit 2).
+  const std::string url = "postgresql:///db?host=/nonexistent-varbo-socket&study=gait";
+  CHECK(test::run({"/usr/bin/env", "LD_DEBUG=files", V, "status", url}, log).exit_code == 2);
+  const std::string pg = slurp(log);
+  CHECK(pg.find("libvarbo_study_postgres.so") != std::string::npos);
+  CHECK(pg.find("libpq") != std::string::npos);
+  CHECK(pg.find("study=gait: cannot connect to the database server") != std::string::npos);
+}

@@ -1,67 +1,51 @@
+// serve_dashboard: loads libvarbo_dashboard_http.so (dashboard_http.hpp says why it is separate) from beside the
+// varbo libraries (the build's lib/ folder, or the installed libdir), else through the loader's search, and hands
+// it the API. Only `varbo dashboard` comes here.
 #include "dashboard_server.hpp"
 
+#include <dlfcn.h>
 #include <fmt/format.h>
-#include <httplib.h>
 
+#include <filesystem>
+
+#include "dashboard_http.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/store.hpp"
 
 namespace varbo::cli {
 
 namespace {
-#include "dashboard_page.inc"  // kDashboardPage: dashboard_page.html, embedded at build time (dashboard.cmake)
-
-void json_reply(httplib::Response& res, int status, const std::string& body) {
-  res.status = status;
-  res.set_header("Cache-Control", "no-store");
-  res.set_content(body, "application/json; charset=utf-8");
+/// The folder holding libvarbo_study.so, "" when the loader cannot say.
+std::filesystem::path library_folder() {
+  Dl_info info{};
+  if (dladdr(reinterpret_cast<void*>(&varbo::open_store), &info) == 0 || !info.dli_fname) return {};
+  return std::filesystem::path(info.dli_fname).parent_path();
 }
 }  // namespace
 
 void serve_dashboard(DashboardApi& api, const std::string& host, int port,
                      const std::function<void(int port)>& on_listening) {
-  httplib::Server server;
-  // A few threads: requests are short reads; model requests queue on the model's lock. A browser keeps up to 6
-  // connections open, each holding a thread while it idles: a short keep-alive frees them for the next poll.
-  server.new_task_queue = [] { return new httplib::ThreadPool(8); };
-  server.set_keep_alive_timeout(1);
-  server.set_default_headers({{"X-Content-Type-Options", "nosniff"},
-                              {"Content-Security-Policy",
-                               "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
-                               "connect-src 'self'; img-src 'self' data:"},
-                              {"Referrer-Policy", "no-referrer"}});
-  server.Get("/", [](const httplib::Request&, httplib::Response& res) {
-    res.set_header("Cache-Control", "no-store");
-    res.set_content(reinterpret_cast<const char*>(kDashboardPage), sizeof(kDashboardPage) - 1, "text/html; charset=utf-8");
-  });
-  server.Get(R"(/api/.*)", [&api](const httplib::Request& req, httplib::Response& res) {
-    ApiQuery query(req.params.begin(), req.params.end());
-    const ApiResponse r = api.get(req.path, query);
-    json_reply(res, r.status, r.body);
-  });
-  // Anything else (another path or method, a request httplib cannot parse): a JSON error, never a stack trace.
-  server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-    if (!res.body.empty()) return;
-    const std::string message =
-        res.status == 404 ? fmt::format("no such page '{}'", req.path)
-                          : fmt::format("request refused (HTTP {}); the dashboard answers GET / and GET /api/...", res.status);
-    json_reply(res, res.status, json_text({{"error", message}}));
-  });
-  server.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
-    std::string what = "internal error";
-    try {
-      std::rethrow_exception(ep);
-    } catch (const std::exception& e) {
-      what = e.what();
-    } catch (...) {
-    }
-    json_reply(res, 500, json_text({{"error", what}}));
-  });
-  const int bound = port == 0 ? server.bind_to_any_port(host) : (server.bind_to_port(host, port) ? port : -1);
-  if (bound < 0)
-    throw InputError(fmt::format("--host {} --port {}: cannot listen there (in use, or not an address of this machine)",
-                                 host, port));
-  on_listening(bound);
-  if (!server.listen_after_bind()) throw InputError(fmt::format("{}:{}: the server stopped unexpectedly", host, bound));
+  const std::filesystem::path beside = library_folder() / kDashboardHttpLibrary;
+  std::error_code ec;
+  const std::string name = !beside.parent_path().empty() && std::filesystem::exists(beside, ec)
+                               ? beside.string()
+                               : std::string(kDashboardHttpLibrary);
+  void* handle = dlopen(name.c_str(), RTLD_NOW | RTLD_LOCAL | RTLD_NODELETE);
+  if (!handle) {
+    const char* why = dlerror();
+    throw InputError(fmt::format("dashboard: cannot load {} ({}); `varbo dashboard` needs it installed beside "
+                                 "libvarbo_study.so",
+                                 name, why ? why : "unknown reason"));
+  }
+  using Serve = void (*)(const DashboardHttp&);
+  auto serve = reinterpret_cast<Serve>(dlsym(handle, kDashboardHttpSymbol));
+  if (!serve) throw InputError(fmt::format("dashboard: {} has no entry point {}; reinstall varbo", name, kDashboardHttpSymbol));
+  DashboardHttp http;
+  http.get = [&api](const std::string& path, const ApiQuery& query) { return api.get(path, query); };
+  http.host = host;
+  http.port = port;
+  http.on_listening = on_listening;
+  serve(http);
 }
 
 }  // namespace varbo::cli

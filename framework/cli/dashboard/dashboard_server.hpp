@@ -1,5 +1,6 @@
 #pragma once
-// The HTTP side of `varbo dashboard`: cpp-httplib (Debian's libcpp-httplib-dev) serving the page at / and the
+// The HTTP side of `varbo dashboard`: cpp-httplib (Debian's libcpp-httplib-dev, in libvarbo_dashboard_http.so,
+// loaded by this function: dashboard_http.hpp) serving the page at / and the
 // JSON API under /api/ (dashboard_api.hpp). Read-only: GET only.
 #include <functional>
 #include <string>

@@ -3,7 +3,8 @@
 // server. A transaction locks the study's row (SELECT ... FOR NO KEY UPDATE), so suggestions and results of one
 // study serialize exactly as SQLite's BEGIN IMMEDIATE does, while other studies in the database run freely;
 // the server's serialization failures and deadlocks are retried with backoff. Every libpqxx error becomes an
-// InputError naming the study and the cause.
+// InputError naming the study and the cause. Built as libvarbo_study_postgres.so, loaded on the first
+// postgresql:// address (src/store/postgres_backend.hpp).
 #include <fmt/format.h>
 
 #include <chrono>
@@ -13,6 +14,7 @@
 #include <random>
 #include <thread>
 
+#include "postgres_backend.hpp"
 #include "store_codec.hpp"
 #include "store_url.hpp"
 #include "varbo/errors.hpp"
@@ -546,14 +548,24 @@ class PostgresStore final : public StudyStore {
 
 }  // namespace
 
-std::unique_ptr<StudyStore> create_postgres_store(const std::string& url,
-                                                  const std::vector<std::pair<std::string, std::string>>& meta) {
-  return std::make_unique<PostgresStore>(parse_postgres_address(url), true, meta);
-}
-
-std::unique_ptr<StudyStore> open_postgres_store(const std::string& url) {
-  return std::make_unique<PostgresStore>(parse_postgres_address(url), false,
-                                         std::vector<std::pair<std::string, std::string>>{});
-}
+std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::string& url);  // store_postgres_lock.cpp
 
 }  // namespace varbo
+
+/// The entry point libvarbo_study looks up when it loads this library (postgres_backend.cpp).
+extern "C" __attribute__((visibility("default"))) const varbo::detail::PostgresBackend* varbo_study_postgres_backend() {
+  static const varbo::detail::PostgresBackend backend = [] {
+    varbo::detail::PostgresBackend b;
+    b.create = [](const std::string& url, const std::vector<std::pair<std::string, std::string>>& meta)
+        -> std::unique_ptr<varbo::StudyStore> {
+      return std::make_unique<varbo::PostgresStore>(varbo::parse_postgres_address(url), true, meta);
+    };
+    b.open = [](const std::string& url) -> std::unique_ptr<varbo::StudyStore> {
+      return std::make_unique<varbo::PostgresStore>(varbo::parse_postgres_address(url), false,
+                                                    std::vector<std::pair<std::string, std::string>>{});
+    };
+    b.take_run_lock = &varbo::take_postgres_run_lock;
+    return b;
+  }();
+  return &backend;
+}

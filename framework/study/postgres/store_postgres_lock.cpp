@@ -1,4 +1,4 @@
-// `varbo run`'s one-writer lock on a database study (run_lock.hpp): a session-level advisory lock keyed by the
+// `varbo run`'s one-writer lock on a database study (run_lock.hpp; in libvarbo_study_postgres.so): a session-level advisory lock keyed by the
 // study's name, on a connection of its own. The holder announces itself in its session's application_name, so a
 // second run can name it from pg_stat_activity without any row to write (or to leave stale after a SIGKILL).
 #include <fmt/format.h>
@@ -6,19 +6,20 @@
 
 #include <pqxx/pqxx>
 
-#include "../run/owner_identity.hpp"
+#include "postgres_backend.hpp"
+#include "run/owner_identity.hpp"
 #include "store_url.hpp"
 #include "varbo/errors.hpp"
-#include "varbo/run_lock.hpp"
 
 namespace varbo {
 
-struct DatabaseRunLock::Session {
+namespace {
+
+/// The lock is held as long as this connection is open.
+struct Session final : detail::DatabaseLockSession {
   pqxx::connection connection;
   explicit Session(const std::string& conninfo) : connection(conninfo) {}
 };
-
-namespace {
 
 // One 64-bit advisory key per study name; the prefix keeps it apart from the key that serializes table creation
 // (store_postgres.cpp) and from other applications' keys in the same database.
@@ -47,7 +48,8 @@ std::string owner_of(pqxx::connection& c, const std::string& study) {
 
 }  // namespace
 
-DatabaseRunLock DatabaseRunLock::acquire(const std::string& url) {
+/// DatabaseRunLock::acquire (run_lock.hpp), through the backend table (postgres_backend.hpp).
+std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::string& url) {
   const PostgresAddress address = parse_postgres_address(url);
   std::unique_ptr<Session> s;
   try {
@@ -58,7 +60,7 @@ DatabaseRunLock DatabaseRunLock::acquire(const std::string& url) {
       n.exec_params("SELECT set_config('application_name', $1, false)", announcement());
       locked = n.exec_params(std::string("SELECT pg_try_advisory_lock(") + kKey + ")", address.study)[0][0].as<bool>();
     }
-    if (locked) return DatabaseRunLock(std::move(s));
+    if (locked) return s;
     std::string owner = owner_of(s->connection, address.study);
     if (owner.empty()) owner = "another session, which just ended or cannot be seen";
     throw InputError(fmt::format("the study {} is in use by another `varbo run` ({}); wait for it to end or stop it; "
@@ -70,9 +72,5 @@ DatabaseRunLock DatabaseRunLock::acquire(const std::string& url) {
   }
 }
 
-DatabaseRunLock::DatabaseRunLock(std::unique_ptr<Session> session) : session_(std::move(session)) {}
-DatabaseRunLock::DatabaseRunLock(DatabaseRunLock&&) noexcept = default;
-DatabaseRunLock& DatabaseRunLock::operator=(DatabaseRunLock&&) noexcept = default;
-DatabaseRunLock::~DatabaseRunLock() = default;
 
 }  // namespace varbo
