@@ -1,11 +1,15 @@
 // StateMap: YAML text of a snapshot, with every number in its shortest round-trip form (fmt's "{}"), so that
-// a restored state is bit-for-bit the saved one.
+// a restored state is bit-for-bit the saved one. A vector (and a matrix's values) is one scalar of numbers
+// separated by spaces, not a YAML list: one node instead of one per number. A GP's state holds its N × d data,
+// and a node per number made emitting and parsing it ~9 % of a `varbo suggest` (docs/studies.md). The list form
+// of states saved before is still read.
 #include "varbo/state.hpp"
 
 #include <fmt/format.h>
 
 #include <cerrno>
 #include <cstdlib>
+#include <iterator>
 
 #include "varbo/errors.hpp"
 
@@ -25,6 +29,44 @@ bool read_number(const YAML::Node& n, double& out) {
   errno = 0;
   out = std::strtod(s.c_str(), &end);  // reads "nan", "inf", "-inf" too: a state may hold them
   return end == s.c_str() + s.size();
+}
+
+/// n numbers as one scalar, "v1 v2 ..."; an empty list stays a YAML list ([]), which has() sees as a value.
+YAML::Node numbers_node(const double* v, Index n) {
+  if (n == 0) return YAML::Node(YAML::NodeType::Sequence);
+  fmt::memory_buffer out;
+  for (Index i = 0; i < n; ++i) {
+    if (i) out.push_back(' ');
+    fmt::format_to(std::back_inserter(out), "{}", v[i]);
+  }
+  return YAML::Node(fmt::to_string(out));
+}
+
+/// The numbers of a node written by numbers_node, or of a YAML list of numbers (states saved before).
+bool read_numbers(const YAML::Node& n, Vec& out) {
+  std::vector<double> values;
+  if (n.IsSequence()) {
+    values.resize(n.size());
+    for (std::size_t i = 0; i < n.size(); ++i)
+      if (!read_number(n[i], values[i])) return false;
+  } else if (n.IsScalar()) {
+    const char* p = n.Scalar().c_str();
+    while (*p) {
+      if (*p == ' ') {
+        ++p;
+        continue;
+      }
+      char* end = nullptr;
+      const double v = std::strtod(p, &end);
+      if (end == p || (*end != ' ' && *end != '\0')) return false;
+      values.push_back(v);
+      p = end;
+    }
+  } else {
+    return false;
+  }
+  out = Eigen::Map<const Vec>(values.data(), static_cast<Index>(values.size()));
+  return true;
 }
 }  // namespace
 
@@ -52,29 +94,19 @@ void StateMap::put(const std::string& key, double v) { node_[key] = number(v); }
 void StateMap::put_int(const std::string& key, long long v) { node_[key] = std::to_string(v); }
 void StateMap::put(const std::string& key, bool v) { node_[key] = v ? "true" : "false"; }
 void StateMap::put(const std::string& key, const std::string& v) { node_[key] = v; }
-void StateMap::put(const std::string& key, const Vec& v) {
-  YAML::Node s(YAML::NodeType::Sequence);
-  for (Index i = 0; i < v.size(); ++i) s.push_back(number(v[i]));
-  node_[key] = s;
-}
+void StateMap::put(const std::string& key, const Vec& v) { node_[key] = numbers_node(v.data(), v.size()); }
 void StateMap::put(const std::string& key, const Mat& m) {
   YAML::Node s(YAML::NodeType::Map);
   s["rows"] = std::to_string(m.rows());
   s["cols"] = std::to_string(m.cols());
-  YAML::Node values(YAML::NodeType::Sequence);
-  for (Index i = 0; i < m.rows(); ++i)
-    for (Index j = 0; j < m.cols(); ++j) values.push_back(number(m(i, j)));
-  s["values"] = values;
+  const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> by_rows = m;  // row after row
+  s["values"] = numbers_node(by_rows.data(), by_rows.size());
   node_[key] = s;
 }
 void StateMap::put(const std::string& key, const StateMap& child) { node_[key] = YAML::Clone(child.node_); }
 void StateMap::put(const std::string& key, const std::vector<Vec>& rows) {
   YAML::Node s(YAML::NodeType::Sequence);
-  for (const Vec& v : rows) {
-    YAML::Node r(YAML::NodeType::Sequence);
-    for (Index i = 0; i < v.size(); ++i) r.push_back(number(v[i]));
-    s.push_back(r);
-  }
+  for (const Vec& v : rows) s.push_back(numbers_node(v.data(), v.size()));
   node_[key] = s;
 }
 
@@ -152,11 +184,8 @@ std::string StateMap::str(const std::string& key) const {
   return n.Scalar();
 }
 Vec StateMap::vec(const std::string& key) const {
-  const YAML::Node n = at(key);
-  if (!n.IsSequence()) fail(key, "a list of numbers");
-  Vec v(static_cast<Index>(n.size()));
-  for (std::size_t i = 0; i < n.size(); ++i)
-    if (!read_number(n[i], v[static_cast<Index>(i)])) fail(key, "a list of numbers");
+  Vec v;
+  if (!read_numbers(at(key), v)) fail(key, "a list of numbers");
   return v;
 }
 Mat StateMap::mat(const std::string& key) const {
@@ -181,11 +210,8 @@ std::vector<Vec> StateMap::rows(const std::string& key) const {
   if (!n.IsSequence()) fail(key, "a list of lists of numbers");
   std::vector<Vec> out;
   for (std::size_t r = 0; r < n.size(); ++r) {
-    const YAML::Node row = n[r];
-    if (!row.IsSequence()) fail(key, "a list of lists of numbers");
-    Vec v(static_cast<Index>(row.size()));
-    for (std::size_t i = 0; i < row.size(); ++i)
-      if (!read_number(row[i], v[static_cast<Index>(i)])) fail(key, "a list of lists of numbers");
+    Vec v;
+    if (!read_numbers(n[r], v)) fail(key, "a list of lists of numbers");
     out.push_back(std::move(v));
   }
   return out;
