@@ -1,12 +1,15 @@
 // `varbo suggest` against one BO iteration (issue 14, target ≤ 1.5×). One Hartmann-6 bo study (plain
 // defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200, 400 finished
-// trials (or the --at list) three `varbo suggest` + `varbo observe` processes continue it. Printed per N: the
-// median wall time of the embedded ask(1) over the iterations just before N (one BO iteration: fit +
-// acquisition + store), the median wall time of the `varbo suggest` process (start-up, plugins, opening the
+// trials (or the --at list) seven rounds, each a `varbo suggest` + `varbo observe` process pair then a fresh
+// Study::open + ask + tell in this process, continue it (interleaved, so that both see the same machine load).
+// Printed per N: the median wall time of the embedded ask(1) over the 9 iterations just before N and the 9 just
+// after the rounds (one BO iteration: fit + acquisition + store), the median wall time of the `varbo suggest`
+// process (start-up, plugins, opening the
 // study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
 // all threads; for the process, its rusage), which a loaded machine distorts less than wall time; the median
 // of each process's wall time minus the fit and acquisition time it recorded for its trial: the fixed cost; and
-// the embedded API's cold path: a fresh varbo::Study::open of the study in this process, then ask(1).
+// the embedded API's cold path: a fresh varbo::Study::open of the study in this process, then ask(1); and the
+// 1-minute load average before and after.
 //
 // The study is a SQLite file in --dir, or a PostgreSQL study with --store 'postgresql://...?study=NAME'.
 //
@@ -90,12 +93,13 @@ int main(int argc, char** argv) {
       store = value;
     }
   }
-  constexpr int kRepeats = 5;     // suggest processes per N
-  constexpr int kIterations = 9;  // embedded iterations timed just before N (a fit's cost varies 2-3× between neighbours)
+  constexpr int kRepeats = 7;     // rounds per N: a suggest process, then a fresh Study::open + ask
+  constexpr int kIterations = 9;  // embedded iterations timed before N and after the rounds (a fit's cost varies
+                                  // 2-3× between neighbours)
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string db = store.empty() ? dir + "/h6.db" : store;
-  const long budget = at.back() + 3L * kRepeats * static_cast<long>(at.size()) + 10;
+  const long budget = at.back() + (2L * kRepeats + kIterations + 1) * static_cast<long>(at.size()) + 10;
   varbo::Study study = varbo::Study::create_from_yaml(
       db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {{type: bo}}\n", budget));
   varbo::Rng noise(1);
@@ -105,26 +109,32 @@ int main(int argc, char** argv) {
   };
   std::printf("| N | one BO iteration (embedded ask): wall, CPU s | `varbo suggest` process: wall, CPU s | ratio wall, "
               "CPU | process minus its own fit + acquisition: wall s | Study::open + ask in this process: wall, CPU s "
-              "| its ratio wall, CPU |\n|---|---|---|---|---|---|---|\n");
+              "| its ratio wall, CPU | load (1 min) |\n|---|---|---|---|---|---|---|---|\n");
   long finished = 0;
-  for (const long n : at) {
-    std::vector<double> iteration, iteration_cpu;
-    while (finished < n) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double c0 = cpu_seconds(RUSAGE_SELF);
-      const varbo::TrialRecord t = study.ask(1).at(0);
-      const double s = seconds_since(t0), c = cpu_seconds(RUSAGE_SELF) - c0;
-      if (finished >= n - kIterations) {
-        iteration.push_back(s);
-        iteration_cpu.push_back(c);
-      }
-      study.tell(t.id, evaluate(t));
-      ++finished;
+  std::vector<double> iteration, iteration_cpu;
+  // One embedded ask(1) + tell: a warm iteration (timed when `timed`) of the study's own live algorithm.
+  auto embedded_iteration = [&](bool timed) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds(RUSAGE_SELF);
+    const varbo::TrialRecord t = study.ask(1).at(0);
+    const double s = seconds_since(t0), c = cpu_seconds(RUSAGE_SELF) - c0;
+    if (timed) {
+      iteration.push_back(s);
+      iteration_cpu.push_back(c);
     }
-    std::vector<double> suggest, suggest_cpu, overhead;
+    study.tell(t.id, evaluate(t));
+    ++finished;
+  };
+  for (const long n : at) {
+    iteration.clear();
+    iteration_cpu.clear();
+    while (finished < n) embedded_iteration(finished >= n - kIterations);
+    double load_before[1] = {0}, load_after[1] = {0};
+    getloadavg(load_before, 1);
+    std::vector<double> suggest, suggest_cpu, overhead, reopen, reopen_cpu;
     for (int r = 0; r < kRepeats; ++r) {
       const std::string out = dir + "/suggest.json";
-      const auto t0 = std::chrono::steady_clock::now();
+      auto t0 = std::chrono::steady_clock::now();
       const double c0 = cpu_seconds(RUSAGE_CHILDREN);
       run(fmt::format("'{}' -q suggest '{}' --json > '{}'", varbo, db, out));
       suggest.push_back(seconds_since(t0));
@@ -136,24 +146,26 @@ int main(int argc, char** argv) {
       run(fmt::format("'{}' -q observe '{}' {} {} > /dev/null", varbo, db, t.id, varbo::exact(evaluate(t))));
       ++finished;
       (void)slurp(out);
-    }
-    // The embedded API's own cold path: a fresh Study::open of the study in this process, then ask(1).
-    std::vector<double> reopen, reopen_cpu;
-    for (int r = 0; r < kRepeats; ++r) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const double c0 = cpu_seconds(RUSAGE_SELF);
+      // The embedded API's own cold path: a fresh Study::open of the study in this process, then ask(1).
+      t0 = std::chrono::steady_clock::now();
+      const double c1 = cpu_seconds(RUSAGE_SELF);
       varbo::Study fresh = varbo::Study::open(db);
-      const varbo::TrialRecord t = fresh.ask(1).at(0);
+      const varbo::TrialRecord f = fresh.ask(1).at(0);
       reopen.push_back(seconds_since(t0));
-      reopen_cpu.push_back(cpu_seconds(RUSAGE_SELF) - c0);
-      fresh.tell(t.id, evaluate(t));
+      reopen_cpu.push_back(cpu_seconds(RUSAGE_SELF) - c1);
+      fresh.tell(f.id, evaluate(f));
       ++finished;
     }
+    // The live study catches up (a restore: not timed), then warm iterations again.
+    embedded_iteration(false);
+    for (int i = 0; i < kIterations; ++i) embedded_iteration(true);
+    getloadavg(load_after, 1);
     const double it = median(iteration), sg = median(suggest);
     const double itc = median(iteration_cpu), sgc = median(suggest_cpu);
     const double ro = median(reopen), roc = median(reopen_cpu);
-    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× | %.3f | %.3f, %.3f | %.2f×, %.2f× |\n", n, it, itc, sg,
-                sgc, sg / it, sgc / itc, median(overhead), ro, roc, ro / it, roc / itc);
+    std::printf("| %ld | %.3f, %.3f | %.3f, %.3f | %.2f×, %.2f× | %.3f | %.3f, %.3f | %.2f×, %.2f× | %.1f–%.1f |\n", n,
+                it, itc, sg, sgc, sg / it, sgc / itc, median(overhead), ro, roc, ro / it, roc / itc, load_before[0],
+                load_after[0]);
     std::fflush(stdout);
   }
   return 0;
