@@ -12,8 +12,10 @@
 // 1-minute load average before and after.
 //
 // The study is a SQLite file in --dir, or a PostgreSQL study with --store 'postgresql://...?study=NAME'.
+// --algorithm replaces the plain default `{type: bo}` (e.g. '{type: bo, region: box}': a model of all N points).
 //
 //   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200,400] [--dir /tmp/x] [--store ADDRESS]
+//                                      [--algorithm YAML]
 #include <fmt/format.h>
 #include <malloc.h>
 #include <sys/resource.h>
@@ -79,7 +81,7 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
   const std::string varbo = argv[1];
   std::vector<long> at = {50, 100, 200, 400};
-  std::string store;
+  std::string store, algorithm = "{type: bo}";
   std::string dir = (std::filesystem::temp_directory_path() / "varbo_bench_suggest").string();
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
@@ -91,6 +93,8 @@ int main(int argc, char** argv) {
       dir = value;
     } else if (key == "--store") {
       store = value;
+    } else if (key == "--algorithm") {
+      algorithm = value;
     }
   }
   constexpr int kRepeats = 7;     // rounds per N: a suggest process, then a fresh Study::open + ask
@@ -101,7 +105,7 @@ int main(int argc, char** argv) {
   const std::string db = store.empty() ? dir + "/h6.db" : store;
   const long budget = at.back() + (2L * kRepeats + kIterations + 1) * static_cast<long>(at.size()) + 10;
   varbo::Study study = varbo::Study::create_from_yaml(
-      db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {{type: bo}}\n", budget));
+      db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {}\n", budget, algorithm));
   varbo::Rng noise(1);
   auto evaluate = [&](const varbo::TrialRecord& t) {
     varbo::Rng r = noise.stream(static_cast<std::uint64_t>(t.id));

@@ -1,8 +1,12 @@
 // Snapshots instead of replays (docs/studies.md, "Snapshots"): a study driven one process at a time —
 // every ask and every tell on a freshly opened Study, as `varbo suggest` / `varbo observe` do — continues from
 // the saved algorithm state, replays nothing, and gives bit-for-bit the trials of an uninterrupted `varbo run`.
+#include <yaml-cpp/yaml.h>
+
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
+#include <sstream>
 
 #include "process.hpp"
 #include "study_helpers.hpp"
@@ -184,4 +188,94 @@ TEST_CASE("snapshots: a corrupt saved state falls back to replay with a warning,
   const VerifyReport v = s.verify();
   CHECK(v.divergence.find("differs from the replayed one") != std::string::npos);  // the planted state
   CHECK(test::run({VARBO_EXE, "study", "verify", db}).exit_code == 1);
+}
+
+namespace {
+/// A state text as versions before vectors-as-one-scalar wrote it: every run of numbers a YAML list, in nested
+/// component states too (they are YAML texts held as strings).
+YAML::Node list_form(const YAML::Node& n, bool& changed) {
+  if (n.IsMap()) {
+    YAML::Node out(YAML::NodeType::Map);
+    for (const auto& kv : n) {
+      const std::string key = kv.first.Scalar();
+      out[key] = key == "note" || key == "region_state" ? kv.second : list_form(kv.second, changed);
+    }
+    return out;
+  }
+  if (n.IsSequence()) {
+    YAML::Node out(YAML::NodeType::Sequence);
+    for (const auto& e : n) out.push_back(list_form(e, changed));
+    return out;
+  }
+  if (!n.IsScalar()) return n;
+  const std::string& s = n.Scalar();
+  if (!s.empty() && s.front() == '{') {
+    YAML::Emitter em;
+    em << YAML::Flow << list_form(YAML::Load(s), changed);
+    return YAML::Node(std::string(em.c_str()));
+  }
+  if (s.find(' ') == std::string::npos) return n;
+  YAML::Node seq(YAML::NodeType::Sequence);
+  std::stringstream words(s);
+  for (std::string w; words >> w;) {
+    char* end = nullptr;
+    std::strtod(w.c_str(), &end);
+    if (*end != '\0') return n;  // not a run of numbers
+    seq.push_back(w);
+  }
+  changed = true;
+  return seq;
+}
+}  // namespace
+
+TEST_CASE("snapshots: a state saved in the list form of earlier versions is restored, and verify accepts it") {
+  const std::string dir = test::temp_folder("snapshots_list_form");
+  const std::string yaml = "task: {type: branin}\nbudget: 10\nseed: 6\nalgorithm: {type: bo, initial_points: 4}\n";
+  const std::string db = dir + "/s.db";
+  std::vector<Vec> expected;
+  {
+    Study a = Study::create_from_yaml(dir + "/ref.db", yaml);
+    for (Index i = 0; i < 10; ++i) {
+      const auto t = a.ask().at(0);
+      expected.push_back(t.x);
+      a.record(t.id, evaluate(a, i, t.theta), 0.0);
+    }
+  }
+  {
+    Study s = Study::create_from_yaml(db, yaml);
+    for (Index i = 0; i < 7; ++i) {
+      const auto t = s.ask().at(0);
+      s.record(t.id, evaluate(s, i, t.theta), 0.0);
+    }
+  }
+  {
+    // The same states again, newest, in the list form: the next process restores one of them.
+    auto store = open_sqlite_store(db);
+    const std::vector<AlgorithmSnapshot> states = store->algorithm_states();
+    REQUIRE(!states.empty());
+    bool changed = false;
+    store->transaction([&] {
+      for (AlgorithmSnapshot s : states) {
+        YAML::Emitter em;
+        em << YAML::Flow << list_form(YAML::Load(s.state), changed);
+        s.state = em.c_str();
+        store->add_algorithm_state(s);
+      }
+    });
+    REQUIRE(changed);
+  }
+  {
+    // verify compares each stored state with the replay's: the list-form ones as this version saves them.
+    Study v = Study::open(db);
+    const VerifyReport r = v.verify();
+    CHECK(r.divergence == "");
+    CHECK(r.states_compared >= 2);
+  }
+  Study s = Study::open(db);
+  for (Index i = 7; i < 10; ++i) {
+    const auto t = s.ask().at(0);
+    CHECK(t.x == expected[static_cast<std::size_t>(i)]);
+    s.record(t.id, evaluate(s, i, t.theta), 0.0);
+  }
+  CHECK(s.replayed() == 0);  // restored from a list-form state, not replayed
 }
