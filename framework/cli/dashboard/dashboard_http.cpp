@@ -75,6 +75,7 @@ void serve(const DashboardHttp& http) {
 
 }  // namespace varbo::cli
 
-extern "C" __attribute__((visibility("default"))) void varbo_dashboard_http_serve(const varbo::cli::DashboardHttp& http) {
+extern "C" __attribute__((visibility("default"))) void varbo_dashboard_http_serve(
+    const varbo::cli::DashboardHttp& http) {
   varbo::cli::serve(http);
 }

@@ -39,7 +39,8 @@ void serve_dashboard(DashboardApi& api, const std::string& host, int port,
   }
   using Serve = void (*)(const DashboardHttp&);
   auto serve = reinterpret_cast<Serve>(dlsym(handle, kDashboardHttpSymbol));
-  if (!serve) throw InputError(fmt::format("dashboard: {} has no entry point {}; reinstall varbo", name, kDashboardHttpSymbol));
+  if (!serve)
+    throw InputError(fmt::format("dashboard: {} has no entry point {}; reinstall varbo", name, kDashboardHttpSymbol));
   DashboardHttp http;
   http.get = [&api](const std::string& path, const ApiQuery& query) { return api.get(path, query); };
   http.host = host;

@@ -553,7 +553,8 @@ std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::s
 }  // namespace varbo
 
 /// The entry point libvarbo_study looks up when it loads this library (postgres_backend.cpp).
-extern "C" __attribute__((visibility("default"))) const varbo::detail::PostgresBackend* varbo_study_postgres_backend() {
+extern "C" __attribute__((visibility("default"))) const varbo::detail::PostgresBackend*
+varbo_study_postgres_backend() {
   static const varbo::detail::PostgresBackend backend = [] {
     varbo::detail::PostgresBackend b;
     b.create = [](const std::string& url, const std::vector<std::pair<std::string, std::string>>& meta)

@@ -1,6 +1,7 @@
-// `varbo run`'s one-writer lock on a database study (run_lock.hpp; in libvarbo_study_postgres.so): a session-level advisory lock keyed by the
-// study's name, on a connection of its own. The holder announces itself in its session's application_name, so a
-// second run can name it from pg_stat_activity without any row to write (or to leave stale after a SIGKILL).
+// `varbo run`'s one-writer lock on a database study (run_lock.hpp; part of libvarbo_study_postgres.so): a
+// session-level advisory lock keyed by the study's name, on a connection of its own. The holder announces itself
+// in its session's application_name, so a second run can name it from pg_stat_activity without any row to write
+// (or to leave stale after a SIGKILL).
 #include <fmt/format.h>
 #include <unistd.h>
 
