@@ -20,6 +20,9 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
       opt::reals("lower", "", "lower bound per dimension (with upper)"),
       opt::reals("upper", "", "upper bound per dimension (with lower)"),
       opt::node("names", "", "list of parameter names (default x1, x2, ...)"),
+      opt::node("components", "",
+                "list of the cost components the command reports in \"components\" (columns of trials.csv, "
+                "what `varbo rescore` re-weights); undeclared ones are kept in a study's store only"),
       opt::choice("input", &S::input, {{"json", InputMode::Json}, {"args", InputMode::Args}},
                   "json: {\"theta\": [...], \"names\": [...], \"trial\": k} on stdin; args: θ appended as arguments"),
       opt::real("timeout", opt::nested(&S::process, &ProcessOptions::timeout_seconds),
@@ -30,6 +33,19 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
   };
   return set;
 }
+/// A non-empty list of distinct, non-empty names (parameters or cost components).
+std::vector<std::string> unique_names(const ConfigNode& n, const std::string& what) {
+  if (!n.is_sequence() || n.size() == 0) n.fail(fmt::format("expected a non-empty list of {} names", what));
+  std::vector<std::string> out;
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    const ConfigNode item = n.item(i);
+    if (!item.is_scalar() || item.scalar().empty()) item.fail(fmt::format("expected a {} name", what));
+    if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
+    out.push_back(item.scalar());
+  }
+  return out;
+}
 }  // namespace
 
 std::vector<OptionSpec> external_options() { return external_option_set().specs(); }
@@ -37,6 +53,7 @@ std::vector<OptionSpec> external_options() { return external_option_set().specs(
 std::unique_ptr<Task> make_external_task(const Options& o) {
   ExternalTaskSettings s = external_option_set().read(o);
   if (s.command.find_first_not_of(" \t\n") == std::string::npos) o.node("command").fail("expected a non-empty command");
+  if (o.is_set("components")) s.components = unique_names(o.node("components"), "cost component");
   // Keys that define the domain here, for set_search_space to refuse when the study declares `parameters:`.
   for (const char* key : {"dim", "bounds", "lower", "upper", "names"})
     if (o.given(key) && !(std::string(key) == "dim" && o.integer("dim") == 0))  // dim: 0 is the resolved default
@@ -77,15 +94,7 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
 
   std::vector<std::string> names;
   if (o.is_set("names")) {
-    const ConfigNode n = o.node("names");
-    if (!n.is_sequence() || n.size() == 0) n.fail("expected a non-empty list of parameter names");
-    std::set<std::string> seen;
-    for (std::size_t i = 0; i < n.size(); ++i) {
-      const ConfigNode item = n.item(i);
-      if (!item.is_scalar() || item.scalar().empty()) item.fail("expected a parameter name");
-      if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
-      names.push_back(item.scalar());
-    }
+    names = unique_names(o.node("names"), "parameter");
     agree(static_cast<Index>(names.size()), "names");
   }
   if (dim == 0) o.source().fail("cannot tell the number of parameters: give dim, lower/upper or names (or declare the study's `parameters:`)");

@@ -19,6 +19,7 @@ struct ExternalTaskSettings {
   std::string command;            ///< run as /bin/sh -c command
   Box box;                        ///< user units
   std::vector<std::string> names; ///< one per dimension
+  std::vector<std::string> components;  ///< declared cost components (trials.csv columns), possibly none
   InputMode input = InputMode::Json;
   ProcessOptions process;         ///< timeout, working directory
   SharedSpace space;              ///< the study's typed parameters (then "params" is sent too), or null
@@ -33,6 +34,7 @@ class ExternalTask : public Task, public SpaceAware {
   /// The study's `parameters:`: they define the names and the domain (ConfigError at a key that also does).
   void set_search_space(SharedSpace space) override;
   Evaluation evaluate(const Vec& theta, Rng& rng) override;
+  std::vector<std::string> component_names() const override { return s_.components; }
 
   /// What is sent: the JSON document {"theta": [...], "names": [...], "trial": k} (with typed parameters also
   /// "params": {"lr": 0.001, "waypoints": 4, "solver": "lqr"}) or the shell text appended to the command

@@ -16,9 +16,11 @@
 #include <filesystem>
 #include <fmt/format.h>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "study_helpers.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/store.hpp"
 #include "process_probe.hpp"
@@ -220,5 +222,77 @@ TEST_CASE("varbo run: a 50 MB answer line and a binary answer keep the run folde
   for (const auto& t : store->trials()) {
     CHECK(t.state == TrialState::Failed);
     CHECK(t.error.size() < 8192);
+  }
+}
+
+TEST_CASE("varbo run: an external task's declared cost components reach trials.csv and varbo rescore") {
+  const std::string dir = test::temp_folder("ext_cli_components");
+  // cost = tracking + effort, with tracking = (x1 - 0.3)^2 and effort = x2; trial 2 leaves effort out.
+  std::ofstream(dir + "/trial.sh")
+      << "read -r input\n"
+      << "python3 -c \"import json,sys; j=json.loads(sys.argv[1]); x=j['theta']; t=(x[0]-0.3)**2; e=x[1];"
+      << " c={'tracking': t} if j['trial']==2 else {'tracking': t, 'effort': e, 'extra': 1};"
+      << " print(json.dumps({'cost': t+e, 'components': c}))\" \"$input\"\n";
+  auto study = [&](const std::string& components) {
+    std::ofstream(dir + "/study.yaml") << "task: {type: external, command: 'sh " << dir
+                                       << "/trial.sh', dim: 2, bounds: [0, 1]" << components << "}\n"
+                                       << "algorithm: {type: random}\nbudget: 8\nseed: 3\n";
+  };
+  const std::string log = dir + "/stderr.txt";
+
+  study(", components: [tracking, effort]");
+  const std::string out = dir + "/declared";
+  REQUIRE(run_varbo({"run", dir + "/study.yaml", "-o", out}, log) == 0);
+  const std::string csv = read_file(out + "/trials.csv");
+  CHECK(csv.substr(0, csv.find('\n')).find(",ok,tracking,effort,fit_seconds") != std::string::npos);
+  CHECK(lines_of(out + "/trials.csv") == 9);
+  CHECK(read_file(log).find("undeclared cost component 'extra'") != std::string::npos);  // once, named
+  // Re-weighting: effort × 3 changes every selection's cost by 2·effort; 7 of 8 trials carry both components.
+  const std::string rescored = dir + "/rescore.txt";
+  CHECK(run_varbo({"rescore", out, "--weights", "effort=3", "--kappa", "0"}, rescored) == 0);
+  const std::string text = read_file(rescored);
+  MESSAGE(text);
+  CHECK(text.find("7 successful trials, components tracking, effort") != std::string::npos);
+  CHECK(text.find("effort=3 (was 1)") != std::string::npos);
+  // The re-scored mean against tracking + 3·effort summed here from trials.csv (printed with 6 digits).
+  double sum = 0;
+  int n = 0;
+  std::istringstream rows(csv);
+  std::string row;
+  std::getline(rows, row);
+  const std::vector<std::string> header = split_csv_line(row);
+  const auto col = [&](const char* name) { return std::find(header.begin(), header.end(), name) - header.begin(); };
+  while (std::getline(rows, row)) {
+    const std::vector<std::string> cells = split_csv_line(row);
+    if (cells[col("effort")] == "nan") continue;
+    sum += std::stod(cells[col("tracking")]) + 3 * std::stod(cells[col("effort")]);
+    ++n;
+  }
+  CHECK(n == 7);
+  const std::size_t at = text.find(" mean ");
+  REQUIRE(at != std::string::npos);
+  CHECK(std::stod(text.substr(at + 6)) == doctest::Approx(sum / n).epsilon(1e-5));
+
+  // Undeclared: the run still works, trials.csv has no component columns, rescore says why.
+  study("");
+  const std::string plain = dir + "/undeclared";
+  REQUIRE(run_varbo({"run", dir + "/study.yaml", "-o", plain}, log) == 0);
+  CHECK(read_file(plain + "/trials.csv").find("tracking") == std::string::npos);
+  const std::string refused = dir + "/refused.txt";
+  CHECK(run_varbo({"rescore", plain}, refused) == 2);
+  CHECK(read_file(refused).find("recorded no cost components") != std::string::npos);
+
+  // Bad declarations: the file, line and column, and what is expected.
+  int k = 0;
+  for (const char* bad : {", components: [a, a]", ", components: 5", ", components: []"}) {
+    study(bad);
+    const std::string errors = fmt::format("{}/bad{}.txt", dir, ++k);
+    CHECK(run_varbo({"run", dir + "/study.yaml", "-o", dir + "/bad"}, errors) == 2);
+    const std::string err = read_file(errors);
+    MESSAGE(err);
+    CHECK(err.find("study.yaml:1:") != std::string::npos);
+    CHECK((err.find("duplicate name 'a'") != std::string::npos ||
+           err.find("expected a non-empty list of cost component names") != std::string::npos));
+    CHECK(!std::filesystem::exists(dir + "/bad/trials.csv"));
   }
 }

@@ -61,7 +61,9 @@ void RunWriter::trial(const TrialRow& r) {
       bool known = false;
       for (const auto& c : components_) known = known || c == kv.first;
       if (!known) {
-        log_warn("task reported an undeclared cost component '{}'; it is not recorded in trials.csv", kv.first);
+        log_warn("task reported an undeclared cost component '{}'; it is not recorded in trials.csv (an external "
+                 "task declares its components with `components: [...]`)",
+                 kv.first);
         warned_extra_ = true;
       }
     }
