@@ -17,6 +17,8 @@ struct BoSettings {
   Index initial_points = -1;  ///< initial design size; -1 = 2·(d+1), capped by the budget
   Index refit_every = 1;      ///< optimize hyperparameters every k model iterations (else only condition)
   Index refine_last = -1;     ///< after fresh starts, the last trials refine the incumbent; -1 = d + 1
+  Index restart_points = -1;  ///< design size of a fresh start; -1 = initial_points
+  std::string restart_design = "lhs";  ///< a fresh start's design: a new LHS, or the LHS farthest from earlier minima
   std::string refine_model = "all";  ///< the final refinement's model: all the data, or the incumbent's attempt
   std::string refine_feasibility = "exclude";  ///< with failures, the refinement excludes (or weights by) P(fail)
   double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice

@@ -39,6 +39,9 @@ struct TrustRegionOptions {
   /// minimum; Ackley-5's ripples: at most 3, docs/defaults.md). 0 = τ_fail, −1 = off.
   double stall_distance = 1e-3;
   int stall_tolerance = 3;
+  /// `consecutive`: a failure away from the incumbent resets the stall count (EI's probes of the box's corners
+  /// between stalls then delay the restart); `since_success`: only a success resets it.
+  std::string stall_count = "consecutive";
 };
 
 class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion {
