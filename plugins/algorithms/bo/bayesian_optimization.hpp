@@ -111,7 +111,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Index refine_last_ = 0;  ///< see BoSettings::refine_last
   std::unique_ptr<Acquisition> refine_acquisition_;
   bool refine_weighted_ = false;  ///< refine_feasibility: weight
-  bool refine_attempt_model_ = false;  ///< refine_model: attempt
+  bool refine_attempt_model_ = false;  ///< refine_model: attempt or basin
+  bool refine_basin_ = false;  ///< refine_model: basin (the attempt plus the other points near the incumbent)
   bool refining_ = false;
   std::vector<Index> attempt_starts_;  ///< successful observations before each fresh start
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt
