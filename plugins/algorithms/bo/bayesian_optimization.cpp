@@ -147,7 +147,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   batch_strategy_ = settings.batch_strategy;
   initial_points_ = settings.initial_points >= 0 ? settings.initial_points : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
-  restart_points_ = settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
+  restart_points_ =
+      settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
   restart_away_ = settings.restart_design == "away";
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);

@@ -112,9 +112,11 @@ TEST_CASE("bo: restart_points sets the fresh design's size; restart_design: away
   set_log_level(LogLevel::Error);
   const std::string region =
       "region: {type: trust_region, restart_center: new_points, failure_tolerance: 1, length_min: 0.3}";
-  const FreshDesign lhs = first_fresh_design(run("{type: bo, initial_points: 4, restart_design: lhs, refine_last: 2, " + region + "}", 30));
-  const FreshDesign small =
-      first_fresh_design(run("{type: bo, initial_points: 4, restart_points: 2, restart_design: lhs, refine_last: 2, " + region + "}", 30));
+  const FreshDesign lhs =
+      first_fresh_design(run("{type: bo, initial_points: 4, restart_design: lhs, refine_last: 2, " + region + "}", 30));
+  const FreshDesign small = first_fresh_design(
+      run("{type: bo, initial_points: 4, restart_points: 2, restart_design: lhs, refine_last: 2, " + region + "}",
+          30));
   const FreshDesign away = first_fresh_design(
       run("{type: bo, initial_points: 4, restart_design: away, refine_last: 2, " + region + "}", 30));
   CHECK(lhs.points.size() == 4);
