@@ -373,7 +373,8 @@ void BayesianOptimization::begin_refinement(Index k, const Dataset& data) {
   log_info("bo: trial {}: the last {} trials refine the incumbent of all the data (found by attempt {}), on a model "
            "of {}", k, budget_ - k,
            std::upper_bound(attempt_starts_.begin(), attempt_starts_.end(), best) - attempt_starts_.begin() + 1,
-           refine_attempt_model_ ? "that attempt's points" : "all the data");
+           refine_basin_ ? "that attempt and the points near the incumbent"
+           : refine_attempt_model_ ? "that attempt's points" : "all the data");
   dynamic_cast<FreshStartRegion&>(*region_).return_to_incumbent();
 }
 
