@@ -68,12 +68,19 @@ const OptionSet<BoSettings>& bo_options() {
                    "when the region restarts afresh (trust_region with restart_center: new_points), the last "
                    "trials of the budget start no new attempt and refine the incumbent of all the data (-1 = d + 1)")
           .at_least(-1),
+      opt::integer("restart_points", &BoSettings::restart_points,
+                   "design size of each fresh start of the region (-1 = initial_points)")
+          .at_least(-1),
+      opt::choice("restart_design", &BoSettings::restart_design, {"lhs", "away"},
+                  "a fresh start's design: a new Latin hypercube (lhs), or the one of 16 whose nearest point to the "
+                  "best point of every earlier attempt is farthest (away)"),
       opt::component("refine_acquisition", Kind::Acquisition, "{type: cb, kappa: 0}",
                      "acquisition of the final refinement after fresh starts (refine_last); the default minimizes "
                      "the posterior mean"),
-      opt::choice("refine_model", &BoSettings::refine_model, {"all", "attempt"},
-                  "the model of the final refinement after fresh starts: all the data (all), or the points of the "
-                  "attempt that found the incumbent and the refinement's own (attempt)"),
+      opt::choice("refine_model", &BoSettings::refine_model, {"all", "attempt", "basin"},
+                  "the model of the final refinement after fresh starts: all the data (all), the points of the "
+                  "attempt that found the incumbent and the refinement's own (attempt), or those plus every other "
+                  "point within 0.1 (∞-norm, unit cube) of the incumbent (basin)"),
       opt::choice("refine_feasibility", &BoSettings::refine_feasibility, {"exclude", "weight"},
                   "with failed trials, the final refinement (refine_last) only excludes θ where failure is likely "
                   "(exclude), or weights its acquisition by P(success) like the other trials (weight)"),
@@ -135,10 +142,14 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   refit_every_ = settings.refit_every;
   refine_last_ = settings.refine_last >= 0 ? settings.refine_last : dim_ + 1;
   refine_weighted_ = settings.refine_feasibility == "weight";
-  refine_attempt_model_ = settings.refine_model == "attempt";
+  refine_attempt_model_ = settings.refine_model != "all";
+  refine_basin_ = settings.refine_model == "basin";
   batch_strategy_ = settings.batch_strategy;
   initial_points_ = settings.initial_points >= 0 ? settings.initial_points : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
+  restart_points_ =
+      settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
+  restart_away_ = settings.restart_design == "away";
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);
 
@@ -300,7 +311,8 @@ void BayesianOptimization::fit_model(Index k, const Dataset& data) {
 
 Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(fresh_starts_));
-  const Mat design = design_sampler_->sample(BoxRegion(Box::unit(dim_)), initial_points_, drng);
+  const Mat design = restart_away_ ? design_away_from_minima(drng)
+                                   : design_sampler_->sample(BoxRegion(Box::unit(dim_)), restart_points_, drng);
   const Vec x = design.row(k - fresh_trial_).transpose();
   // A design point where failure is likely (the failure model of every trial so far) is replaced by a random
   // point where success is likely: a new design must not repeat known failures (issue 11).
@@ -309,6 +321,37 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
     return random_point_avoiding_failures(rr);
   }
   return x;
+}
+
+Mat BayesianOptimization::design_away_from_minima(Rng& rng) const {
+  // The best point of every earlier attempt (the successful observations before the latest fresh start, split at
+  // attempt_starts_): a new design point inside a converged basin becomes the new attempt's best point and leads
+  // its trust region back there. Of 16 designs, the one whose nearest point to those minima is farthest.
+  const Index before = std::min(fresh_from_, data_.size());
+  std::vector<Vec> minima;
+  Index lo = 0;
+  for (std::size_t i = 0; i <= attempt_starts_.size(); ++i) {
+    const Index hi = i < attempt_starts_.size() ? std::min(attempt_starts_[i], before) : before;
+    if (hi > lo) {
+      Index arg = 0;
+      data_.y.segment(lo, hi - lo).minCoeff(&arg);
+      minima.push_back(data_.X.row(lo + arg).transpose());
+    }
+    lo = std::max(lo, hi);
+  }
+  Mat best;
+  double best_score = -1;
+  for (int c = 0; c < 16; ++c) {
+    Mat design = design_sampler_->sample(BoxRegion(Box::unit(dim_)), restart_points_, rng);
+    double score = std::numeric_limits<double>::infinity();
+    for (Index i = 0; i < design.rows(); ++i)
+      for (const Vec& m : minima) score = std::min(score, (design.row(i).transpose() - m).norm());
+    if (score > best_score) {
+      best_score = score;
+      best = std::move(design);
+    }
+  }
+  return best;
 }
 
 void BayesianOptimization::begin_refinement(Index k, const Dataset& data) {
@@ -330,7 +373,8 @@ void BayesianOptimization::begin_refinement(Index k, const Dataset& data) {
   log_info("bo: trial {}: the last {} trials refine the incumbent of all the data (found by attempt {}), on a model "
            "of {}", k, budget_ - k,
            std::upper_bound(attempt_starts_.begin(), attempt_starts_.end(), best) - attempt_starts_.begin() + 1,
-           refine_attempt_model_ ? "that attempt's points" : "all the data");
+           refine_basin_ ? "that attempt and the points near the incumbent"
+           : refine_attempt_model_ ? "that attempt's points" : "all the data");
   dynamic_cast<FreshStartRegion&>(*region_).return_to_incumbent();
 }
 
@@ -340,11 +384,24 @@ Dataset BayesianOptimization::refinement_data(const Dataset& data) const {
   // to 0.0057 against 0.00044; docs/defaults.md).
   const Index hi = std::min(refine_hi_, data.size()), from = std::min(std::max(refine_from_, hi), data.size());
   const Index lo = std::min(refine_lo_, hi);
+  // refine_model: basin adds the other attempts' points next to the incumbent (within 0.1, half the refinement
+  // box's side): on Branin every attempt converges to one of its three minima, and the incumbent's attempt alone
+  // was too small a model (Branin 1.8e-08 against 1.2e-10 with all the data, docs/defaults.md).
+  std::vector<Index> rows;
+  Index best = 0;
+  data.y.minCoeff(&best);
+  for (Index i = 0; i < data.size(); ++i) {
+    const bool own = (i >= lo && i < hi) || i >= from;
+    if (own || (refine_basin_ && (data.X.row(i) - data.X.row(best)).lpNorm<Eigen::Infinity>() <= 0.1))
+      rows.push_back(i);
+  }
   Dataset out;
-  out.X.resize(hi - lo + data.size() - from, data.dim());
+  out.X.resize(static_cast<Index>(rows.size()), data.dim());
   out.y.resize(out.X.rows());
-  out.X << data.X.middleRows(lo, hi - lo), data.X.bottomRows(data.size() - from);
-  out.y << data.y.segment(lo, hi - lo), data.y.tail(data.size() - from);
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    out.X.row(static_cast<Index>(r)) = data.X.row(rows[r]);
+    out.y(static_cast<Index>(r)) = data.y(rows[r]);
+  }
   return out;
 }
 
@@ -397,7 +454,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // default) instead of starting or continuing an attempt.
   const bool final_stretch = fresh_region && budget_ > 0 && k >= budget_ - refine_last_;
   if (fresh_starts_ > 0 && final_stretch && !refining_) begin_refinement(k, data);
-  if (fresh_starts_ > 0 && !refining_ && k - fresh_trial_ < initial_points_) {
+  if (fresh_starts_ > 0 && !refining_ && k - fresh_trial_ < restart_points_) {
     s.x = fresh_design_point(k, refit);
     s.phase = "restart";
     return s;
@@ -431,7 +488,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
   region_->update(surrogate_.get(), data, region_rng);
   Dataset late_refined;
-  if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && initial_points_ > 0 &&
+  if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0 &&
       final_stretch) {
     // Converged within the last trials: a new design could not be followed up; the refinement begins now, on its
     // model.
@@ -442,13 +499,13 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     fit_model(k, *model_data);
     region_->update(surrogate_.get(), data, region_rng);
   }
-  if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && initial_points_ > 0) {
+  if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0) {
     fresh_starts_ = fresh_region->fresh_starts();
     fresh_trial_ = k;
     fresh_from_ = data.size();
     attempt_starts_.push_back(fresh_from_);
     log_info("bo: trial {}: the region restarts afresh ({}): a new design of {} points, then a model of the new "
-             "points", k, fresh_starts_, initial_points_);
+             "points", k, fresh_starts_, restart_points_);
     s.x = fresh_design_point(k, refit);
     s.phase = "restart";
     s.acquisition_seconds = seconds_since(t_acq);

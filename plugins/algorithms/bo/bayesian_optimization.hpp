@@ -59,6 +59,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Trial k's point of the current fresh start's design (drawn anew from its own stream, so a restored run
   /// draws the same), or a random point where success is likely when failure is likely there.
   Vec fresh_design_point(Index k, bool refit);
+  /// restart_design: away: of 16 designs, the one farthest from the best point of every earlier attempt.
+  Mat design_away_from_minima(Rng& rng) const;
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;
   /// Starts the final refinement of the incumbent of all the data (see BoSettings::refine_last).
@@ -88,6 +90,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::unique_ptr<Optimizer> recommend_optimizer_;  ///< the recommender's own (see the constructor)
   std::vector<Phase> phases_;
   Index initial_points_ = 0;
+  Index restart_points_ = 0;  ///< see BoSettings::restart_points
+  bool restart_away_ = false;  ///< restart_design: away
   Index refit_every_ = 1;
   Mat design_;
   Dataset data_;             ///< successful observations
@@ -107,7 +111,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Index refine_last_ = 0;  ///< see BoSettings::refine_last
   std::unique_ptr<Acquisition> refine_acquisition_;
   bool refine_weighted_ = false;  ///< refine_feasibility: weight
-  bool refine_attempt_model_ = false;  ///< refine_model: attempt
+  bool refine_attempt_model_ = false;  ///< refine_model: attempt or basin
+  bool refine_basin_ = false;  ///< refine_model: basin (the attempt plus the other points near the incumbent)
   bool refining_ = false;
   std::vector<Index> attempt_starts_;  ///< successful observations before each fresh start
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt

@@ -35,7 +35,10 @@ const varbo::OptionSet<TrustRegionOptions>& trust_region_options() {
           .at_least(0),
       opt::integer("stall_tolerance", &TrustRegionOptions::stall_tolerance,
                    "consecutive stalls that restart the region at once (converged); 0 = failure_tolerance, -1 = off")
-          .at_least(-1)};
+          .at_least(-1),
+      opt::choice("stall_count", &TrustRegionOptions::stall_count, {"consecutive", "since_success"},
+                  "which stalls count toward stall_tolerance: those in a row (a failure away from the incumbent "
+                  "resets the count), or all since the last success")};
   return set;
 }
 }  // namespace

@@ -222,3 +222,32 @@ TEST_CASE("trust_region: stall_tolerance consecutive failures next to the incumb
   CHECK(plain.restarts() == 0);
   CHECK(plain.failures() == 3);
 }
+
+TEST_CASE("trust_region: stall_count since_success keeps stalls across failures away from the incumbent") {
+  TrustRegionOptions o;
+  o.restart_center = "new_points";
+  o.stall_tolerance = 3;
+  o.stall_count = "since_success";
+  TrustRegion tr(2, o);
+  Dataset data = Dataset::empty(2);
+  const Vec inc = (Vec(2) << 0.4, 0.6).finished();
+  observe(tr, data, inc, 1.0);
+  // Stall, a probe far away (a failure, no stall), stall: the count is 2, not 1 as with `consecutive`.
+  observe(tr, data, inc + Vec::Constant(2, 5e-4), 1.0);
+  observe(tr, data, (Vec(2) << 0.1, 0.1).finished(), 2.0);
+  observe(tr, data, inc - Vec::Constant(2, 5e-4), 1.0);
+  CHECK(tr.stalls() == 2);
+  // A success resets it.
+  const Vec better = (Vec(2) << 0.45, 0.6).finished();
+  observe(tr, data, better, 0.5);
+  CHECK(tr.stalls() == 0);
+  observe(tr, data, better + Vec::Constant(2, 1e-4), 0.5);
+  observe(tr, data, (Vec(2) << 0.9, 0.1).finished(), 2.0);
+  observe(tr, data, (Vec(2) << 0.1, 0.9).finished(), 2.0);
+  CHECK(tr.restarts() == 0);
+  observe(tr, data, better - Vec::Constant(2, 1e-4), 0.5);
+  observe(tr, data, better, 0.5);
+  // The third stall since the success, with two far failures between: converged, a fresh start.
+  CHECK(tr.restarts() == 1);
+  CHECK(tr.stalls() == 0);
+}

@@ -59,7 +59,7 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       bool near = true;
       for (Index i = std::max(seen_, from); i < data.size(); ++i)
         near = near && (data.X.row(i).transpose() - center_).lpNorm<Eigen::Infinity>() <= options_.stall_distance;
-      stalls_ = near ? stalls_ + 1 : 0;
+      stalls_ = near ? stalls_ + 1 : (options_.stall_count == "consecutive" ? 0 : stalls_);
     }
     best_ = std::min(best_, best);
     if (successes_ >= options_.success_tolerance) {

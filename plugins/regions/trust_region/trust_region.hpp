@@ -1,7 +1,7 @@
 #pragma once
 // TuRBO-1's trust region (Eriksson et al. 2019, section 2): a box of side L around the incumbent, doubled
 // after τ_succ consecutive successes, halved after τ_fail consecutive failures, and restarted when L < L_min or
-// when the search has converged next to the incumbent (3 stalls in a row). A restart is TuRBO's fresh start by
+// when the search has converged next to the incumbent (2 stalls in a row). A restart is TuRBO's fresh start by
 // default (`restart_center: new_points`; FreshStartRegion: the algorithm draws a new design, models the new
 // points, and refines the incumbent of all the data in its last trials); `restart_center: incumbent` keeps the
 // incumbent and the data instead (docs/defaults.md).
@@ -37,8 +37,13 @@ struct TrustRegionOptions {
   /// the model has converged there. stall_tolerance consecutive stalls restart the region at once instead of
   /// after the ~7·τ_fail failures that halve L below length_min (Hartmann-6: 31 stalls in a row in a local
   /// minimum; Ackley-5's ripples: at most 3, docs/defaults.md). 0 = τ_fail, −1 = off.
+  /// 2 since session h6b (with bo's restart_design: away and refine_model: basin; 3 before): the attempt that
+  /// converged hands over 1 trial sooner, which with the other two took Hartmann-6's stuck runs from 4 to 3.
   double stall_distance = 1e-3;
-  int stall_tolerance = 3;
+  int stall_tolerance = 2;
+  /// `consecutive`: a failure away from the incumbent resets the stall count (EI's probes of the box's corners
+  /// between stalls then delay the restart); `since_success`: only a success resets it.
+  std::string stall_count = "consecutive";
 };
 
 class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion {

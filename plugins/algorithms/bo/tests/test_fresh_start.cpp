@@ -82,3 +82,49 @@ TEST_CASE("bo: a trust region with restart_center: incumbent never draws a fresh
       20);
   for (const Trial& x : t) CHECK(x.phase != "restart");
 }
+
+namespace {
+// The first fresh design of a run: its trials and the best point before it.
+struct FreshDesign {
+  std::vector<Vec> points;
+  Vec best_before;
+};
+FreshDesign first_fresh_design(const std::vector<Trial>& t) {
+  FreshDesign out;
+  Index k = 0;
+  while (k < static_cast<Index>(t.size()) && t[k].phase != "restart") ++k;
+  REQUIRE(k < static_cast<Index>(t.size()));
+  Index best = 0;
+  for (Index i = 1; i < k; ++i)
+    if (bowl(t[i].x) < bowl(t[best].x)) best = i;
+  out.best_before = t[best].x;
+  for (; k < static_cast<Index>(t.size()) && t[k].phase == "restart"; ++k) out.points.push_back(t[k].x);
+  return out;
+}
+double nearest(const FreshDesign& d) {
+  double m = 1e300;
+  for (const Vec& x : d.points) m = std::min(m, (x - d.best_before).norm());
+  return m;
+}
+}  // namespace
+
+TEST_CASE("bo: restart_points sets the fresh design's size; restart_design: away keeps it off earlier minima") {
+  set_log_level(LogLevel::Error);
+  const std::string region =
+      "region: {type: trust_region, restart_center: new_points, failure_tolerance: 1, length_min: 0.3}";
+  const FreshDesign lhs =
+      first_fresh_design(run("{type: bo, initial_points: 4, restart_design: lhs, refine_last: 2, " + region + "}", 30));
+  const FreshDesign small = first_fresh_design(
+      run("{type: bo, initial_points: 4, restart_points: 2, restart_design: lhs, refine_last: 2, " + region + "}",
+          30));
+  const FreshDesign away = first_fresh_design(
+      run("{type: bo, initial_points: 4, restart_design: away, refine_last: 2, " + region + "}", 30));
+  CHECK(lhs.points.size() == 4);
+  CHECK(small.points.size() == 2);
+  REQUIRE(away.points.size() == 4);
+  // The runs agree until the first fresh start; `away` picks, of 16 Latin hypercubes drawn from the stream whose
+  // first draw is the plain design, the one whose nearest point to the first attempt's best is farthest.
+  CHECK((away.best_before - lhs.best_before).norm() == 0.0);
+  CHECK(nearest(away) >= nearest(lhs));
+  CHECK(nearest(away) > 0.2);
+}
