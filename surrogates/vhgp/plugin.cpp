@@ -90,7 +90,7 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
                    "only at full fits, refitting only the chosen family in between"),
       opt::boolean("warm_lambda_only", &C::warm_lambda_only,
                    "a fit between full fits optimizes only log Lambda at the previous hyperparameters; false: all "
-                   "parameters from the warm start"),
+                   "parameters from the warm start (then warm_evaluations applies)"),
       opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
       opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
                    "add independent log-normal hyperpriors to the bound (eq. 13)"),
