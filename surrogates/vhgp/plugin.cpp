@@ -82,6 +82,15 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
                    "objective evaluations of the warm start in a fit between full fits (it continues from the "
                    "previous optimum with one point more); 0: to convergence")
           .at_least(0),
+      opt::boolean("warm_final_refit", &C::warm_final_refit,
+                   "bo's final recommendation refit continues this model's fit schedule from its snapshot "
+                   "(warm-only unless N has grown by full_fit_growth); false: a full fit of a fresh model"),
+      opt::boolean("select_every_fit", &C::select_every_fit,
+                   "noise_model auto: choose between the noise process and constant noise at every fit; false: "
+                   "only at full fits, refitting only the chosen family in between"),
+      opt::boolean("warm_lambda_only", &C::warm_lambda_only,
+                   "a fit between full fits optimizes only log Lambda at the previous hyperparameters; false: all "
+                   "parameters from the warm start (then warm_evaluations applies)"),
       opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
       opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
                    "add independent log-normal hyperpriors to the bound (eq. 13)"),

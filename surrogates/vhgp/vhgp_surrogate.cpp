@@ -201,8 +201,13 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   const bool full = !warm || n <= kAlwaysFullFit || config_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
                     n < last_full_fit_n_ ||
                     static_cast<double>(n) >= config_.full_fit_growth * static_cast<double>(last_full_fit_n_);
-  const bool select = config_.noise_model == NoiseModel::Auto;
-  const bool heteroscedastic = config_.noise_model != NoiseModel::Homoscedastic;
+  // With select_every_fit false, a fit between full fits keeps the family chosen at the last fit: only the
+  // constant-noise member (a warm GP fit) or only the noise process (its warm start) is refitted.
+  const bool keep_choice =
+      config_.noise_model == NoiseModel::Auto && !config_.select_every_fit && !full && posterior_ != nullptr;
+  const bool select = config_.noise_model == NoiseModel::Auto && !keep_choice;
+  const bool heteroscedastic = config_.noise_model == NoiseModel::Heteroscedastic ||
+                               (config_.noise_model == NoiseModel::Auto && !(keep_choice && homoscedastic_selected_));
   // The homoscedastic fit: the GP start of a full fit (vhgp.md §8) and, when the noise model is selected, the
   // nested model the heteroscedastic fit has to beat (then at every fit, warm-started: it is cheap).
   HomoscedasticFit homo;
@@ -220,10 +225,22 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
   std::vector<VhgpParams> starts;
   if (heteroscedastic) starts = restart_starts(n, s, homo, warm, full, base);
-  const std::vector<RestartResult> results =
-      optimize_restarts(objective, region, starts, *optimizer_, base,
-                        RestartSettings{config_.restart_evaluations, config_.finalists, config_.lambda_warmup,
-                                        full ? 0 : config_.warm_evaluations});
+  std::vector<RestartResult> results;
+  if (!full && config_.warm_lambda_only && starts.size() == 1) {
+    // log Λ alone at the warm start's hyperparameters (stream (2, 0), as the warm start's restart).
+    VhgpParams p = starts.front();
+    Rng r = base.stream(2, 0);
+    p.log_lambda = maximize_log_lambda(objective, p, region.bounds(), *optimizer_, r);
+    RestartResult res;
+    res.x = region.bounds().clamp(p.pack());
+    res.objective = objective.value(res.x, nullptr);
+    res.ok = std::isfinite(res.objective);
+    results.push_back(res);
+  } else {
+    results = optimize_restarts(objective, region, starts, *optimizer_, base,
+                                RestartSettings{config_.restart_evaluations, config_.finalists, config_.lambda_warmup,
+                                                full ? 0 : config_.warm_evaluations});
+  }
 
   Index failed = 0;
   const Index best =
@@ -255,6 +272,11 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
                 n, homoscedastic_chosen ? "homoscedastic" : "heteroscedastic", fv,
                 fh.ok ? fh.F : -std::numeric_limits<double>::infinity(), penalty);
   }
+  if (!chosen && keep_choice) {
+    // The kept family's warm fit failed: a full fit (both families, all restarts) before giving up.
+    last_full_fit_n_ = 0;
+    return fit(data, rng);
+  }
   if (!chosen) {
     report.ok = false;
     report.message = "every restart failed; " + std::string(posterior_ ? "kept the previous model" : "no model");
@@ -273,7 +295,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     }
     if (report.ok && report.restarts_failed > 0)
       report.message = std::to_string(report.restarts_failed) + " restart(s) failed and were skipped";
-    if (report.ok && select)
+    if (report.ok && config_.noise_model == NoiseModel::Auto)
       report.message += std::string(report.message.empty() ? "" : "; ") +
                         (homoscedastic_chosen ? "homoscedastic noise selected" : "heteroscedastic noise selected");
   }
@@ -426,11 +448,15 @@ std::vector<std::pair<std::string, Vec>> VhgpSurrogate::state() const {
   if (bound_gradient_.size() > 0) out.emplace_back("bound_gradient", bound_gradient_);
   // y_s = (y − mean)/scale: relates the model-unit quantities (bound_gradient) to the costs (read-only).
   if (posterior_) out.emplace_back("standardization", (Vec(2) << scaling_.mean, scaling_.scale).finished());
+  // N at the last full fit (read-only): its presence tells bo's recommender to continue this model's fit schedule
+  // from its snapshot for the final refit (`warm_final_refit`).
+  if (config_.warm_final_refit && last_full_fit_n_ > 0)
+    out.emplace_back("last_full_fit_n", Vec::Constant(1, static_cast<double>(last_full_fit_n_)));
   return out;
 }
 
 void VhgpSurrogate::set_state(const std::string& name, const Vec& value) {
-  if (name == "standardization") return;  // recomputed from the data on every fit/condition
+  if (name == "standardization" || name == "last_full_fit_n") return;  // recomputed / the fit's own record
   if (name != "log_lambda") Surrogate::set_state(name, value);
   if (!value.allFinite()) throw ConfigError("vhgp: state 'log_lambda' must be finite");
   CostParams c = params_ ? *params_ : defaults(scaling_);

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "varbo/space_wrappers.hpp"
+#include "varbo/state.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 
@@ -61,6 +62,27 @@ Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
 }
 
 bool Recommender::prepare_model(const Surrogate& fitted, const Dataset& data, Rng& rng, bool refit) {
+  // A surrogate that reports its full-fit counter (the vhgp's "last_full_fit_n", `warm_final_refit`) continues
+  // its own fit schedule for the final refit: the recommendation model starts from the run model's exact
+  // snapshot, as one more fit of the run's model would (its full fit from scratch was 2–6 s of a vhgp study at
+  // N = 100, d = 5; docs/noisy.md). Other surrogates (the gp) refit a fresh model from their hyperparameters.
+  if (refit) {
+    bool schedule = false;
+    for (const auto& [name, value] : fitted.state()) schedule = schedule || name == "last_full_fit_n";
+    const ComponentState* from = schedule ? state_of(&fitted) : nullptr;
+    ComponentState* to = schedule ? state_of(model_.get()) : nullptr;
+    if (from && to) {
+      try {
+        to->restore_state(from->save_state());
+        const FitReport rep = model_->fit(data, rng);
+        if (!rep.ok) log_warn("bo: recommendation model: {}", rep.report());
+        return model_->ready() && rep.ok;
+      } catch (const std::exception& e) {
+        log_warn("bo: recommendation model from the run model's snapshot: {}; refitting from its hyperparameters",
+                 e.what());
+      }
+    }
+  }
   try {
     // Every hyperparameter but a constant mean, which follows the data it is conditioned on (setting it
     // would fix it, e.g. the gp's `mean`, at the mean of the previous N − 1 costs).

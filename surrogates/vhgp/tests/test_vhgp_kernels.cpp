@@ -425,6 +425,12 @@ TEST_CASE("options: a default-built vhgp is VhgpConfig{} (declared defaults = st
   const VhgpConfig c;
   CHECK(def["full_fit_growth"] == "1.25");
   CHECK(c.full_fit_growth == 1.25);
+  CHECK(def["warm_final_refit"] == "true");
+  CHECK(def["select_every_fit"] == "false");
+  CHECK(def["warm_lambda_only"] == "true");
+  CHECK(c.warm_final_refit);
+  CHECK_FALSE(c.select_every_fit);
+  CHECK(c.warm_lambda_only);
   CHECK(def["kernel_f"] == "matern52_ard");
   const YAML::Node mu0 = YAML::Load(def["prior_mu0"]);
   CHECK(mu0[0].as<double>() == c.prior.mu0.mean);

@@ -5,7 +5,9 @@
 
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
+#include "varbo/optimizer.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/state.hpp"
 #include "recommender.hpp"
 #include "varbo_test.hpp"
 
@@ -192,4 +194,58 @@ TEST_CASE("recommendation: lowest_mean_evaluated breaks ties within a tenth of t
   CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 0.5), data) == 2);
   const Vec lucky = (Vec(4) << 5.0, 1.0, 1.06, 1.5).finished();
   CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, lucky, 0.5), data) == 1);
+}
+
+TEST_CASE("recommendation: a vhgp's final refit continues its fit schedule from the run model (warm_final_refit)") {
+  set_log_level(LogLevel::Error);
+  // 25 noisy observations of a 1-D cost; the run's model last fitted (fully, N > 20) on the first 24.
+  Rng data_rng(3);
+  Dataset all = Dataset::empty(1), first = Dataset::empty(1);
+  for (Index i = 0; i < 25; ++i) {
+    const Vec x = data_rng.uniform_vec(1);
+    const double y = std::sin(6.0 * x(0)) + (0.05 + 0.5 * x(0)) * data_rng.normal();
+    all.add(x, y);
+    if (i < 24) first.add(x, y);
+  }
+  BuildContext ctx;
+  ctx.dim = 1;
+  const auto schedule = [](const Surrogate& s) {
+    for (const auto& [name, value] : s.state())
+      if (name == "last_full_fit_n") return value(0);
+    return -1.0;
+  };
+  const BoxRegion region(Box::unit(1));
+  const std::unique_ptr<Optimizer> optimizer = test::registry().create<Optimizer>("ceres_lbfgs", ctx);
+  for (const bool warm : {true, false}) {
+    CAPTURE(warm);
+    const std::string yaml = std::string("{type: vhgp, restarts: 3, warm_final_refit: ") + (warm ? "true" : "false") + "}";
+    const std::unique_ptr<Surrogate> run_model = test::registry().create<Surrogate>(yaml, ctx);
+    Rng fit_rng(5);
+    REQUIRE(run_model->fit(first, fit_rng).ok);
+    bo::Recommender rec(bo::RecommendationRule::LowestMeanEvaluated, 0.0,
+                        test::registry().create<Surrogate>(yaml, ctx));
+    Rng rng(9);
+    (void)rec.recommend(run_model.get(), all, region, *optimizer, rng, true);
+    REQUIRE(rec.model() != nullptr);
+    if (!warm) {
+      // A fresh model's full fit: no counter reported, the recommendation model refitted from scratch.
+      CHECK(schedule(*run_model) == -1.0);
+      CHECK(schedule(*rec.model()) == -1.0);
+      continue;
+    }
+    // 25 < 1.25 × 24: the final refit is warm-only, as one more fit of the run's model would be — the same
+    // model, bit for bit, as restoring the run model's snapshot and fitting it with the same random stream.
+    CHECK(schedule(*run_model) == 24.0);
+    CHECK(schedule(*rec.model()) == 24.0);
+    const std::unique_ptr<Surrogate> continued = test::registry().create<Surrogate>(yaml, ctx);
+    state_of(continued.get())->restore_state(state_of(run_model.get())->save_state());
+    Rng same(9);
+    REQUIRE(continued->fit(all, same).ok);
+    const Hyperparameters a = rec.model()->hyperparameters(), b = continued->hyperparameters();
+    REQUIRE(a.size() == b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) CHECK(a[i].value == b[i].value);
+    for (Index i = 0; i < all.size(); ++i)
+      CHECK(rec.model()->predict(all.X.row(i).transpose(), false).mean ==
+            continued->predict(all.X.row(i).transpose(), false).mean);
+  }
 }
