@@ -260,7 +260,10 @@ TEST_CASE("postgresql: a second varbo run on a study being run exits 2 naming th
       return 0;  // not created yet
     }
   };
-  for (int i = 0; i < 3000 && trial_count() < 1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  // Up to a minute: on a loaded machine the first run's start (process, study creation, a 0.2 s trial) took > 15 s.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (trial_count() < 1 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   REQUIRE(trial_count() >= 1);
 
   // Another run folder, the same database study: refused, naming the owner; nothing written by it.
