@@ -37,18 +37,6 @@ BoundOption<GpSettings> prior_sd(std::string name, LogNormalPrior HyperPriors::*
           [key, prior](const Options& o, GpSettings& s) { (s.priors.*prior).sd = o.real(key); }};
 }
 
-// min_noise_std: 0 (the default, so that config.resolved.yaml re-runs the same) stands for the floor of the
-// kernel: GpSettings::kSeMinNoiseStd for se_ard (set by the factory, which knows the kernel), GpSettings{}'s otherwise.
-BoundOption<GpSettings> min_noise_option() {
-  return {opt::real("min_noise_std", 0.0,
-                    "lower bound of the noise std, relative to std(y); 0: by kernel (1e-7 for se_ard, whose prior "
-                    "explains noise-free data it cannot fit exactly as noise at the floor; 1e-6 otherwise)")
-              .at_least(0),
-          [](const Options& o, GpSettings& s) {
-            if (o.real("min_noise_std") > 0) s.min_noise_std = o.real("min_noise_std");
-          }};
-}
-
 }  // namespace
 
 const OptionSet<GpSettings>& gp_options() {
@@ -83,7 +71,7 @@ const OptionSet<GpSettings>& gp_options() {
       opt::real("max_lengthscale", &S::max_lengthscale, "upper bound of each lengthscale (unit cube)").above(0),
       opt::real("min_signal_std", &S::min_signal_std, "lower bound of the signal std, relative to std(y)").above(0),
       opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
-      min_noise_option(),
+      opt::real("min_noise_std", &S::min_noise_std, "lower bound of the noise std, relative to std(y)").above(0),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
       opt::choice("output_transform", "none", transforms::output_transform_names(),
                   transforms::output_transform_description()),
@@ -112,8 +100,6 @@ ComponentInfo gp_component() {
         // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
         const Registry* registry = ctx.registry;
         const ResolvedComponent kernel = o.component("kernel");
-        if (o.real("min_noise_std") == 0 && kernel.info != nullptr && kernel.info->name == "se_ard")
-          s.min_noise_std = GpSettings::kSeMinNoiseStd;
         const std::uint64_t seed = ctx.seed;
         s.kernel = [registry, kernel, seed](Index dim) {
           BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)

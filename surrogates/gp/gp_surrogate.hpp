@@ -40,11 +40,6 @@ struct GpSettings {
   // Floor 1e-6: the fitted noise of deterministic costs sits on the floor, and 1e-4 capped Hartmann-6's regret at
   // ~2e-5 (README); robust_cholesky's jitter keeps duplicated points factorizable.
   double min_noise_std = 1e-6, max_noise_std = 2.0;
-  /// The floor with kernel `se_ard` when min_noise_std is not given. An SE prior rates noise-free data that it
-  /// cannot fit exactly as noise at the floor: the posterior mean missed the data by ~σ_n (5e-7·std(y) on
-  /// Hartmann-3 at 1e-6, Matérn-5/2 1e-7), which capped the regret at 6.7e-10 there; 1e-7 gave 2.9e-11
-  /// (docs/defaults.md, "SE-ARD").
-  static constexpr double kSeMinNoiseStd = 1e-7;
 };
 
 class GpSurrogate final : public Surrogate, public ComponentState {

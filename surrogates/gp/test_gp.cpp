@@ -506,22 +506,3 @@ TEST_CASE("gp options: the defaults are GpSettings{}; given priors are stored as
   CHECK(s.priors.lengthscale.mean == ref.priors.lengthscale.mean);
   CHECK(s.min_signal_std == 0.1);
 }
-
-TEST_CASE("gp component: se_ard's noise floor is 1e-7 unless min_noise_std is given; other kernels keep 1e-6") {
-  auto& reg = test::registry();
-  BuildContext ctx;
-  ctx.dim = 2;
-  // The floor is the lower end of the noise box: a noise set below it is raised to it by the fit's clamp.
-  const auto fitted_noise_floor = [&](const std::string& yaml) {
-    auto gp = reg.create<Surrogate>(yaml, ctx);
-    const auto* g = dynamic_cast<const GpSurrogate*>(gp.get());
-    REQUIRE(g != nullptr);
-    return std::exp(g->log_box(2).lower(g->kernel().num_params()));
-  };
-  CHECK(fitted_noise_floor("{type: gp, kernel: se_ard}") == doctest::Approx(1e-7).epsilon(1e-12));
-  CHECK(fitted_noise_floor("{type: gp}") == doctest::Approx(1e-6).epsilon(1e-12));
-  CHECK(fitted_noise_floor("{type: gp, kernel: matern32_ard}") == doctest::Approx(1e-6).epsilon(1e-12));
-  CHECK(fitted_noise_floor("{type: gp, kernel: se_ard, min_noise_std: 1.0e-5}") == doctest::Approx(1e-5).epsilon(1e-12));
-  CHECK(fitted_noise_floor("{type: gp, min_noise_std: 0}") == doctest::Approx(1e-6).epsilon(1e-12));
-  CHECK_THROWS_AS(reg.create<Surrogate>("{type: gp, min_noise_std: -1}", ctx), ConfigError);
-}
