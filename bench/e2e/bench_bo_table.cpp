@@ -10,6 +10,8 @@
 // recommended regret (to count runs stuck in a local minimum).
 //
 // Prints Markdown tables (the README's benchmark section is produced by this program).
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
@@ -88,7 +90,7 @@ int main(int argc, char** argv) {
   }
   set_log_level(LogLevel::Error);
   Registry& reg = default_registry();
-  const std::string tmp = (std::filesystem::temp_directory_path() / "varbo_bench_bo").string();
+  const std::string tmp = (std::filesystem::temp_directory_path() / fmt::format("varbo_bench_bo_{}", getpid())).string();  // one per process: concurrent runs must not share run folders
   std::vector<Problem> problems = {{"Branin", "{type: branin}"},
                                          {"Hartmann-3", "{type: hartmann3}"},
                                          {"Hartmann-6", "{type: hartmann6}"},
@@ -174,5 +176,6 @@ int main(int argc, char** argv) {
       std::printf("| %d | %.1f ms |\n", n, 1e3 * quantile(t, 0.5));
     }
   }
+  std::filesystem::remove_all(tmp);  // the run folders (per-seed results were printed)
   return 0;
 }

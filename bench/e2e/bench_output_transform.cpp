@@ -6,6 +6,8 @@
 //   nice -n 10 build/bin/bench_output_transform [--seeds 8] [--threads 1] [--surrogate gp|vhgp] [--only NAME-PREFIX] [--first-seed K]
 //
 // Prints a Markdown table (docs/output_transform.md).
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <cctype>
@@ -113,7 +115,7 @@ int main(int argc, char** argv) {
   }
   set_log_level(LogLevel::Error);
   Registry& reg = default_registry();
-  const std::string tmp = (std::filesystem::temp_directory_path() / "varbo_bench_output_transform").string();
+  const std::string tmp = (std::filesystem::temp_directory_path() / fmt::format("varbo_bench_output_transform_{}", getpid())).string();
   // exp(Branin/20): costs from 1.02 to ~5e6 on the box, minimum exp(0.397887/20) at Branin's three minimizers.
   const std::string exp_branin_task =
       "{type: external, input: args, lower: [-5, 0], upper: [10, 15], command: \"awk 'BEGIN { pi = atan2(0, -1); "

@@ -378,6 +378,21 @@ void BayesianOptimization::begin_refinement(Index k, const Dataset& data) {
   dynamic_cast<FreshStartRegion&>(*region_).return_to_incumbent();
 }
 
+Dataset BayesianOptimization::model_data_of(const Dataset& data) const {
+  // The refinement's model, else the current attempt's (the points since the last fresh start), else all data.
+  if (refining_ && refine_attempt_model_) {
+    Dataset refined = refinement_data(data);
+    if (refined.size() >= 2) return refined;
+  }
+  if (fresh_starts_ > 0 && !refining_ && data.size() >= fresh_from_ + 2) {
+    Dataset local;
+    local.X = data.X.bottomRows(data.size() - fresh_from_);
+    local.y = data.y.tail(data.size() - fresh_from_);
+    return local;
+  }
+  return data;
+}
+
 Dataset BayesianOptimization::refinement_data(const Dataset& data) const {
   // The incumbent's attempt and the refinement's own trials: one basin, so the fitted lengthscales are that
   // basin's (a model of every attempt's data refined Hartmann-6's global basin, found by the last attempt,
@@ -459,15 +474,8 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "restart";
     return s;
   }
-  Dataset local;
-  if (fresh_starts_ > 0 && data.size() > fresh_from_) {
-    local.X = data.X.bottomRows(data.size() - fresh_from_);
-    local.y = data.y.tail(data.size() - fresh_from_);
-  }
-  const Dataset refined = refining_ && refine_attempt_model_ ? refinement_data(data) : Dataset();
-  const Dataset* model_data = refined.size() >= 2                                   ? &refined
-                              : fresh_starts_ > 0 && !refining_ && local.size() >= 2 ? &local
-                                                                                     : &data;
+  const Dataset chosen = model_data_of(data);
+  const Dataset* model_data = &chosen;
   const auto t_fit = std::chrono::steady_clock::now();
   FitReport rep;
   if ((refit || !model_ready_) && !prefitted_) {  // a batch that started in the initial design fits here
@@ -592,9 +600,10 @@ std::vector<Suggestion> BayesianOptimization::ask(Index q) {
   if (offset > 0) {
     const Index k0 = told_ + offset;
     if (k0 >= design_.rows() && !phase_at(k0).random && data_.size() >= 2) {
-      // Fit on the real observations only; the pending points then enter at their lies.
+      // Fit on the real observations only (of the current attempt or refinement, as suggest() would); the pending
+      // points then enter at their lies.
       const auto t0 = std::chrono::steady_clock::now();
-      fit_model(k0, data_);
+      fit_model(k0, model_data_of(data_));
       prefitted_ = true;
       prefit_seconds = seconds_since(t0);
     }

@@ -65,8 +65,11 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   double lie(const Vec& x) const;
   /// Starts the final refinement of the incumbent of all the data (see BoSettings::refine_last).
   void begin_refinement(Index k, const Dataset& data);
-  /// The final refinement's data (refine_model: attempt).
-  Dataset refinement_data(const Dataset& data) const;  ///< the value a not-yet-observed point is believed to have
+  /// What the model is fitted to at this stage of the run: the refinement's data, the current attempt's points
+  /// (since the last fresh start) or all of them; suggest() and a batch's first fit both use it.
+  Dataset model_data_of(const Dataset& data) const;
+  /// The final refinement's data (refine_model: attempt or basin).
+  Dataset refinement_data(const Dataset& data) const;
   /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
   /// yet fitted); true when the acquisition is to be weighted.
   bool update_feasibility(Index evaluation, bool refit);

@@ -2,12 +2,15 @@
 // et al. 2019, section 2): a collapse is followed by a new design of initial_points trials, and the last
 // refine_last trials of the budget go back to the incumbent of all the data.
 #include <algorithm>
+#include <cmath>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/surrogate.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -127,4 +130,53 @@ TEST_CASE("bo: restart_points sets the fresh design's size; restart_design: away
   CHECK((away.best_before - lhs.best_before).norm() == 0.0);
   CHECK(nearest(away) >= nearest(lhs));
   CHECK(nearest(away) > 0.2);
+}
+
+TEST_CASE("bo: a batch with pending points fits the current attempt's model, as a serial step does") {
+  set_log_level(LogLevel::Error);
+  // As in the first case: a bowl, a region that collapses after one failure and restarts afresh.
+  const std::string algorithm =
+      "{type: bo, initial_points: 3, refine_last: 4, region: {type: trust_region, restart_center: new_points, "
+      "failure_tolerance: 1, length_min: 0.3}}";
+  const Index budget = 30;
+  BuildContext ctx;
+  ctx.dim = 2;
+  ctx.budget = budget;
+  ctx.seed = 5;
+  auto a = test::registry().create<Algorithm>(algorithm, ctx);
+  Dataset all = Dataset::empty(2);
+  Index attempt_from = -1;  // first trial of the latest fresh design
+  std::string last_phase;
+  bool checked = false;
+  for (Index k = 0; k < budget - 4 && !checked; ++k) {
+    // Two model-based trials into an attempt that follows a fresh start: the model is the attempt's.
+    if (attempt_from > 0 && k - attempt_from >= 5 && last_phase != "restart") {
+      a->set_pending({Vec::Constant(2, 0.9)});
+      REQUIRE(a->ask(1).size() == 1);
+      const std::optional<ModelSnapshot> snap = a->snapshot();
+      REQUIRE(snap.has_value());
+      Dataset attempt = Dataset::empty(2);
+      for (Index i = attempt_from; i < all.size(); ++i) attempt.add(all.X.row(i).transpose(), all.y[i]);
+      // The snapshot's objective is the fit's: the same hyperparameters conditioned on the attempt's points give
+      // it again (same arithmetic: 1e-9 relative), on all the points something else.
+      BuildContext sctx;
+      sctx.dim = 2;
+      auto gp = test::registry().create<Surrogate>("{type: gp}", sctx);
+      gp->set_hyperparameters(snap->hyperparameters);
+      const double on_attempt = gp->condition(attempt).objective;
+      const double on_all = gp->condition(all).objective;
+      CAPTURE(k);
+      CAPTURE(attempt.size());
+      CHECK(snap->objective == doctest::Approx(on_attempt).epsilon(1e-9));
+      CHECK(std::abs(on_all - on_attempt) > 1e-3 * std::abs(on_attempt));
+      checked = true;
+      break;
+    }
+    const Suggestion s = a->ask(1).front();
+    if (s.phase == "restart" && last_phase != "restart" && k > 0) attempt_from = k;
+    last_phase = s.phase;
+    a->tell({Observation{s.x, bowl(s.x), true, {}}});
+    all.add(s.x, bowl(s.x));
+  }
+  CHECK(checked);
 }
