@@ -44,14 +44,15 @@ def main():
     with Dashboard(varbo, folder) as d, Chromium() as b:
         b.open(d.url + "/")
         c = wait_for(lambda: (lambda c: c if c["rows"] == 6 and c["points"] == 5 and c["failed"] == 1 else None)(page_counts(b)),
-                     15, "the page to show the 6 trials of the run")
+                     60, "the page to show the 6 trials of the run")
         check(True, "first trials shown")
         b.screenshot(os.path.join(work, "dashboard_initial.png"))
 
         b.eval("window.sameDocument = 1")  # gone if the page reloads
-        # The run continues (4 more trials, slowed down a little) while the page is open.
+        # The run continues (4 more trials of 2 s each, longer than the page's 1.5 s poll, so one poll sees a trial
+        # pending even on a loaded machine) while the page is open.
         cont = subprocess.Popen([varbo, "run", "--resume", folder, "--budget", "10", "--no-progress"],
-                                env=objective_env(fail_trial=-1, sleep=0.4), stdout=subprocess.PIPE,
+                                env=objective_env(fail_trial=-1, sleep=2.0), stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
         seen, pending_rows = set(), []
         def grown():
@@ -59,7 +60,7 @@ def main():
             seen.add(c["rows"])
             pending_rows.append(b.eval("document.querySelectorAll('#trials-body tr.pending').length"))
             return c if c["rows"] == 10 and c["points"] == 9 else None
-        wait_for(grown, 40, "the page to show the continued run's trials")
+        wait_for(grown, 90, "the page to show the continued run's trials")
         out, err = cont.communicate(timeout=60)
         check(cont.returncode == 0, f"continued run: exit {cont.returncode}: {err}")
         check(len([n for n in seen if 6 < n < 10]) >= 1, f"trials appeared one by one while the page was open: {sorted(seen)}")
@@ -68,7 +69,7 @@ def main():
         # A trial seen pending is updated once it finishes (the page asks from before its oldest pending trial).
         wait_for(lambda: b.eval("document.querySelectorAll('#trials-body tr.pending').length === 0 && "
                                 "document.querySelectorAll('#trials-body tr.complete').length === 9"),
-                 10, "every row complete or failed once the run is over")
+                 60, "every row complete or failed once the run is over")
 
         # Hostile names are text: no element was made from them, no script ran.
         check(b.eval("window.pwned === undefined"), "no script from the study ran")
@@ -83,7 +84,7 @@ def main():
                                  s.dispatchEvent(new Event('input')); }})()""")
             sel = wait_for(lambda: b.eval(f"""(() => {{ const s = window.dashboard.selection;
                                  return s && s.kappa === {kappa} && window.dashboard.lastComplete === 9 ? s : null; }})()"""),
-                           20, f"the selection for kappa {kappa}")
+                           60, f"the selection for kappa {kappa}")
             ref = json.loads(run([varbo, "select", folder, "--kappa", kappa, "--json"]).stdout)["selections"][0]
             check(sel == ref, f"kappa {kappa}: page {sel} vs varbo select {ref}")
             shown = b.eval("[...document.querySelectorAll('#selection .sel-value')].map(e => e.textContent)")
@@ -99,7 +100,7 @@ def main():
         b.eval("""(() => { document.querySelector('#rescore-weights input').value = '2';
                            document.getElementById('rescore-kappa').value = '0,1';
                            document.getElementById('rescore-go').click(); })()""")
-        rs = wait_for(lambda: b.eval("window.dashboard.rescore || null"), 30, "the re-weighted selections")
+        rs = wait_for(lambda: b.eval("window.dashboard.rescore || null"), 60, "the re-weighted selections")
         check([x["kappa"] for x in rs["selections"]] == [0, 1] and list(rs["weights"].values()) == [2],
               f"re-weighting asked as typed: {rs['weights']} {[x['kappa'] for x in rs['selections']]}")
         rows = b.eval("[...document.querySelectorAll('#rescore tr')].map(r => [...r.children].map(c => c.textContent))")
