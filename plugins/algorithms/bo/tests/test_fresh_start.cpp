@@ -3,6 +3,7 @@
 // refine_last trials of the budget go back to the incumbent of all the data.
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,12 +24,21 @@ struct Trial {
   std::string phase;
 };
 
-std::vector<Trial> run(const std::string& algorithm, Index budget) {
+// Two failures collapse the region (0.8 → 0.4 → 0.2 < 0.3); the bowl's improvements soon stay below 1e-3.
+const std::string kCollapsing =
+    "{type: bo, initial_points: 3, refine_last: 4, region: {type: trust_region, restart_center: new_points, "
+    "failure_tolerance: 1, length_min: 0.3}}";
+
+std::unique_ptr<Algorithm> make(const std::string& algorithm, Index budget) {
   BuildContext ctx;
   ctx.dim = 2;
   ctx.budget = budget;
   ctx.seed = 5;
-  auto a = test::registry().create<Algorithm>(algorithm, ctx);
+  return test::registry().create<Algorithm>(algorithm, ctx);
+}
+
+std::vector<Trial> run(const std::string& algorithm, Index budget) {
+  auto a = make(algorithm, budget);
   std::vector<Trial> out;
   for (Index k = 0; k < budget; ++k) {
     const Suggestion s = a->ask(1).front();
@@ -41,10 +51,7 @@ std::vector<Trial> run(const std::string& algorithm, Index budget) {
 
 TEST_CASE("bo: a fresh start of the trust region draws a new design; the last trials refine the incumbent") {
   set_log_level(LogLevel::Error);
-  // Two failures collapse the region (0.8 → 0.4 → 0.2 < 0.3); the bowl's improvements soon stay below 1e-3.
-  const std::string algorithm =
-      "{type: bo, initial_points: 3, refine_last: 4, region: {type: trust_region, restart_center: new_points, "
-      "failure_tolerance: 1, length_min: 0.3}}";
+  const std::string algorithm = kCollapsing;
   const Index budget = 30;
   const std::vector<Trial> t = run(algorithm, budget);
   // Fresh starts: runs of exactly initial_points "restart" trials, each a new design (not the first design).
@@ -135,15 +142,8 @@ TEST_CASE("bo: restart_points sets the fresh design's size; restart_design: away
 TEST_CASE("bo: a batch with pending points fits the current attempt's model, as a serial step does") {
   set_log_level(LogLevel::Error);
   // As in the first case: a bowl, a region that collapses after one failure and restarts afresh.
-  const std::string algorithm =
-      "{type: bo, initial_points: 3, refine_last: 4, region: {type: trust_region, restart_center: new_points, "
-      "failure_tolerance: 1, length_min: 0.3}}";
   const Index budget = 30;
-  BuildContext ctx;
-  ctx.dim = 2;
-  ctx.budget = budget;
-  ctx.seed = 5;
-  auto a = test::registry().create<Algorithm>(algorithm, ctx);
+  auto a = make(kCollapsing, budget);
   Dataset all = Dataset::empty(2);
   Index attempt_from = -1;  // first trial of the latest fresh design
   std::string last_phase;
