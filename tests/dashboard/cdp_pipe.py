@@ -63,7 +63,7 @@ class Chromium:
             self.replies[-1] = {"error": {"message": "chromium closed the pipe"}}
             self.cv.notify_all()
 
-    def send(self, method, params=None, session=True, timeout=30):
+    def send(self, method, params=None, session=True, timeout=90):
         with self.cv:
             self.next_id += 1
             mid = self.next_id
@@ -80,7 +80,8 @@ class Chromium:
         return reply["result"]
 
     def open(self, url):
-        target = self.send("Target.createTarget", {"url": "about:blank"}, session=False)["targetId"]
+        # The first command waits for chromium's start, which took > 30 s on a loaded machine.
+        target = self.send("Target.createTarget", {"url": "about:blank"}, session=False, timeout=150)["targetId"]
         self.session = self.send("Target.attachToTarget", {"targetId": target, "flatten": True}, session=False)["sessionId"]
         self.send("Emulation.setDeviceMetricsOverride",
                   {"width": self.width, "height": self.height, "deviceScaleFactor": 1, "mobile": False})
