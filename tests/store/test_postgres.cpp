@@ -275,10 +275,12 @@ TEST_CASE("postgresql: a second varbo run on a study being run exits 2 naming th
   CHECK(varbo_cli({"-q", "run", "--resume", url, "--no-progress"}, dir).first == 2);
   // Workers are not locked out, and another study of the same database runs meanwhile.
   CHECK(varbo_cli({"-q", "status", url}, dir).first == 0);
-  CHECK(varbo_cli({"-q", "run", config_file(dir), "-o", dir + "/other", "--study", test::pg_study_url("run_lock_other"),
-                   "--no-progress"},
-                  dir)
-            .first == 0);
+  // (Failed once in CI under load with exit 2; the message says why if it happens again.)
+  const auto [other_code, other_out] = varbo_cli(
+      {"-q", "run", config_file(dir), "-o", dir + "/other", "--study", test::pg_study_url("run_lock_other"), "--no-progress"},
+      dir);
+  CAPTURE(other_out);
+  CHECK(other_code == 0);
 
   kill(first, SIGKILL);  // the server ends the session, and its lock with it, when the connection closes
   test::wait_for(first);
