@@ -7,6 +7,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <set>
 #include <thread>
 #include <pqxx/pqxx>
@@ -293,5 +294,50 @@ TEST_CASE("postgresql: a second varbo run on a study being run exits 2 naming th
   }
   CHECK(resumed == 0);
   CHECK(trial_count() > before);  // it drove the study on
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("postgresql: creating a study does not wait on runs writing other studies; many creations at once succeed") {
+  const std::string dir = test::temp_folder("pg_create_concurrent_" + std::to_string(getpid()));
+  const std::string cfg = config_file(dir);
+  REQUIRE(varbo_cli({"-q", "study", "create", test::pg_study_url("create_first"), cfg}, dir).first == 0);  // the tables
+
+  // Another study's writer holds what a trial and a snapshot write hold (ROW EXCLUSIVE on both tables) and keeps
+  // its transaction open. A creation that took SHARE locks on those tables (CREATE INDEX IF NOT EXISTS does) would
+  // wait for it, and deadlock with a writer taking the tables in the other order: it must not touch them.
+  pqxx::connection holder_conn(test::pg_base_url());
+  pqxx::work holder(holder_conn);
+  holder.exec("LOCK TABLE varbo_trials IN ROW EXCLUSIVE MODE");
+  holder.exec("LOCK TABLE varbo_snapshots IN ROW EXCLUSIVE MODE");
+  const std::string url = test::pg_study_url("create_beside_writer");
+  auto created = std::async(std::launch::async, [&] {
+    return Study::create_from_yaml(url, "task: {type: branin}\nbudget: 3\nseed: 1\nalgorithm: {type: random}\n")
+        .ask(1)
+        .size();
+  });
+  const bool done = created.wait_for(std::chrono::seconds(60)) == std::future_status::ready;
+  CHECK_MESSAGE(done, "creating a study waited on another study's open write transaction");
+  holder.abort();  // lets a waiting creation finish either way
+  CHECK(created.get() == 1);
+
+  // Many processes create studies at once while a run writes trials and snapshots of another study.
+  std::ofstream(dir + "/slow.yaml") << "task: {type: external, command: 'sleep 0.05; echo 1.5', dim: 2}\nbudget: 40\n"
+                                       "seed: 1\nalgorithm: {type: random}\n";
+  const pid_t writer = test::spawn({VARBO_EXE, "-q", "run", dir + "/slow.yaml", "-o", dir + "/writer", "--study",
+                                    test::pg_study_url("create_writer"), "--no-progress"},
+                                   dir + "/writer.log");
+  std::vector<pid_t> creators;
+  for (int i = 0; i < 8; ++i)
+    creators.push_back(test::spawn(
+        {VARBO_EXE, "-q", "study", "create", test::pg_study_url("create_many_" + std::to_string(i)), cfg},
+        dir + "/create_" + std::to_string(i) + ".log"));
+  for (std::size_t i = 0; i < creators.size(); ++i) {
+    const int code = test::wait_for(creators[i]).exit_code;
+    CAPTURE(test::slurp(dir + "/create_" + std::to_string(i) + ".log"));
+    CHECK(code == 0);
+  }
+  const int writer_code = test::wait_for(writer).exit_code;
+  CAPTURE(test::slurp(dir + "/writer.log"));
+  CHECK(writer_code == 0);
   std::filesystem::remove_all(dir);
 }

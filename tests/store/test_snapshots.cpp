@@ -66,6 +66,26 @@ Evaluation evaluate(Study& s, Index index, const Vec& theta) {
   return e;
 }
 
+/// The study `yaml` run uninterrupted for `budget` trials in `dir`/ref.db, and the same study in
+/// `dir`/s.db stopped after `done` trials: returns the reference run's trial positions x, in order.
+std::vector<Vec> reference_and_partial(const std::string& dir, const std::string& yaml, Index budget, Index done) {
+  std::vector<Vec> expected;
+  {
+    Study a = Study::create_from_yaml(dir + "/ref.db", yaml);
+    for (Index i = 0; i < budget; ++i) {
+      const auto t = a.ask().at(0);
+      expected.push_back(t.x);
+      a.record(t.id, evaluate(a, i, t.theta), 0.0);
+    }
+  }
+  Study s = Study::create_from_yaml(dir + "/s.db", yaml);
+  for (Index i = 0; i < done; ++i) {
+    const auto t = s.ask().at(0);
+    s.record(t.id, evaluate(s, i, t.theta), 0.0);
+  }
+  return expected;
+}
+
 }  // namespace
 
 TEST_CASE("snapshots: one process per ask and per tell gives the uninterrupted run's trials, replaying nothing") {
@@ -153,22 +173,7 @@ TEST_CASE("snapshots: a corrupt saved state falls back to replay with a warning,
   const std::string dir = test::temp_folder("snapshots_corrupt");
   const std::string yaml = "task: {type: branin}\nbudget: 8\nseed: 6\nalgorithm: {type: bo, initial_points: 4}\n";
   const std::string db = dir + "/s.db";
-  std::vector<Vec> expected;
-  {
-    Study a = Study::create_from_yaml(dir + "/ref.db", yaml);
-    for (Index i = 0; i < 8; ++i) {
-      const auto t = a.ask().at(0);
-      expected.push_back(t.x);
-      a.record(t.id, evaluate(a, i, t.theta), 0.0);
-    }
-  }
-  {
-    Study s = Study::create_from_yaml(db, yaml);
-    for (Index i = 0; i < 6; ++i) {
-      const auto t = s.ask().at(0);
-      s.record(t.id, evaluate(s, i, t.theta), 0.0);
-    }
-  }
+  const std::vector<Vec> expected = reference_and_partial(dir, yaml, 8, 6);
   {
     auto store = open_sqlite_store(db);
     store->transaction([&] {
@@ -232,22 +237,7 @@ TEST_CASE("snapshots: a state saved in the list form of earlier versions is rest
   const std::string dir = test::temp_folder("snapshots_list_form");
   const std::string yaml = "task: {type: branin}\nbudget: 10\nseed: 6\nalgorithm: {type: bo, initial_points: 4}\n";
   const std::string db = dir + "/s.db";
-  std::vector<Vec> expected;
-  {
-    Study a = Study::create_from_yaml(dir + "/ref.db", yaml);
-    for (Index i = 0; i < 10; ++i) {
-      const auto t = a.ask().at(0);
-      expected.push_back(t.x);
-      a.record(t.id, evaluate(a, i, t.theta), 0.0);
-    }
-  }
-  {
-    Study s = Study::create_from_yaml(db, yaml);
-    for (Index i = 0; i < 7; ++i) {
-      const auto t = s.ask().at(0);
-      s.record(t.id, evaluate(s, i, t.theta), 0.0);
-    }
-  }
+  const std::vector<Vec> expected = reference_and_partial(dir, yaml, 10, 7);
   {
     // The same states again, newest, in the list form: the next process restores one of them.
     auto store = open_sqlite_store(db);

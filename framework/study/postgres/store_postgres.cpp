@@ -13,6 +13,7 @@
 #include <pqxx/pqxx>
 #include <random>
 #include <thread>
+#include <vector>
 
 #include "postgres_backend.hpp"
 #include "store_codec.hpp"
@@ -136,10 +137,25 @@ class PostgresStore final : public StudyStore {
       : address_(address) {
     connect();
     guarded("open", [&] {
-      if (create)
-        create_study(meta);
-      else
-        check_study();
+      // Opening takes locks too (creation's rows, a first creation's tables): a deadlock or serialization
+      // failure there is retried like any transaction's, with backoff.
+      for (int attempt = 1;; ++attempt) {
+        try {
+          reconnect_if_needed();
+          if (create)
+            create_study(meta);
+          else
+            check_study();
+          return;
+        } catch (const pqxx::transaction_rollback& e) {
+          if (attempt >= kRetryAttempts)
+            throw InputError(fmt::format("{}: cannot open: the database asked {} times to retry ({}); nothing was written",
+                                         location(), attempt, cause(e)));
+          const int ms = std::min(2000, 20 << std::min(attempt, 7));
+          log_debug("{}: open: {}; retrying in {} ms (attempt {})", location(), cause(e), ms, attempt);
+          std::this_thread::sleep_for(std::chrono::milliseconds(jitter(ms)));
+        }
+      }
     });
   }
 
@@ -477,7 +493,10 @@ class PostgresStore final : public StudyStore {
   void create_study(const std::vector<std::pair<std::string, std::string>>& meta) {
     pqxx::work w(*conn_, "varbo create");
     w.exec_params("SELECT pg_advisory_xact_lock($1)", kCreateLockKey);
-    w.exec(kSchema);
+    // CREATE INDEX IF NOT EXISTS takes a SHARE lock on its table before it finds the index exists; against runs
+    // writing trials and snapshots (ROW EXCLUSIVE, one table after the other) that deadlocked under load. Once the
+    // schema is complete, creating a study touches only its own rows.
+    if (!schema_complete(w)) w.exec(kSchema);
     if (w.exec_params("INSERT INTO varbo_studies (name, created_at) VALUES ($1, $2) ON CONFLICT (name) DO NOTHING",
                       address_.study, num(unix_time()))
             .affected_rows() != 1)
@@ -493,6 +512,24 @@ class PostgresStore final : public StudyStore {
     put("schema_version", std::to_string(kSchemaVersion));
     for (const auto& [k, v] : meta) put(k, v);
     w.commit();
+  }
+
+  /// Whether every table and index kSchema declares exists already (names read from kSchema itself).
+  static bool schema_complete(pqxx::transaction_base& t) {
+    static const std::vector<std::string> names = [] {
+      std::vector<std::string> out;
+      const std::string schema = kSchema, marker = "IF NOT EXISTS ";
+      for (auto i = schema.find(marker); i != std::string::npos; i = schema.find(marker, i)) {
+        i += marker.size();
+        const auto end = schema.find_first_of(" (\n", i);
+        out.push_back(schema.substr(i, end - i));
+      }
+      return out;
+    }();
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "'" : ",'") + n + "'";
+    const auto r = t.exec("SELECT count(*) FROM unnest(ARRAY[" + list + "]) AS n WHERE to_regclass(n) IS NOT NULL");
+    return r[0][0].as<std::size_t>() == names.size();
   }
 
   void check_study() {
