@@ -91,15 +91,6 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
       opt::boolean("warm_lambda_only", &C::warm_lambda_only,
                    "a fit between full fits optimizes only log Lambda at the previous hyperparameters; false: all "
                    "parameters from the warm start (then warm_evaluations applies)"),
-      opt::real("selection_penalty", &C::selection_penalty,
-                "noise_model auto: the noise process must beat the constant-noise member's bound by this factor "
-                "times 1/2 p log N (1: BIC; larger: constant noise unless the evidence is strong)")
-          .at_least(0),
-      opt::integer("noise_starts", &C::noise_starts,
-                   "extra starts of the noise process on full fits (sigma_g = 2, mu0 at the GP's log noise "
-                   "variance, 3 below, 2 above, ...; log Lambda optimized first at those hyperparameters)")
-          .at_least(0)
-          .at_most(12),
       opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
       opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
                    "add independent log-normal hyperpriors to the bound (eq. 13)"),

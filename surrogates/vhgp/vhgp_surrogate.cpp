@@ -225,16 +225,6 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
   std::vector<VhgpParams> starts;
   if (heteroscedastic) starts = restart_starts(n, s, homo, warm, full, base);
-  if (heteroscedastic && full && config_.noise_starts > 0) {
-    // The noise-process starts (the last ones): log Λ first at their hyperparameters, so that the noise level
-    // follows the residuals before the joint optimization (from Λ = ½ every μ_i = μ0, a constant noise that the
-    // joint fit rarely left: issue 10's lead). Stream (4, k): separate from the restarts' own streams.
-    const std::size_t first = starts.size() - static_cast<std::size_t>(config_.noise_starts);
-    for (std::size_t k = first; k < starts.size(); ++k) {
-      Rng r = base.stream(4, static_cast<std::uint64_t>(k - first));
-      starts[k].log_lambda = maximize_log_lambda(objective, starts[k], region.bounds(), *optimizer_, r);
-    }
-  }
   std::vector<RestartResult> results;
   if (!full && config_.warm_lambda_only && starts.size() == 1) {
     // log Λ alone at the warm start's hyperparameters (stream (2, 0), as the warm start's restart).
@@ -272,8 +262,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
         homoscedastic_member(homoscedastic_coordinates(homo), chosen ? *chosen : to_model(defaults(s), n, s), n);
     const BoundValue fh = bound.evaluate(member, false);
     const double fv = chosen ? bound.evaluate(*chosen, false).F : -std::numeric_limits<double>::infinity();
-    const double penalty = config_.selection_penalty * 0.5 * static_cast<double>(g_form_->num_params()) *
-                           std::log(static_cast<double>(n));
+    const double penalty = 0.5 * static_cast<double>(g_form_->num_params()) * std::log(static_cast<double>(n));
     if (fh.ok && (!heteroscedastic || !(fv > fh.F + penalty))) {
       chosen = member;
       homoscedastic_chosen = true;
@@ -350,29 +339,7 @@ std::vector<VhgpParams> VhgpSurrogate::restart_starts(Index n, const Scaling& s,
     starts.push_back(perturbed(gp_start, r));
   }
   starts.resize(static_cast<std::size_t>(n_restarts));
-  for (VhgpParams& p : noise_process_starts(gp_start)) starts.push_back(std::move(p));
   return starts;
-}
-
-std::vector<VhgpParams> VhgpSurrogate::noise_process_starts(const VhgpParams& gp_start) const {
-  // σ_g = 2 (a log-noise sd of 2: the noise sd may vary e^2 ≈ 7× either way) and μ0 at the GP's level, 3 below
-  // (room for quiet regions, as multiplicative noise near the optimum) and 2 above; g's lengthscales doubled for
-  // the next three (smoother profiles), and so on.
-  static constexpr double kMu0Offsets[] = {0.0, -3.0, 2.0};
-  std::vector<VhgpParams> out;
-  const Box g_box = g_form_->log_box();
-  for (int k = 0; k < config_.noise_starts; ++k) {
-    VhgpParams p = gp_start;
-    for (Index j = 0; j < p.theta_g.size(); ++j) {
-      const KernelParameterRole role = g_form_->parameters()[static_cast<std::size_t>(j)].role;
-      if (role == KernelParameterRole::Amplitude) p.theta_g(j) = std::log(2.0);
-      if (role == KernelParameterRole::Lengthscale) p.theta_g(j) += std::log(2.0) * static_cast<double>(k / 3);
-    }
-    p.theta_g = g_box.clamp(p.theta_g);
-    p.mu0 = std::clamp(gp_start.mu0 + kMu0Offsets[k % 3], kMu0Lower, kMu0Upper);
-    out.push_back(std::move(p));
-  }
-  return out;
 }
 
 VhgpParams VhgpSurrogate::homoscedastic_member(const Vec& x, const VhgpParams& like, Index n) const {

@@ -50,13 +50,6 @@ struct VhgpConfig {
   /// A fit between full fits optimizes only log Λ (the variational parameters) at the previous hyperparameters,
   /// as the gp only re-conditions between refits; false: the warm start's joint optimization (docs/noisy.md).
   bool warm_lambda_only = true;
-  /// `noise_model: auto`: the noise process is kept when its bound beats the constant-noise member's by this
-  /// factor times the BIC penalty ½ p log N (1: BIC; larger: constant noise unless the evidence is strong).
-  double selection_penalty = 1.0;
-  /// Extra starts of the noise process on full fits: the GP start with σ_g = 2 and μ0 at spread levels around
-  /// the GP's log noise variance, each with log Λ optimized at those hyperparameters first (a data-driven noise
-  /// profile instead of the constant μ0 of Λ = ½). 0: none (docs/noisy.md, "noisy3").
-  int noise_starts = 0;
   VhgpHyperprior prior;
 };
 
@@ -113,8 +106,6 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   /// start from `homo` and `restarts` in all.
   std::vector<VhgpParams> restart_starts(Index n, const Scaling& s, const HomoscedasticFit& homo, bool warm, bool full,
                                          const Rng& base) const;
-  /// The `noise_starts` starts of the noise process around `gp_start` (model units; log Λ still at log ½).
-  std::vector<VhgpParams> noise_process_starts(const VhgpParams& gp_start) const;
   /// A start of a restart: θ_f moved, θ_g and μ0 drawn around `gp_start` (model units).
   VhgpParams perturbed(const VhgpParams& gp_start, Rng& r) const;
 

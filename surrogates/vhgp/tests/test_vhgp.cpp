@@ -3,7 +3,6 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -755,54 +754,4 @@ TEST_CASE("warm_lambda_only: a fit between full fits keeps the hyperparameters a
   start_probe.set_state("log_lambda", ll);
   REQUIRE(start_probe.condition(all).ok);
   CHECK(grad_of(probe).cwiseAbs().maxCoeff() < 0.05 * grad_of(start_probe).cwiseAbs().maxCoeff());
-}
-
-TEST_CASE("selection_penalty: noise_model auto keeps the noise process exactly when it beats the member by the factor") {
-  // The two candidates of `auto` are the fits of `heteroscedastic` and `homoscedastic` (same starts and streams),
-  // so their bounds give the threshold: a factor just below Δ / (½ p log N) keeps the noise process, just above
-  // the constant-noise member. Data: noise sd growing 100× along x (auto selects the noise process at factor 1).
-  const Dataset d = sine_data(60, 1, 0.01, 1.0);
-  const auto fitted = [&](NoiseModel model, double factor) {
-    VhgpConfig cfg = se_config();
-    cfg.noise_model = model;
-    cfg.selection_penalty = factor;
-    auto s = std::make_unique<VhgpSurrogate>(1, cfg, fit_optimizer());
-    Rng rng(3);
-    REQUIRE(s->fit(d, rng).ok);
-    return s;
-  };
-  const double f_het = fitted(NoiseModel::Heteroscedastic, 1.0)->bound();
-  const double f_const = fitted(NoiseModel::Homoscedastic, 1.0)->bound();
-  const double bic = 0.5 * 2.0 * std::log(60.0);  // p = 2: one lengthscale and σ_g
-  const double ratio = (f_het - f_const) / bic;
-  MESSAGE("bound heteroscedastic ", f_het, ", constant noise ", f_const, ": factor at the threshold ", ratio);
-  REQUIRE(ratio > 1.05);
-  const auto below = fitted(NoiseModel::Auto, 0.95 * ratio), above = fitted(NoiseModel::Auto, 1.05 * ratio);
-  CHECK_FALSE(below->homoscedastic_selected());
-  CHECK(below->bound() == doctest::Approx(f_het).epsilon(1e-12));
-  CHECK(above->homoscedastic_selected());
-  CHECK(above->bound() == doctest::Approx(f_const).epsilon(1e-12));
-}
-
-TEST_CASE("noise_starts: extra starts of the noise process on full fits, never a lower optimum when all converge") {
-  // With every start run to convergence (restart_evaluations 0) the fit keeps the best of its starts, and the
-  // noise starts are added after the usual ones (same streams), so the objective cannot fall.
-  const Dataset d = heteroscedastic_data(40, 2, 8);
-  double base_objective = 0;
-  for (const int extra : {0, 3}) {
-    CAPTURE(extra);
-    VhgpConfig cfg = se_config();
-    cfg.noise_model = NoiseModel::Heteroscedastic;
-    cfg.restarts = 3;
-    cfg.restart_evaluations = 0;
-    cfg.noise_starts = extra;
-    VhgpSurrogate s(2, cfg, fit_optimizer());
-    Rng rng(5);
-    const FitReport r = s.fit(d, rng);
-    REQUIRE(r.ok);
-    CHECK(r.restarts == 3 + extra);
-    MESSAGE("noise_starts ", extra, ": objective ", r.objective);
-    if (extra == 0) base_objective = r.objective;
-    else CHECK(r.objective >= base_objective - 1e-9);
-  }
 }
