@@ -10,6 +10,10 @@ BUILD_DIR=${BUILD_DIR:-build}
 PREFIX=${SDK_PREFIX:-$(mktemp -d /tmp/varbo-sdk.XXXXXX)}
 WORK=$(mktemp -d /tmp/varbo-sdk-work.XXXXXX)
 cmake --install "$BUILD_DIR" --prefix "$PREFIX" > "$WORK/install.log"
+# The install ends by writing the plugin index (which library registers which component), so that a study loads
+# only the plugins it names even for users who cannot write the installed folder (docs/plugins.md).
+INDEX=$(find "$PREFIX" -path '*/varbo/plugins/varbo_plugins.index' | head -n 1)
+if [ -z "$INDEX" ] || ! grep -q '^c bo$' "$INDEX"; then cat "$WORK/install.log"; echo "no plugin index installed"; exit 1; fi
 # The Python package installed into the prefix's site-packages layout: it imports from there, loads the installed
 # libvarbo_core (its RPATH) and finds the installed plugins.
 PYTHON=$(sed -n 's/^VARBO_PYTHON_EXECUTABLE:INTERNAL=//p' "$BUILD_DIR/CMakeCache.txt")

@@ -1,9 +1,9 @@
 // `varbo suggest` against one BO iteration (issue 14, target ≤ 1.5×). One Hartmann-6 bo study (plain
 // defaults, seed 1) is driven by an embedded varbo::Study, as `varbo run` does; at N = 50, 100, 200, 400 finished
-// trials (or the --at list) seven rounds, each a `varbo suggest` + `varbo observe` process pair then a fresh
-// Study::open + ask + tell in this process, continue it (interleaved, so that both see the same machine load).
-// Printed per N: the median wall time of the embedded ask(1) over the 9 iterations just before N and the 9 just
-// after the rounds (one BO iteration: fit + acquisition + store), the median wall time of the `varbo suggest`
+// trials (or the --at list) --repeats rounds (11 by default), each a `varbo suggest` + `varbo observe` process
+// pair then a fresh Study::open + ask + tell in this process, continue it (interleaved, so that both see the same
+// machine load). Printed per N: the median wall time of the embedded ask(1) over the 11 iterations just before N
+// and the 11 just after the rounds (one BO iteration: fit + acquisition + store), the median wall time of the `varbo suggest`
 // process (start-up, plugins, opening the
 // study, restoring the saved state, then one iteration), and their ratio; the same in CPU seconds (user + system,
 // all threads; for the process, its rusage), which a loaded machine distorts less than wall time; the median
@@ -15,7 +15,7 @@
 // --algorithm replaces the plain default `{type: bo}` (e.g. '{type: bo, region: box}': a model of all N points).
 //
 //   nice -n 15 build/bin/bench_suggest build/bin/varbo [--at 50,100,200,400] [--dir /tmp/x] [--store ADDRESS]
-//                                      [--algorithm YAML]
+//                                      [--algorithm YAML] [--repeats 11]
 #include <fmt/format.h>
 #include <malloc.h>
 #include <sys/resource.h>
@@ -72,7 +72,8 @@ void run(const std::string& cmd) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200,400] [--dir DIR] [--store ADDRESS]\n");
+    std::fprintf(stderr, "usage: bench_suggest VARBO_EXE [--at 50,100,200,400] [--dir DIR] [--store ADDRESS] "
+                         "[--algorithm YAML] [--repeats R]\n");
     return 2;
   }
   // The embedded iterations run with the allocator settings of the `varbo` executable (framework/cli/main.cpp:
@@ -82,6 +83,7 @@ int main(int argc, char** argv) {
   const std::string varbo = argv[1];
   std::vector<long> at = {50, 100, 200, 400};
   std::string store, algorithm = "{type: bo}";
+  int repeats = 11;  // rounds per N: a suggest process, then a fresh Study::open + ask
   std::string dir = (std::filesystem::temp_directory_path() / "varbo_bench_suggest").string();
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
@@ -95,15 +97,16 @@ int main(int argc, char** argv) {
       store = value;
     } else if (key == "--algorithm") {
       algorithm = value;
+    } else if (key == "--repeats") {
+      repeats = std::max(1, std::stoi(value));
     }
   }
-  constexpr int kRepeats = 7;     // rounds per N: a suggest process, then a fresh Study::open + ask
-  constexpr int kIterations = 9;  // embedded iterations timed before N and after the rounds (a fit's cost varies
+  constexpr int kIterations = 11;  // embedded iterations timed before N and after the rounds (a fit's cost varies
                                   // 2-3× between neighbours)
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string db = store.empty() ? dir + "/h6.db" : store;
-  const long budget = at.back() + (2L * kRepeats + kIterations + 1) * static_cast<long>(at.size()) + 10;
+  const long budget = at.back() + (2L * repeats + kIterations + 1) * static_cast<long>(at.size()) + 10;
   varbo::Study study = varbo::Study::create_from_yaml(
       db, fmt::format("task: {{type: hartmann6}}\nbudget: {}\nseed: 1\nalgorithm: {}\n", budget, algorithm));
   varbo::Rng noise(1);
@@ -136,7 +139,7 @@ int main(int argc, char** argv) {
     double load_before[1] = {0}, load_after[1] = {0};
     getloadavg(load_before, 1);
     std::vector<double> suggest, suggest_cpu, overhead, reopen, reopen_cpu;
-    for (int r = 0; r < kRepeats; ++r) {
+    for (int r = 0; r < repeats; ++r) {
       const std::string out = dir + "/suggest.json";
       auto t0 = std::chrono::steady_clock::now();
       const double c0 = cpu_seconds(RUSAGE_CHILDREN);

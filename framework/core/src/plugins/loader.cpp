@@ -7,6 +7,7 @@
 #include <cctype>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <mutex>
 #include <optional>
@@ -101,6 +102,7 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
     loaded_.push_back(LoadedLibrary{path, name, info.version, fp, info.description, builtin});
     return;
   }
+  const std::clock_t cpu0 = std::clock();  // the --verbose log says what each library costs a short process
 
   // Built-in plugins were linked with varbo itself (-z defs, same build): their functions are bound lazily,
   // which saves a few ms of symbol lookups per process (`varbo suggest`, docs/studies.md). A third-party library
@@ -128,6 +130,8 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
   error[sizeof error - 1] = '\0';
   if (rc != 0) throw PluginLoadError(fmt::format("{}: plugin '{}' failed to register: {}", path, name, error));
   loaded_.push_back(LoadedLibrary{path, name, info.version, fp, info.description, builtin});
+  log_debug("plugin '{}' loaded from {}: {:.2f} ms CPU (dlopen, the libraries it needs, registration)", name, path,
+            1e3 * static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC);
 }
 
 void PluginLoader::skip(const std::string& path, const std::string& reason) {

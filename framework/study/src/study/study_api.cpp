@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 #include <filesystem>
 #include <sstream>
 
@@ -44,6 +45,13 @@ std::vector<std::string> lines_of(const std::string& s) {
   std::string l;
   while (std::getline(ss, l)) out.push_back(l);
   return out;
+}
+
+/// The process's CPU time so far (all threads) at a step of opening a study or asking it, in the --verbose log:
+/// what a short `varbo suggest` process spends where (docs/studies.md, "Cost of varbo suggest").
+void log_cpu(const char* step) {
+  if (log_level() <= LogLevel::Debug)
+    log_debug("study: {}: process CPU {:.2f} ms", step, 1e3 * static_cast<double>(std::clock()) / CLOCKS_PER_SEC);
 }
 
 Observation observation_of(const TrialRecord& t) {
@@ -408,7 +416,9 @@ Study Study::create_from_yaml(const std::string& store_path, const std::string& 
 Study Study::open(const std::string& store_path) { return open(store_path, [](Registry&) {}); }
 
 Study Study::open(const std::string& store_path, const std::function<void(Registry&)>& add_components) {
+  log_cpu("opening (process start, libraries, command line)");
   std::unique_ptr<StudyStore> store = open_store(store_path);
+  log_cpu("store opened");
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration (corrupt store?)", store_path));
   std::vector<std::string> paths;
@@ -418,12 +428,14 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
   add_components(*impl->own_registry);
   const ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
+  log_cpu("configuration parsed and validated, its plugins loaded, task built");
   const auto identity = store->meta(store_key::kIdentity);
   if (identity && *identity != study_identity(impl->config))
     log_warn("{}: the stored configuration resolves differently with the plugins loaded now (plugin defaults "
              "changed?); continuing",
              store_path);
   impl->store = std::move(store);
+  log_cpu("configuration checked against the stored identity");
   return Study(std::move(impl));
 }
 
@@ -476,6 +488,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
     }
     try {
       m.sync();
+      log_cpu("algorithm brought up to date (saved state restored, results since told)");
       m.save_state();  // the state after every finished result, for the next process that opens the study
     } catch (...) {
       m.dirty = true;
@@ -486,6 +499,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
     m.dirty = true;  // until the suggestion is stored
     m.alg->set_pending(pending);
     std::vector<Suggestion> sugg = m.alg->ask(n);
+    log_cpu("algorithm asked (model fit, acquisition)");
     const Index d = m.encoded_dim();
     const double now = unix_time();
     for (std::size_t j = 0; j < sugg.size(); ++j) {
@@ -515,7 +529,9 @@ std::vector<TrialRecord> Study::ask(Index q) {
     }
     // A serial ask: the state right after it lets the next process tell this trial's result without a fit.
     if (out.size() == 1 && pending.empty()) m.save_state(out[0].id);
+    log_cpu("trial and state written");
   });
+  log_cpu("committed");
   // Committed: the live algorithm stays usable only after a plain ask(1) with nothing pending.
   const bool serial = out.size() == 1 && out[0].pending_before == 0 && out[0].batch_size == 1;
   if (serial) {
