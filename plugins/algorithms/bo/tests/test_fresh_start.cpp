@@ -180,3 +180,32 @@ TEST_CASE("bo: a batch with pending points fits the current attempt's model, as 
   }
   CHECK(checked);
 }
+
+TEST_CASE("bo: refine_model: local refines the incumbent inside the refinement box and improves on it") {
+  // A 10-trial refinement of the bowl, by the end of which more than 2·(d + 1) = 6 points lie within 0.1 of the
+  // incumbent, so the last trials use the local model: they stay in the refinement box and improve on the
+  // attempts' best point.
+  set_log_level(LogLevel::Error);
+  const std::string algorithm =
+      "{type: bo, initial_points: 3, refine_last: 10, refine_model: local, region: {type: trust_region, "
+      "restart_center: new_points, failure_tolerance: 1, length_min: 0.3}}";
+  const Index budget = 40;
+  const std::vector<Trial> t = run(algorithm, budget);
+  double before = INFINITY, after = INFINITY;
+  for (Index k = 0; k < budget; ++k) {
+    CAPTURE(k);
+    if (k < budget - 10) {
+      before = std::min(before, bowl(t[k].x));
+      continue;
+    }
+    CHECK(t[k].phase == "refine");
+    Index best = 0;
+    for (Index i = 1; i < k; ++i)
+      if (bowl(t[i].x) < bowl(t[best].x)) best = i;
+    CHECK((t[k].x - t[best].x).lpNorm<Eigen::Infinity>() <= 0.15 + 1e-9);
+    after = std::min(after, bowl(t[k].x));
+  }
+  CHECK(after < before);
+  const std::vector<Trial> again = run(algorithm, budget);
+  for (Index k = 0; k < budget; ++k) CHECK(again[k].x == t[k].x);
+}
