@@ -112,6 +112,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   int fresh_starts_ = 0;
   Index fresh_trial_ = 0, fresh_from_ = 0;
   Index refine_last_ = 0;  ///< see BoSettings::refine_last
+  bool refine_early_ = true;  ///< see BoSettings::refine_early
   std::unique_ptr<Acquisition> refine_acquisition_;
   bool refine_weighted_ = false;  ///< refine_feasibility: weight
   bool refine_attempt_model_ = false;  ///< refine_model: attempt or basin
