@@ -68,7 +68,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// What the model is fitted to at this stage of the run: the refinement's data, the current attempt's points
   /// (since the last fresh start) or all of them; suggest() and a batch's first fit both use it.
   Dataset model_data_of(const Dataset& data) const;
-  /// The final refinement's data (refine_model: attempt or basin).
+  /// The final refinement's data (refine_model: attempt, basin or local).
   Dataset refinement_data(const Dataset& data) const;
   /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
   /// yet fitted); true when the acquisition is to be weighted.
@@ -112,10 +112,12 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   int fresh_starts_ = 0;
   Index fresh_trial_ = 0, fresh_from_ = 0;
   Index refine_last_ = 0;  ///< see BoSettings::refine_last
+  bool refine_early_ = true;  ///< see BoSettings::refine_early
   std::unique_ptr<Acquisition> refine_acquisition_;
   bool refine_weighted_ = false;  ///< refine_feasibility: weight
   bool refine_attempt_model_ = false;  ///< refine_model: attempt or basin
   bool refine_basin_ = false;  ///< refine_model: basin (the attempt plus the other points near the incumbent)
+  bool refine_local_ = false;  ///< refine_model: local (only the points near the incumbent, when there are enough)
   bool refining_ = false;
   std::vector<Index> attempt_starts_;  ///< successful observations before each fresh start
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt

@@ -180,3 +180,100 @@ TEST_CASE("bo: a batch with pending points fits the current attempt's model, as 
   }
   CHECK(checked);
 }
+
+TEST_CASE("bo: refine_model: local refines the incumbent inside the refinement box and improves on it") {
+  // A 10-trial refinement of the bowl, by the end of which more than 2·(d + 1) = 6 points lie within 0.1 of the
+  // incumbent, so the last trials use the local model: they stay in the refinement box and improve on the
+  // attempts' best point.
+  set_log_level(LogLevel::Error);
+  const std::string algorithm =
+      "{type: bo, initial_points: 3, refine_last: 10, refine_model: local, region: {type: trust_region, "
+      "restart_center: new_points, failure_tolerance: 1, length_min: 0.3}}";
+  const Index budget = 40;
+  const std::vector<Trial> t = run(algorithm, budget);
+  double before = INFINITY, after = INFINITY;
+  for (Index k = 0; k < budget; ++k) {
+    CAPTURE(k);
+    if (k < budget - 10) {
+      before = std::min(before, bowl(t[k].x));
+      continue;
+    }
+    CHECK(t[k].phase == "refine");
+    Index best = 0;
+    for (Index i = 1; i < k; ++i)
+      if (bowl(t[i].x) < bowl(t[best].x)) best = i;
+    CHECK((t[k].x - t[best].x).lpNorm<Eigen::Infinity>() <= 0.15 + 1e-9);
+    after = std::min(after, bowl(t[k].x));
+  }
+  CHECK(after < before);
+  const std::vector<Trial> again = run(algorithm, budget);
+  for (Index k = 0; k < budget; ++k) CHECK(again[k].x == t[k].x);
+}
+
+// Hartmann-6 (Dixon & Szegő 1978; constants as in Surjanovic & Bingham's library): a global minimum that fresh
+// starts find late in some runs, where refine_early acts.
+double hartmann6(const Vec& x) {
+  static const double alpha[4] = {1.0, 1.2, 3.0, 3.2};
+  static const double A[4][6] = {{10, 3, 17, 3.5, 1.7, 8}, {0.05, 10, 17, 0.1, 8, 14}, {3, 3.5, 1.7, 10, 17, 8},
+                                 {17, 8, 0.05, 10, 0.1, 14}};
+  static const double P[4][6] = {{0.1312, 0.1696, 0.5569, 0.0124, 0.8283, 0.5886},
+                                 {0.2329, 0.4135, 0.8307, 0.3736, 0.1004, 0.9991},
+                                 {0.2348, 0.1451, 0.3522, 0.2883, 0.3047, 0.6650},
+                                 {0.4047, 0.8828, 0.8732, 0.5743, 0.1091, 0.0381}};
+  double f = 0;
+  for (int i = 0; i < 4; ++i) {
+    double e = 0;
+    for (int j = 0; j < 6; ++j) e += A[i][j] * (x(j) - P[i][j]) * (x(j) - P[i][j]);
+    f -= alpha[i] * std::exp(-e);
+  }
+  return f;
+}
+
+std::vector<Trial> run6(const std::string& algorithm, Index budget, std::uint64_t seed) {
+  BuildContext ctx;
+  ctx.dim = 6;
+  ctx.budget = budget;
+  ctx.seed = seed;
+  auto a = test::registry().create<Algorithm>(algorithm, ctx);
+  std::vector<Trial> out;
+  for (Index k = 0; k < budget; ++k) {
+    const Suggestion s = a->ask(1).front();
+    out.push_back({s.x, s.phase});
+    a->tell({Observation{s.x, hartmann6(s.x), true, {}}});
+  }
+  return out;
+}
+
+TEST_CASE("bo: refine_early begins the refinement once no attempt could follow, if the current attempt holds the incumbent") {
+  set_log_level(LogLevel::Error);
+  // The plain default on Hartmann-6 (d = 6): restart_points 14, refine_last 7.
+  const Index budget = 100;
+  int early = 0;
+  for (std::uint64_t seed = 1; seed <= 2; ++seed) {  // seed 1's last attempt holds the incumbent at trial 88
+    CAPTURE(seed);
+    const std::vector<Trial> on = run6("{type: bo}", budget, seed);
+    const std::vector<Trial> off = run6("{type: bo, refine_early: false}", budget, seed);
+    Index first = budget, first_off = budget;
+    for (Index k = budget; k-- > 0;) {
+      if (on[k].phase == "refine") first = k;
+      if (off[k].phase == "refine") first_off = k;
+    }
+    // Without it the refinement is at most the last refine_last trials; with it, at most the last 14.
+    CHECK(first_off >= budget - 7);
+    CHECK(first >= budget - 14);
+    // Up to the refinement the two runs are the same trials.
+    for (Index k = 0; k < std::min(first, first_off); ++k) CHECK(on[k].x == off[k].x);
+    if (first >= first_off) continue;
+    ++early;
+    // It began early only because the latest attempt (after its 14-point design) held the best point of all.
+    Index last_design = -1, best = 0;
+    for (Index k = 0; k < first; ++k) {
+      if (on[k].phase == "restart") last_design = k;
+      if (hartmann6(on[k].x) < hartmann6(on[best].x)) best = k;
+    }
+    CHECK(last_design >= 0);
+    CHECK(best > last_design);
+    for (Index k = first; k < budget; ++k) CHECK(on[k].phase == "refine");
+  }
+  CHECK(early > 0);  // the rule was exercised
+}
