@@ -227,6 +227,9 @@ TEST_CASE("failure_region: trials inside fail with no cost, outside are unchange
   Rng r2(1);
   CHECK(h->evaluate(h->optimum()->thetas[0], r2).ok);
   CHECK(!h->evaluate(vec({0.2, 0.15, 0.48, 0.28, 0.31, 0.71}), r2).ok);
+  // Closed: the slab's points on the domain's faces fail too (optimizers clamp trials to them).
+  CHECK(!h->evaluate(vec({0.2, 0.0, 0.48, 0.28, 1.0, 0.75}), r2).ok);
+  CHECK(h->evaluate(vec({0.2, 0.0, 0.48, 0.28, 1.0, 0.65}), r2).ok);
   for (const char* bad : {"{type: branin, failure_region: {shape: ball, center: [0.5], radius: 0.3}}",
                           "{type: branin, failure_region: {shape: ball, center: [0.5, 0.5]}}",
                           "{type: branin, failure_region: {shape: box, lower: [0, 0], upper: [0, 1]}}",
