@@ -327,18 +327,18 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
     for (Index i = 0; i < design.rows(); ++i)
       if (i != row && feasibility_->probability(design.row(i).transpose()) >= exclusion_threshold_)
         away.push_back(design.row(i).transpose());
-    return feasible_point_away(rr, away);
+    return feasible_point_away(rr, away, exclusion_threshold_);
   }
   return x;
 }
 
-Vec BayesianOptimization::feasible_point_away(Rng& rng, const std::vector<Vec>& away) const {
+Vec BayesianOptimization::feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const {
   Vec best, likeliest;
   double best_distance = -1, best_p = -1;
   for (int i = 0; i < 64; ++i) {
     Vec x = random_point(rng);
     const double p = feasibility_->probability(x);
-    if (p >= exclusion_threshold_) {
+    if (p >= min_p) {
       double distance = std::numeric_limits<double>::infinity();
       for (const Vec& a : away) distance = std::min(distance, (x - a).norm());
       if (distance > best_distance) {
@@ -493,7 +493,9 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     Rng rr = rng_.stream(kRandom, uk);
     std::vector<Vec> away;
     for (Index i = 0; i < data_.size(); ++i) away.push_back(data_.X.row(i).transpose());
-    s.x = feasible_point_away(rr, away);
+    // At least as likely to succeed as an unexplored point (the design's success rate): a replacement is there
+    // to inform the cost model, not to explore the failure boundary.
+    s.x = feasible_point_away(rr, away, std::max(exclusion_threshold_, feasibility_->prior_probability()));
     s.phase = "replace";
     return s;
   }

@@ -78,10 +78,10 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// A random point; with the failure model on, the first of up to 64 draws with P(success) ≥ min_probability
   /// (else the likeliest draw), so random and ε-random trials avoid known failure regions too.
   Vec random_point_avoiding_failures(Rng& rng) const;
-  /// Of 64 random points where success is likely, the one farthest from the nearest of `away` (a fresh design's
-  /// replacement for a point where failure is likely: it keeps the design space-filling and away from earlier
-  /// minima); the likeliest if none is likely.
-  Vec feasible_point_away(Rng& rng, const std::vector<Vec>& away) const;
+  /// Of 64 random points with P(success) ≥ min_p, the one farthest from the nearest of `away` (a design's
+  /// replacement for a point where failure is likely or was seen: it keeps the design space-filling and away from
+  /// earlier minima); the likeliest if none qualifies.
+  Vec feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const;
 
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   std::vector<Vec> pending_;
