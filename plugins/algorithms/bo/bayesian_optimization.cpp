@@ -601,7 +601,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // failure boundary beside the minimizer (docs/defaults.md).
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
   double p_min = exclusion_threshold_;
-  if (weighted && refining_ && data_.size() > 0) {
+  if (weighted && (refining_ || failure_settings_.incumbent_level == "always") && data_.size() > 0) {
     // The refinement polishes the incumbent, a success: it asks for success as likely as there (up to
     // refine_min_probability), not merely more likely than failure, else the mean's minimum beside a failure
     // boundary lies on the P = min_probability contour and every other refinement trial fails (docs/failures.md).

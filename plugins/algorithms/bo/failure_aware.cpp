@@ -37,6 +37,9 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "every other trial")
           .at_least(0)
           .below(1),
+      opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always"},
+                  "where refine_min_probability's rule (P(success) at least min(refine_min_probability, the "
+                  "incumbent's P)) applies: the final refinement only, or every model-based trial"),
       opt::boolean("replace_design", &FailureModelSettings::replace_design,
                    "after the initial design, one replacement point per failed design point (where success is likely, "
                    "farthest from the design's successes), so the first cost model sees as many points as without "

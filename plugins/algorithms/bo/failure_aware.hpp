@@ -29,10 +29,12 @@ struct FailureModelSettings {
   double min_probability = 0.5;
   /// The classifier's lengthscales: "ard" = one per dimension by the Laplace evidence; "shared" = the cost
   /// model's times one common factor.
-  std::string lengthscales = "shared";
+  std::string lengthscales = "ard";
   /// The final refinement (bo's refine_last trials) excludes θ with P(success) below this, or below the
   /// incumbent's P if that is lower (never below min_probability's threshold).
   double refine_min_probability = 0.8;
+  /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial).
+  std::string incumbent_level = "refinement";
   /// Each failed point of the initial design is followed by a replacement where success is likely.
   bool replace_design = false;
   /// Active for a run with `failures` failed trials so far.

@@ -42,7 +42,7 @@ std::vector<FeasibilityModel::Hyper> FeasibilityModel::grid() {
   return g;
 }
 
-std::vector<double> FeasibilityModel::ard_factors() { return {0.0625, 0.125, 0.25, 0.5, 1.0, 2.0, 4.0, 16.0}; }
+std::vector<double> FeasibilityModel::ard_factors() { return {0.25, 0.5, 1.0, 2.0, 4.0, 16.0}; }
 
 double FeasibilityModel::laplace(const Mat& X, const Vec& y, const Vec& base, const Hyper& h) {
   const Index n = X.rows();
