@@ -34,7 +34,7 @@ struct FailureModelSettings {
   /// incumbent's P if that is lower (never below min_probability's threshold).
   double refine_min_probability = 0.8;
   /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial).
-  std::string incumbent_level = "refinement";
+  std::string incumbent_level = "always";
   /// Each failed point of the initial design is followed by a replacement where success is likely.
   bool replace_design = false;
   /// Active for a run with `failures` failed trials so far.
