@@ -31,10 +31,11 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                   "dimension, chosen by the Laplace evidence (ard: a failure boundary seen in one place extends "
                   "along the coordinates it does not depend on), or the common factor only (shared)"),
       opt::real("refine_min_probability", &FailureModelSettings::refine_min_probability,
-                "bo's final refinement around the incumbent (refine_last) excludes θ with P(success) below this, or "
-                "below the incumbent's own P(success) if that is lower: it polishes a success, and the posterior "
-                "mean's minimum next to a failure boundary would otherwise sit where P = min_probability, failing "
-                "every other trial")
+                "θ with P(success) below this, or below the incumbent's own P(success) if that is lower, are "
+                "excluded in bo's final refinement (refine_last) and, with incumbent_level: always, in every "
+                "model-based trial: the search does not gamble on θ merely more likely to succeed than not where "
+                "the incumbent is safe (beside a failure boundary the refinement otherwise sat on the P = "
+                "min_probability contour, failing every other trial)")
           .at_least(0)
           .below(1),
       opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always"},

@@ -30,8 +30,9 @@ struct FailureModelSettings {
   /// The classifier's lengthscales: "ard" = one per dimension by the Laplace evidence; "shared" = the cost
   /// model's times one common factor.
   std::string lengthscales = "ard";
-  /// The final refinement (bo's refine_last trials) excludes θ with P(success) below this, or below the
-  /// incumbent's P if that is lower (never below min_probability's threshold).
+  /// bo's final refinement (refine_last trials), and every model-based trial with incumbent_level "always",
+  /// excludes θ with P(success) below this, or below the incumbent's P if that is lower (never below
+  /// min_probability's threshold).
   double refine_min_probability = 0.8;
   /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial).
   std::string incumbent_level = "always";
