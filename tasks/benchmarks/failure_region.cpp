@@ -9,7 +9,10 @@ namespace varbo::tasks {
 
 bool FailureRegion::contains(const Vec& u) const {
   if (shape == Shape::Ball) return (u - center).norm() < radius;
-  return (u.array() > lower.array()).all() && (u.array() < upper.array()).all();
+  // Closed: a box reaching the domain's faces (a slab lower: [0, …, 0.7], upper: [1, …, 1]) holds the points on
+  // them, where acquisition optimizers clamp many trials; with strict bounds a point with any coordinate at 0
+  // or 1 escaped the slab.
+  return (u.array() >= lower.array()).all() && (u.array() <= upper.array()).all();
 }
 
 std::string FailureRegion::describe() const {
@@ -24,7 +27,7 @@ const OptionSet<FailureRegion>& failure_region_option_set() {
   using Shape = FailureRegion::Shape;
   static const OptionSet<FailureRegion> set{
       opt::choice("shape", &FailureRegion::shape, {{"ball", Shape::Ball}, {"box", Shape::Box}},
-                  "ball: |u − center| < radius; box: lower < u < upper"),
+                  "ball: |u − center| < radius; box: lower ≤ u ≤ upper (closed)"),
       opt::reals("center", "", "ball centre, one fraction of the box per dimension"),
       opt::real("radius", &FailureRegion::radius, "ball radius in box fractions (Euclidean)").at_least(0),
       opt::reals("lower", "", "box: lower corner, one fraction per dimension"),

@@ -220,6 +220,14 @@ TEST_CASE("failure_region: trials inside fail with no cost, outside are unchange
       CHECK(e.cost == t->noiseless_cost(from_unit(u, box)).value());
     }
   }
+  // Every global minimizer lies outside the disc, so f* is also the best feasible value and the benchmark's
+  // regret (f − f*) is the regret against the feasible optimum (docs/failures.md).
+  const std::optional<Optimum> branin_optimum = t->optimum();
+  REQUIRE(branin_optimum.has_value());
+  for (const Vec& theta : branin_optimum->thetas) {
+    Rng r(1);
+    CHECK(t->evaluate(theta, r).ok);
+  }
   // Binomial standard error √(p(1 − p)/n) ≈ 0.0015: 5 of them.
   CHECK(std::abs(static_cast<double>(failed) / n - std::numbers::pi * 0.31 * 0.31) < 0.0075);
   // A slab x6 > 0.7 of Hartmann-6 holds the point with x6 = 0.71 and not the minimizer (x6 = 0.657).
@@ -227,6 +235,9 @@ TEST_CASE("failure_region: trials inside fail with no cost, outside are unchange
   Rng r2(1);
   CHECK(h->evaluate(h->optimum()->thetas[0], r2).ok);
   CHECK(!h->evaluate(vec({0.2, 0.15, 0.48, 0.28, 0.31, 0.71}), r2).ok);
+  // Closed: the slab's points on the domain's faces fail too (optimizers clamp trials to them).
+  CHECK(!h->evaluate(vec({0.2, 0.0, 0.48, 0.28, 1.0, 0.75}), r2).ok);
+  CHECK(h->evaluate(vec({0.2, 0.0, 0.48, 0.28, 1.0, 0.65}), r2).ok);
   for (const char* bad : {"{type: branin, failure_region: {shape: ball, center: [0.5], radius: 0.3}}",
                           "{type: branin, failure_region: {shape: ball, center: [0.5, 0.5]}}",
                           "{type: branin, failure_region: {shape: box, lower: [0, 0], upper: [0, 1]}}",

@@ -120,8 +120,9 @@ const OptionSet<BoSettings>& bo_options() {
                 "randomize: true}}]; the last phase continues until the budget is spent"),
       opt::node("failure_model", "",
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
-                "0.5}; the acquisition is weighted by P(success | θ) from a GP classifier of successes and failures "
-                "and θ with P < min_probability are never suggested (docs/failures.md)"),
+                "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
+                "replace_design: false}; the acquisition is weighted by P(success | θ) from a GP classifier of "
+                "successes and failures and θ with P < min_probability are never suggested (docs/failures.md)"),
   };
   return set;
 }
@@ -158,6 +159,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   restart_away_ = settings.restart_design == "away";
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);
+  feasibility_->set_ard(failure_settings_.lengthscales == "ard");
 
   if (o.is_set("phases")) {
     ConfigNode list = o.node("phases");
@@ -319,20 +321,49 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(fresh_starts_));
   const Mat design = restart_away_ ? design_away_from_minima(drng)
                                    : design_sampler_->sample(BoxRegion(Box::unit(dim_)), restart_points_, drng);
-  const Vec x = design.row(k - fresh_trial_).transpose();
-  // A design point where failure is likely (the failure model of every trial so far) is replaced by a random
-  // point where success is likely: a new design must not repeat known failures (issue 11).
+  const Index row = k - fresh_trial_;
+  const Vec x = design.row(row).transpose();
+  // A design point where failure is likely (the failure model of every trial so far) is replaced by a point where
+  // success is likely: a new design must not repeat known failures (issue 11). The replacement is the likely
+  // success farthest from the design's other likely successes and (restart_design: away) from the earlier
+  // attempts' minima: an arbitrary random point put Hartmann-6's new attempt next to the old minimum, and the
+  // attempt returned to that basin (docs/failures.md).
   if (update_feasibility(k, refit) && feasibility_->probability(x) < exclusion_threshold_) {
     Rng rr = rng_.stream(kRandom, static_cast<std::uint64_t>(k));
-    return random_point_avoiding_failures(rr);
+    std::vector<Vec> away = restart_away_ ? earlier_minima() : std::vector<Vec>{};
+    for (Index i = 0; i < design.rows(); ++i)
+      if (i != row && feasibility_->probability(design.row(i).transpose()) >= exclusion_threshold_)
+        away.push_back(design.row(i).transpose());
+    return feasible_point_away(rr, away, exclusion_threshold_);
   }
   return x;
 }
 
-Mat BayesianOptimization::design_away_from_minima(Rng& rng) const {
+Vec BayesianOptimization::feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const {
+  Vec best, likeliest;
+  double best_distance = -1, best_p = -1;
+  for (int i = 0; i < 64; ++i) {
+    Vec x = random_point(rng);
+    const double p = feasibility_->probability(x);
+    if (p >= min_p) {
+      double distance = std::numeric_limits<double>::infinity();
+      for (const Vec& a : away) distance = std::min(distance, (x - a).norm());
+      if (distance > best_distance) {
+        best_distance = distance;
+        best = x;
+      }
+    }
+    if (p > best_p) {
+      best_p = p;
+      likeliest = std::move(x);
+    }
+  }
+  return best_distance >= 0 ? best : likeliest;
+}
+
+std::vector<Vec> BayesianOptimization::earlier_minima() const {
   // The best point of every earlier attempt (the successful observations before the latest fresh start, split at
-  // attempt_starts_): a new design point inside a converged basin becomes the new attempt's best point and leads
-  // its trust region back there. Of 16 designs, the one whose nearest point to those minima is farthest.
+  // attempt_starts_).
   const Index before = std::min(fresh_from_, data_.size());
   std::vector<Vec> minima;
   Index lo = 0;
@@ -345,6 +376,14 @@ Mat BayesianOptimization::design_away_from_minima(Rng& rng) const {
     }
     lo = std::max(lo, hi);
   }
+  return minima;
+}
+
+Mat BayesianOptimization::design_away_from_minima(Rng& rng) const {
+  // The best point of every earlier attempt (the successful observations before the latest fresh start, split at
+  // attempt_starts_): a new design point inside a converged basin becomes the new attempt's best point and leads
+  // its trust region back there. Of 16 designs, the one whose nearest point to those minima is farthest.
+  const std::vector<Vec> minima = earlier_minima();
   Mat best;
   double best_score = -1;
   for (int c = 0; c < 16; ++c) {
@@ -466,6 +505,20 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   const Phase& phase = phase_at(k);
   const auto uk = static_cast<std::uint64_t>(k);
+  if (failure_settings_.replace_design && k < design_.rows() + design_failed_ && design_told_ == design_.rows() &&
+      data.size() > 0 && update_feasibility(k, refit)) {
+    // A failed design point gave the cost model nothing: replace it, where success is likely and far from the
+    // design's successes (space-filling), so the first model sees as many points as a run without failures
+    // (docs/failures.md).
+    Rng rr = rng_.stream(kRandom, uk);
+    std::vector<Vec> away;
+    for (Index i = 0; i < data_.size(); ++i) away.push_back(data_.X.row(i).transpose());
+    // At least as likely to succeed as an unexplored point (the design's success rate): a replacement is there
+    // to inform the cost model, not to explore the failure boundary.
+    s.x = feasible_point_away(rr, away, std::max(exclusion_threshold_, feasibility_->prior_probability()));
+    s.phase = "replace";
+    return s;
+  }
   if (phase.random) {
     Rng rr = rng_.stream(kRandom, uk);
     update_feasibility(k, refit);
@@ -578,10 +631,20 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // around the incumbent (a success) only excludes likely failures: weighting pulled its points away from a
   // failure boundary beside the minimizer (docs/defaults.md).
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
+  double p_min = exclusion_threshold_;
+  if (weighted && (refining_ || failure_settings_.incumbent_level == "always") && data_.size() > 0) {
+    // Success as likely as at the incumbent (up to refine_min_probability), not merely more likely than failure:
+    // the refinement's mean minimum beside a failure boundary otherwise lay on the P = min_probability contour
+    // and every other refinement trial failed; applied to every trial (incumbent_level: always) it halved
+    // Hartmann-6's failures and its stuck runs fell from 8 to 6 of 20 (docs/failures.md).
+    Index best = 0;
+    data_.y.minCoeff(&best);
+    const double p_incumbent = feasibility_->probability(data_.X.row(best).transpose());
+    p_min = std::max(p_min, std::min(failure_settings_.refine_min_probability, p_incumbent));
+  }
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(
-        base, *feasibility_, failure_utility(base, data_.X), exclusion_threshold_,
-        !refining_ || refine_weighted_);
+        base, *feasibility_, failure_utility(base, data_.X), p_min, !refining_ || refine_weighted_);
   const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : base;
   AcquisitionFunction f(acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
@@ -603,7 +666,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "random";
     return s;
   }
-  if (feasible && feasibility_->probability(Box::unit(dim_).clamp(res.x)) < exclusion_threshold_) {
+  if (feasible && feasibility_->probability(Box::unit(dim_).clamp(res.x)) < p_min) {
     // Every start ended where failure is likely: never suggest it; a random point where success is likely.
     log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < min_probability; choosing at random",
              k, feasibility_->probability(Box::unit(dim_).clamp(res.x)));
@@ -613,7 +676,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   s.x = Box::unit(dim_).clamp(res.x);
   s.phase = refining_ ? "refine" : phase.name;
-  log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
+  if (feasible)
+    log_debug("bo: trial {} acquisition {:.6g} {} | P(success) here {:.3g}", k, res.value, acquisition.state(),
+              feasibility_->probability(s.x));
+  else
+    log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
   return s;
 }
 

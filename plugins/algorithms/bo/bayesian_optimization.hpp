@@ -61,6 +61,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Vec fresh_design_point(Index k, bool refit);
   /// restart_design: away: of 16 designs, the one farthest from the best point of every earlier attempt.
   Mat design_away_from_minima(Rng& rng) const;
+  /// The best point of every attempt before the latest fresh start.
+  std::vector<Vec> earlier_minima() const;
   void fit_model(Index evaluation, const Dataset& data);
   double lie(const Vec& x) const;
   /// Starts the final refinement of the incumbent of all the data (see BoSettings::refine_last).
@@ -76,6 +78,10 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// A random point; with the failure model on, the first of up to 64 draws with P(success) ≥ min_probability
   /// (else the likeliest draw), so random and ε-random trials avoid known failure regions too.
   Vec random_point_avoiding_failures(Rng& rng) const;
+  /// Of 64 random points with P(success) ≥ min_p, the one farthest from the nearest of `away` (a design's
+  /// replacement for a point where failure is likely or was seen: it keeps the design space-filling and away from
+  /// earlier minima); the likeliest if none qualifies.
+  Vec feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const;
 
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   std::vector<Vec> pending_;

@@ -1,6 +1,7 @@
 #include "failure_aware.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
@@ -25,6 +26,25 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "until successes nearby say success is likely there)")
           .at_least(0)
           .below(1),
+      opt::choice("lengthscales", &FailureModelSettings::lengthscales, {"ard", "shared"},
+                  "the classifier's lengthscales: the cost model's times a common factor and then one factor per "
+                  "dimension, chosen by the Laplace evidence (ard: a failure boundary seen in one place extends "
+                  "along the coordinates it does not depend on), or the common factor only (shared)"),
+      opt::real("refine_min_probability", &FailureModelSettings::refine_min_probability,
+                "θ with P(success) below this, or below the incumbent's own P(success) if that is lower, are "
+                "excluded in bo's final refinement (refine_last) and, with incumbent_level: always, in every "
+                "model-based trial: the search does not gamble on θ merely more likely to succeed than not where "
+                "the incumbent is safe (beside a failure boundary the refinement otherwise sat on the P = "
+                "min_probability contour, failing every other trial)")
+          .at_least(0)
+          .below(1),
+      opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always"},
+                  "where refine_min_probability's rule (P(success) at least min(refine_min_probability, the "
+                  "incumbent's P)) applies: the final refinement only, or every model-based trial"),
+      opt::boolean("replace_design", &FailureModelSettings::replace_design,
+                   "after the initial design, one replacement point per failed design point (where success is likely, "
+                   "farthest from the design's successes), so the first cost model sees as many points as without "
+                   "failures"),
   };
   return set;
 }
@@ -35,7 +55,7 @@ std::vector<OptionSpec> failure_model_options() { return failure_model_set().spe
 FailureModelSettings parse_failure_model(const Options& o, const Registry* registry) {
   if (!o.is_set("failure_model")) return FailureModelSettings{};
   const ConfigNode node = o.node("failure_model");
-  if (!node.is_map()) node.fail("expected a map: {enabled: auto|on|off, min_probability: p}");
+  if (!node.is_map()) node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, refine_min_probability: p, replace_design: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 
@@ -86,8 +106,11 @@ double FeasibilityWeightedAcquisition::evaluate(const Vec& x, Vec* grad) const {
 
 std::string FeasibilityWeightedAcquisition::state() const {
   const auto& h = model_.hyper();
-  return fmt::format("{} | feasibility{}: u_fail {:.3g}, min P {:.3g}, lengthscale ×{:g}, signal std {:g}, prior mean {:.3g}",
-                     base_.state(), weighted_ ? "" : " (exclusion only)", u_fail_, p_min_, h.lengthscale_factor, h.signal_std, model_.prior_mean());
+  const std::string per_dim =
+      h.dim_factor.size() ? fmt::format(" (per dimension ×{})", fmt::join(h.dim_factor.data(), h.dim_factor.data() + h.dim_factor.size(), ", ")) : "";
+  return fmt::format("{} | feasibility{}: u_fail {:.3g}, min P {:.3g}, lengthscale ×{:g}{}, signal std {:g}, prior mean {:.3g}",
+                     base_.state(), weighted_ ? "" : " (exclusion only)", u_fail_, p_min_, h.lengthscale_factor, per_dim,
+                     h.signal_std, model_.prior_mean());
 }
 
 }  // namespace varbo::bo

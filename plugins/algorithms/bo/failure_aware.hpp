@@ -27,6 +27,17 @@ struct FailureModelSettings {
   enum class Enabled { Auto, On, Off };
   Enabled enabled = Enabled::Auto;  ///< auto: on from the first failed trial
   double min_probability = 0.5;
+  /// The classifier's lengthscales: "ard" = one per dimension by the Laplace evidence; "shared" = the cost
+  /// model's times one common factor.
+  std::string lengthscales = "ard";
+  /// bo's final refinement (refine_last trials), and every model-based trial with incumbent_level "always",
+  /// excludes θ with P(success) below this, or below the incumbent's P if that is lower (never below
+  /// min_probability's threshold).
+  double refine_min_probability = 0.8;
+  /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial).
+  std::string incumbent_level = "always";
+  /// Each failed point of the initial design is followed by a replacement where success is likely.
+  bool replace_design = false;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

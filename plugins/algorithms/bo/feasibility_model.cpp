@@ -42,10 +42,14 @@ std::vector<FeasibilityModel::Hyper> FeasibilityModel::grid() {
   return g;
 }
 
+std::vector<double> FeasibilityModel::ard_factors() { return {0.25, 0.5, 1.0, 2.0, 4.0, 16.0}; }
+
 double FeasibilityModel::laplace(const Mat& X, const Vec& y, const Vec& base, const Hyper& h) {
   const Index n = X.rows();
   Vec logp(dim_ + 1);
-  logp.head(dim_) = (base * h.lengthscale_factor).array().log();
+  Vec ell = base * h.lengthscale_factor;
+  if (h.dim_factor.size() == dim_) ell = ell.cwiseProduct(h.dim_factor);
+  logp.head(dim_) = ell.cwiseMax(1e-3).cwiseMin(1e3).array().log();
   logp(dim_) = std::log(h.signal_std);
   kernel_.set_log_params(logp);
   const Mat K = kernel_.matrix(X);
@@ -134,7 +138,34 @@ bool FeasibilityModel::fit(const Mat& X, const std::vector<bool>& success, const
     }
   }
   if (!std::isfinite(best)) return false;
-  if (candidates.size() > 1) laplace(X, y, base_lengthscales, chosen);  // restore the chosen state
+  bool restore = candidates.size() > 1;
+  if (select && ard_ && dim_ > 1) {
+    // Coordinate ascent on the evidence, one lengthscale at a time on a fixed multiplier grid (deterministic,
+    // like the grid above). A label that depends on one coordinate only is explained more simply with long
+    // lengthscales along the others, which the evidence rewards (R&W section 5.4.1, automatic relevance
+    // determination); the classifier then extrapolates a failure boundary seen in one place to the whole face.
+    chosen.dim_factor = Vec::Ones(dim_);
+    for (int sweep = 0; sweep < 2; ++sweep) {
+      bool moved = false;
+      for (Index d = 0; d < dim_; ++d) {
+        const double current = chosen.dim_factor(d);
+        for (double f : ard_factors()) {
+          if (f == current) continue;
+          Hyper h = chosen;
+          h.dim_factor(d) = f;
+          const double e = laplace(X, y, base_lengthscales, h);
+          if (e > best + 1e-9) {
+            best = e;
+            chosen = h;
+            moved = true;
+          }
+        }
+        restore = true;
+      }
+      if (!moved) break;
+    }
+  }
+  if (restore) laplace(X, y, base_lengthscales, chosen);  // restore the chosen state
   hyper_ = chosen;
   log_evidence_ = best;
   ready_ = true;

@@ -34,6 +34,7 @@ ProbitTerms probit_terms(double y, double f);
 struct FeasibilityHyper {
   double lengthscale_factor = 1;  ///< × the base lengthscales
   double signal_std = 2;          ///< of the latent
+  Vec dim_factor = Vec();         ///< per dimension, × the above (empty = 1 in every dimension)
 };
 
 class FeasibilityModel {
@@ -51,6 +52,13 @@ class FeasibilityModel {
   /// by the Laplace evidence, else `hyper` is used. Returns false (model not ready) if nothing could be fitted.
   bool fit(const Mat& X, const std::vector<bool>& success, const Vec& base_lengthscales, bool select = true,
            Hyper hyper = {});
+
+  /// With `ard` true, fit(select = true) follows the grid search by a per-dimension search of the lengthscales
+  /// (coordinate ascent of the Laplace evidence over dim_factor ∈ ard_factors(), two sweeps): a failure region
+  /// bounded in a few coordinates (a slab x6 > 0.7) is learned as such, with long lengthscales along the others.
+  void set_ard(bool ard) { ard_ = ard; }
+  /// The per-dimension multipliers searched when set_ard(true).
+  static std::vector<double> ard_factors();
 
   /// P(success | x), x in the unit cube; fills grad (∂P/∂x) when non-null. Thread-safe (const, no caches).
   double probability(const Vec& x, Vec* grad = nullptr) const;
@@ -79,6 +87,7 @@ class FeasibilityModel {
   double prior_mean_ = 0;
   double prior_rate_ = std::numeric_limits<double>::quiet_NaN();
   double log_evidence_ = 0;
+  bool ard_ = false;
   kernels::ArdKernel kernel_;
   Mat X_;
   Vec f_;           ///< mode

@@ -211,9 +211,36 @@ TEST_CASE("without failures the failure model changes nothing; with failures, 1 
   CHECK(failures > 0);  // the failure model was in use
 }
 
+TEST_CASE("each failed design point is replaced once, right after the design, where the task succeeds") {
+  // The x1 < 0.25 task: a 6-point design on [0, 1]² puts 1 or 2 points in the failed quarter.
+  const std::vector<Trial> t = run("replace", kFailingTask, kFailingBox,
+                                   "{type: bo, failure_model: {replace_design: true}}", 16, 2);
+  const std::vector<Trial> kept = run("replace_off", kFailingTask, kFailingBox, "{type: bo}", 16, 2);
+  REQUIRE(t.size() == 16);
+  int design_failed = 0;
+  for (std::size_t i = 0; i < 6; ++i) {
+    CHECK((t[i].u - kept[i].u).norm() == 0.0);  // the design itself is unchanged
+    design_failed += !t[i].ok;
+  }
+  REQUIRE(design_failed > 0);
+  for (std::size_t i = 6; i < t.size(); ++i) {
+    CAPTURE(i);
+    const bool replacement = i < 6 + static_cast<std::size_t>(design_failed);
+    CHECK((t[i].phase == "replace") == replacement);
+    if (replacement) {
+      CHECK(t[i].ok);
+      CHECK(t[i].u(0) >= 0.25);
+    }
+  }
+  CHECK(kept[6].phase != "replace");
+}
+
 TEST_CASE("failure_model options are validated") {
   const char* bad[] = {"{type: bo, failure_model: {enabled: maybe}}", "{type: bo, failure_model: {min_probability: 1}}",
-                       "{type: bo, failure_model: {min_prob: 0.1}}", "{type: bo, failure_model: 3}"};
+                       "{type: bo, failure_model: {min_prob: 0.1}}", "{type: bo, failure_model: 3}",
+                       "{type: bo, failure_model: {lengthscales: diagonal}}",
+                       "{type: bo, failure_model: {refine_min_probability: 1}}",
+                       "{type: bo, failure_model: {replace_design: 3}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
