@@ -64,8 +64,8 @@ Target find_target(const AcquisitionContext& context, double kappa) {
   return t;
 }
 
-// ---- EI ----
-void ExpectedImprovement::prepare(const AcquisitionContext& context) {
+// ---- EI, PI ----
+void ImprovementAcquisition::prepare(const AcquisitionContext& context) {
   model_ = &require_model(context);
   target_ = find_target(context, 0.0);
   // ξ ≥ 0 asks for an improvement of at least ξ·σ_f, i.e. more exploration, as the paper intends for its
@@ -75,36 +75,16 @@ void ExpectedImprovement::prepare(const AcquisitionContext& context) {
   margin_ = target_.mu_best - xi_ * signal_std(*model_);
 }
 
-double ExpectedImprovement::evaluate(const Vec& x, Vec* grad) const {
+double ImprovementAcquisition::evaluate(const Vec& x, Vec* grad) const {
   const Prediction p = predict(model_, x, grad != nullptr);
   // Kuindersma 2013, eq. (9): u = (μ_best − a* − ξσ_f)/v* (sign of ξ: see prepare()).
   const double delta = margin_ - p.mean;
   const Vec d_delta = grad ? Vec(-p.d_mean) : Vec();
-  return expect_over_log_noise(p, delta, &d_delta, rule_, improvement_integrand, grad);
+  return expect_over_log_noise(p, delta, &d_delta, rule_, integrand_, grad);
 }
 
-std::string ExpectedImprovement::state() const {
-  return fmt::format("ei: mu_best {:.6g} (point {}), target {:.6g}", target_.mu_best, target_.index, margin_);
-}
-
-// ---- PI ----
-void ProbabilityOfImprovement::prepare(const AcquisitionContext& context) {
-  model_ = &require_model(context);
-  target_ = find_target(context, 0.0);
-  // Kushner's convention: improve on μ_best by at least ξ·σ_f. (With Kuindersma's EI sign, μ_best + ξ, PI
-  // would be 1 at the incumbent for any ξ > 0 and never explore.)
-  margin_ = target_.mu_best - xi_ * signal_std(*model_);
-}
-
-double ProbabilityOfImprovement::evaluate(const Vec& x, Vec* grad) const {
-  const Prediction p = predict(model_, x, grad != nullptr);
-  const double delta = margin_ - p.mean;
-  const Vec d_delta = grad ? Vec(-p.d_mean) : Vec();
-  return expect_over_log_noise(p, delta, &d_delta, rule_, probability_integrand, grad);
-}
-
-std::string ProbabilityOfImprovement::state() const {
-  return fmt::format("pi: mu_best {:.6g} (point {}), target {:.6g}", target_.mu_best, target_.index, margin_);
+std::string ImprovementAcquisition::state() const {
+  return fmt::format("{}: mu_best {:.6g} (point {}), target {:.6g}", name_, target_.mu_best, target_.index, margin_);
 }
 
 // ---- CB ----

@@ -3,6 +3,7 @@
 // Costs are minimized, so every acquisition returns a utility to maximize (−CB for the confidence bound).
 #include <string>
 
+#include "noise_quadrature.hpp"
 #include "varbo/acquisition.hpp"
 #include "varbo/math.hpp"
 
@@ -15,37 +16,42 @@ struct Target {
   Index index = -1;
 };
 
-/// Expected improvement over μ_best + ξσ_f, by Gauss–Hermite over g* (eq. 9) or the closed form.
-/// ξ is scaled by σ_f = sqrt(signal_variance()) so that it is in cost units whatever the cost scale.
-class ExpectedImprovement final : public Acquisition {
+/// EI and PI: E_g*[F(δ, v)] with the margin δ = μ_best − ξσ_f − a* (eq. 9 for F = EI's integrand), by
+/// Gauss–Hermite over g* or in closed form; the two differ only in F. ξ is scaled by σ_f = sqrt(signal_variance())
+/// so that it is in cost units whatever the cost scale; ξ ≥ 0 asks for an improvement of at least ξ·σ_f.
+class ImprovementAcquisition : public Acquisition {
  public:
-  ExpectedImprovement(double xi, int gh_nodes) : xi_(xi), rule_(gauss_hermite(gh_nodes)) {}
-  void prepare(const AcquisitionContext& context) override;
-  double evaluate(const Vec& x, Vec* grad) const override;
-  std::string state() const override;
+  void prepare(const AcquisitionContext& context) final;
+  double evaluate(const Vec& x, Vec* grad) const final;
+  std::string state() const final;
+
+ protected:
+  ImprovementAcquisition(const char* name, Integrand integrand, double xi, int gh_nodes)
+      : name_(name), integrand_(integrand), xi_(xi), rule_(gauss_hermite(gh_nodes)) {}
 
  private:
+  const char* name_;
+  Integrand integrand_;
   double xi_;
   const GaussHermite& rule_;  ///< cached: gauss_hermite() takes a lock
   const Surrogate* model_ = nullptr;
   Target target_;
-  double margin_ = 0;  ///< μ_best + ξσ_f
+  double margin_ = 0;  ///< μ_best − ξσ_f
 };
 
-/// Probability of improvement P(y* < μ_best + ξσ_f) = Φ(u), integrated over g* for a heteroscedastic model.
-class ProbabilityOfImprovement final : public Acquisition {
+/// Expected improvement over μ_best − ξσ_f (Kuindersma 2013, eq. 9).
+class ExpectedImprovement final : public ImprovementAcquisition {
  public:
-  ProbabilityOfImprovement(double xi, int gh_nodes) : xi_(xi), rule_(gauss_hermite(gh_nodes)) {}
-  void prepare(const AcquisitionContext& context) override;
-  double evaluate(const Vec& x, Vec* grad) const override;
-  std::string state() const override;
+  ExpectedImprovement(double xi, int gh_nodes) : ImprovementAcquisition("ei", improvement_integrand, xi, gh_nodes) {}
+};
 
- private:
-  double xi_;
-  const GaussHermite& rule_;  ///< cached: gauss_hermite() takes a lock
-  const Surrogate* model_ = nullptr;
-  Target target_;
-  double margin_ = 0;
+/// Probability of improvement P(y* < μ_best − ξσ_f) = Φ(u), integrated over g* for a heteroscedastic model
+/// (Kushner's convention for ξ: with Kuindersma's EI sign, μ_best + ξ, PI would be 1 at the incumbent for any
+/// ξ > 0 and never explore).
+class ProbabilityOfImprovement final : public ImprovementAcquisition {
+ public:
+  ProbabilityOfImprovement(double xi, int gh_nodes)
+      : ImprovementAcquisition("pi", probability_integrand, xi, gh_nodes) {}
 };
 
 /// Confidence bound CB = E[y*] + κ·s*, s* = sqrt(V[y*]) (eq. 10 with b = κ s*); the utility is −CB.

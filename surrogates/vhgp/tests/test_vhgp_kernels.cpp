@@ -9,6 +9,7 @@
 #include "kernel_library.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/function.hpp"
+#include "predictive_gradient_check.hpp"
 #include "varbo_test.hpp"
 #include "vhgp_surrogate.hpp"
 
@@ -251,21 +252,7 @@ TEST_CASE("predictive x-gradients with composite kernels (a linear term: k** dep
   s.set_hyperparameters(h);
   s.set_state("log_lambda", Vec::Constant(15, std::log(0.5)) + 0.5 * rng.normal_vec(15));
   REQUIRE(s.condition(d).ok);
-  for (int t = 0; t < 5; ++t) {
-    const Vec x = rng.uniform_vec(dim);
-    for (int k = 0; k < 4; ++k) {
-      FunctionRef fn(dim, [&s, k](const Vec& z, Vec* g) {
-        const Prediction q = s.predict(z, g != nullptr);
-        const double values[] = {q.mean, q.latent_var, q.log_noise_mean, q.log_noise_var};
-        if (g) *g = k == 0 ? q.d_mean : k == 1 ? q.d_latent_var : k == 2 ? q.d_log_noise_mean : q.d_log_noise_var;
-        return values[k];
-      });
-      const GradientCheck c = check_gradient(fn, x, 1e-6, 1e-6);
-      CAPTURE(k);
-      CAPTURE(c.max_abs_error);
-      CHECK(c.max_rel_error < 1e-6);
-    }
-  }
+  check_predictive_x_gradients(s, dim, rng);
 }
 
 TEST_CASE("names, cost units, priors and boxes follow each parameter's role") {
