@@ -195,7 +195,7 @@ TEST_CASE("postgresql: a connection dropped mid-transaction writes nothing; the 
 TEST_CASE("postgresql: a worker outlives dropped connections (reconnects, retries), every trial recorded once") {
   const std::string dir = test::temp_folder("pg_worker_reconnect");
   const std::string url = test::pg_study_url("reconnect") + "&application_name=varbo_reconnect_test";
-  std::ofstream(dir + "/cfg.yaml") << "task: {type: branin}\nbudget: 4\nseed: 3\nalgorithm: {type: random}\n";
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: branin}\nbudget: 8\nseed: 3\nalgorithm: {type: random}\n";
   REQUIRE(varbo_cli({"study", "create", url, dir + "/cfg.yaml"}, dir).first == 0);
   const std::string log = dir + "/worker.log";
   const pid_t worker = test::spawn({VARBO_EXE, "worker", url, "--command", "cat > /dev/null; sleep 0.4; echo 2.5"}, log);
@@ -204,25 +204,29 @@ TEST_CASE("postgresql: a worker outlives dropped connections (reconnects, retrie
   // start-up error, exit 2, and a loaded machine can take longer than a fixed sleep to get there.
   for (int i = 0; i < 1200 && open_store(url)->trials().empty(); ++i)
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  // Kill the worker's session twice while it works: poll for a session (after a kill the worker has none until
+  // its next statement reconnects, which on a loaded machine can take longer than any fixed sleep), kill it, and
+  // give the worker a moment to notice before looking for the next one.
   int terminated = 0;
-  for (int round = 0; round < 2; ++round) {  // twice, while the command runs: the next statements find the session gone
-    std::this_thread::sleep_for(std::chrono::milliseconds(round == 0 ? 100 : 500));
+  for (int i = 0; i < 1200 && terminated < 2; ++i) {
     pqxx::nontransaction k(killer);
-    terminated += static_cast<int>(
+    const int n = static_cast<int>(
         k.exec("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name = 'varbo_reconnect_test'")
             .size());
+    terminated += n;
+    std::this_thread::sleep_for(std::chrono::milliseconds(n > 0 ? 300 : 25));
   }
   CHECK(terminated >= 2);
   CHECK(test::wait_for(worker).exit_code == 0);
   const auto trials = open_store(url)->trials();
-  REQUIRE(trials.size() == 4);
+  REQUIRE(trials.size() == 8);
   std::set<std::int64_t> seqs;
   for (const auto& t : trials) {
     CHECK(t.state == TrialState::Complete);
     CHECK(t.cost == 2.5);
     seqs.insert(t.finish_seq);
   }
-  CHECK(seqs.size() == 4);
+  CHECK(seqs.size() == 8);
   CHECK(test::slurp(log).find("reconnecting to the database server") != std::string::npos);
   // --reconnect-timeout 0 and an unreachable server: exit 2 at once, naming the study.
   const auto [code, out] = varbo_cli({"worker", "postgresql:///varbo_test?host=/nonexistent-varbo&study=gone",
