@@ -53,6 +53,10 @@ TEST_CASE("out-of-range and mistyped top-level values") {
 
 TEST_CASE("a component given as a list is refused") {
   CHECK(has(study_error("task: [branin]\n"), "key 'task': expected a task name or a map with 'type:'"));
+  // "an" before a vowel: the message is read by people.
+  CHECK(has(study_error("task: branin\nalgorithm: [bo]\n"),
+            "key 'algorithm': expected an algorithm name or a map with 'type:'"));
+  CHECK(has(study_error("task: branin\nalgorithm: {type: [bo]}\n"), "key 'algorithm.type': expected an algorithm name"));
 }
 
 TEST_CASE("phases are validated with their own key paths") {

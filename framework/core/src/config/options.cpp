@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "kind_text.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/option_set.hpp"
@@ -27,6 +28,11 @@ std::string kind_name(Kind kind) {
     case Kind::Kernel: return "kernel";
   }
   return "?";
+}
+
+std::string kind_with_article(Kind kind) {
+  const std::string name = kind_name(kind);
+  return (std::string("aeiou").find(name[0]) != std::string::npos ? "an " : "a ") + name;
 }
 
 Kind kind_from_name(const std::string& name) {
@@ -69,8 +75,7 @@ std::string OptionSpec::expected() const {
     case OptionType::Choice: return "one of: " + join(choices, ", ");
     case OptionType::RealList: return "a list of real numbers, e.g. [0.1, 0.2]";
     case OptionType::Component:
-      return std::string(kind_name(component_kind)[0] == 'a' || kind_name(component_kind)[0] == 'o' ? "an " : "a ") +
-             kind_name(component_kind) + " name or a map with 'type:' and its options";
+      return kind_with_article(component_kind) + " name or a map with 'type:' and its options";
     case OptionType::Node: return "a YAML value";
   }
   return "?";

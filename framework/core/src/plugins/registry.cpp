@@ -7,6 +7,7 @@
 #include <mutex>
 #include <set>
 
+#include "../config/kind_text.hpp"
 #include "on_demand.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
@@ -159,10 +160,10 @@ ResolvedComponent Registry::resolve(Kind kind, const ConfigNode& node) const {
     if (!node.has("type"))
       node.fail(fmt::format("missing 'type:' naming the {}", kind_name(kind)));
     type_node = node.child("type");
-    if (!type_node.is_scalar()) type_node.fail(fmt::format("expected a {} name", kind_name(kind)));
+    if (!type_node.is_scalar()) type_node.fail(fmt::format("expected {} name", kind_with_article(kind)));
     type = type_node.scalar();
   } else {
-    node.fail(fmt::format("expected a {} name or a map with 'type:' and its options", kind_name(kind)));
+    node.fail(fmt::format("expected {} name or a map with 'type:' and its options", kind_with_article(kind)));
   }
   const ComponentInfo& info = find(kind, type, &type_node);
   ResolvedComponent rc;
