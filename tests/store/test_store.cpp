@@ -228,7 +228,7 @@ TEST_CASE("schema version: a store written by a newer varbo is a clear error nam
   }
 }
 
-TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, existing file on create") {
+TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, a folder, existing file on create") {
   const std::string dir = test::temp_folder("store_foreign");
   const std::string text = dir + "/notes.db";
   std::ofstream(text) << "this is a text file, long enough to have a header of sorts..............................."
@@ -250,6 +250,13 @@ TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing fi
   msg = open_error(dir + "/missing.db");
   CHECK(msg.find("no such study file") != std::string::npos);
   CHECK_FALSE(std::filesystem::exists(dir + "/missing.db"));  // opening never creates a file
+
+  // A folder (e.g. a run folder given where its study file is meant): said so, naming the study inside it.
+  const std::string run_folder = dir + "/run";
+  std::filesystem::create_directories(run_folder);
+  CHECK(open_error(run_folder).find("a folder, not a study file") != std::string::npos);
+  std::filesystem::copy_file(other, run_folder + "/study.db");
+  CHECK(open_error(run_folder).find("this run folder's study is " + run_folder + "/study.db") != std::string::npos);
 
   CHECK_THROWS_WITH_AS(create_sqlite_store(other), doctest::Contains("exists already"), InputError);
 }
