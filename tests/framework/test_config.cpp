@@ -71,3 +71,46 @@ TEST_CASE("what yaml-cpp accepts silently is an error: duplicate keys, a second 
   CHECK(parse_error("---\na: !!str 1\nb: \"x\"\nc: {k: 1}\nd: {k: 2}\n").empty());
   CHECK(parse_error("").empty());
 }
+
+TEST_CASE("YAML merge keys (<<) give shared defaults: the map's own keys win, then the merged maps in order") {
+  // yaml-cpp 0.7 reads '<<' as an ordinary key; ConfigNode resolves it (https://yaml.org/type/merge.html).
+  const ConfigNode root = ConfigNode::parse(
+      "gp: &gp {type: gp, restarts: 2, kernel: se_ard}\n"
+      "fast: &fast {restarts: 1, full_fit_growth: 2}\n"
+      "a: {<<: *gp, restarts: 8}\n"
+      "b:\n  <<: [*fast, *gp]\n"
+      "c: {\"<<\": 5}\n",
+      "c.yaml");
+  const ConfigNode a = root.child("a");
+  CHECK(a.keys() == std::vector<std::string>{"restarts", "type", "kernel"});
+  CHECK(a.child("restarts").scalar() == "8");
+  CHECK(a.child("type").scalar() == "gp");
+  CHECK(a.child("kernel").where() == "c.yaml:1:41");  // a merged value keeps the anchor's position
+  const ConfigNode b = root.child("b");
+  CHECK(b.child("restarts").scalar() == "1");  // the earlier map in the list wins
+  CHECK(b.child("full_fit_growth").scalar() == "2");
+  CHECK(b.child("type").scalar() == "gp");
+  CHECK_FALSE(b.has("<<"));
+  CHECK(root.child("c").child("<<").scalar() == "5");  // quoted: an ordinary key
+  // The anchored maps themselves are unchanged.
+  CHECK(root.child("gp").child("restarts").scalar() == "2");
+  CHECK(root.child("fast").keys() == std::vector<std::string>{"restarts", "full_fit_growth"});
+}
+
+TEST_CASE("bad merge keys and alias bombs are errors with a position") {
+  CHECK(parse_error("a: {type: x, <<: 5}\n") ==
+        "c.yaml:1:18: the merge key '<<' takes a map or a list of maps (e.g. <<: *defaults), got '5'");
+  CHECK(parse_error("m: &m {k: 1}\na: {<<: [*m, 3]}\n").find("the merge key '<<' takes a map or a list of maps") !=
+        std::string::npos);
+  CHECK(parse_error("m: &m {k: 1}\na:\n  <<: *m\n  <<: *m\n").rfind("c.yaml:4:3: duplicate merge key '<<' (first given "
+                                                                   "at line 3)",
+                                                                   0) == 0);
+  // "Billion laughs": 9 levels of 10 aliases each expand to 10^10 values; refused at once instead of hanging.
+  std::string bomb = "l0: &l0 [x, x, x, x, x, x, x, x, x, x]\n";
+  for (int i = 1; i < 10; ++i) {
+    bomb += "l" + std::to_string(i) + ": &l" + std::to_string(i) + " [";
+    for (int k = 0; k < 10; ++k) bomb += (k ? ", *l" : "*l") + std::to_string(i - 1);
+    bomb += "]\n";
+  }
+  CHECK(parse_error(bomb).find("expands to more than 1000000 values through its aliases") != std::string::npos);
+}

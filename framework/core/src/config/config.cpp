@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "varbo/errors.hpp"
@@ -35,10 +36,25 @@ bool known_tag(const std::string& tag) {
   return t == "str" || t == "int" || t == "float" || t == "bool" || t == "null" || t == "map" || t == "seq";
 }
 
+/// Counts the values a walk of the tree visits. Aliases (*a) make the tree a graph whose expansion can be
+/// exponential in the file's size ("billion laughs": 10 lines of nested aliases, 10^10 values), and every walk of
+/// the configuration (checks, options, the study's identity) expands it; a configuration holds hundreds.
+struct WalkBudget {
+  static constexpr std::size_t kMaxValues = 1'000'000;
+  std::size_t visited = 0;
+  void visit(const std::string& name, const YAML::Node& n) {
+    if (++visited > kMaxValues)
+      throw ConfigError(fmt::format("{}: the configuration expands to more than {} values through its aliases "
+                                    "(*name); a configuration holds far fewer",
+                                    at(name, n.Mark()), kMaxValues));
+  }
+};
+
 /// What yaml-cpp accepts but a configuration must not hold: a key given twice (the first would win silently),
-/// a key that is not a plain scalar, an unknown tag, absurd nesting.
-void check_structure(const YAML::Node& n, const std::string& name, int depth) {
+/// a key that is not a plain scalar, an unknown tag, absurd nesting or alias expansion.
+void check_structure(const YAML::Node& n, const std::string& name, int depth, WalkBudget& budget) {
   if (depth > 64) throw ConfigError(fmt::format("{}: nested more than 64 levels deep", at(name, n.Mark())));
+  budget.visit(name, n);
   if (!known_tag(n.Tag()))
     throw ConfigError(fmt::format("{}: unknown YAML tag '{}' (a configuration uses plain values, no tags)",
                                   at(name, n.Mark()), n.Tag()));
@@ -57,11 +73,69 @@ void check_structure(const YAML::Node& n, const std::string& name, int depth) {
                                         "in a map",
                                         at(name, kv.first.Mark()), key, mark.line + 1));
       seen.emplace_back(key, kv.first.Mark());
-      check_structure(kv.second, name, depth + 1);
+      check_structure(kv.second, name, depth + 1, budget);
     }
   } else if (n.IsSequence()) {
-    for (const auto& item : n) check_structure(item, name, depth + 1);
+    for (const auto& item : n) check_structure(item, name, depth + 1, budget);
   }
+}
+
+/// A plain `<<` key (YAML 1.1 merge key, https://yaml.org/type/merge.html); `"<<"` quoted is an ordinary key.
+bool is_merge_key(const YAML::Node& key) {
+  return key.IsScalar() && key.Scalar() == "<<" && (key.Tag() == "?" || key.Tag() == "tag:yaml.org,2002:merge");
+}
+
+/// Resolves YAML merge keys, which yaml-cpp 0.7 (Debian 12) reads as a plain key '<<': `<<: *defaults` or
+/// `<<: [*a, *b]` adds the merged maps' keys that the map does not give itself, earlier maps first — the shared
+/// defaults of ROS-style parameter files. Merged values keep their own positions (the anchor's lines) for errors.
+/// In place: a map reached twice through an alias is resolved once, to the same result.
+void resolve_merge_keys(YAML::Node n, const std::string& name, int depth, WalkBudget& budget) {
+  if (depth > 64) return;  // check_structure() reports the nesting
+  budget.visit(name, n);
+  if (n.IsSequence()) {
+    for (YAML::Node item : n) resolve_merge_keys(item, name, depth + 1, budget);
+    return;
+  }
+  if (!n.IsMap()) return;
+  std::vector<YAML::Node> merged;
+  std::optional<YAML::Node> merge_key;
+  std::vector<std::string> own;
+  for (auto kv : n) {
+    if (is_merge_key(kv.first)) {
+      if (merge_key)
+        throw ConfigError(fmt::format("{}: duplicate merge key '<<' (first given at line {}); merge several maps "
+                                      "with one list, <<: [*a, *b]",
+                                      at(name, kv.first.Mark()), merge_key->Mark().line + 1));
+      merge_key = kv.first;
+      const YAML::Node value = kv.second;
+      if (value.IsMap()) {
+        merged.push_back(value);
+      } else if (value.IsSequence() && std::all_of(value.begin(), value.end(), [](const YAML::Node& m) {
+                   return m.IsMap();
+                 })) {
+        for (const YAML::Node& m : value) merged.push_back(m);
+      } else {
+        throw ConfigError(fmt::format("{}: the merge key '<<' takes a map or a list of maps (e.g. <<: *defaults), "
+                                      "got {}",
+                                      at(name, value.Mark()), value.IsScalar() ? "'" + value.Scalar() + "'"
+                                                                               : std::string("a list holding a non-map")));
+      }
+    } else {
+      if (kv.first.IsScalar()) own.push_back(kv.first.Scalar());
+      resolve_merge_keys(kv.second, name, depth + 1, budget);
+    }
+  }
+  if (!merge_key) return;
+  for (YAML::Node m : merged) resolve_merge_keys(m, name, depth + 1, budget);
+  n.remove(*merge_key);
+  for (const YAML::Node& m : merged)
+    for (const auto& kv : m) {
+      if (!kv.first.IsScalar()) continue;  // check_structure() reports a non-scalar key where the map is used
+      const std::string key = kv.first.Scalar();
+      if (std::find(own.begin(), own.end(), key) != own.end()) continue;
+      own.push_back(key);
+      n.force_insert(kv.first, kv.second);
+    }
 }
 
 }  // namespace
@@ -79,7 +153,9 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
     throw ConfigError(fmt::format("{}: a second YAML document (after '---'); a configuration file holds one",
                                   at(name, docs[1].Mark())));
   YAML::Node root = docs.empty() ? YAML::Node() : docs[0];
-  check_structure(root, name, 0);
+  WalkBudget merging, checking;
+  resolve_merge_keys(root, name, 0, merging);
+  check_structure(root, name, 0, checking);
   return ConfigNode(root, file, "");
 }
 
