@@ -4,6 +4,7 @@
 #include <cstring>
 #include <limits>
 
+#include "../../framework/core/src/interfaces/state_reader.hpp"  // the one-pass reader (internal)
 #include "varbo/errors.hpp"
 #include "varbo/state.hpp"
 #include "varbo_test.hpp"
@@ -83,4 +84,104 @@ TEST_CASE("StateMap: the list form of earlier versions reads to the same values;
                        InputError);
   CHECK_THROWS_AS(bad.vec("w"), InputError);
   CHECK_THROWS_AS(bad.vec("u"), InputError);
+}
+
+namespace {
+/// Same node tree: types, scalars, keys in order.
+bool same_tree(const YAML::Node& a, const YAML::Node& b, std::string& where) {
+  if (a.Type() != b.Type()) {
+    where += " (type)";
+    return false;
+  }
+  if (a.IsScalar()) {
+    if (a.Scalar() != b.Scalar()) where += " (scalar '" + a.Scalar() + "' vs '" + b.Scalar() + "')";
+    return a.Scalar() == b.Scalar();
+  }
+  if (a.size() != b.size()) {
+    where += " (size)";
+    return false;
+  }
+  if (a.IsSequence()) {
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      where.append("/").append(std::to_string(i));
+      if (!same_tree(a[i], b[i], where)) return false;
+    }
+    return true;
+  }
+  auto ia = a.begin(), ib = b.begin();
+  for (; ia != a.end(); ++ia, ++ib) {
+    if (!ia->first.IsScalar() || !ib->first.IsScalar() || ia->first.Scalar() != ib->first.Scalar()) {
+      where += " (key)";
+      return false;
+    }
+    where.append("/").append(ia->first.Scalar());
+    if (!same_tree(ia->second, ib->second, where)) return false;
+  }
+  return true;
+}
+
+/// The one-pass reader either declines (nullopt) or builds exactly the nodes YAML::Load builds.
+void check_reader(const std::string& text, bool must_read) {
+  INFO(text);
+  const std::optional<YAML::Node> fast = detail::read_flow_state(text);
+  if (must_read) CHECK(fast.has_value());
+  if (!fast) return;
+  YAML::Node slow;
+  try {
+    slow = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    FAIL_CHECK("the reader read a text YAML::Load refuses: " << e.what());
+    return;
+  }
+  std::string where;
+  CHECK_MESSAGE(same_tree(*fast, slow, where), where);
+}
+}  // namespace
+
+TEST_CASE("StateMap: the one-pass reader builds the nodes YAML::Load builds, or declines") {
+  // Texts StateMap::text() writes, with awkward strings: each must read as YAML::Load reads it.
+  const std::vector<std::string> strings = {
+      "", " ", "plain", "two words", "  leading", "trailing  ", "null", "~", "Null", "NULL", "true", "- x", "-",
+      "-1.5", "a: b", "a:b", "#c", "a #c", "[x]", "{y}", "x, y", "\"q\"", "'s'", "back\\slash", "new\nline",
+      "tab\there", "cr\rx", "bell\x07", "del\x7f", "θ = 1", "a/b", "1e-300 -0 inf -inf nan", "?", "? x", "!tag",
+      "&a", "*a", "%p", "@x", "`x`", "|", ">", "=", "x\\\"y", "é", "\x01\x1f", "...", "---", "a  b   c"};
+  StateMap inner;
+  inner.put("v", Vec(Vec::LinSpaced(7, -3.0, 4.0 / 3.0)));
+  inner.put_int("n", 40);
+  StateMap s;
+  for (std::size_t i = 0; i < strings.size(); ++i) {
+    s.put(std::string("k").append(std::to_string(i)), strings[i]);
+    StateMap one;
+    one.put("value", strings[i]);
+    one.put(strings[i].empty() ? std::string("empty") : strings[i], 1.5);  // as a key too
+    check_reader(one.text(), false);
+  }
+  s.put("inner_text", inner.text());
+  s.put("inner_map", inner);
+  s.put("m", Mat(Mat::Identity(3, 2)));
+  s.put("rows", std::vector<Vec>{Vec::Constant(2, 0.25), Vec()});
+  s.put("empty", Vec());
+  s.put("flag", true);
+  s.put("x", 1.0 / 3.0);
+  check_reader(s.text(), false);
+  check_reader(inner.text(), true);  // the common case: numbers, words
+  StateMap typical;
+  typical.put("surrogate", inner.text());
+  typical.put("region", inner.text());
+  typical.put("note", std::string());
+  typical.put("region_state", std::string("L 0.8, successes 0/3, failures 1/6, restarts 1"));
+  check_reader(typical.text(), true);
+  // Hand-written texts: other layouts are declined or read as YAML::Load reads them.
+  for (const char* t : {"{}", "{a: }", "{a: , b: 1}", "{a: [], b: {}}", "{a: [1, 2], b: {c: d}}", "{a: 1, a: 2}",
+                        "{a:1}", "{\"a\":1}", "{a: 1} # c", "{a: 1}\n", "  {a: 1}", "{a: 1,}", "{a: [1,]}",
+                        "{a: 'it''s'}", "{a: \"\\x41\\/\"}", "{a: \"\\u0041\"}", "{a: \"x\ny\"}", "{a: 'x\ny'}",
+                        "{a: b c  }", "{a: -b}", "{a: - b}", "{a: .5}", "{a: +1}", "{? a: 1}", "{a: !!str 1}",
+                        "{a: &x 1, b: *x}", "[1, 2]", "a: 1", "{a: {b: {c: {d: [[[]]]}}}}", "{a: 1}}", "{a: \"x"})
+    check_reader(t, false);
+  // And a state read either way restores the same values.
+  const StateMap r = StateMap::parse(s.text(), "test state");
+  CHECK(r.str("inner_text") == inner.text());
+  CHECK(r.str("k0").empty());
+  CHECK(r.str("k6") == "null");
+  CHECK(r.boolean("flag"));
 }

@@ -7,10 +7,14 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <iterator>
+#include <optional>
+#include <vector>
 
+#include "state_reader.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo {
@@ -73,7 +77,207 @@ bool read_numbers(const YAML::Node& n, Vec& out) {
 StateMap::StateMap() : node_(YAML::NodeType::Map), what_("state") {}
 StateMap::StateMap(YAML::Node node, std::string what) : node_(std::move(node)), what_(std::move(what)) {}
 
+namespace detail {
+namespace {
+/// Reads the one-line flow YAML that StateMap::text() writes — maps, sequences, plain scalars of letters,
+/// digits and ". _ + - /" (numbers, words, vectors of numbers), single- and double-quoted scalars of printable
+/// ASCII (double-quoted with the escapes \\ \" \n \t \r \/ \xHH) — into the nodes YAML::Load would build.
+/// Anything else (another layout, a comment, a tag, non-ASCII text, a duplicate key) ends it: the caller
+/// falls back to YAML::Load. yaml-cpp's scanner tests every character of a scalar against several patterns,
+/// which made parsing a GP's saved state (its data as one scalar per vector, the surrogate's state as a quoted
+/// text parsed again) ~12 % of opening a study (docs/studies.md); this reader makes one pass.
+class FlowReader {
+ public:
+  explicit FlowReader(const std::string& text) : p_(text.data()), end_(text.data() + text.size()) {}
+
+  std::optional<YAML::Node> document() {
+    space();
+    if (p_ == end_ || *p_ != '{') return std::nullopt;
+    std::optional<YAML::Node> n = value();
+    while (p_ != end_ && (*p_ == ' ' || *p_ == '\n')) ++p_;
+    if (!n || p_ != end_) return std::nullopt;
+    return n;
+  }
+
+ private:
+  void space() {
+    while (p_ != end_ && *p_ == ' ') ++p_;
+  }
+  bool at(char c) const { return p_ != end_ && *p_ == c; }
+
+  std::optional<YAML::Node> value() {
+    if (p_ == end_) return std::nullopt;
+    if (++depth_ > 64) return std::nullopt;
+    std::optional<YAML::Node> out;
+    switch (*p_) {
+      case '{': out = map(); break;
+      case '[': out = sequence(); break;
+      case '"': out = double_quoted(); break;
+      case '\'': out = single_quoted(); break;
+      default: out = plain(); break;
+    }
+    --depth_;
+    return out;
+  }
+
+  std::optional<YAML::Node> map() {
+    ++p_;  // '{'
+    YAML::Node m(YAML::NodeType::Map);
+    std::vector<std::string> keys;
+    space();
+    if (at('}')) {
+      ++p_;
+      return m;
+    }
+    for (;;) {
+      std::optional<YAML::Node> key = at('"') ? double_quoted() : at('\'') ? single_quoted() : plain();
+      if (!key || !key->IsScalar()) return std::nullopt;
+      const std::string k = key->Scalar();
+      if (std::find(keys.begin(), keys.end(), k) != keys.end()) return std::nullopt;
+      keys.push_back(k);
+      space();
+      if (!at(':')) return std::nullopt;
+      ++p_;
+      if (!at(' ') && !at(',') && !at('}')) return std::nullopt;
+      space();
+      if (at(',') || at('}')) {
+        m[k] = YAML::Node(YAML::NodeType::Null);
+      } else {
+        std::optional<YAML::Node> v = value();
+        if (!v) return std::nullopt;
+        m[k] = *v;
+      }
+      space();
+      if (at('}')) {
+        ++p_;
+        return m;
+      }
+      if (!at(',')) return std::nullopt;
+      ++p_;
+      space();
+    }
+  }
+
+  std::optional<YAML::Node> sequence() {
+    ++p_;  // '['
+    YAML::Node s(YAML::NodeType::Sequence);
+    space();
+    if (at(']')) {
+      ++p_;
+      return s;
+    }
+    for (;;) {
+      if (at(',') || at(']')) return std::nullopt;
+      std::optional<YAML::Node> v = value();
+      if (!v) return std::nullopt;
+      s.push_back(*v);
+      space();
+      if (at(']')) {
+        ++p_;
+        return s;
+      }
+      if (!at(',')) return std::nullopt;
+      ++p_;
+      space();
+    }
+  }
+
+  static bool plain_char(char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '.' || c == '_' ||
+           c == '+' || c == '-' || c == '/';
+  }
+
+  std::optional<YAML::Node> plain() {
+    const char* begin = p_;
+    // A plain scalar cannot start with a space, and "- " would be a block sequence entry.
+    if (p_ == end_ || !plain_char(*p_)) return std::nullopt;
+    if (*p_ == '-' && (p_ + 1 == end_ || !plain_char(p_[1]))) return std::nullopt;
+    const char* last = p_;  // one past the last character that is not a space
+    while (p_ != end_ && (plain_char(*p_) || *p_ == ' ')) {
+      if (*p_ != ' ') last = p_ + 1;
+      ++p_;
+    }
+    if (p_ != end_ && *p_ != ',' && *p_ != '}' && *p_ != ']' && *p_ != ':') return std::nullopt;
+    p_ = last;  // the spaces before an indicator are not part of the scalar
+    std::string v(begin, last);
+    if (v == "~" || v == "null" || v == "Null" || v == "NULL") return YAML::Node(YAML::NodeType::Null);
+    return YAML::Node(v);
+  }
+
+  static int hex(char c) {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+  }
+  static bool printable(char c) { return c >= 0x20 && c < 0x7f; }
+
+  std::optional<YAML::Node> double_quoted() {
+    ++p_;  // '"'
+    std::string v;
+    while (p_ != end_ && *p_ != '"') {
+      const char c = *p_++;
+      if (!printable(c)) return std::nullopt;
+      if (c != '\\') {
+        v.push_back(c);
+        continue;
+      }
+      if (p_ == end_) return std::nullopt;
+      switch (const char e = *p_++) {
+        case '\\': v.push_back('\\'); break;
+        case '"': v.push_back('"'); break;
+        case '/': v.push_back('/'); break;
+        case 'n': v.push_back('\n'); break;
+        case 't': v.push_back('\t'); break;
+        case 'r': v.push_back('\r'); break;
+        case 'x': {
+          if (end_ - p_ < 2) return std::nullopt;
+          const int hi = hex(p_[0]), lo = hex(p_[1]);
+          if (hi < 0 || lo < 0 || hi > 7) return std::nullopt;  // ASCII only
+          v.push_back(static_cast<char>(16 * hi + lo));
+          p_ += 2;
+          break;
+        }
+        default:
+          (void)e;
+          return std::nullopt;
+      }
+    }
+    if (p_ == end_) return std::nullopt;
+    ++p_;  // '"'
+    return YAML::Node(v);
+  }
+
+  std::optional<YAML::Node> single_quoted() {
+    ++p_;  // '\''
+    std::string v;
+    for (;;) {
+      if (p_ == end_) return std::nullopt;
+      const char c = *p_++;
+      if (!printable(c)) return std::nullopt;
+      if (c == '\'') {
+        if (at('\'')) {
+          v.push_back('\'');
+          ++p_;
+          continue;
+        }
+        return YAML::Node(v);
+      }
+      v.push_back(c);
+    }
+  }
+
+  const char* p_;
+  const char* end_;
+  int depth_ = 0;
+};
+}  // namespace
+
+std::optional<YAML::Node> read_flow_state(const std::string& text) { return FlowReader(text).document(); }
+}  // namespace detail
+
 StateMap StateMap::parse(const std::string& text, const std::string& what) {
+  if (std::optional<YAML::Node> n = detail::read_flow_state(text)) return StateMap(*n, what);
   YAML::Node n;
   try {
     n = YAML::Load(text);

@@ -6,6 +6,7 @@
 #include <map>
 #include <mutex>
 #include <set>
+#include <shared_mutex>
 
 #include "../config/kind_text.hpp"
 #include "on_demand.hpp"
@@ -48,6 +49,19 @@ bool demand(const Registry& registry, const std::string& name) {
 }
 }  // namespace detail
 
+namespace {
+/// Guards every Registry's component list: a registry that plugins fill on demand may be shared by the Study
+/// objects of several threads (Study::open keeps one per plugin path for the process, study_api.cpp), and a
+/// lookup in one thread may load a library, adding components, while another thread reads the list. Readers
+/// share it; add() takes it alone. Never held while a library loads (demand runs before the lock is taken),
+/// so a plugin's registration cannot deadlock on it. One lock for all registries: they change only when a
+/// library loads. Kept out of the class so that its layout, which plugins compile against, is unchanged.
+std::shared_mutex& items_mutex() {
+  static std::shared_mutex m;
+  return m;
+}
+}  // namespace
+
 YAML::Node ResolvedComponent::resolved() const {
   YAML::Node out(YAML::NodeType::Map);
   out["type"] = info ? info->name : std::string("?");
@@ -67,6 +81,7 @@ void Registry::add(ComponentInfo info) {
   if (static_cast<std::size_t>(info.factory.index()) != static_cast<std::size_t>(info.kind))
     throw PluginLoadError(fmt::format("component '{}' declares kind {} but its factory makes another kind",
                                       info.name, kind_name(info.kind)));
+  std::unique_lock<std::shared_mutex> lock(items_mutex());
   for (const auto& c : items_)
     if (c->kind == info.kind && c->full_name() == info.full_name())
       throw PluginLoadError(fmt::format("{} '{}' is registered twice (by {} and {})", kind_name(info.kind),
@@ -80,6 +95,7 @@ const ComponentInfo* Registry::try_find(Kind kind, const std::string& name) cons
   const bool on_demand = detail::demand(*this, name);
   for (int pass = 0; pass < (on_demand ? 2 : 1); ++pass) {
     if (pass == 1) detail::demand(*this, "");
+    std::shared_lock<std::shared_mutex> lock(items_mutex());
     const ComponentInfo *found = nullptr, *builtin = nullptr;
     int matches = 0, builtin_matches = 0;
     for (const auto& c : items_) {
@@ -105,6 +121,7 @@ const ComponentInfo* Registry::try_find(Kind kind, const std::string& name) cons
 const ComponentInfo& Registry::find(Kind kind, const std::string& name, const ConfigNode* where) const {
   if (const ComponentInfo* c = try_find(kind, name)) return *c;
   std::vector<std::string> known, ambiguous;
+  std::shared_lock<std::shared_mutex> lock(items_mutex());
   for (const auto& c : items_) {
     if (c->kind != kind) continue;
     known.push_back(c->name);
@@ -121,6 +138,7 @@ const ComponentInfo& Registry::find(Kind kind, const std::string& name, const Co
                       known.empty() ? "(none loaded; check the plugin path)" : join(known),
                       near.empty() ? "" : "; did you mean '" + near + "'?");
   }
+  lock.unlock();
   if (where) {
     try {
       where->fail(msg);
@@ -134,6 +152,7 @@ const ComponentInfo& Registry::find(Kind kind, const std::string& name, const Co
 std::vector<const ComponentInfo*> Registry::components(Kind kind) const {
   detail::demand(*this, "");
   std::vector<const ComponentInfo*> out;
+  std::shared_lock<std::shared_mutex> lock(items_mutex());
   for (const auto& c : items_)
     if (c->kind == kind) out.push_back(c.get());
   std::sort(out.begin(), out.end(), [](auto* a, auto* b) { return a->full_name() < b->full_name(); });
@@ -143,7 +162,10 @@ std::vector<const ComponentInfo*> Registry::components(Kind kind) const {
 std::vector<const ComponentInfo*> Registry::all() const {
   detail::demand(*this, "");
   std::vector<const ComponentInfo*> out;
-  for (const auto& c : items_) out.push_back(c.get());
+  {
+    std::shared_lock<std::shared_mutex> lock(items_mutex());
+    for (const auto& c : items_) out.push_back(c.get());
+  }
   std::sort(out.begin(), out.end(), [](auto* a, auto* b) {
     return std::make_pair(static_cast<int>(a->kind), a->full_name()) <
            std::make_pair(static_cast<int>(b->kind), b->full_name());

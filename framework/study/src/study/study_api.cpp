@@ -8,7 +8,11 @@
 #include <cmath>
 #include <ctime>
 #include <filesystem>
+#include <map>
+#include <mutex>
+#include <set>
 #include <sstream>
+#include <tuple>
 
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
@@ -391,6 +395,81 @@ std::unique_ptr<Study::Impl> impl_with_plugins(const std::vector<std::string>& p
   return impl;
 }
 
+/// The plugins of the studies a process opens (Study::open without components of the caller's), one registry
+/// and loader per plugin path, shared by every Study opened with that path and kept for the life of the
+/// process (plugins are never unloaded anyway): a second Study::open in the process neither reads the
+/// plugin index nor checks, maps and registers its libraries again (docs/studies.md, "Cost of varbo
+/// suggest"). Libraries still load on demand, into the shared registry (Registry guards its list for
+/// that). The key holds the study's extra plugin paths and VARBO_PLUGIN_PATH with the size and time of every
+/// library file they name, so that a library added or replaced there is seen as it was before (a fresh
+/// registry); the built-in folders are the build's own. Warnings of the loader (a missing plugin path) are
+/// given by the first open only.
+struct SharedPlugins {
+  Registry registry;
+  PluginLoader loader{registry};
+};
+
+std::string plugin_key(const std::vector<std::string>& extra) {
+  std::string key;
+  auto add_file = [&key](const fs::path& p) {
+    std::error_code ec;
+    const auto size = fs::file_size(p, ec);
+    const auto time = fs::last_write_time(p, ec);
+    key += fmt::format("{}|{}|{}\n", p.string(), ec ? 0 : size, ec ? 0 : time.time_since_epoch().count());
+  };
+  std::vector<std::string> paths = extra;
+  for (auto& p : PluginLoader::env_path()) paths.push_back(std::move(p));
+  for (const auto& p : paths) {
+    key += "path " + p + "\n";
+    std::error_code ec;
+    if (!fs::is_directory(p, ec)) {
+      add_file(p);
+      continue;
+    }
+    std::vector<fs::path> files;
+    for (fs::directory_iterator it(p, ec), end; !ec && it != end; it.increment(ec)) files.push_back(it->path());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files)
+      if (f.extension() == ".so") add_file(f);
+  }
+  return key;
+}
+
+const Registry& shared_registry(const std::vector<std::string>& extra) {
+  static std::mutex mutex;
+  static auto* cache = new std::map<std::string, std::unique_ptr<SharedPlugins>>();  // never freed (see above)
+  const std::string key = plugin_key(extra);
+  std::lock_guard<std::mutex> lock(mutex);
+  auto it = cache->find(key);
+  if (it == cache->end()) {
+    auto plugins = std::make_unique<SharedPlugins>();
+    plugins->loader.set_on_demand(true);
+    plugins->loader.load_default(extra);  // throws (nothing cached) when a plugin named explicitly cannot load
+    it = cache->emplace(key, std::move(plugins)).first;
+  }
+  return it->second->registry;
+}
+
+/// Stored configurations whose identity was found to match with a shared registry: the check (a YAML emit of
+/// the resolved configuration) gives the same answer for the same text and the same loaded plugins, so a
+/// process checks each study once.
+std::mutex& identity_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::set<std::tuple<const Registry*, std::string, std::string>>& identities_checked() {
+  static auto* s = new std::set<std::tuple<const Registry*, std::string, std::string>>();
+  return *s;
+}
+bool identity_checked(const Registry& registry, const std::string& text, const std::string& identity) {
+  std::lock_guard<std::mutex> lock(identity_mutex());
+  return identities_checked().count({&registry, text, identity}) > 0;
+}
+void remember_identity(const Registry& registry, const std::string& text, const std::string& identity) {
+  std::lock_guard<std::mutex> lock(identity_mutex());
+  identities_checked().insert({&registry, text, identity});
+}
+
 void create_study_store(Study::Impl& impl, const std::string& store_path) {
   impl.make_algorithm();  // surface configuration errors before any file is written
   impl.store = create_store(store_path, impl.meta_entries(study_identity(impl.config)));
@@ -413,7 +492,12 @@ Study Study::create_from_yaml(const std::string& store_path, const std::string& 
   return Study(std::move(impl));
 }
 
-Study Study::open(const std::string& store_path) { return open(store_path, [](Registry&) {}); }
+namespace {
+/// Study::open(path) passes this very object: no components of the caller's, so the process's shared registry.
+const std::function<void(Registry&)> kNoComponents = [](Registry&) {};
+}  // namespace
+
+Study Study::open(const std::string& store_path) { return open(store_path, kNoComponents); }
 
 Study Study::open(const std::string& store_path, const std::function<void(Registry&)>& add_components) {
   log_cpu("opening (process start, libraries, command line)");
@@ -424,16 +508,29 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
   std::vector<std::string> paths;
   for (const auto& l : lines_of(store->meta(store_key::kPluginPaths).value_or("")))
     if (!l.empty()) paths.push_back(l);
-  auto impl = impl_with_plugins(paths, true);
-  add_components(*impl->own_registry);
+  std::unique_ptr<Impl> impl;
+  const Registry* registry = nullptr;
+  const bool shared = &add_components == &kNoComponents;
+  if (!shared) {  // components of the caller's own: a registry of this study's own
+    impl = impl_with_plugins(paths, true);
+    add_components(*impl->own_registry);
+    registry = impl->own_registry.get();
+  } else {
+    impl = std::make_unique<Impl>();
+    registry = &shared_registry(paths);
+  }
   const ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
-  impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
+  impl->init(parse_study(root, *registry), *registry);
   log_cpu("configuration parsed and validated, its plugins loaded, task built");
   const auto identity = store->meta(store_key::kIdentity);
-  if (identity && *identity != study_identity(impl->config))
-    log_warn("{}: the stored configuration resolves differently with the plugins loaded now (plugin defaults "
-             "changed?); continuing",
-             store_path);
+  if (identity && !(shared && identity_checked(*registry, *text, *identity))) {
+    if (*identity != study_identity(impl->config))
+      log_warn("{}: the stored configuration resolves differently with the plugins loaded now (plugin defaults "
+               "changed?); continuing",
+               store_path);
+    else if (shared)
+      remember_identity(*registry, *text, *identity);
+  }
   impl->store = std::move(store);
   log_cpu("configuration checked against the stored identity");
   return Study(std::move(impl));

@@ -1,0 +1,96 @@
+// The embedded cold path alone (docs/studies.md, "Cost of varbo suggest"): a fresh varbo::Study::open of a stored
+// study followed by ask(1), repeated on fresh copies of the study file in one process, as a program that opens
+// the study per request does; for `perf record` and for before/after comparisons of that path. A first open
+// (untimed) loads the plugins, as in bench_suggest, whose process keeps a study open. Printed: medians of the
+// wall and CPU seconds (this process, all threads) of Study::open, of ask(1), of both, and of the fit and
+// acquisition seconds the trial recorded (wall), so that "open + ask minus fit and acquisition" is what opening
+// adds to one iteration.
+//
+//   build/bin/bench_open STUDY.db [--repeats 30]      (STUDY.db from bench/store/make_study.py; SQLite)
+
+#include <fmt/format.h>
+#include <malloc.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "varbo/study_api.hpp"
+
+namespace {
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: bench_open STUDY.db [--repeats 30]\n");
+    return 2;
+  }
+  // The allocator settings of the `varbo` executable and of bench_suggest.
+  mallopt(M_MMAP_THRESHOLD, 256 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  namespace fs = std::filesystem;
+  const std::string db = argv[1];
+  int repeats = 30;
+  for (int i = 2; i + 1 < argc; i += 2)
+    if (std::string(argv[i]) == "--repeats") repeats = std::max(1, std::stoi(argv[i + 1]));
+  const fs::path scratch = fs::temp_directory_path() / fmt::format("varbo_bench_open_{}", ::getpid());
+  fs::create_directories(scratch);
+  const std::string copy = (scratch / "study.db").string();
+  auto fresh_copy = [&] {
+    for (const char* s : {"", "-wal", "-shm"}) fs::remove(copy + s);
+    fs::copy_file(db, copy);
+    if (fs::exists(db + "-wal")) fs::copy_file(db + "-wal", copy + "-wal");
+  };
+  {
+    fresh_copy();
+    varbo::Study first = varbo::Study::open(copy);  // the plugins are loaded: not timed
+    (void)first.ask(1);
+  }
+  std::vector<double> open_wall, open_cpu, ask_wall, ask_cpu, both_wall, both_cpu, fit_acq;
+  for (int r = 0; r < repeats; ++r) {
+    fresh_copy();
+    const auto t0 = std::chrono::steady_clock::now();
+    const double c0 = cpu_seconds();
+    varbo::Study s = varbo::Study::open(copy);
+    const auto t1 = std::chrono::steady_clock::now();
+    const double c1 = cpu_seconds();
+    const varbo::TrialRecord t = s.ask(1).at(0);
+    const auto t2 = std::chrono::steady_clock::now();
+    const double c2 = cpu_seconds();
+    open_wall.push_back(std::chrono::duration<double>(t1 - t0).count());
+    ask_wall.push_back(std::chrono::duration<double>(t2 - t1).count());
+    both_wall.push_back(std::chrono::duration<double>(t2 - t0).count());
+    open_cpu.push_back(c1 - c0);
+    ask_cpu.push_back(c2 - c1);
+    both_cpu.push_back(c2 - c0);
+    fit_acq.push_back(t.fit_seconds + t.acquisition_seconds);
+  }
+  fs::remove_all(scratch);
+  double load[1] = {0};
+  getloadavg(load, 1);
+  std::printf("%s: %d cold opens, load %.1f; medians, ms (wall, CPU)\n", db.c_str(), repeats, load[0]);
+  std::printf("| Study::open | ask(1) | open + ask | the trial's fit + acquisition (wall) |\n|---|---|---|---|\n");
+  std::printf("| %.2f, %.2f | %.2f, %.2f | %.2f, %.2f | %.2f |\n", 1e3 * median(open_wall), 1e3 * median(open_cpu),
+              1e3 * median(ask_wall), 1e3 * median(ask_cpu), 1e3 * median(both_wall), 1e3 * median(both_cpu),
+              1e3 * median(fit_acq));
+  return 0;
+}
