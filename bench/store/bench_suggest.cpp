@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "process_stats.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/study_api.hpp"
 
@@ -39,19 +40,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// CPU seconds (user + system) of this process (who = RUSAGE_SELF, all threads) or of its waited-for children.
-double cpu_seconds(int who) {
-  rusage u{};
-  getrusage(who, &u);
-  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
-         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
-}
+using varbo::bench::cpu_seconds;
+using varbo::bench::median;
 
 std::string slurp(const std::string& file) {
   std::ifstream in(file);

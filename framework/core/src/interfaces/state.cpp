@@ -105,6 +105,21 @@ class FlowReader {
   }
   bool at(char c) const { return p_ != end_ && *p_ == c; }
 
+  /// After an item of a flow collection: its closing bracket (consumed), a comma (consumed with the spaces after
+  /// it: another item follows) or anything else (not the writer's format).
+  enum class After { Close, More, Bad };
+  After after_item(char close) {
+    space();
+    if (at(close)) {
+      ++p_;
+      return After::Close;
+    }
+    if (!at(',')) return After::Bad;
+    ++p_;
+    space();
+    return After::More;
+  }
+
   std::optional<YAML::Node> value() {
     if (p_ == end_) return std::nullopt;
     if (++depth_ > 64) return std::nullopt;
@@ -147,14 +162,9 @@ class FlowReader {
         if (!v) return std::nullopt;
         m[k] = *v;
       }
-      space();
-      if (at('}')) {
-        ++p_;
-        return m;
-      }
-      if (!at(',')) return std::nullopt;
-      ++p_;
-      space();
+      const After next = after_item('}');
+      if (next == After::Close) return m;
+      if (next == After::Bad) return std::nullopt;
     }
   }
 
@@ -171,14 +181,9 @@ class FlowReader {
       std::optional<YAML::Node> v = value();
       if (!v) return std::nullopt;
       s.push_back(*v);
-      space();
-      if (at(']')) {
-        ++p_;
-        return s;
-      }
-      if (!at(',')) return std::nullopt;
-      ++p_;
-      space();
+      const After next = after_item(']');
+      if (next == After::Close) return s;
+      if (next == After::Bad) return std::nullopt;
     }
   }
 
