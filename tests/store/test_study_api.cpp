@@ -2,6 +2,7 @@
 // tests marked "both backends" run on a SQLite file and on a PostgreSQL study (backends.hpp).
 #include <cmath>
 #include <filesystem>
+#include <thread>
 
 #include "backends.hpp"
 #include "study_helpers.hpp"
@@ -251,5 +252,52 @@ TEST_CASE("the budget bounds suggestions, pending ones included") {
     CHECK(s.ask(4).size() == 4);
     CHECK(s.ask(4).size() == 2);  // budget 6
     CHECK(s.ask(1).empty());
+  }
+}
+
+TEST_CASE("studies reopened in parallel threads share the process's plugin registry and match a serial session") {
+  // Study::open(path) shares one registry per plugin path for the process (study_api.cpp); an extra (empty)
+  // plugin path of this test's own gives it a fresh registry, so the threads load the plugins on demand into
+  // it at the same time: every component must be found once and the trials must equal a serial session's.
+  const std::string dir = test::temp_folder("study_parallel_open");
+  std::filesystem::create_directories(dir + "/plugins");
+  const std::vector<std::string> algorithms = {"{type: bo, initial_points: 3}", "{type: cma_es}", "{type: random}",
+                                               "{type: bo, initial_points: 3, surrogate: {type: vhgp}}"};
+  auto yaml = [&](const std::string& alg) {
+    return "task: {type: branin}\nbudget: 6\nseed: 4\nthreads: 1\nplugin_path: [" + dir + "/plugins]\nalgorithm: " +
+           alg + "\n";
+  };
+  const std::size_t n = algorithms.size();
+  std::vector<std::vector<Vec>> serial(n), parallel(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    Study s = Study::create_from_yaml(dir + "/serial" + std::to_string(i) + ".db", yaml(algorithms[i]));
+    for (int k = 0; k < 6; ++k) {
+      const auto t = s.ask().at(0);
+      serial[i].push_back(t.x);
+      s.tell(t.id, cost_of(t.theta));
+    }
+    Study::create_from_yaml(dir + "/parallel" + std::to_string(i) + ".db", yaml(algorithms[i]));
+  }
+  std::vector<std::string> errors(n);
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < n; ++i)
+    threads.emplace_back([&, i] {
+      try {
+        for (int k = 0; k < 6; ++k) {  // reopened for every trial, as a worker process would
+          Study s = Study::open(dir + "/parallel" + std::to_string(i) + ".db");
+          const auto t = s.ask().at(0);
+          parallel[i].push_back(t.x);
+          s.tell(t.id, cost_of(t.theta));
+        }
+      } catch (const std::exception& e) {
+        errors[i] = e.what();
+      }
+    });
+  for (auto& t : threads) t.join();
+  for (std::size_t i = 0; i < n; ++i) {
+    CAPTURE(algorithms[i]);
+    CHECK(errors[i].empty());
+    REQUIRE(parallel[i].size() == serial[i].size());
+    for (std::size_t k = 0; k < serial[i].size(); ++k) CHECK(parallel[i][k] == serial[i][k]);
   }
 }
