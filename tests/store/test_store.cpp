@@ -228,7 +228,8 @@ TEST_CASE("schema version: a store written by a newer varbo is a clear error nam
   }
 }
 
-TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, a folder, existing file on create") {
+TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, a folder, existing file on "
+          "create") {
   const std::string dir = test::temp_folder("store_foreign");
   const std::string text = dir + "/notes.db";
   std::ofstream(text) << "this is a text file, long enough to have a header of sorts..............................."

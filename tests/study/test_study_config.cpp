@@ -56,7 +56,8 @@ TEST_CASE("a component given as a list is refused") {
   // "an" before a vowel: the message is read by people.
   CHECK(has(study_error("task: branin\nalgorithm: [bo]\n"),
             "key 'algorithm': expected an algorithm name or a map with 'type:'"));
-  CHECK(has(study_error("task: branin\nalgorithm: {type: [bo]}\n"), "key 'algorithm.type': expected an algorithm name"));
+  CHECK(has(study_error("task: branin\nalgorithm: {type: [bo]}\n"),
+            "key 'algorithm.type': expected an algorithm name"));
 }
 
 TEST_CASE("phases are validated with their own key paths") {

@@ -115,10 +115,10 @@ void resolve_merge_keys(YAML::Node n, const std::string& name, int depth, WalkBu
                  })) {
         for (const YAML::Node& m : value) merged.push_back(m);
       } else {
+        const std::string got = value.IsScalar() ? "'" + value.Scalar() + "'" : "a list holding a non-map";
         throw ConfigError(fmt::format("{}: the merge key '<<' takes a map or a list of maps (e.g. <<: *defaults), "
                                       "got {}",
-                                      at(name, value.Mark()), value.IsScalar() ? "'" + value.Scalar() + "'"
-                                                                               : std::string("a list holding a non-map")));
+                                      at(name, value.Mark()), got));
       }
     } else {
       if (kv.first.IsScalar()) own.push_back(kv.first.Scalar());

@@ -149,11 +149,11 @@ class SqliteStore final : public StudyStore {
                                    path));
     if (!create && !fs::exists(path)) throw InputError(fmt::format("{}: no such study file", path));
     std::error_code ec;
-    if (fs::is_directory(path, ec))  // a run folder given for its study: name the file inside it
+    if (fs::is_directory(path, ec)) {  // a run folder given for its study: name the file inside it
+      const std::string inside = (fs::path(path) / "study.db").string();
       throw InputError(fmt::format("{}: a folder, not a study file{}", path,
-                                   fs::exists(fs::path(path) / "study.db", ec)
-                                       ? fmt::format(" (this run folder's study is {})", (fs::path(path) / "study.db").string())
-                                       : ""));
+                                   fs::exists(inside, ec) ? " (this run folder's study is " + inside + ")" : ""));
+    }
     const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
     if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
       const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
