@@ -14,7 +14,7 @@ add_custom_command(OUTPUT ${VARBO_DASHBOARD_PAGE_HEADER}
 add_library(varbo_dashboard_http MODULE ${CMAKE_CURRENT_SOURCE_DIR}/cli/dashboard/dashboard_http.cpp
   ${VARBO_DASHBOARD_PAGE_HEADER})
 set_target_properties(varbo_dashboard_http PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/lib
-  INSTALL_RPATH "$ORIGIN")
+  INSTALL_RPATH "$ORIGIN" BUILD_WITH_INSTALL_RPATH TRUE)
 target_include_directories(varbo_dashboard_http PRIVATE ${PROJECT_BINARY_DIR}/generated)
 target_link_libraries(varbo_dashboard_http PRIVATE varbo_core varbo_study varbo_tools PkgConfig::CPP_HTTPLIB
   nlohmann_json::nlohmann_json)  # the study and tools libraries for the API types' headers
