@@ -8,6 +8,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/study.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -113,7 +114,8 @@ Runner add_plugins(CLI::App& app) {
     for (const auto& l : loader.loaded())
       std::printf("  %-22s %-8s %s%s\n", l.name.c_str(), l.version.c_str(), l.path.c_str(),
                   l.builtin ? "" : "  (third-party)");
-    for (const auto& s : loader.skipped()) std::printf("  SKIPPED %s\n", s.reason.c_str());
+    // printable(): the reason quotes a path from VARBO_PLUGIN_PATH, which may hold a newline or an escape.
+    for (const auto& s : loader.skipped()) std::printf("  SKIPPED %s\n", printable(s.reason).c_str());
     if (a->libraries) {
       std::printf("\ndescriptions (from each library's .varbo_meta section)\n");
       for (const auto& l : loader.loaded()) std::printf("  %-22s %s\n", l.name.c_str(), l.description.c_str());

@@ -18,6 +18,7 @@
 #include "commands.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo/text.hpp"
@@ -27,15 +28,30 @@ namespace varbo::cli {
 namespace {
 
 std::atomic<int> g_stop{0};
-extern "C" void on_stop_signal(int sig) { g_stop.store(sig); }
+constexpr int kStopSignals[] = {SIGTERM, SIGINT, SIGHUP};
+struct sigaction g_interrupt_action[3];  // varbo's interrupt handlers (interrupt.hpp), armed by the first signal
 
-/// SIGTERM, SIGINT, SIGHUP: finish the current trial, record it, then stop (exit 128 + signal).
+extern "C" void on_stop_signal(int sig) {
+  int expected = 0;
+  g_stop.compare_exchange_strong(expected, sig);
+  // The next signal goes to varbo's interrupt handler: it stops the running command (its whole tree is killed)
+  // and the trial is recorded abandoned. Before, a second Ctrl-C did nothing and the trial ran to its timeout
+  // (600 s by default). sigaction is async-signal-safe.
+  for (int i = 0; i < 3; ++i) sigaction(kStopSignals[i], &g_interrupt_action[i], nullptr);
+}
+
+/// SIGTERM, SIGINT, SIGHUP: finish the current trial, record it, then stop (exit 128 + signal). A second one
+/// stops the running command at once (its trial is recorded abandoned, and will be suggested again); a third
+/// kills the worker (interrupt.hpp's handlers are one-shot).
 void install_stop_handlers() {
+  install_interrupt_handlers();
+  for (int i = 0; i < 3; ++i) sigaction(kStopSignals[i], nullptr, &g_interrupt_action[i]);
   struct sigaction sa{};
   sa.sa_handler = on_stop_signal;
   sigemptyset(&sa.sa_mask);
+  for (int s : kStopSignals) sigaddset(&sa.sa_mask, s);
   sa.sa_flags = SA_RESTART;
-  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaction(s, &sa, nullptr);
+  for (int s : kStopSignals) sigaction(s, &sa, nullptr);
 }
 
 /// The `external` task for the study's domain, built through the registry like any configured task.
@@ -148,7 +164,9 @@ Runner add_worker(CLI::App& app) {
     const double timeout = parse_number(a->timeout, "--timeout");
     if (!(timeout > 0) || !std::isfinite(timeout))
       throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
-    if (a->command.empty()) throw InputError("--command: expected a shell command, got an empty one");
+    // Blank too: it reached the task's own check, whose message named a synthesized "<varbo worker --command>:1:27".
+    if (a->command.find_first_not_of(" \t\r\n") == std::string::npos)
+      throw InputError("--command: expected a shell command, got an empty one");
     const double reconnect = parse_number(a->reconnect, "--reconnect-timeout");
     if (!(reconnect >= 0) || !std::isfinite(reconnect))
       throw InputError(fmt::format("--reconnect-timeout: expected a number of seconds ≥ 0, got '{}'", a->reconnect));
@@ -183,10 +201,23 @@ Runner add_worker(CLI::App& app) {
       const auto t0 = std::chrono::steady_clock::now();
       Evaluation e = task->evaluate(t.theta, rng);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (const int sig = interrupt_signal(); sig != 0 && !e.ok) {
+        // Stopped by a second signal: no result. Abandoned, not failed, as `varbo run` does: it does not count
+        // against the budget and the failure model learns nothing false from it.
+        const std::string reason = fmt::format("interrupted by {}", signal_name(sig));
+        retrying(reconnect, id, [&] {
+          return study.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
+        });
+        std::fprintf(stderr, "trial %lld (%s): abandoned: %s (%s)\n", static_cast<long long>(t.id), t.phase.c_str(),
+                     reason.c_str(), safe_text(e.error, 200).c_str());
+        exit_code = 128 + sig;
+        break;
+      }
       if (e.ok && !std::isfinite(e.cost)) {
         e.ok = false;
         e.error = fmt::format("non-finite cost {}", e.cost);
       }
+      try {
       retrying(reconnect, id, [&] {
         try {
           study.record(t.id, e, seconds);
@@ -199,6 +230,19 @@ Runner add_worker(CLI::App& app) {
         }
         return 0;
       });
+      } catch (const std::exception& err) {
+        // The trial ran (on a robot, perhaps for an hour) but its result is not stored (a full disk, a store
+        // gone): say it, with the command that records it once the cause is fixed. It stays pending.
+        std::string cmd = e.ok ? fmt::format("varbo observe {} {} {}", a->store, t.id, exact(e.cost))
+                               : fmt::format("varbo fail {} {} --reason 'recorded by hand'", a->store, t.id);
+        if (e.ok)
+          for (const auto& [name, value] : e.components) cmd += fmt::format(" --component {}={}", name, exact(value));
+        std::fprintf(stderr, "trial %lld (%s) was evaluated but its result could not be recorded: %s; once the cause "
+                     "is fixed, record it with: %s\n",
+                     static_cast<long long>(t.id), e.ok ? ("cost " + exact(e.cost)).c_str() : "failed",
+                     safe_text(err.what(), 300).c_str(), cmd.c_str());
+        throw;
+      }
       ++done;
       std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
                    e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());

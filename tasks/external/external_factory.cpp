@@ -53,6 +53,12 @@ std::vector<OptionSpec> external_options() { return external_option_set().specs(
 std::unique_ptr<Task> make_external_task(const Options& o) {
   ExternalTaskSettings s = external_option_set().read(o);
   if (s.command.find_first_not_of(" \t\n") == std::string::npos) o.node("command").fail("expected a non-empty command");
+  // `sh -c COMMAND` passes the command as one argument, which Linux caps at MAX_ARG_STRLEN (32 pages, 128 KiB)
+  // with the terminating NUL: a longer one could never start (execve E2BIG), every trial would fail.
+  if (s.command.size() >= 131072)
+    o.node("command").fail(fmt::format("the command is {} bytes; a command line holds at most 131071 (the "
+                                       "kernel's limit for one argument): put it in a script",
+                                       s.command.size()));
   if (o.is_set("components")) s.components = unique_names(o.node("components"), "cost component");
   // Keys that define the domain here, for set_search_space to refuse when the study declares `parameters:`.
   for (const char* key : {"dim", "bounds", "lower", "upper", "names"})

@@ -157,6 +157,36 @@ int signal_tree(int sig, pid_t shell) {
   return g_tree_size;
 }
 
+// strerror is not async-signal-safe: the reasons a chdir or an execve of /bin/sh plausibly fail with.
+const char* errno_text(int e) {
+  switch (e) {
+    case ENOENT: return "No such file or directory";
+    case ENOTDIR: return "Not a directory";
+    case EACCES: return "Permission denied";
+    case ELOOP: return "Too many levels of symbolic links";
+    case ENAMETOOLONG: return "File name too long";
+    case E2BIG: return "Argument list too long (the command is longer than the 128 KiB the kernel accepts in "
+                       "one argument: put it in a script)";
+    case ENOMEM: return "Cannot allocate memory";
+    case ENOEXEC: return "Exec format error";
+    case ETXTBSY: return "Text file busy";
+    case EIO: return "Input/output error";
+    default: return "system error";
+  }
+}
+
+void write_all(int fd, const char* text) {
+  std::size_t n = 0;
+  while (text[n] != '\0') ++n;
+  while (n > 0) {
+    const ssize_t w = ::write(fd, text, n);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return;
+    text += w;
+    n -= static_cast<std::size_t>(w);
+  }
+}
+
 void close_all_but(const int* keep, int n) {
   // Closes [0, max) except the kept descriptors, with close_range between them.
   int sorted[8];
@@ -200,11 +230,23 @@ void close_all_but(const int* keep, int n) {
   sigemptyset(&none);
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
   if (p.workdir != nullptr && ::chdir(p.workdir) != 0) {
-    static const char msg[] = "varbo external task: cannot change to the working directory\n";
-    [[maybe_unused]] ssize_t ignored = ::write(STDERR_FILENO, msg, sizeof msg - 1);
+    // Named, with the reason: the message is what trials.csv shows for every trial of such a run.
+    const char* reason = errno_text(errno);
+    write_all(STDERR_FILENO, "varbo external task: cannot change to the working directory '");
+    write_all(STDERR_FILENO, p.workdir);
+    write_all(STDERR_FILENO, "': ");
+    write_all(STDERR_FILENO, reason);
+    write_all(STDERR_FILENO, "\n");
     ::_exit(126);
   }
-  ::execve(p.path, const_cast<char* const*>(p.argv), environ);
+  ::execve(p.path, const_cast<char* const*>(p.argv), p.envp != nullptr ? p.envp : environ);
+  // Said, not only exit 127 ("command not found?"): a 3 MB command line fails here with E2BIG.
+  const char* reason = errno_text(errno);
+  write_all(STDERR_FILENO, "varbo external task: cannot run ");
+  write_all(STDERR_FILENO, p.path);
+  write_all(STDERR_FILENO, ": ");
+  write_all(STDERR_FILENO, reason);
+  write_all(STDERR_FILENO, "\n");
   ::_exit(127);
 }
 

@@ -17,6 +17,7 @@ struct SupervisorPlan {
   const char* const* argv = nullptr;  ///< the command, e.g. {"sh", "-c", text, nullptr}
   const char* path = "/bin/sh";
   const char* workdir = nullptr;      ///< nullptr: inherit
+  char* const* envp = nullptr;        ///< the command's environment; nullptr: varbo's
   int stdin_fd = -1, stdout_fd = -1, stderr_fd = -1;  ///< the command's ends of the pipes
   int report_fd = -1;                  ///< write end of the report pipe (O_CLOEXEC)
   pid_t parent = 0;                    ///< varbo's pid

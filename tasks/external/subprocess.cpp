@@ -9,14 +9,23 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <dirent.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <thread>
 #include <vector>
 
 #include "process_tree.hpp"
 #include "varbo/interrupt.hpp"
+
+extern char** environ;
 
 namespace varbo::tasks {
 
@@ -153,6 +162,59 @@ struct Reports {
   bool command_ended() const { return have_status || eof || start_errno != 0; }
 };
 
+// The environment variable that marks every process of one command (process_tree.hpp cannot find a
+// command's processes once its supervisor is gone: they re-parent to init). Unique per call and process.
+constexpr const char* kTokenVar = "VARBO_TRIAL_TOKEN";
+
+std::string new_token() {
+  static std::atomic<unsigned long> counter{0};
+  static const unsigned long salt = std::random_device{}();
+  return fmt::format("{}.{}.{:x}", static_cast<long>(::getpid()), counter.fetch_add(1), salt);
+}
+
+// Sends `sig` to every process whose environment holds `entry` (VARBO_TRIAL_TOKEN=...); returns how many.
+// The fallback for a supervisor that was killed (SIGKILL from the command itself, `kill -9 $PPID`): the
+// command's tree is then orphaned, out of reach of any process-tree walk. A process that cleared its
+// environment (env -i) escapes this sweep; it is still in the shell's process group unless it left it.
+int signal_token(const std::string& entry, int sig) {
+  DIR* d = ::opendir("/proc");
+  if (d == nullptr) return 0;
+  int n = 0;
+  const pid_t self = ::getpid();
+  while (const dirent* e = ::readdir(d)) {
+    char* end = nullptr;
+    const long pid = std::strtol(e->d_name, &end, 10);
+    if (pid <= 0 || *end != '\0' || pid == self) continue;
+    std::ifstream env(fmt::format("/proc/{}/environ", pid), std::ios::binary);
+    if (!env) continue;
+    const std::string text((std::istreambuf_iterator<char>(env)), std::istreambuf_iterator<char>());
+    bool found = false;
+    for (std::size_t at = 0; at < text.size() && !found;) {
+      const std::size_t z = text.find('\0', at);
+      const std::size_t len = (z == std::string::npos ? text.size() : z) - at;
+      found = len == entry.size() && text.compare(at, len, entry) == 0;
+      at += len + 1;
+    }
+    if (found && ::kill(static_cast<pid_t>(pid), sig) == 0) ++n;
+  }
+  ::closedir(d);
+  return n;
+}
+
+// The environment of the command: varbo's, plus the token.
+struct Environment {
+  std::vector<std::string> strings;
+  std::vector<char*> pointers;
+  explicit Environment(const std::string& token_entry) {
+    for (char** e = environ; e != nullptr && *e != nullptr; ++e)
+      if (std::strncmp(*e, kTokenVar, std::strlen(kTokenVar)) != 0 || (*e)[std::strlen(kTokenVar)] != '=')
+        strings.emplace_back(*e);  // a token inherited from an enclosing varbo is replaced
+    strings.push_back(token_entry);
+    for (auto& s : strings) pointers.push_back(s.data());
+    pointers.push_back(nullptr);
+  }
+};
+
 }  // namespace
 
 std::string ProcessResult::status_text() const {
@@ -198,6 +260,9 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   plan.report_fd = report_w.fd;
   plan.parent = ::getpid();
   plan.grace_ms = static_cast<long>(std::max(0.0, options.kill_grace_seconds) * 1000);
+  const std::string token_entry = fmt::format("{}={}", kTokenVar, new_token());
+  Environment env(token_entry);
+  plan.envp = env.pointers.data();
 
   const pid_t supervisor = ::fork();
   if (supervisor < 0) {
@@ -220,7 +285,9 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
 
   std::size_t written = 0;
   if (input.empty()) in_w.close();
-  const auto deadline = t0 + seconds(options.timeout_seconds);
+  // Clamped: steady_clock counts nanoseconds in 64 bits, so t0 + 1e300 s overflowed into the past and a
+  // `timeout: 1e300` timed every trial out at once. 1e9 s (31 years) is no limit in practice.
+  const auto deadline = t0 + seconds(std::min(options.timeout_seconds, 1e9));
   Clock::time_point ended_at{};  // when the command (the shell) ended
   const int stop_fd = interrupt_fd();
 
@@ -239,6 +306,9 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   for (;;) {
     if (rep.command_ended() && ended_at == Clock::time_point{}) ended_at = Clock::now();
     if (rep.command_ended() && !out_r.open() && !err_r.open()) break;
+    // The supervisor vanished without a verdict: it was killed (`kill -9 $PPID` in the command). Whatever
+    // holds the output now is the command's orphaned tree, swept below; no need to wait for it.
+    if (rep.eof && !rep.have_status && rep.start_errno == 0) break;
     const auto now = Clock::now();
     if (const int sig = interrupt_signal()) {
       r.interrupted = sig;
@@ -288,7 +358,12 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   // The supervisor ends on its own once the command has ended (after killing what it left); otherwise it is
   // told to stop the tree: SIGTERM, then SIGKILL after the grace. It is our child and not yet reaped, so its
   // pid cannot have been reused.
-  if (!rep.command_ended() || r.timed_out || r.interrupted) ::kill(supervisor, SIGTERM);
+  if (!rep.command_ended() || r.timed_out || r.interrupted) {
+    ::kill(supervisor, SIGTERM);
+    // A command can stop its supervisor (`kill -STOP $PPID`); a stopped supervisor would only see SIGTERM
+    // at the SIGKILL fallback below, 4 s later (a 2 s timeout took 6.2 s).
+    ::kill(supervisor, SIGCONT);
+  }
   const auto give_up = Clock::now() + seconds(std::max(0.0, options.kill_grace_seconds) + 4.0);
   int sup_status = 0;
   bool sup_done = false;
@@ -320,6 +395,27 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
       if (p.fd == out_r.fd) drain(out_r, out);
       else if (p.fd == err_r.fd) drain(err_r, err);
       else if (p.fd == rep.fd.fd) rep.read();
+    }
+  }
+  // A supervisor killed by a signal (the command ran `kill -9 $PPID`, or anyone else did) left the command's
+  // tree orphaned and running: kill it through its environment token, until none is left (bounded).
+  if (WIFSIGNALED(sup_status)) {
+    const auto sweep_end = Clock::now() + seconds(3.0);
+    while (signal_token(token_entry, SIGKILL) > 0 && Clock::now() < sweep_end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    if (rep.shell > 0 && !rep.have_status) ::kill(-rep.shell, SIGKILL);  // not yet reaped: its group is ours
+    // Its output closes once those processes are gone: read what is left, briefly.
+    const auto read_end = Clock::now() + seconds(0.5);
+    while ((out_r.open() || err_r.open()) && Clock::now() < read_end) {
+      std::vector<pollfd> fds;
+      if (out_r.open()) fds.push_back({out_r.fd, POLLIN, 0});
+      if (err_r.open()) fds.push_back({err_r.fd, POLLIN, 0});
+      ::poll(fds.data(), static_cast<nfds_t>(fds.size()), 10);
+      for (const pollfd& p : fds) {
+        if (p.revents == 0) continue;
+        if (p.fd == out_r.fd) drain(out_r, out);
+        else drain(err_r, err);
+      }
     }
   }
   if (out_r.open()) drain(out_r, out);

@@ -130,6 +130,39 @@ TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs 
   CHECK(complete == 4);
 }
 
+// audit11b: a second Ctrl-C used to do nothing — the trial ran to its timeout (600 s by default), its command
+// out of reach of the terminal (its own process group). Now the second signal stops the command's whole tree
+// (a setsid child and one ignoring SIGTERM included) and the trial is recorded abandoned.
+TEST_CASE("workers: a second SIGINT stops the running command's tree; its trial is abandoned, nothing survives") {
+  const std::string dir = test::temp_folder("workers_int_int");
+  const std::string db = make_study(dir, 4, "");
+  const std::string pidfile = dir + "/pids";
+  const std::string cmd = "setsid sh -c 'echo $$ >> " + pidfile + "; exec sleep 300' & sh -c 'trap \"\" TERM; echo $$ >> " +
+                          pidfile + "; sleep 300; :' & sleep 300; echo 1";
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t w = test::spawn({VARBO_EXE, "worker", db, "--command", cmd, "--timeout", "120"}, dir + "/worker.log");
+  auto lines = [&] {
+    std::ifstream f(pidfile);
+    int k = 0;
+    for (std::string l; std::getline(f, l);) ++k;
+    return k;
+  };
+  for (int i = 0; i < 1200 && lines() < 2; ++i) wait_ms(50);  // both children started, however loaded the machine
+  kill(w, SIGINT);
+  wait_ms(300);
+  kill(w, SIGINT);
+  CHECK(test::wait_for(w).exit_code == 130);
+  CHECK(std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60));  // not the 120 s timeout
+  const auto trials = open_sqlite_store(db)->trials();
+  REQUIRE(trials.size() == 1);
+  CHECK(trials[0].state == TrialState::Abandoned);
+  CHECK(trials[0].error.find("interrupted by SIGINT") != std::string::npos);
+  std::ifstream in(pidfile);
+  int n = 0;
+  for (pid_t p; in >> p; ++n) CHECK(kill(p, 0) != 0);  // gone
+  CHECK(n == 2);
+}
+
 TEST_CASE("workers: bad input is an error naming the problem, exit 2, nothing written") {
   const std::string dir = test::temp_folder("workers_bad");
   const std::string db = make_study(dir, 3, "");

@@ -20,6 +20,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/plugin.hpp"
+#include "varbo/text.hpp"
 
 #ifndef VARBO_INSTALL_PLUGIN_DIR
 #define VARBO_INSTALL_PLUGIN_DIR ""
@@ -272,6 +273,10 @@ void PluginLoader::index_builtin_folder(const std::string& dir) {
 
 void PluginLoader::load_default(const std::vector<std::string>& extra) {
   std::set<std::string> seen;
+  // A VARBO_PLUGIN_PATH of 1000 stale entries printed 1000 warnings (twice that in `varbo plugins`) on every
+  // command: the first few are said, the rest counted (all are still listed as skipped).
+  constexpr int kMissingWarnings = 8;
+  int missing = 0;
   const bool deferring = on_demand_ && !metadata_only_ && defer_builtin_folders(builtin_path());
   auto load = [&](const std::string& p, bool builtin, const char* origin) {
     std::error_code ec;
@@ -285,12 +290,21 @@ void PluginLoader::load_default(const std::vector<std::string>& extra) {
     }
     if (ec || !fs::exists(st)) {
       const std::string why = ec && ec != std::errc::no_such_file_or_directory ? ec.message() : "does not exist";
-      log_warn("plugin path '{}' (from {}): {}; ignored", p, origin, why);
+      // printable(): a path from the environment may hold a newline or escape sequences.
+      if (++missing <= kMissingWarnings) log_warn("plugin path '{}' (from {}): {}; ignored", printable(p), origin, why);
       skipped_.push_back(SkippedLibrary{p, fmt::format("{}: plugin path from {}: {}", p, origin, why)});
     } else if (fs::is_directory(st)) {
       load_directory(p, false);
     } else {
-      load_file(p, false);  // a file named explicitly must load
+      try {
+        load_file(p, false);  // a file named explicitly must load
+      } catch (const PluginLoadError& e) {
+        // Said where the name came from: an error out of every command for a stray file in VARBO_PLUGIN_PATH
+        // named neither the variable nor why a file there must load.
+        throw PluginLoadError(fmt::format("{} (a file named in {}: a file there must be a plugin that loads; a "
+                                          "folder is scanned)",
+                                          e.what(), origin));
+      }
     }
   };
   if (!deferring)
@@ -301,6 +315,8 @@ void PluginLoader::load_default(const std::vector<std::string>& extra) {
     }
   for (const auto& p : extra) load(p, false, "plugin_path or --load");
   for (const auto& p : env_path()) load(p, false, "VARBO_PLUGIN_PATH");
+  if (missing > kMissingWarnings)
+    log_warn("{} more plugin paths do not exist; ignored (`varbo plugins` lists them)", missing - kMissingWarnings);
   if (deferring) {
     // Built-in libraries sharing a short name with a third-party component: loaded now, so that the short
     // name keeps meaning the built-in one and the warning below names it.

@@ -35,9 +35,22 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
   // The holder removes the file when it ends; a process that opened the old file just before must not take
   // a lock on a removed inode, hence the check that the locked file is still the one at `lock_path`.
   for (int attempt = 0; attempt < 20; ++attempt) {
-    const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    // O_NOFOLLOW: the lock file is truncated and written, and removed at the end; through a symlink planted in
+    // a run folder (copied from elsewhere, or hostile) that clobbered the link's target (as root: any file).
+    // O_NONBLOCK: a FIFO in its place must not block the open.
+    const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK, 0644);
+    if (fd < 0 && errno == ELOOP)
+      throw InputError(fmt::format("{}: the lock file is a symbolic link; a lock file must be a plain file (remove "
+                                   "the link)",
+                                   lock_path));
     if (fd < 0)
       throw InputError(fmt::format("{}: cannot create the lock file: {}", lock_path, std::strerror(errno)));
+    struct stat kind {};
+    if (fstat(fd, &kind) != 0 || !S_ISREG(kind.st_mode)) {
+      ::close(fd);
+      throw InputError(fmt::format("{}: the lock file is not a plain file (a FIFO, device or socket?); remove it",
+                                   lock_path));
+    }
     if (flock(fd, LOCK_EX | LOCK_NB) != 0) {
       const int err = errno;
       ::close(fd);
@@ -50,7 +63,7 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
                                    what, owner, lock_path));
     }
     struct stat held {}, named {};
-    if (fstat(fd, &held) != 0 || stat(lock_path.c_str(), &named) != 0 || held.st_ino != named.st_ino ||
+    if (fstat(fd, &held) != 0 || lstat(lock_path.c_str(), &named) != 0 || held.st_ino != named.st_ino ||
         held.st_dev != named.st_dev) {
       ::close(fd);  // removed or replaced between open and flock: try the current file
       continue;

@@ -8,6 +8,7 @@
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
+#include "varbo/text.hpp"
 
 namespace fs = std::filesystem;
 
@@ -57,15 +58,20 @@ void RunWriter::trial(const TrialRow& r) {
     trials_ << "," << v;
   }
   if (!warned_extra_) {
+    // One warning, the first name bounded and escaped: the names come from the command's answer, and one
+    // warning per name printed 50,000 lines for an answer of 50,000 components, a 1 MB name whole.
+    std::size_t unknown = 0;
+    std::string first;
     for (const auto& kv : t.components) {
       bool known = false;
       for (const auto& c : components_) known = known || c == kv.first;
-      if (!known) {
-        log_warn("task reported an undeclared cost component '{}'; it is not recorded in trials.csv (an external "
-                 "task declares its components with `components: [...]`)",
-                 kv.first);
-        warned_extra_ = true;
-      }
+      if (!known && unknown++ == 0) first = kv.first;
+    }
+    if (unknown > 0) {
+      log_warn("task reported an undeclared cost component '{}'{}; it is not recorded in trials.csv (an external "
+               "task declares its components with `components: [...]`)",
+               safe_text(first, 100), unknown > 1 ? fmt::format(" and {} more", unknown - 1) : std::string());
+      warned_extra_ = true;
     }
   }
   trials_ << "," << fmt::format("{:.6f},{:.6f},{:.6f}", t.fit_seconds, t.acquisition_seconds, t.evaluation_seconds)

@@ -261,6 +261,21 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     bool new_snapshot = false;
     TrialRow row;
     row.index = index;
+    // If this commit fails (a full disk: "database or disk is full"), the trial stays pending in the store and
+    // its result — perhaps an hour of robot time — would be gone with the error. Say it, with the command that
+    // records it once the cause is fixed.
+    auto say_result_lost = [&](const std::exception& e) {
+      const std::string observe =
+          evaluation.ok ? fmt::format("varbo observe {} {} {}", store_path, t.id, exact(evaluation.cost))
+                        : fmt::format("varbo fail {} {} --reason 'recorded by hand'", store_path, t.id);
+      std::string parts;
+      for (const auto& [name, value] : evaluation.components) parts += fmt::format(" --component {}={}", name, exact(value));
+      log_warn("trial {} ({}) was evaluated but its result could not be recorded: {}; it is pending in the store. "
+                "Once the cause is fixed, record it with: {}{} (a --resume instead suggests it again)",
+                t.id, evaluation.ok ? "cost " + exact(evaluation.cost) : "failed", safe_text(e.what(), 300), observe,
+                evaluation.ok ? parts : std::string());
+    };
+    try {
     st.transaction([&] {
       row.trial = st.record(t.id, evaluation, evaluation_seconds);
       if (const Algorithm* a = st.algorithm()) snap = a->snapshot();
@@ -270,6 +285,10 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
       recommend();
       if (summary.regret_recommended) st.set_meta(regret_key(index), exact(*summary.regret_recommended));
     });
+    } catch (const std::exception& e) {
+      say_result_lost(e);
+      throw;
+    }
     if (summary.regret_recommended) row.regret_recommended = *summary.regret_recommended;
     account(row);
     writer.trial(row);

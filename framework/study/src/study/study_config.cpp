@@ -7,6 +7,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -56,8 +57,9 @@ std::vector<std::string> plugin_paths_of(const ConfigNode& root) {
     const auto st = std::filesystem::status(full, ec);
     if (ec || !std::filesystem::exists(st)) {
       const std::string why = ec && ec != std::errc::no_such_file_or_directory ? ec.message() : "does not exist";
-      n.fail(fmt::format("plugin path '{}'{} {}; {}", n.scalar(),
-                         q.is_absolute() ? "" : " (" + full.string() + ")", why, expected));
+      // printable(): a NUL in the path ("a\u0000b") cut the message short there; escapes went to the terminal raw.
+      n.fail(fmt::format("plugin path '{}'{} {}; {}", printable(n.scalar()),
+                         q.is_absolute() ? "" : " (" + printable(full.string()) + ")", why, expected));
     }
     out.push_back(full.string());
   };
