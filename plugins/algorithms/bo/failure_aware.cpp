@@ -62,6 +62,10 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "the best cost of all the data (the attempt holding or approaching the incumbent is polished); "
                 "-1 = always")
           .at_least(-1),
+      opt::integer("stall_remaining", &FailureModelSettings::stall_remaining,
+                   "> 0: value stalls count only while at least this many trials of the budget remain (a later cut "
+                   "leaves a fresh start too few trials and ends the polishing of the attempt it cuts); 0 = always")
+          .at_least(0),
   };
   return set;
 }
@@ -75,7 +79,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
   if (!node.is_map())
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
-              "stall_strict: bool, stall_incumbent: t}");
+              "stall_strict: bool, stall_incumbent: t, stall_remaining: n}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -51,6 +51,9 @@ struct FailureModelSettings {
   /// ≥ 0: value stalls count only while the attempt's best is more than stall_incumbent × stall_scale above the
   /// incumbent of all the data; < 0 = always.
   double stall_incumbent = -1;
+  /// > 0: value stalls count only while at least this many trials of the budget remain (a later cut leaves a
+  /// fresh start too few trials to converge, and costs the polishing of the attempt it ends); 0 = always.
+  int stall_remaining = 0;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -243,7 +243,8 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {replace_design: 3}}",
                        "{type: bo, failure_model: {stall_value: 1}}", "{type: bo, failure_model: {stall_value: -0.1}}",
                        "{type: bo, failure_model: {stall_scale: max}}", "{type: bo, failure_model: {stall_strict: 2}}",
-                       "{type: bo, failure_model: {stall_incumbent: -2}}"};
+                       "{type: bo, failure_model: {stall_incumbent: -2}}",
+                       "{type: bo, failure_model: {stall_remaining: -1}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -295,4 +296,11 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
     if ((h[i].u - sv[i].u).norm() > 0) first_difference = i;
   CHECK(first_difference > 14);  // the design and the first model-based trials are the same
   CHECK(first_difference < h.size());
+  // stall_remaining: value stalls count only while at least that many trials remain; with the whole budget (70)
+  // they never do, so the run is the plain one.
+  const std::vector<Trial> never = run(
+      "sv_h6_never", task, unit,
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_remaining: 70}}", 70, 1);
+  REQUIRE(never.size() == h.size());
+  for (std::size_t i = 0; i < h.size(); ++i) CHECK((never[i].u - h[i].u).norm() == 0.0);
 }
