@@ -13,6 +13,7 @@
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/space_wrappers.hpp"
+#include "varbo/value_stall.hpp"
 
 namespace varbo::bo {
 
@@ -121,7 +122,8 @@ const OptionSet<BoSettings>& bo_options() {
       opt::node("failure_model", "",
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
                 "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
-                "replace_design: false}; the acquisition is weighted by P(success | θ) from a GP classifier of "
+                "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
+                "-1, stall_remaining: 0}; the acquisition is weighted by P(success | θ) from a GP classifier of "
                 "successes and failures and θ with P < min_probability are never suggested (docs/failures.md)"),
   };
   return set;
@@ -577,6 +579,21 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   const auto t_acq = std::chrono::steady_clock::now();
   Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
+  // failure_model.stall_value: once trials have failed, an attempt converged in value hands over sooner.
+  if (auto* value_stall = dynamic_cast<ValueStallRegion*>(region_.get());
+      value_stall && failure_settings_.stall_value > 0 && !failed_.empty() &&
+      failure_settings_.active(static_cast<Index>(failed_.size()))) {
+    ValueStall rule;
+    const bool late = failure_settings_.stall_remaining > 0 && budget_ > 0 &&
+                      budget_ - k < failure_settings_.stall_remaining;
+    rule.fraction = late ? 0.0 : failure_settings_.stall_value;
+    rule.scale = failure_settings_.stall_scale == "range" ? ValueStall::Scale::Range
+                 : failure_settings_.stall_scale == "std" ? ValueStall::Scale::Std
+                                                          : ValueStall::Scale::Best;
+    rule.strict = failure_settings_.stall_strict;
+    rule.incumbent = failure_settings_.stall_incumbent;
+    value_stall->set_value_stall(rule);
+  }
   region_->update(surrogate_.get(), data, region_rng);
   Dataset late_refined;
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0 &&

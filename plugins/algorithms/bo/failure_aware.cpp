@@ -45,6 +45,27 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "after the initial design, one replacement point per failed design point (where success is likely, "
                    "farthest from the design's successes), so the first cost model sees as many points as without "
                    "failures"),
+      opt::real("stall_value", &FailureModelSettings::stall_value,
+                "> 0: once a trial has failed, the region (trust_region) also counts a trial without improvement "
+                "whose cost lies within this fraction of stall_scale of the attempt's best as a stall (converged in "
+                "value), so an attempt hands over to a fresh start sooner; 0 = off")
+          .at_least(0)
+          .below(1),
+      opt::choice("stall_scale", &FailureModelSettings::stall_scale, {"best", "range", "std"},
+                  "the scale of stall_value: |the attempt's best| (best), the range max − min of the attempt's "
+                  "costs (range) or their standard deviation (std)"),
+      opt::boolean("stall_strict", &FailureModelSettings::stall_strict,
+                   "only trials that do not improve the attempt's best at all are value stalls (the polishing of a "
+                   "basin by tiny improvements is spared)"),
+      opt::real("stall_incumbent", &FailureModelSettings::stall_incumbent,
+                ">= 0: value stalls count only while the attempt's best lies more than this × stall_scale above "
+                "the best cost of all the data (the attempt holding or approaching the incumbent is polished); "
+                "-1 = always")
+          .at_least(-1),
+      opt::integer("stall_remaining", &FailureModelSettings::stall_remaining,
+                   "> 0: value stalls count only while at least this many trials of the budget remain (a later cut "
+                   "leaves a fresh start too few trials and ends the polishing of the attempt it cuts); 0 = always")
+          .at_least(0),
   };
   return set;
 }
@@ -55,7 +76,10 @@ std::vector<OptionSpec> failure_model_options() { return failure_model_set().spe
 FailureModelSettings parse_failure_model(const Options& o, const Registry* registry) {
   if (!o.is_set("failure_model")) return FailureModelSettings{};
   const ConfigNode node = o.node("failure_model");
-  if (!node.is_map()) node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, refine_min_probability: p, replace_design: bool}");
+  if (!node.is_map())
+    node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
+              "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
+              "stall_strict: bool, stall_incumbent: t, stall_remaining: n}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -38,6 +38,22 @@ struct FailureModelSettings {
   std::string incumbent_level = "always";
   /// Each failed point of the initial design is followed by a replacement where success is likely.
   bool replace_design = false;
+  /// > 0: once a trial has failed, the region (trust_region) also counts a trial without a region success whose
+  /// cost lies within stall_value × stall_scale of the attempt's best as a stall (converged in value, e.g. along a
+  /// flat direction), so an attempt hands over to a fresh start sooner: the failures have taken part of the budget
+  /// and of the design's information (docs/failures.md). 0 = off. value_stall.hpp: the rule.
+  double stall_value = 0;
+  /// The scale of stall_value: "best" (|the attempt's best|), "range" (max − min of the attempt's costs) or "std"
+  /// (their standard deviation).
+  std::string stall_scale = "best";
+  /// Only trials that do not improve the attempt's best at all count as value stalls.
+  bool stall_strict = false;
+  /// ≥ 0: value stalls count only while the attempt's best is more than stall_incumbent × stall_scale above the
+  /// incumbent of all the data; < 0 = always.
+  double stall_incumbent = -1;
+  /// > 0: value stalls count only while at least this many trials of the budget remain (a later cut leaves a
+  /// fresh start too few trials to converge, and costs the polishing of the attempt it ends); 0 = always.
+  int stall_remaining = 0;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -251,3 +251,71 @@ TEST_CASE("trust_region: stall_count since_success keeps stalls across failures 
   CHECK(tr.restarts() == 1);
   CHECK(tr.stalls() == 0);
 }
+
+// failh6d: the value stall rule (value_stall.hpp; bo's failure_model.stall_value) on constructed costs.
+TEST_CASE("trust_region: value_stall's scales, strict and incumbent rules on a constructed sequence of costs") {
+  // An attempt whose costs run from 1.0 (design) down to its best -2.0: range 3, |best| 2.
+  const Vec attempt = (Vec(4) << 1.0, 0.0, -1.0, -2.0).finished();
+  ValueStall best_rule;
+  best_rule.fraction = 1e-3;  // tolerance 1e-3·|−2| = 2e-3
+  CHECK(TrustRegion::value_stall(best_rule, -2.0 + 1.9e-3, -2.0, attempt, -2.0));
+  CHECK_FALSE(TrustRegion::value_stall(best_rule, -2.0 + 2.1e-3, -2.0, attempt, -2.0));
+  CHECK(TrustRegion::value_stall(best_rule, -2.0 - 1e-3, -2.0, attempt, -2.0));  // a tiny improvement counts
+  ValueStall off;
+  CHECK_FALSE(TrustRegion::value_stall(off, -2.0, -2.0, attempt, -2.0));  // fraction 0: off
+  // (a) range: tolerance 1e-3·3 = 3e-3, and the same after shifting every cost by +100 (|best| would be 98).
+  ValueStall range = best_rule;
+  range.scale = ValueStall::Scale::Range;
+  CHECK(TrustRegion::value_stall(range, -2.0 + 2.9e-3, -2.0, attempt, -2.0));
+  CHECK_FALSE(TrustRegion::value_stall(range, -2.0 + 3.1e-3, -2.0, attempt, -2.0));
+  const Vec shifted = (attempt.array() + 100.0).matrix();
+  CHECK(TrustRegion::value_stall(range, 98.0 + 2.9e-3, 98.0, shifted, 98.0));
+  CHECK_FALSE(TrustRegion::value_stall(range, 98.0 + 3.1e-3, 98.0, shifted, 98.0));
+  CHECK(TrustRegion::value_stall(best_rule, 98.0 + 3e-2, 98.0, shifted, 98.0));  // |best| = 98: 0.098 wide
+  // std: the sample standard deviation of {1, 0, −1, −2} is √(5/3) = 1.291.
+  ValueStall sd = best_rule;
+  sd.scale = ValueStall::Scale::Std;
+  CHECK(TrustRegion::value_stall(sd, -2.0 + 1.28e-3, -2.0, attempt, -2.0));
+  CHECK_FALSE(TrustRegion::value_stall(sd, -2.0 + 1.30e-3, -2.0, attempt, -2.0));
+  // (b) strict: a trial that improves the best at all is progress, not a stall; one at or above it is.
+  ValueStall strict = range;
+  strict.strict = true;
+  CHECK_FALSE(TrustRegion::value_stall(strict, -2.0 - 1e-9, -2.0, attempt, -2.0));
+  CHECK(TrustRegion::value_stall(strict, -2.0, -2.0, attempt, -2.0));
+  CHECK(TrustRegion::value_stall(strict, -2.0 + 1e-3, -2.0, attempt, -2.0));
+  // (c) incumbent: the rule applies only while the attempt's best lies more than 0.01·range (0.03) above the
+  // best of all the data.
+  ValueStall inc = range;
+  inc.incumbent = 0.01;
+  CHECK_FALSE(TrustRegion::value_stall(inc, -2.0 + 1e-3, -2.0, attempt, -2.0));   // holds the incumbent
+  CHECK_FALSE(TrustRegion::value_stall(inc, -2.0 + 1e-3, -2.0, attempt, -2.02));  // within 0.03 of it
+  CHECK(TrustRegion::value_stall(inc, -2.0 + 1e-3, -2.0, attempt, -2.1));         // 0.1 above it: cut
+}
+
+TEST_CASE("trust_region: a value stall rule ends a converged attempt sooner; strict spares tiny improvements") {
+  // Trials after the first: costs of a basin being polished, every point 0.01 apart (never within stall_distance).
+  const std::vector<double> costs = {-3.0, -3.0 + 2e-4, -3.0 - 1e-5, -3.0 + 1e-4, -3.0 - 2e-5, -3.0 + 5e-5,
+                                     -3.0 + 5e-5};
+  const auto restart_at = [&](const ValueStall& rule) {
+    TrustRegionOptions o;
+    o.restart_center = "new_points";
+    TrustRegion tr(2, o);
+    tr.set_value_stall(rule);
+    Dataset data = Dataset::empty(2);
+    observe(tr, data, (Vec(2) << 0.9, 0.9).finished(), 0.0);  // the design's worst point: range ≈ 3
+    for (std::size_t i = 0; i < costs.size(); ++i) {
+      observe(tr, data, (Vec(2) << 0.4 + 0.01 * static_cast<double>(i % 2), 0.6 - 0.01 * static_cast<double>(i))
+                            .finished(),
+              costs[i]);
+      if (tr.restarts() > 0) return static_cast<int>(i);
+    }
+    return -1;
+  };
+  ValueStall rule;
+  rule.fraction = 1e-4;
+  rule.scale = ValueStall::Scale::Range;  // tolerance 3e-4: every trial after the first is a value stall
+  CHECK(restart_at(rule) == 2);
+  rule.strict = true;  // trials 2 and 4 improve (by 1e-5 and 1e-5): they reset the count; 5 and 6 end it
+  CHECK(restart_at(rule) == 6);
+  CHECK(restart_at(ValueStall{}) == -1);  // off: the points are never next to the incumbent
+}

@@ -56,9 +56,14 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       ++failures_;
       successes_ = 0;
       // A stall: every new point next to the incumbent (the centre of the previous update).
+      // With a value stall rule (value_stall.hpp), also a point that costs as much as the attempt's best.
       bool near = true;
-      for (Index i = std::max(seen_, from); i < data.size(); ++i)
-        near = near && (data.X.row(i).transpose() - center_).lpNorm<Eigen::Infinity>() <= options_.stall_distance;
+      const Vec attempt = data.y.tail(data.size() - from);
+      const double overall = data.y.minCoeff();
+      for (Index i = std::max(seen_, from); i < data.size(); ++i) {
+        const bool close = (data.X.row(i).transpose() - center_).lpNorm<Eigen::Infinity>() <= options_.stall_distance;
+        near = near && (close || value_stall(value_stall_, data.y(i), best_, attempt, overall));
+      }
       stalls_ = near ? stalls_ + 1 : (options_.stall_count == "consecutive" ? 0 : stalls_);
     }
     best_ = std::min(best_, best);
@@ -92,6 +97,25 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   seen_ = data.size();
   center_ = data.X.row(arg).transpose();
   set_box();
+}
+
+bool TrustRegion::value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall) {
+  if (!(rule.fraction > 0) || attempt.size() == 0) return false;
+  double scale = std::abs(best);
+  if (rule.scale == ValueStall::Scale::Range) {
+    scale = attempt.maxCoeff() - attempt.minCoeff();
+  } else if (rule.scale == ValueStall::Scale::Std) {
+    const double mean = attempt.mean();
+    const double n = static_cast<double>(attempt.size());
+    scale = attempt.size() > 1 ? std::sqrt((attempt.array() - mean).square().sum() / (n - 1)) : 0.0;
+  }
+  const double tolerance = rule.fraction * scale;
+  // (c) An attempt at (or approaching) the incumbent's level is polished: the rule is off while its best is within
+  // incumbent·scale of the best cost of all the data (the first attempt always holds it).
+  if (rule.incumbent >= 0 && attempt.minCoeff() <= overall + rule.incumbent * scale) return false;
+  // (b) strict: a trial that improves the best at all is progress, however small.
+  if (rule.strict && y < best) return false;
+  return std::abs(y - best) <= tolerance;
 }
 
 void TrustRegion::return_to_incumbent() {

@@ -10,6 +10,7 @@
 
 #include "varbo/region.hpp"
 #include "varbo/state.hpp"
+#include "varbo/value_stall.hpp"
 
 namespace varbo {
 
@@ -46,7 +47,8 @@ struct TrustRegionOptions {
   std::string stall_count = "consecutive";
 };
 
-class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion {
+class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion,
+                          public ValueStallRegion {
  public:
   TrustRegion(Index dim, TrustRegionOptions options);
   /// Compares the best cost in `data` with the best at the previous update (only when new points arrived),
@@ -70,6 +72,14 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   int fresh_starts() const override { return options_.restart_center == "new_points" ? restarts_ : 0; }
   /// Back to the incumbent of all the data with L = length_init / 4 (a box for refinement), no fresh start after.
   void return_to_incumbent() override;
+  /// A value stall rule (value_stall.hpp; bo's failure_model.stall_value, once trials have failed). Not part of
+  /// the saved state: bo sets it before every update. Along a flat direction (Hartmann-6's local minimum is flat
+  /// in x3) a converged attempt's points differ by ~0.01 in θ and no distance test sees them as next to the
+  /// incumbent; their costs do (docs/failures.md).
+  void set_value_stall(const ValueStall& rule) override { value_stall_ = rule; }
+  /// Whether a trial costing `y` is a value stall for an attempt whose best so far is `best` (before this update),
+  /// whose costs are `attempt` and whose data's best overall is `overall` (the rule above; false when off).
+  static bool value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall);
   bool returned() const { return returned_; }
   int failure_tolerance() const { return failure_tolerance_; }
   const Vec& center() const { return center_; }
@@ -87,6 +97,7 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   Index restart_at_ = 0;  ///< data size at the last restart (restart_center: new_points)
   bool returned_ = false;  ///< return_to_incumbent() was called: no fresh start any more
   int successes_ = 0, failures_ = 0, restarts_ = 0;
+  ValueStall value_stall_;
   int stalls_ = 0;  ///< consecutive stalls (see TrustRegionOptions::stall_distance)
 };
 

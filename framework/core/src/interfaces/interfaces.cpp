@@ -14,6 +14,7 @@
 #include "varbo/sampler.hpp"
 #include "varbo/surrogate.hpp"
 #include "varbo/task.hpp"
+#include "varbo/value_stall.hpp"
 
 namespace varbo {
 
@@ -22,6 +23,7 @@ Surrogate::~Surrogate() = default;
 Acquisition::~Acquisition() = default;
 RegionConstraint::~RegionConstraint() = default;
 FreshStartRegion::~FreshStartRegion() = default;
+ValueStallRegion::~ValueStallRegion() = default;
 Sampler::~Sampler() = default;
 Optimizer::~Optimizer() = default;
 Task::~Task() = default;

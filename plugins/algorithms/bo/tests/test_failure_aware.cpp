@@ -240,7 +240,11 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {min_prob: 0.1}}", "{type: bo, failure_model: 3}",
                        "{type: bo, failure_model: {lengthscales: diagonal}}",
                        "{type: bo, failure_model: {refine_min_probability: 1}}",
-                       "{type: bo, failure_model: {replace_design: 3}}"};
+                       "{type: bo, failure_model: {replace_design: 3}}",
+                       "{type: bo, failure_model: {stall_value: 1}}", "{type: bo, failure_model: {stall_value: -0.1}}",
+                       "{type: bo, failure_model: {stall_scale: max}}", "{type: bo, failure_model: {stall_strict: 2}}",
+                       "{type: bo, failure_model: {stall_incumbent: -2}}",
+                       "{type: bo, failure_model: {stall_remaining: -1}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -263,4 +267,40 @@ TEST_CASE("cost_lengthscales reads ARD and composite kernels of gp and vhgp, nev
   CHECK(b(0) == 0.3);  // the first term that names dimension 0
   CHECK(b(1) == 0.4);  // f's, not g's, and not a name that merely ends like it
   CHECK(bo::cost_lengthscales({}, 2)(1) == 0.2);
+}
+
+TEST_CASE("stall_value and its variants: no change without failures; they reach the trust region once trials fail") {
+  // failh6d. Without failures the rule is never set (identical trials); test_trust_region.cpp tests the rule itself.
+  const std::vector<std::string> variants = {
+      "{type: bo, failure_model: {stall_value: 0.001}}",
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true}}",
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}"};
+  const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
+  for (const std::string& v : variants) {
+    CAPTURE(v);
+    const std::vector<Trial> p = run("sv_plain_v", "{type: branin}", kBraninBox, v, 16, 1);
+    REQUIRE(p.size() == plain.size());
+    for (std::size_t i = 0; i < p.size(); ++i) CHECK((p[i].u - plain[i].u).norm() == 0.0);
+  }
+  // Hartmann-6 with the benchmark's failure slab (docs/failures.md): the first attempt converges within 70 trials,
+  // and a value stall (range scale) ends it sooner, so the trials differ from some point after the design on.
+  const std::string task =
+      "{type: hartmann6, failure_region: {shape: box, lower: [0, 0, 0, 0, 0, 0.7], upper: [1, 1, 1, 1, 1, 1]}}";
+  const Box unit{Vec::Zero(2), Vec::Ones(2)};
+  const std::vector<Trial> h = run("sv_h6", task, unit, "{type: bo}", 70, 1);
+  const std::vector<Trial> sv =
+      run("sv_h6_on", task, unit, "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range}}", 70, 1);
+  REQUIRE(h.size() == sv.size());
+  std::size_t first_difference = h.size();
+  for (std::size_t i = 0; i < h.size() && first_difference == h.size(); ++i)
+    if ((h[i].u - sv[i].u).norm() > 0) first_difference = i;
+  CHECK(first_difference > 14);  // the design and the first model-based trials are the same
+  CHECK(first_difference < h.size());
+  // stall_remaining: value stalls count only while at least that many trials remain; with the whole budget (70)
+  // they never do, so the run is the plain one.
+  const std::vector<Trial> never = run(
+      "sv_h6_never", task, unit,
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_remaining: 70}}", 70, 1);
+  REQUIRE(never.size() == h.size());
+  for (std::size_t i = 0; i < h.size(); ++i) CHECK((never[i].u - h[i].u).norm() == 0.0);
 }
