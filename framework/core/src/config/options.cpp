@@ -159,6 +159,16 @@ static std::string shown(const ConfigNode& n) {
   return "nothing";
 }
 
+/// The key `name` of the map `node` itself, for errors about a value that has no position of its own: yaml-cpp
+/// marks an empty value (`budget:` then a newline) at the next token, a line below.
+static ConfigNode key_node(const ConfigNode& node, const std::string& name) {
+  for (const auto& kv : node.yaml())
+    if (kv.first.IsScalar() && kv.first.Scalar() == name)
+      return ConfigNode(kv.first, std::make_shared<const std::string>(node.file()),
+                        node.path().empty() ? name : node.path() + "." + name);
+  return node.child(name);
+}
+
 // Checks one value; returns the normalized YAML value.
 static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
   auto bad = [&]() { n.fail(fmt::format("expected {}, got {}", s.expected(), shown(n))); };
@@ -243,6 +253,12 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
   for (const auto& s : specs) {
     o.order_.push_back(s.name);
     ConfigNode given = node.is_map() ? node.child(s.name) : ConfigNode();
+    // `key:` with no value (or `~`, `null`) is most often a value left out by mistake (`budget:` ran the default
+    // 30 trials): say so rather than use the default silently.
+    if (node.is_map() && node.has(s.name) && !given.defined())
+      key_node(node, s.name).fail(fmt::format("no value given (empty, ~ or null); expected {}{}", s.expected(),
+                             s.default_yaml.empty() ? std::string("; leave the key out if it is not needed")
+                                                    : "; leave the key out for the default " + s.default_yaml));
     const bool is_given = given.defined();
     o.given_[s.name] = is_given;
     ConfigNode use;
