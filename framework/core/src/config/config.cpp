@@ -272,6 +272,11 @@ std::string closest_match(const std::string& word, const std::vector<std::string
   // A candidate that extends the word ("matern52" -> "matern52_ard") is the likeliest intent.
   for (const auto& c : candidates)
     if (word.size() >= 3 && c.rfind(word, 0) == 0) return c;
+  // Then one that ends with it after a '_' ("lbfgs" -> "ceres_lbfgs", "ard" is too short to count).
+  for (const auto& c : candidates)
+    if (word.size() >= 4 && c.size() > word.size() && c.compare(c.size() - word.size(), word.size(), word) == 0 &&
+        c[c.size() - word.size() - 1] == '_')
+      return c;
   std::string best;
   std::size_t best_d = std::string::npos;
   for (const auto& c : candidates) {
