@@ -269,6 +269,8 @@ static std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+  // No name is this long; the edit distances of a 10 MB value took most of a minute.
+  if (word.size() > 200) return {};
   // A candidate that extends the word ("matern52" -> "matern52_ard") is the likeliest intent.
   for (const auto& c : candidates)
     if (word.size() >= 3 && c.rfind(word, 0) == 0) return c;

@@ -13,6 +13,7 @@
 #include "varbo/numbers.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -153,7 +154,7 @@ static bool in_range(const OptionSpec& s, double v) {
 }
 
 static std::string shown(const ConfigNode& n) {
-  if (n.is_scalar()) return fmt::format("'{}'", n.scalar());
+  if (n.is_scalar()) return fmt::format("'{}'", safe_text(n.scalar(), 40));
   if (n.is_sequence()) return "a list";
   if (n.is_map()) return "a map";
   return "nothing";
@@ -201,7 +202,7 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
       for (const auto& c : s.choices)
         if (c == v) return YAML::Node(v);
       const std::string near = closest_match(v, s.choices);
-      n.fail(fmt::format("expected {}, got '{}'{}", s.expected(), v, near.empty() ? "" : "; did you mean '" + near + "'?"));
+      n.fail(fmt::format("expected {}, got '{}'{}", s.expected(), safe_text(v, 40), near.empty() ? "" : "; did you mean '" + near + "'?"));
     }
     case OptionType::RealList: {
       if (!n.is_sequence()) bad();
@@ -242,8 +243,9 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
       if (!found) {
         const std::string near = closest_match(key, known);
         // Point at the key itself, not at its value.
+        const std::string shown_key = safe_text(key, 40);  // a 1 MB key is not repeated whole
         ConfigNode key_node(kv.first, std::make_shared<const std::string>(node.file()),
-                            node.path().empty() ? key : node.path() + "." + key);
+                            node.path().empty() ? shown_key : node.path() + "." + shown_key);
         key_node.fail(fmt::format("unknown key for {}; known keys: {}{}", owner,
                                          known.empty() ? "(none)" : join(known),
                                          near.empty() ? "" : "; did you mean '" + near + "'?"));

@@ -112,7 +112,7 @@ CsvTable read_csv(const std::string& filename) {
       const std::optional<double> v = parse_decimal(cells[c]);
       if (!v)
         throw InputError(fmt::format("{}:{}: column '{}': expected a decimal number, got '{}'", filename, lineno,
-                                     t.columns[c], cells[c]));
+                                     safe_text(t.columns[c], 40), safe_text(cells[c], 40)));
       row.push_back(*v);
     }
     rows.push_back(std::move(row));
