@@ -13,6 +13,7 @@
 
 #include "background_ticker.hpp"
 #include "commands.hpp"
+#include "component_arg.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/fit.hpp"
@@ -69,7 +70,8 @@ Runner add_fit(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("--surrogate", a->surrogate,
-                  "YAML file: a surrogate map ({type: gp, ...}) or a study file with a 'surrogate:' key")
+                  "a YAML file (a surrogate map {type: gp, ...} or a study file with a 'surrogate:' key), a "
+                  "surrogate name (gp, vhgp) or inline YAML such as '{type: gp, kernel: se_ard}'")
       ->required();
   cmd->add_option("--data", a->data, "CSV with θ columns and a 'y' column (θ used as given: the model's coordinates)")
       ->required()
@@ -82,7 +84,7 @@ Runner add_fit(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);
-    const ConfigNode node = surrogate_node(ConfigNode::load_file(a->surrogate));
+    const ConfigNode node = component_arg(a->surrogate, "surrogate", "--surrogate");
     const CsvTable data = read_csv(a->data);
     const Index ycol = data.column("y");
     if (ycol < 0) throw InputError(fmt::format("{}: no column named 'y' (the costs)", a->data));

@@ -54,13 +54,15 @@ Runner add_plugins(CLI::App& app) {
                 "only the plugin libraries, from their metadata sections: no plugin code runs (components are "
                 "not listed)")
       ->excludes(describe_opt);
-  return [a]() {
+  return [a, describe_opt]() {
     Registry registry;
     PluginLoader loader(registry);
     for (const auto& p : a->load)
       if (std::error_code ec; !std::filesystem::exists(p, ec))
         throw InputError(fmt::format("--load {}: {}; expected a plugin file (libvarbo_NAME.so) or a folder of them",
                                      p, ec ? ec.message() : "does not exist"));
+    if (describe_opt->count() > 0 && a->describe.empty())
+      throw InputError("--describe: an empty name; expected a component name (e.g. ei, gp, plugin/name) or 'study'");
     loader.set_metadata_only(a->libraries);
     loader.load_default(a->load);  // built-ins first, so --load cannot replace them
     if (a->describe == "study") {

@@ -1,5 +1,10 @@
 // `varbo run CONFIG.yaml`: run a study to its budget and write the run folder.
+#include <fmt/format.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
 
 #include "commands.hpp"
 #include "varbo/errors.hpp"
@@ -8,13 +13,29 @@
 
 namespace varbo::cli {
 
+namespace {
+
+/// An integer flag read as text: CLI11 saturated 99999999999999999999 to 2^63 − 1 and took `--seed -1` as "not
+/// given"; here either is an error naming the flag and the range, as the same key in the file gets.
+long long integer_flag(const std::string& text, const char* flag, long long lo) {
+  errno = 0;
+  char* end = nullptr;
+  const long long v = std::strtoll(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno == ERANGE || v < lo)
+    throw InputError(fmt::format("{}: expected an integer in [{}, {}], got '{}'", flag, lo,
+                                 std::numeric_limits<long long>::max(), text));
+  return v;
+}
+
+}  // namespace
+
 Runner add_run(CLI::App& app) {
   auto* cmd = app.add_subcommand("run", "Run a study from a YAML configuration");
   struct Args {
     std::string config;
     int threads = -1;
-    long long seed = -1;
-    long long budget = -1;
+    std::string seed;
+    std::string budget;
     std::string output;
     std::string study;
     std::string resume;
@@ -32,15 +53,17 @@ Runner add_run(CLI::App& app) {
   cmd->add_option("--study", a->study,
                   "study file of the run (default: <output>/study.db); an existing one is continued");
   cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--seed", a->seed, "random seed; overrides the file");
-  cmd->add_option("--budget", a->budget, "number of evaluations; overrides the file")->check(CLI::PositiveNumber);
-  cmd->add_option("-o,--output", a->output, "run folder; overrides the file");
+  auto* seed = cmd->add_option("--seed", a->seed, "random seed (an integer >= 0); overrides the file");
+  auto* budget = cmd->add_option("--budget", a->budget, "number of evaluations (an integer >= 1); overrides the file");
+  auto* output = cmd->add_option("-o,--output", a->output, "run folder; overrides the file");
   cmd->add_flag("--no-progress", a->no_progress, "no per-trial progress lines");
-  return [a]() {
+  return [a, seed, budget, output]() {
     RunOverrides ov;
     if (a->threads >= 0) ov.threads = a->threads;
-    if (a->seed >= 0) ov.seed = static_cast<std::uint64_t>(a->seed);
-    if (a->budget > 0) ov.budget = a->budget;
+    if (seed->count() > 0) ov.seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));
+    if (budget->count() > 0) ov.budget = integer_flag(a->budget, "--budget", 1);
+    if (output->count() > 0 && a->output.find_first_not_of(" \t") == std::string::npos)
+      throw InputError("-o/--output: an empty folder name; expected a run folder such as runs/gait");
     if (!a->output.empty()) ov.output = a->output;
     ov.progress = !a->no_progress;
     ov.overwrite = a->overwrite;

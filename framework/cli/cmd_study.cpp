@@ -20,6 +20,19 @@
 namespace varbo::cli {
 
 namespace {
+/// `--component name=value` words; a name given twice is refused (one of the values would be dropped silently).
+Components parse_components(const std::vector<std::string>& words) {
+  Components comps;
+  for (const auto& w : words) {
+    auto c = parse_component(w);
+    for (const auto& [name, value] : comps)
+      if (name == c.first)
+        throw InputError(fmt::format("--component {}: given twice ({} and {}); each component once; nothing written",
+                                     name, exact(value), exact(c.second)));
+    comps.push_back(std::move(c));
+  }
+  return comps;
+}
 /// θ of `--param name=value` words: every parameter of the study named once (a fixed one may be left out).
 Vec theta_from_params(const Study& s, const std::vector<std::string>& words) {
   const std::vector<std::string>& names = s.domain().names;
@@ -146,8 +159,7 @@ Runner add_observe(CLI::App& app) {
     if (a->id == "new" && !a->params.empty()) {
       if (!a->theta.empty()) throw InputError("observe new: give either --theta or --param, not both");
       const double cost = parse_number(a->cost, "COST");
-      Components comps;
-      for (const auto& c : a->components) comps.push_back(parse_component(c));
+      const Components comps = parse_components(a->components);
       Study s = Study::open(a->store);
       const Vec theta = theta_from_params(s, a->params);
       const auto id = s.tell_point(theta, cost, comps);
@@ -165,8 +177,7 @@ Runner add_observe(CLI::App& app) {
         start = comma + 1;
       }
       const double cost = parse_number(a->cost, "COST");
-      Components comps;
-      for (const auto& c : a->components) comps.push_back(parse_component(c));
+      const Components comps = parse_components(a->components);
       Study s = Study::open(a->store);
       const auto id = s.tell_point(Eigen::Map<const Vec>(v.data(), static_cast<Index>(v.size())), cost, comps);
       std::printf("trial %lld: cost %s recorded at the given θ\n", static_cast<long long>(id), exact(cost).c_str());
@@ -176,8 +187,7 @@ Runner add_observe(CLI::App& app) {
     if (!a->params.empty()) throw InputError("observe: --param goes with ID 'new' (a point no suggestion produced)");
     const std::int64_t id = parse_id(a->id);
     const double cost = parse_number(a->cost, "COST");
-    Components comps;
-    for (const auto& c : a->components) comps.push_back(parse_component(c));
+    const Components comps = parse_components(a->components);
     Study s = Study::open(a->store);
     s.tell(id, cost, comps);
     std::printf("trial %lld: cost %s recorded\n", static_cast<long long>(id), exact(cost).c_str());

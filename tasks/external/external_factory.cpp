@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <set>
 
 #include "external_task.hpp"
+#include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
 
 namespace varbo::tasks {
@@ -60,6 +62,15 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
                                        "kernel's limit for one argument): put it in a script",
                                        s.command.size()));
   if (o.is_set("components")) s.components = unique_names(o.node("components"), "cost component");
+  // A missing working directory fails every trial ("cannot change to the working directory"). Only a warning:
+  // the task is also built to read a study (status, export, suggest on another machine), which must still open.
+  if (!s.process.working_directory.empty()) {
+    std::error_code ec;
+    if (!std::filesystem::is_directory(s.process.working_directory, ec))
+      log_warn("{}: key '{}': working directory '{}' does not exist (or is not a folder): every trial will fail "
+               "until it does",
+               o.node("workdir").where(), o.node("workdir").path(), s.process.working_directory);
+  }
   // Keys that define the domain here, for set_search_space to refuse when the study declares `parameters:`.
   for (const char* key : {"dim", "bounds", "lower", "upper", "names"})
     if (o.given(key) && !(std::string(key) == "dim" && o.integer("dim") == 0))  // dim: 0 is the resolved default

@@ -114,3 +114,13 @@ TEST_CASE("bad merge keys and alias bombs are errors with a position") {
   }
   CHECK(parse_error(bomb).find("expands to more than 1000000 values through its aliases") != std::string::npos);
 }
+
+TEST_CASE("keys and values must be UTF-8; a suffix after '_' is suggested (audit11a)") {
+  // A Latin-1 'é' (0xE9) reached the run folder as a stray byte.
+  CHECK(parse_error("task: branin\ndescription: caf\xE9\n") ==
+        "c.yaml:2:14: byte 0xE9 (at offset 3 of this value) is not UTF-8; save the file as UTF-8");
+  CHECK(parse_error("bud\xFFget: 2\n").rfind("c.yaml:1:1: byte 0xFF", 0) == 0);
+  CHECK(parse_error("description: \"caf\xC3\xA9 \xE2\x82\xAC\"\n").empty());  // é and € in UTF-8 are fine
+  CHECK(closest_match("lbfgs", {"ceres_lbfgs", "nlopt"}) == "ceres_lbfgs");
+  CHECK(closest_match("ard", {"se_ard"}).empty());  // too short a word for the suffix rule
+}

@@ -88,3 +88,14 @@ TEST_CASE("a required option that is missing is an error") {
     CHECK(std::string(e.what()).find("key 'command': missing required key for task 'external'") != std::string::npos);
   }
 }
+
+TEST_CASE("a key given with no value is an error at the key, not the default (audit11a)") {
+  // `budget:` with its number left out ran the default 30 trials; yaml-cpp marks the empty value at the next
+  // token, a line below, so the message points at the key.
+  CHECK(error_of("xi:\nrestarts: 2\n") ==
+        "c.yaml:1:1: key 'xi': no value given (empty, ~ or null); expected a real number in [0, inf]; leave the key "
+        "out for the default 0.01");
+  CHECK(error_of("restarts: 2\nwarm: ~\n").rfind("c.yaml:2:1: key 'warm': no value given", 0) == 0);
+  CHECK(error_of("kernel: null\n").find("expected one of: se_ard, matern52_ard") != std::string::npos);
+  CHECK(error_of("xi: 0.5\n").empty());  // a value, and absent keys, are still fine
+}

@@ -364,3 +364,11 @@ TEST_CASE("a region in a typed space: neighbouring integers and every category s
     CHECK(g[6] == doctest::Approx((region.constraint(d, nullptr) - region.constraint(a, nullptr)) / 2e-6).epsilon(1e-5));
   }
 }
+
+TEST_CASE("int bounds beyond 2^53 are refused: not every integer there is a double (audit11a)") {
+  // [-2^63, 2^63 - 1] ran and wrote n = 7.14865037247871e+18 to trials.csv.
+  CHECK(error_of("- {name: n, type: int, low: -9223372036854775808, high: 10}")
+            .find("parameter 'n' (int): -9223372036854775808 is beyond ±2^53 = 9007199254740992") !=
+        std::string::npos);
+  CHECK(error_of("- {name: n, type: int, low: -9007199254740992, high: 9007199254740992}").empty());
+}

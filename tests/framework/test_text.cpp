@@ -1,9 +1,11 @@
 // abbreviate / printable / csv_text: untrusted text kept bounded, on one line and valid UTF-8.
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 
 #include "study_helpers.hpp"
 #include "varbo/csv.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/text.hpp"
 #include "varbo_test.hpp"
 
@@ -52,4 +54,35 @@ TEST_CASE("csv_text: one valid UTF-8 cell whatever the input") {
   int lines = 0;
   while (std::getline(in, line)) ++lines;
   CHECK(lines == 1);
+}
+
+TEST_CASE("read_csv: a BOM is dropped, another separator is named, a FIFO is refused (audit11a)") {
+  const std::string dir = test::temp_folder("read_csv_hostile");
+  const auto error_of = [&](const std::string& name, const std::string& text) -> std::string {
+    std::ofstream(dir + "/" + name, std::ios::binary) << text;
+    try {
+      read_csv(dir + "/" + name);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  // A spreadsheet's UTF-8 byte order mark is not part of the first column's name ('y' was not found).
+  std::ofstream(dir + "/bom.csv", std::ios::binary) << "\xEF\xBB\xBFy,x\n1,0\n";
+  const CsvTable t = read_csv(dir + "/bom.csv");
+  CHECK(t.column("y") == 0);
+  CHECK(t.values.rows() == 1);
+  // Semicolon- and tab-separated files were read as one column, and the error named a missing 'y'.
+  CHECK(error_of("semi.csv", "x1;x2;y\n0.1;0.2;1.5\n")
+            .find("semi.csv:1: the header is a single column 'x1;x2;y'; the line looks semicolon-separated") !=
+        std::string::npos);
+  CHECK(error_of("tab.csv", "x\ty\n0\t1\n").find("looks tab-separated") != std::string::npos);
+  CHECK(error_of("row.csv", "x,y\n0;1\n").find("row.csv:2: expected 2 comma-separated values (as in the header), "
+                                              "found 1; the line looks semicolon-separated") != std::string::npos);
+  CHECK(error_of("one.csv", "y\n1\n").empty());  // one column without a separator is a table
+  // A FIFO blocked forever (CLI11's ExistingFile accepts it); a device would be read without end.
+  const std::string fifo = dir + "/fifo.csv";
+  std::remove(fifo.c_str());
+  REQUIRE(std::system(("mkfifo " + fifo).c_str()) == 0);
+  CHECK_THROWS_WITH_AS(read_csv(fifo), (fifo + ": not a regular file (expected a CSV file)").c_str(), InputError);
 }

@@ -56,7 +56,8 @@ const OptionSet<BoSettings>& bo_options() {
       // lines (point 2 = point 1 + 0.25 in every coordinate); on Hartmann-6 with 10 points that design left 6 of 10
       // seeds in a local minimum against 2 of 10 with LHS (README, benchmarks).
       opt::component("initial_design", Kind::Sampler, "lhs", "sampler of the initial design and random points"),
-      opt::integer("initial_points", &BoSettings::initial_points, "initial design size (-1 = 2·(d+1), capped by the budget)")
+      opt::integer("initial_points", &BoSettings::initial_points, "initial design size (-1 = 2·(d+1), capped by the budget; 0 = no design: "
+                   "random points until 2 trials have succeeded, then the model)")
           .at_least(-1),
       opt::component("surrogate", Kind::Surrogate, "gp", "model of the cost"),
       opt::component("acquisition", Kind::Acquisition, "ei", "selection criterion (maximized)"),

@@ -11,7 +11,10 @@ const varbo::OptionSet<CmaEsOptions>& cma_es_options() {
   static const varbo::OptionSet<CmaEsOptions> set{
       opt::real("sigma0", &CmaEsOptions::sigma0, "initial step size (unit cube)").above(0),
       opt::reals("x0", "", "initial mean in the unit cube (default: the task's initial point, else the centre)"),
-      opt::integer("population", &CmaEsOptions::population, "lambda; 0 = 4 + floor(3 ln d)").at_least(0),
+      opt::integer("population", &CmaEsOptions::population,
+                   "lambda; 0 = 4 + floor(3 ln d) (at most 10^5: a generation is held in memory)")
+          .at_least(0)
+          .at_most(1e5),
       opt::real("penalty", &CmaEsOptions::penalty,
                 "boundary penalty factor, times the generation's cost range per unit distance^2")
           .at_least(0),

@@ -47,8 +47,10 @@ const varbo::OptionSet<np::MultistartSettings>& multistart_options() {
   static const varbo::OptionSet<np::MultistartSettings> set = [] {
     varbo::OptionSet<np::MultistartSettings> s{
         opt::integer("candidates", &np::MultistartSettings::candidates,
-                     "scrambled Sobol candidates evaluated without gradients")
-            .at_least(1),
+                     "scrambled Sobol candidates evaluated without gradients (at most 10^6: they are held in memory "
+                     "at once; 4e12 aborted a run with bad_alloc)")
+            .at_least(1)
+            .at_most(1e6),
         opt::integer("polish", &np::MultistartSettings::polish, "best candidates refined by the local method")
             .at_least(0),
         opt::choice("local", opt::nested(&np::MultistartSettings::local, &LocalSettings::method), method_mapping(true),
@@ -61,7 +63,10 @@ const varbo::OptionSet<np::MultistartSettings>& multistart_options() {
 
 const varbo::OptionSet<np::RandomSearchSettings>& random_search_options() {
   static const varbo::OptionSet<np::RandomSearchSettings> set{
-      opt::integer("samples", &np::RandomSearchSettings::samples, "uniform points drawn in the box").at_least(1)};
+      opt::integer("samples", &np::RandomSearchSettings::samples,
+                   "uniform points drawn in the box (at most 10^6: they are held in memory at once)")
+          .at_least(1)
+          .at_most(1e6)};
   return set;
 }
 }  // namespace

@@ -10,7 +10,10 @@ namespace opt = varbo::opt;
 const varbo::OptionSet<SamplePolishOptions>& sample_polish_options() {
   static const varbo::OptionSet<SamplePolishOptions> set{
       opt::component("sampler", varbo::Kind::Sampler, "hit_and_run", "sampler that draws the candidates in the region"),
-      opt::integer("samples", &SamplePolishOptions::samples, "number of region samples evaluated").at_least(1),
+      opt::integer("samples", &SamplePolishOptions::samples,
+                   "number of region samples evaluated (at most 10^6: they are held in memory at once)")
+          .at_least(1)
+          .at_most(1e6),
       opt::integer("polish", &SamplePolishOptions::polish, "local searches started from the best samples").at_least(0),
       opt::real("polish_halfwidth", &SamplePolishOptions::polish_halfwidth,
                 "half-width of the box around each start the local search may use "

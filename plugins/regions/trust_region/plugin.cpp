@@ -1,4 +1,6 @@
 // Plugin `region_trust_region`: TuRBO-1's trust region (Eriksson et al. 2019) as a box region.
+#include <fmt/format.h>
+
 #include "trust_region.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/option_set.hpp"
@@ -55,6 +57,13 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
       trust_region_options().specs(),
       [](const Options& o, const BuildContext& ctx) -> std::unique_ptr<RegionConstraint> {
         if (ctx.dim <= 0) throw ConfigError("region 'trust_region' needs the problem dimension (got 0)");
-        return std::make_unique<TrustRegion>(ctx.dim, trust_region_options().read(o));
+        const TrustRegionOptions t = trust_region_options().read(o);
+        // Checked here, where the keys are known, so the error names file:line:col (the constructor's own check
+        // cannot say where the numbers came from).
+        if (!(t.length_min <= t.length_init && t.length_init <= t.length_max))
+          o.node(t.length_min > t.length_init ? "length_min" : "length_max")
+              .fail(fmt::format("need length_min <= length_init <= length_max, got {}, {}, {}", t.length_min,
+                                t.length_init, t.length_max));
+        return std::make_unique<TrustRegion>(ctx.dim, t);
       }));
 }

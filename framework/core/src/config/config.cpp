@@ -50,6 +50,41 @@ struct WalkBudget {
   }
 };
 
+/// Offset of the first byte of `s` that does not start a well-formed UTF-8 sequence (RFC 3629), or npos.
+std::size_t invalid_utf8_at(const std::string& s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[i + k]); };
+    const unsigned char c = b(0);
+    std::size_t n = 0;
+    unsigned char lo = 0x80, hi = 0xBF;
+    if (c < 0x80) n = 1;
+    else if (c >= 0xC2 && c <= 0xDF) n = 2;
+    else if (c == 0xE0) n = 3, lo = 0xA0;
+    else if (c == 0xED) n = 3, hi = 0x9F;
+    else if (c >= 0xE1 && c <= 0xEF) n = 3;
+    else if (c == 0xF0) n = 4, lo = 0x90;
+    else if (c == 0xF4) n = 4, hi = 0x8F;
+    else if (c >= 0xF1 && c <= 0xF3) n = 4;
+    else return i;
+    if (i + n > s.size()) return i;
+    if (n > 1 && (b(1) < lo || b(1) > hi)) return i;
+    for (std::size_t k = 2; k < n; ++k)
+      if ((b(k) & 0xC0) != 0x80) return i;
+    i += n;
+  }
+  return std::string::npos;
+}
+
+/// YAML text is Unicode; a Latin-1 'é' (0xE9) from an old editor would reach names, trials.csv and the store as a
+/// stray byte. yaml-cpp passes such bytes through, so every key and value is checked (after yaml-cpp has decoded a
+/// UTF-16 file, which is fine).
+void check_utf8(const YAML::Node& n, const std::string& name) {
+  const std::size_t at_byte = invalid_utf8_at(n.Scalar());
+  if (at_byte == std::string::npos) return;
+  throw ConfigError(fmt::format("{}: byte 0x{:02X} (at offset {} of this value) is not UTF-8; save the file as UTF-8",
+                                at(name, n.Mark()), static_cast<unsigned char>(n.Scalar()[at_byte]), at_byte));
+}
+
 /// What yaml-cpp accepts but a configuration must not hold: a key given twice (the first would win silently),
 /// a key that is not a plain scalar, an unknown tag, absurd nesting or alias expansion.
 void check_structure(const YAML::Node& n, const std::string& name, int depth, WalkBudget& budget) {
@@ -58,11 +93,13 @@ void check_structure(const YAML::Node& n, const std::string& name, int depth, Wa
   if (!known_tag(n.Tag()))
     throw ConfigError(fmt::format("{}: unknown YAML tag '{}' (a configuration uses plain values, no tags)",
                                   at(name, n.Mark()), n.Tag()));
+  if (n.IsScalar()) check_utf8(n, name);
   if (n.IsMap()) {
     std::vector<std::pair<std::string, YAML::Mark>> seen;
     for (const auto& kv : n) {
       if (!kv.first.IsScalar())
         throw ConfigError(fmt::format("{}: a key must be a plain name, not a list or a map", at(name, kv.first.Mark())));
+      check_utf8(kv.first, name);
       if (!known_tag(kv.first.Tag()))
         throw ConfigError(fmt::format("{}: unknown YAML tag '{}' on key '{}'", at(name, kv.first.Mark()),
                                       kv.first.Tag(), kv.first.Scalar()));
@@ -232,9 +269,16 @@ static std::size_t edit_distance(const std::string& a, const std::string& b) {
 }
 
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates) {
+  // No name is this long; the edit distances of a 10 MB value took most of a minute.
+  if (word.size() > 200) return {};
   // A candidate that extends the word ("matern52" -> "matern52_ard") is the likeliest intent.
   for (const auto& c : candidates)
     if (word.size() >= 3 && c.rfind(word, 0) == 0) return c;
+  // Then one that ends with it after a '_' ("lbfgs" -> "ceres_lbfgs", "ard" is too short to count).
+  for (const auto& c : candidates)
+    if (word.size() >= 4 && c.size() > word.size() && c.compare(c.size() - word.size(), word.size(), word) == 0 &&
+        c[c.size() - word.size() - 1] == '_')
+      return c;
   std::string best;
   std::size_t best_d = std::string::npos;
   for (const auto& c : candidates) {

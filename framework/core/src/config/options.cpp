@@ -13,6 +13,7 @@
 #include "varbo/numbers.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -153,10 +154,20 @@ static bool in_range(const OptionSpec& s, double v) {
 }
 
 static std::string shown(const ConfigNode& n) {
-  if (n.is_scalar()) return fmt::format("'{}'", n.scalar());
+  if (n.is_scalar()) return fmt::format("'{}'", safe_text(n.scalar(), 40));
   if (n.is_sequence()) return "a list";
   if (n.is_map()) return "a map";
   return "nothing";
+}
+
+/// The key `name` of the map `node` itself, for errors about a value that has no position of its own: yaml-cpp
+/// marks an empty value (`budget:` then a newline) at the next token, a line below.
+static ConfigNode key_node(const ConfigNode& node, const std::string& name) {
+  for (const auto& kv : node.yaml())
+    if (kv.first.IsScalar() && kv.first.Scalar() == name)
+      return ConfigNode(kv.first, std::make_shared<const std::string>(node.file()),
+                        node.path().empty() ? name : node.path() + "." + name);
+  return node.child(name);
 }
 
 // Checks one value; returns the normalized YAML value.
@@ -191,7 +202,7 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
       for (const auto& c : s.choices)
         if (c == v) return YAML::Node(v);
       const std::string near = closest_match(v, s.choices);
-      n.fail(fmt::format("expected {}, got '{}'{}", s.expected(), v, near.empty() ? "" : "; did you mean '" + near + "'?"));
+      n.fail(fmt::format("expected {}, got '{}'{}", s.expected(), safe_text(v, 40), near.empty() ? "" : "; did you mean '" + near + "'?"));
     }
     case OptionType::RealList: {
       if (!n.is_sequence()) bad();
@@ -232,8 +243,9 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
       if (!found) {
         const std::string near = closest_match(key, known);
         // Point at the key itself, not at its value.
+        const std::string shown_key = safe_text(key, 40);  // a 1 MB key is not repeated whole
         ConfigNode key_node(kv.first, std::make_shared<const std::string>(node.file()),
-                            node.path().empty() ? key : node.path() + "." + key);
+                            node.path().empty() ? shown_key : node.path() + "." + shown_key);
         key_node.fail(fmt::format("unknown key for {}; known keys: {}{}", owner,
                                          known.empty() ? "(none)" : join(known),
                                          near.empty() ? "" : "; did you mean '" + near + "'?"));
@@ -243,6 +255,12 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
   for (const auto& s : specs) {
     o.order_.push_back(s.name);
     ConfigNode given = node.is_map() ? node.child(s.name) : ConfigNode();
+    // `key:` with no value (or `~`, `null`) is most often a value left out by mistake (`budget:` ran the default
+    // 30 trials): say so rather than use the default silently.
+    if (node.is_map() && node.has(s.name) && !given.defined())
+      key_node(node, s.name).fail(fmt::format("no value given (empty, ~ or null); expected {}{}", s.expected(),
+                             s.default_yaml.empty() ? std::string("; leave the key out if it is not needed")
+                                                    : "; leave the key out for the default " + s.default_yaml));
     const bool is_given = given.defined();
     o.given_[s.name] = is_given;
     ConfigNode use;

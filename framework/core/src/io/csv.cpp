@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 
 #include "varbo/errors.hpp"
@@ -44,7 +45,27 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return cells;
 }
 
+namespace {
+
+/// A file written with another separator (a spreadsheet in a locale with decimal commas writes ';', a "CSV" export
+/// may be tab-separated) reads as one column per line; name the separator instead of a missing column.
+std::string separator_hint(const std::string& line) {
+  if (line.find(';') != std::string::npos)
+    return "; the line looks semicolon-separated (';'): varbo reads comma-separated values with a decimal point, "
+           "e.g. x1,x2,y";
+  if (line.find('\t') != std::string::npos)
+    return "; the line looks tab-separated: varbo reads comma-separated values with a decimal point, e.g. x1,x2,y";
+  return "";
+}
+
+}  // namespace
+
 CsvTable read_csv(const std::string& filename) {
+  // Only a regular file: a FIFO would block forever, /dev/zero would fill memory with one endless line.
+  std::error_code ec;
+  const auto st = std::filesystem::status(filename, ec);
+  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
+    throw InputError(fmt::format("{}: not a regular file (expected a CSV file)", filename));
   std::ifstream in(filename);
   if (!in) throw InputError(fmt::format("{}: cannot open CSV file", filename));
   CsvTable t;
@@ -53,6 +74,8 @@ CsvTable read_csv(const std::string& filename) {
   std::vector<std::vector<double>> rows;
   while (std::getline(in, line)) {
     ++lineno;
+    // A UTF-8 byte order mark (spreadsheets write one) is not part of the first column's name.
+    if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
     if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
     // A data file is text: a NUL byte means binary data, and an odd number of quotes a value that never ends
     // (a quoted field cannot hold a line break here).
@@ -66,6 +89,9 @@ CsvTable read_csv(const std::string& filename) {
       c = b == std::string::npos ? std::string() : c.substr(b, c.find_last_not_of(" \t") - b + 1);
     }
     if (t.columns.empty()) {
+      if (cells.size() == 1 && !separator_hint(line).empty())
+        throw InputError(fmt::format("{}:{}: the header is a single column '{}'{}", filename, lineno,
+                                     printable(cells[0]), separator_hint(line)));
       for (std::size_t c = 0; c < cells.size(); ++c) {
         if (cells[c].empty())
           throw InputError(fmt::format("{}:{}: column {} of the header has no name", filename, lineno, c + 1));
@@ -79,14 +105,14 @@ CsvTable read_csv(const std::string& filename) {
       continue;
     }
     if (cells.size() != t.columns.size())
-      throw InputError(fmt::format("{}:{}: expected {} comma-separated values (as in the header), found {}", filename,
-                                   lineno, t.columns.size(), cells.size()));
+      throw InputError(fmt::format("{}:{}: expected {} comma-separated values (as in the header), found {}{}", filename,
+                                   lineno, t.columns.size(), cells.size(), separator_hint(line)));
     std::vector<double> row;
     for (std::size_t c = 0; c < cells.size(); ++c) {
       const std::optional<double> v = parse_decimal(cells[c]);
       if (!v)
         throw InputError(fmt::format("{}:{}: column '{}': expected a decimal number, got '{}'", filename, lineno,
-                                     t.columns[c], cells[c]));
+                                     safe_text(t.columns[c], 40), safe_text(cells[c], 40)));
       row.push_back(*v);
     }
     rows.push_back(std::move(row));

@@ -12,6 +12,7 @@
 #include "on_demand.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -134,7 +135,8 @@ const ComponentInfo& Registry::find(Kind kind, const std::string& name, const Co
     std::sort(known.begin(), known.end());
     known.erase(std::unique(known.begin(), known.end()), known.end());
     const std::string near = closest_match(name, known);
-    msg = fmt::format("unknown {} '{}'. Known: {}{}", kind_name(kind), name,
+    // safe_text: a 10 MB name gave a 10 MB message (and, before closest_match's limit, a minute of edit distances).
+    msg = fmt::format("unknown {} '{}'. Known: {}{}", kind_name(kind), safe_text(name, 40),
                       known.empty() ? "(none loaded; check the plugin path)" : join(known),
                       near.empty() ? "" : "; did you mean '" + near + "'?");
   }

@@ -54,6 +54,15 @@ Parameter parse_parameter(const ConfigNode& item) {
       if (!item.has(k)) item.fail(fmt::format("parameter '{}' ({}) needs {}", p.name, t, k));
     p.low = number_of(item.child("low"), t == "int" ? "an integer" : "a finite number");
     p.high = number_of(item.child("high"), t == "int" ? "an integer" : "a finite number");
+    // θ holds doubles: beyond 2^53 not every integer is one (a range of ±9.2e18 gave values like 7.14865037247871e+18
+    // in trials.csv), and the model's cells of width 1 vanish in rounding.
+    constexpr double kMaxInt = 9007199254740992.0;  // 2^53
+    if (p.type == ParameterType::Int)
+      for (const char* k : {"low", "high"})
+        if (std::abs(k[0] == 'l' ? p.low : p.high) > kMaxInt)
+          item.child(k).fail(fmt::format("parameter '{}' (int): {} is beyond ±2^53 = {:.0f}, where not every integer "
+                                         "is exact in a double; rescale the parameter",
+                                         p.name, item.child(k).scalar(), kMaxInt));
     if (item.has("log")) p.log = boolean_of(item.child("log"));
   } else if (t == "categorical") {
     p.type = ParameterType::Categorical;

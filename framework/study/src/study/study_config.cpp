@@ -151,6 +151,9 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   s.heartbeat_timeout = o.real("heartbeat_timeout");
   s.retry_abandoned = o.boolean("retry_abandoned");
   s.output = o.is_set("output") ? o.str("output") : std::string();
+  if (o.given("output") && s.output.find_first_not_of(" \t") == std::string::npos)
+    o.node("output").fail("an empty folder name; expected a run folder such as runs/gait (leave the key out for "
+                          "runs/<config file name>)");
   if (s.output.empty()) {
     const std::string stem = std::filesystem::path(root.file()).stem().string();
     s.output = "runs/" + (stem.empty() ? std::string("study") : stem);
