@@ -108,8 +108,17 @@ TEST_CASE("bad merge keys and alias bombs are errors with a position") {
   // "Billion laughs": 9 levels of 10 aliases each expand to 10^10 values; refused at once instead of hanging.
   std::string bomb = "l0: &l0 [x, x, x, x, x, x, x, x, x, x]\n";
   for (int i = 1; i < 10; ++i) {
-    bomb += "l" + std::to_string(i) + ": &l" + std::to_string(i) + " [";
-    for (int k = 0; k < 10; ++k) bomb += (k ? ", *l" : "*l") + std::to_string(i - 1);
+    // Appended piecewise: `"l" + std::to_string(i)` (const char* + std::string&&) trips GCC 12's -Wrestrict.
+    const std::string level = std::to_string(i), below = std::to_string(i - 1);
+    bomb += "l";
+    bomb += level;
+    bomb += ": &l";
+    bomb += level;
+    bomb += " [";
+    for (int k = 0; k < 10; ++k) {
+      bomb += k ? ", *l" : "*l";
+      bomb += below;
+    }
     bomb += "]\n";
   }
   CHECK(parse_error(bomb).find("expands to more than 1000000 values through its aliases") != std::string::npos);
