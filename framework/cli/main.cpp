@@ -1,7 +1,9 @@
 // varbo: risk-aware and cautious Bayesian optimization from YAML configurations.
 #include <malloc.h>
 
+#include <cctype>
 #include <cstdio>
+#include <string>
 #include <map>
 
 #include "commands.hpp"
@@ -9,6 +11,24 @@
 #include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
 #include "varbo/version.hpp"
+
+namespace {
+
+// CLI11 reads `-nan` or `-inf` as a cluster of short options, so `varbo observe S 3 -nan` said only "cost is
+// required". Name the token and what a cost must be (a negative finite number such as -1.5 is read as a cost).
+void hint_non_finite_numbers(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    std::string t = argv[i];
+    for (char& c : t) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (t == "-nan" || t == "-inf" || t == "-infinity")
+      std::fprintf(stderr,
+                   "varbo: '%s' is read as an option, not as a number: a cost must be a finite number (a trial "
+                   "that gave no cost is recorded with `varbo fail STORE ID`)\n",
+                   argv[i]);
+  }
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // Keep freed blocks in the heap. glibc gives a big block (a GP fit's N × N matrices: 1.3 MB at N = 400) back
@@ -51,7 +71,9 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     // --help/--version exit 0; any other command-line mistake is a user error: exit 2 like every other one.
-    return app.exit(e) == 0 ? 0 : 2;
+    if (app.exit(e) == 0) return 0;
+    hint_non_finite_numbers(argc, argv);
+    return 2;
   }
   if (verbose) varbo::set_log_level(varbo::LogLevel::Debug);
   if (quiet) varbo::set_log_level(varbo::LogLevel::Warn);
