@@ -175,15 +175,15 @@ TEST_CASE("read() copies every given value into its field") {
 TEST_CASE("bounds and choices of bound options are validated with the usual messages") {
   CHECK(error_of("restarts: 0\n") == "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '0'");
   CHECK(error_of("restarts: 65\n") == "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '65'");
-  CHECK(error_of("xi: -1\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got '-1'");
-  CHECK(error_of("radius: 0\n") == "c.yaml:1:9: key 'radius': expected a real number in (0, inf], got '0'");
+  CHECK(error_of("xi: -1\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf), got '-1'");
+  CHECK(error_of("radius: 0\n") == "c.yaml:1:9: key 'radius': expected a real number in (0, inf), got '0'");
   CHECK(error_of("method: bfgs\n").find("c.yaml:1:9: key 'method': expected one of: lbfgs, slsqp, cobyla") == 0);
   CHECK(spec("restarts").expected() == "an integer in [1, 64]");
 }
 
 TEST_CASE("an integer that does not fit its field is refused at its position") {
   CHECK(error_of("seed: 3000000000\n").find("c.yaml:1:7: key 'seed': expected an integer that fits the setting") == 0);
-  CHECK(error_of("count: -1\n").find("c.yaml:1:8: key 'count': expected an integer in [0, inf]") == 0);
+  CHECK(error_of("count: -1\n").find("c.yaml:1:8: key 'count': expected an integer in [0, inf)") == 0);
 }
 
 TEST_CASE("a required bound option shows no default and must be given") {

@@ -48,17 +48,17 @@ TEST_CASE("an unknown key lists the known ones and suggests the nearest") {
 }
 
 TEST_CASE("a wrong type names the expected form") {
-  CHECK(error_of("xi: abc\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got 'abc'");
+  CHECK(error_of("xi: abc\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf), got 'abc'");
   CHECK(error_of("restarts: 2.5\n") ==
         "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '2.5'");
   CHECK(error_of("warm: maybe\n") == "c.yaml:1:7: key 'warm': expected true or false, got 'maybe'");
   CHECK(error_of("bounds: 3\n") ==
         "c.yaml:1:9: key 'bounds': expected a list of real numbers, e.g. [0.1, 0.2], got '3'");
-  CHECK(error_of("xi: [1]\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got a list");
+  CHECK(error_of("xi: [1]\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf), got a list");
 }
 
 TEST_CASE("an out-of-range value is an error") {
-  CHECK(error_of("xi: -1\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf], got '-1'");
+  CHECK(error_of("xi: -1\n") == "c.yaml:1:5: key 'xi': expected a real number in [0, inf), got '-1'");
   CHECK(error_of("restarts: 0\n") == "c.yaml:1:11: key 'restarts': expected an integer in [1, 64], got '0'");
   CHECK(error_of("xi: .nan\n").find("expected a real number") != std::string::npos);
 }
@@ -93,7 +93,7 @@ TEST_CASE("a key given with no value is an error at the key, not the default (au
   // `budget:` with its number left out ran the default 30 trials; yaml-cpp marks the empty value at the next
   // token, a line below, so the message points at the key.
   CHECK(error_of("xi:\nrestarts: 2\n") ==
-        "c.yaml:1:1: key 'xi': no value given (empty, ~ or null); expected a real number in [0, inf]; leave the key "
+        "c.yaml:1:1: key 'xi': no value given (empty, ~ or null); expected a real number in [0, inf); leave the key "
         "out for the default 0.01");
   CHECK(error_of("restarts: 2\nwarm: ~\n").rfind("c.yaml:2:1: key 'warm': no value given", 0) == 0);
   CHECK(error_of("kernel: null\n").find("expected one of: se_ard, matern52_ard") != std::string::npos);

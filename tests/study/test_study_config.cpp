@@ -45,9 +45,9 @@ TEST_CASE("a nested unknown key names the full key path") {
 
 TEST_CASE("out-of-range and mistyped top-level values") {
   CHECK(study_error("task: branin\nbudget: 0\n") ==
-        "s.yaml:2:9: key 'budget': expected an integer in [1, inf], got '0'");
+        "s.yaml:2:9: key 'budget': expected an integer in [1, inf), got '0'");
   CHECK(study_error("task: branin\nseed: many\n") ==
-        "s.yaml:2:7: key 'seed': expected an integer in [0, inf], got 'many'");
+        "s.yaml:2:7: key 'seed': expected an integer in [0, inf), got 'many'");
   CHECK(has(study_error("task: branin\nbudgett: 3\n"), "did you mean 'budget'?"));
 }
 

@@ -66,7 +66,9 @@ static std::string fmt_bound(double v) {
 std::string OptionSpec::expected() const {
   auto range = [&]() -> std::string {
     if (std::isinf(min) && std::isinf(max)) return "";
-    return fmt::format(" in {}{}, {}{}", min_open ? "(" : "[", fmt_bound(min), fmt_bound(max), max_open ? ")" : "]");
+    // An infinite bound is open: no option accepts inf or nan (`timeout: .inf` read "expected ... in (0, inf]").
+    const bool lo_open = min_open || std::isinf(min), hi_open = max_open || std::isinf(max);
+    return fmt::format(" in {}{}, {}{}", lo_open ? "(" : "[", fmt_bound(min), fmt_bound(max), hi_open ? ")" : "]");
   };
   switch (type) {
     case OptionType::Bool: return "true or false";
