@@ -133,6 +133,8 @@ Runner add_export(CLI::App& app) {
       std::ofstream f(a->output, std::ios::trunc);
       if (!f) throw InputError(fmt::format("{}: cannot write", a->output));
       f << out;
+      f.close();  // the buffered tail is written here: `-o /dev/full` exited 0 with nothing written
+      if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", a->output));
     }
     return 0;
   };

@@ -11,6 +11,7 @@
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -36,6 +37,12 @@ std::optional<ParameterProblem> check_parameter(const Parameter& p) {
       std::set<std::string> seen;
       for (const auto& c : p.choices) {
         if (c.empty()) return ParameterProblem{"choices", "expected non-empty labels"};
+        // trials.csv writes a control character escaped ("\n" as two characters), so a label holding one could
+        // not be read back: `varbo plot`/`select` on the run failed with "is not one of its choices".
+        for (const char ch : c)
+          if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7F)
+            return ParameterProblem{"choices", fmt::format("label '{}' holds a control character (a newline, a tab, ...)",
+                                                           printable(c))};
         if (!seen.insert(c).second) return ParameterProblem{"choices", fmt::format("duplicate choice '{}'", c)};
       }
       break;
