@@ -7,6 +7,7 @@
 #include <poll.h>
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
@@ -186,9 +187,10 @@ void serve(const DashboardHttp& http) {
     pollfd fd{interrupt_fd(), POLLIN, 0};
     while (!done.load()) {
       if (fd.fd < 0) return;
+      // Until listen returns: a signal that came before the server was running would find nothing to stop.
       if (::poll(&fd, 1, 200) > 0 && interrupt_signal() != 0) {
         server.stop();
-        return;
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the pipe stays readable: no busy loop
       }
     }
   });
