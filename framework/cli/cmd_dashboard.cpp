@@ -11,6 +11,7 @@
 #include "commands.hpp"
 #include "dashboard/dashboard_server.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 
@@ -46,6 +47,7 @@ Runner add_dashboard(CLI::App& app) {
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
     DashboardStudy study(a->study, static_cast<std::uint64_t>(a->seed));
     DashboardApi api(study);
+    install_interrupt_handlers();  // Ctrl-C, SIGTERM, SIGHUP: the server stops and closes the study (exit 128 + signal)
     serve_dashboard(api, a->host, a->port, [&](int port) {
       std::printf("varbo dashboard: serving %s at http://%s:%d/ (Ctrl-C stops)\n", study.address().c_str(),
                   a->host.find(':') != std::string::npos ? ("[" + a->host + "]").c_str() : a->host.c_str(), port);

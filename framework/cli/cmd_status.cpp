@@ -11,6 +11,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/study_api.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -22,7 +23,7 @@ std::string theta_text(const Vec& theta, const std::vector<std::string>& names, 
     s += space ? fmt::format("{}{}={}", i ? " " : "", names[static_cast<std::size_t>(i)],
                              space->format_value(static_cast<std::size_t>(i), theta[i]))  // labels, integers
                : fmt::format("{}{}={:.6g}", i ? " " : "", names[static_cast<std::size_t>(i)], theta[i]);
-  return s;
+  return printable(s);  // names and labels may hold control characters: shown escaped, never sent to the terminal
 }
 
 std::string csv_cell(const std::string& s) { return csv_text(s); }
@@ -60,7 +61,7 @@ Runner add_status(CLI::App& app) {
       std::printf("  pending:\n    %-6s %-24s %10s  %s\n", "id", "worker", "age [s]", "theta");
       for (const auto& t : trials)
         if (t.state == TrialState::Pending)
-          std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), t.worker.c_str(),
+          std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), printable(t.worker).c_str(),
                       now - t.created_at, theta_text(t.theta, names, s.space()).c_str());
     }
     // Workers that send heartbeats (`varbo worker`): a running one silent past heartbeat_timeout is presumed dead,
@@ -74,7 +75,7 @@ Runner add_status(CLI::App& app) {
         for (const auto& t : trials) pending += t.state == TrialState::Pending && t.worker == w.id;
         const bool silent = w.state == "running" && s.config().heartbeat_timeout > 0 &&
                             now - w.heartbeat_at > s.config().heartbeat_timeout;
-        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", w.id.c_str(), silent ? "silent" : w.state.c_str(),
+        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", printable(w.id).c_str(), silent ? "silent" : w.state.c_str(),
                     now - w.heartbeat_at, pending, silent && pending ? " (abandoned at the next ask)" : "");
       }
     }
@@ -84,7 +85,9 @@ Runner add_status(CLI::App& app) {
       const auto& t = trials[i];
       std::printf("    %-6lld %-10s %-10s %14.8g  %s%s\n", static_cast<long long>(t.id), state_name(t.state).c_str(),
                   t.phase.c_str(), t.cost, theta_text(t.theta, names, s.space()).c_str(),
-                  t.error.empty() ? "" : ("  (" + t.error + ")").c_str());
+                  // A failure reason is anyone's text (a worker, a task): an escape sequence in it must not reach the
+                  // terminal (`varbo fail --reason $'\e[2J'` cleared the screen of whoever ran `varbo status`).
+                  t.error.empty() ? "" : ("  (" + printable(t.error) + ")").c_str());
     }
     return 0;
   };
@@ -133,6 +136,8 @@ Runner add_export(CLI::App& app) {
       std::ofstream f(a->output, std::ios::trunc);
       if (!f) throw InputError(fmt::format("{}: cannot write", a->output));
       f << out;
+      f.close();  // the buffered tail is written here: `-o /dev/full` exited 0 with nothing written
+      if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", a->output));
     }
     return 0;
   };

@@ -2,7 +2,9 @@
 #include <malloc.h>
 
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <map>
 
@@ -79,7 +81,16 @@ int main(int argc, char** argv) {
   if (quiet) varbo::set_log_level(varbo::LogLevel::Warn);
   try {
     for (auto& [sub, run] : runners)
-      if (sub->parsed()) return run();
+      if (sub->parsed()) {
+        const int rc = run();
+        // printf ignores a full disk or a closed file: `varbo export --csv S > /dev/full` exited 0 with the
+        // data lost. A failed write of standard output is the command's failure.
+        if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+          std::fprintf(stderr, "varbo: error: standard output: write failed (%s)\n", std::strerror(errno));
+          return rc != 0 ? rc : 2;
+        }
+        return rc;
+      }
   } catch (const varbo::Interrupted& e) {
     std::fprintf(stderr, "varbo: %s\n", e.what());
     return 128 + e.signal();  // as a shell reports a process killed by that signal

@@ -182,7 +182,83 @@ def main():
         os.remove(copy)
         status, body, _ = d.get("/api/summary")
         check(status == 404 and "gone" in body["error"], f"removed study: {status} {body}")
+        # dash11: a study put back at the address (restored, or another one written in its place) is followed;
+        # the open connection read the unlinked file until a restart.
+        shutil.copy(os.path.join(folder, "study.db"), copy)
+        status, body, _ = d.get("/api/summary")
+        check(status == 200 and body["counts"]["complete"] == 8, f"restored study: {status} {body}")
+        check(d.get("/api/select?kappa=1")[0] == 200, "model of the restored study")
+        os.remove(copy)
+        with open(copy, "wb") as f:
+            f.write(b"not a database" * 100)
+        status, body, _ = d.get("/api/summary")
+        check(status == 409 and "not a varbo study" in body["error"], f"replaced by garbage: {status} {body}")
+    dash11_hostile(varbo, folder)
     print(f"{checks} passed, 0 failed")
+
+
+def dash11_hostile(varbo, folder):
+    """The red-team pass (docs/dashboard.md, "Red-team pass (dash11)"): methods, query parsing, request limits,
+    idle and slow clients, and a clean stop on SIGTERM."""
+    import signal
+    import threading
+    import time
+    import subprocess
+    # Standard output on a full disk: the command fails (exit 2) instead of exiting 0 with the output lost.
+    db = os.path.join(folder, "study.db")
+    for args in (["export", "--csv", db], ["status", db], ["select", folder, "--kappa", "1", "--json"]):
+        with open("/dev/full", "w") as full:
+            r = subprocess.run([varbo, *args], stdout=full, stderr=subprocess.PIPE, text=True)
+        check(r.returncode == 2 and "standard output: write failed" in r.stderr, f"{args} > /dev/full: {r.returncode} "
+                                                                                 f"{r.stderr!r}")
+    for f in ("study.db-wal", "study.db-shm"):
+        if os.path.exists(os.path.join(folder, f)):
+            os.remove(os.path.join(folder, f))
+    with Dashboard(varbo, folder) as d:
+        for method in ("POST", "PUT", "DELETE", "OPTIONS", "PATCH"):
+            line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n"
+                                            "Connection: close\r\n\r\n".encode())
+            check(" 405 " in line and "read-only" in json.loads(body)["error"], f"{method}: {line} {body}")
+        # The first '=' splits name and value (cpp-httplib kept the text after the last one).
+        status, body, _ = d.get("/api/rescore?weights=nope=2")
+        check(status == 400 and "unknown component 'nope'" in body["error"], f"weights=nope=2: {status} {body}")
+        status, body, _ = d.get("/api/rescore?weights==")
+        check(status == 400, f"weights==: {status} {body}")
+        status, body, _ = d.get("/api/rescore?kappa=" + ",".join(["0"] * 65))
+        check(status == 400 and "at most 64" in body["error"], f"65 kappas: {status} {body}")
+        for path in ("/../../etc/passwd", "/%2e%2e%2f%2e%2e%2fetc%2fpasswd", "/api/summary%00.html"):
+            status, body, raw = d.get(path)
+            check(status == 404 and "root:" not in raw, f"{path}: {status}")
+        line, _ = raw_request(d.url, b"GET /api/summary?x=" + b"a" * 20000 + b" HTTP/1.1\r\nHost: x\r\n\r\n")
+        check(" 414 " in line, f"long URL: {line}")
+        # 20 idle connections and 10 slow clients (one byte a second) do not stall a request.
+        idle = [socket.create_connection(("127.0.0.1", int(d.url.rsplit(":", 1)[1])), timeout=5) for _ in range(20)]
+        stop = threading.Event()
+
+        def slow():
+            with socket.create_connection(("127.0.0.1", int(d.url.rsplit(":", 1)[1])), timeout=30) as s:
+                s.sendall(b"GET /api/summary HTTP/1.1\r\nHost: x\r\n")
+                while not stop.is_set():
+                    s.sendall(b"X")
+                    time.sleep(0.5)
+        threads = [threading.Thread(target=slow, daemon=True) for _ in range(10)]
+        for t in threads:
+            t.start()
+        time.sleep(0.5)
+        t0 = time.monotonic()
+        status = d.get("/api/summary")[0]
+        check(status == 200 and time.monotonic() - t0 < 3, f"request beside idle and slow clients: {status}, "
+                                                             f"{time.monotonic() - t0:.1f} s")
+        stop.set()
+        for s in idle:
+            s.close()
+        # SIGTERM: the server stops, closes the study (no -wal/-shm left beside it) and exits 128 + 15.
+        d.proc.send_signal(signal.SIGTERM)
+        rc = d.proc.wait(timeout=15)
+        err = d.proc.stderr.read()
+        check(rc == 143 and "interrupted by SIGTERM" in err, f"SIGTERM: exit {rc} {err!r}")
+        left = [f for f in ("study.db-wal", "study.db-shm") if os.path.exists(os.path.join(folder, f))]
+        check(not left, f"left beside the study after SIGTERM: {left}")
 
 
 def urllib_quote(s):

@@ -172,6 +172,8 @@ json fit_json(const DashboardModel& m) {
 
 json error_json(const std::string& message) { return {{"error", message}}; }
 
+constexpr std::size_t kMaxRescoreKappas = 64;
+
 }  // namespace
 
 std::string json_text(const json& j) { return j.dump(-1, ' ', false, json::error_handler_t::replace); }
@@ -202,7 +204,8 @@ ApiResponse DashboardApi::get(const std::string& path, const ApiQuery& query) {
 }
 
 std::string DashboardApi::summary() {
-  const Study& s = study_.study();
+  const auto study = study_.study();
+  const Study& s = *study;
   const auto all = study_.trials();
   json counts = {{"pending", 0}, {"complete", 0}, {"failed", 0}, {"abandoned", 0}};
   double fit = 0, acq = 0, eval = 0;
@@ -248,7 +251,8 @@ std::string DashboardApi::summary() {
 std::string DashboardApi::trials(const ApiQuery& query) {
   const long long since = integer(query, "since", -1, -1, std::numeric_limits<int>::max());
   const auto all = study_.trials();
-  const Study& s = study_.study();
+  const auto study = study_.study();
+  const Study& s = *study;
   json out = json::array();
   for (const auto& t : all)
     if (t.id > since) out.push_back(trial_json(t, s.domain().names, s.space()));
@@ -427,6 +431,9 @@ std::string DashboardApi::rescore(const ApiQuery& query) {
         throw RequestError(400, fmt::format("query parameter 'kappa': expected finite decimal numbers separated by "
                                             "commas, got '{}'", *text));
       request.kappas.push_back(*v);
+      // Each κ is one search of the local model: a 4 KB URL of 3000 κ held a thread for 10 s.
+      if (request.kappas.size() > kMaxRescoreKappas)
+        throw RequestError(400, fmt::format("query parameter 'kappa': at most {} values", kMaxRescoreKappas));
       start = end + 1;
     }
   }
@@ -435,13 +442,15 @@ std::string DashboardApi::rescore(const ApiQuery& query) {
     if (!(request.epsilon > 0)) throw RequestError(400, "query parameter 'epsilon': expected a positive number");
   }
   // One answer per request and data: the same key, the same trials → the cached answer (no refit).
-  std::string key = fmt::format("{}|{}|{}|", run.cost.size(), request.epsilon, fmt::join(request.kappas, ","));
+  std::string key = fmt::format("{}|{}|{}|{}|", study_.generation(), run.cost.size(), request.epsilon,
+                                fmt::join(request.kappas, ","));
   for (const auto& [c, w] : request.weight_changes) key += fmt::format("{}={};", c, w);
   {
     const std::lock_guard<std::mutex> lock(rescore_mutex_);
     if (const auto it = rescore_cache_.find(key); it != rescore_cache_.end()) return it->second;
   }
-  const OfflineAnswer a = rescore_offline(run, request, study_.study().registry());
+  const auto study = study_.study();
+  const OfflineAnswer a = rescore_offline(run, request, study->registry());
   const auto& names = view.names;
   json weights = json::object(), was = json::object();
   for (const auto& c : run.components) {

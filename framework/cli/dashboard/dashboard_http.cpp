@@ -4,8 +4,18 @@
 
 #include <fmt/format.h>
 #include <httplib.h>
+#include <poll.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+#include <vector>
 
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 
 namespace varbo::cli {
 
@@ -23,14 +33,102 @@ void json_reply(httplib::Response& res, int status, const std::string& body) {
   res.set_content(body, "application/json; charset=utf-8");
 }
 
+/// cpp-httplib's ThreadPool has a fixed number of threads, each held by one connection until its request has
+/// arrived (or the read timeout): 8 idle or slow (slowloris) clients stalled every other request, and 300 idle
+/// connections kept a GET waiting > 30 s (docs/dashboard.md, "Red-team pass"). This pool starts a thread whenever
+/// none is idle, up to kMaxThreads, so slow clients only hold threads of their own; past that, requests queue.
+class GrowingPool : public httplib::TaskQueue {
+ public:
+  static constexpr std::size_t kMaxThreads = 128;
+  void enqueue(std::function<void()> fn) override {
+    std::unique_lock<std::mutex> lock(mutex_);
+    jobs_.push_back(std::move(fn));
+    if (idle_ == 0 && threads_.size() < kMaxThreads) threads_.emplace_back([this] { work(); });
+    else cond_.notify_one();
+  }
+  void shutdown() override {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    cond_.notify_all();
+    for (auto& t : threads_) t.join();
+  }
+
+ private:
+  void work() {
+    for (;;) {
+      std::function<void()> fn;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        ++idle_;
+        cond_.wait(lock, [&] { return stop_ || !jobs_.empty(); });
+        --idle_;
+        if (jobs_.empty()) return;  // stopping, nothing left
+        fn = std::move(jobs_.front());
+        jobs_.pop_front();
+      }
+      fn();
+    }
+  }
+  std::mutex mutex_;
+  std::condition_variable cond_;
+  std::deque<std::function<void()>> jobs_;
+  std::vector<std::thread> threads_;
+  std::size_t idle_ = 0;
+  bool stop_ = false;
+};
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+/// %XX and '+' decoded (a malformed escape stays as it is).
+std::string url_decode(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '%' && i + 2 < s.size() && hex_digit(s[i + 1]) >= 0 && hex_digit(s[i + 2]) >= 0) {
+      out += static_cast<char>(hex_digit(s[i + 1]) * 16 + hex_digit(s[i + 2]));
+      i += 2;
+    } else {
+      out += s[i] == '+' ? ' ' : s[i];
+    }
+  }
+  return out;
+}
+
+/// The query of a request target, split at '&' and at the FIRST '=' of each item. cpp-httplib 0.11 keeps the text
+/// after the last '=' ("weights=a=-1" became weights → "-1", "weights==" an empty, accepted value).
+ApiQuery parse_query(const std::string& target) {
+  ApiQuery query;
+  const std::size_t q = target.find('?');
+  if (q == std::string::npos) return query;
+  const std::string text = target.substr(q + 1);
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t end = std::min(text.find('&', start), text.size());
+    const std::string item = text.substr(start, end - start);
+    if (!item.empty()) {
+      const std::size_t eq = item.find('=');
+      query.emplace(url_decode(item.substr(0, eq)), eq == std::string::npos ? "" : url_decode(item.substr(eq + 1)));
+    }
+    start = end + 1;
+  }
+  return query;
+}
+
 void serve(const DashboardHttp& http) {
   const std::string& host = http.host;
   const int port = http.port;
   httplib::Server server;
   // A few threads: requests are short reads; model requests queue on the model's lock. A browser keeps up to 6
   // connections open, each holding a thread while it idles: a short keep-alive frees them for the next poll.
-  server.new_task_queue = [] { return new httplib::ThreadPool(8); };
+  server.new_task_queue = [] { return new GrowingPool(); };
   server.set_keep_alive_timeout(1);
+  server.set_read_timeout(3);  // a request that has not arrived in 3 s of silence frees its thread
   server.set_default_headers({{"X-Content-Type-Options", "nosniff"},
                               {"Content-Security-Policy",
                                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
@@ -41,10 +139,23 @@ void serve(const DashboardHttp& http) {
     res.set_content(reinterpret_cast<const char*>(kDashboardPage), sizeof(kDashboardPage) - 1, "text/html; charset=utf-8");
   });
   server.Get(R"(/api/.*)", [&http](const httplib::Request& req, httplib::Response& res) {
-    ApiQuery query(req.params.begin(), req.params.end());
+    const ApiQuery query = parse_query(req.target);
     const ApiResponse r = http.get(req.path, query);
     json_reply(res, r.status, r.body);
   });
+  // Every other method, on every path: 405 with the methods served (HEAD is answered as GET by httplib).
+  const auto refuse = [](const httplib::Request& req, httplib::Response& res) {
+    res.set_header("Allow", "GET, HEAD");
+    json_reply(res, 405,
+               error_body(fmt::format("method {} not allowed: the dashboard is read-only and answers GET / and GET "
+                                      "/api/... only",
+                                      req.method)));
+  };
+  server.Post(".*", refuse);
+  server.Put(".*", refuse);
+  server.Patch(".*", refuse);
+  server.Delete(".*", refuse);
+  server.Options(".*", refuse);
   // Anything else (another path or method, a request httplib cannot parse): a JSON error, never a stack trace.
   server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
@@ -68,7 +179,26 @@ void serve(const DashboardHttp& http) {
     throw InputError(fmt::format("--host {} --port {}: cannot listen there (in use, or not an address of this machine)",
                                  host, port));
   http.on_listening(bound);
-  if (!server.listen_after_bind()) throw InputError(fmt::format("{}:{}: the server stopped unexpectedly", host, bound));
+  // SIGINT, SIGTERM, SIGHUP (varbo's one-shot handlers, installed by the command): stop accepting, finish the
+  // requests in flight, and return, so that the study is closed (SQLite removes the -wal/-shm files it made beside
+  // a run's study.db; the default action left them there). A second signal kills at once.
+  std::atomic<bool> done{false};
+  std::thread watcher([&] {
+    pollfd fd{interrupt_fd(), POLLIN, 0};
+    while (!done.load()) {
+      if (fd.fd < 0) return;
+      // Until listen returns: a signal that came before the server was running would find nothing to stop.
+      if (::poll(&fd, 1, 200) > 0 && interrupt_signal() != 0) {
+        server.stop();
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the pipe stays readable: no busy loop
+      }
+    }
+  });
+  const bool ok = server.listen_after_bind();
+  done = true;
+  watcher.join();
+  if (const int sig = interrupt_signal(); sig != 0) throw Interrupted(sig);
+  if (!ok) throw InputError(fmt::format("{}:{}: the server stopped unexpectedly", host, bound));
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "dashboard_study.hpp"
 
 #include <fmt/format.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <chrono>
@@ -49,9 +50,36 @@ DashboardStudy::DashboardStudy(const std::string& study, std::uint64_t seed)
     : address_(dashboard_study_address(study)),
       is_file_(!is_database_url(address_)),
       seed_(seed),
-      study_(open_study(address_)) {}
+      study_(std::make_shared<Study>(open_study(address_))) {
+  struct stat st {};
+  if (is_file_ && ::stat(address_.c_str(), &st) == 0) {
+    dev_ = static_cast<std::uint64_t>(st.st_dev);
+    ino_ = static_cast<std::uint64_t>(st.st_ino);
+  }
+}
 
-bool DashboardStudy::present() const { return !is_file_ || fs::is_regular_file(address_); }
+bool DashboardStudy::present() {
+  if (!is_file_) return true;
+  struct stat st {};
+  if (::stat(address_.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
+  {
+    std::lock_guard<std::mutex> lock(store_mutex_);
+    if (static_cast<std::uint64_t>(st.st_dev) == dev_ && static_cast<std::uint64_t>(st.st_ino) == ino_) return true;
+  }
+  // Another file at the address (a study written in its place, a removed one restored): the open connection
+  // still reads the old, unlinked file, and did so until a restart. Follow the address, as a new reader would.
+  auto fresh = std::make_shared<Study>(open_study(address_));  // InputError (409) when it is not a study
+  const auto model_lock = lock_model();
+  std::lock_guard<std::mutex> lock(store_mutex_);
+  study_ = std::move(fresh);
+  dev_ = static_cast<std::uint64_t>(st.st_dev);
+  ino_ = static_cast<std::uint64_t>(st.st_ino);
+  regret_cache_.clear();
+  model_.reset();
+  ++generation_;
+  log_info("dashboard: {} was replaced; opened it again", address_);
+  return true;
+}
 
 std::optional<std::string> DashboardStudy::summary_path() const {
   if (!is_file_) return std::nullopt;
@@ -60,35 +88,36 @@ std::optional<std::string> DashboardStudy::summary_path() const {
 
 std::vector<TrialRecord> DashboardStudy::trials() const {
   std::lock_guard<std::mutex> lock(store_mutex_);
-  return study_.trials();
+  return study_->trials();
 }
 
 std::vector<StoredSnapshot> DashboardStudy::snapshots() const {
   std::lock_guard<std::mutex> lock(store_mutex_);
-  return study_.model_snapshots();
+  return study_->model_snapshots();
 }
 
 std::size_t DashboardStudy::workers() const {
   std::lock_guard<std::mutex> lock(store_mutex_);
-  return const_cast<Study&>(study_).store().workers().size();
+  return study_->store().workers().size();
 }
 
 std::optional<double> DashboardStudy::regret_recommended(std::int64_t row) const {
   std::lock_guard<std::mutex> lock(store_mutex_);
   if (auto it = regret_cache_.find(row); it != regret_cache_.end()) return it->second;
   std::optional<double> v;
-  if (auto text = study_.meta(fmt::format("regret_recommended/{}", row))) v = std::strtod(text->c_str(), nullptr);
+  if (auto text = study_->meta(fmt::format("regret_recommended/{}", row))) v = std::strtod(text->c_str(), nullptr);
   if (v) regret_cache_[row] = v;  // a row without a value yet may get one once `varbo run` writes it
   return v;
 }
 
 RunFolder DashboardStudy::run_view(const std::vector<TrialRecord>& trials,
                                    const std::vector<StoredSnapshot>& snapshots) const {
+  const std::shared_ptr<const Study> study = this->study();
   RunFolder run;
   run.folder = address_;
-  run.study = study_.config();
-  run.domain = study_.domain();
-  run.space = study_.space();
+  run.study = study->config();
+  run.domain = study->domain();
+  run.space = study->space();
   run.names = run.domain.names;
   const Index d = run.domain.box.dim();
   for (Index i = static_cast<Index>(run.names.size()); i < d; ++i) run.names.push_back(fmt::format("x{}", i + 1));
@@ -138,7 +167,8 @@ std::shared_ptr<const DashboardModel> DashboardStudy::model() {
   m->run = run_view(all, snapshots());
   m->complete = complete;
   m->seed = seed_;
-  const Registry& registry = study_.registry();
+  const std::shared_ptr<const Study> study = this->study();  // kept alive while the fit uses its registry
+  const Registry& registry = study->registry();
   const auto start = std::chrono::steady_clock::now();
   m->fitted = fit_selection_model(m->run, registry, selection_surrogate(m->run, registry, "", address_), seed_, true);
   m->fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

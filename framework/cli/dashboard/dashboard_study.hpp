@@ -2,6 +2,7 @@
 // What `varbo dashboard` reads: one study (a study file, a run folder's study.db or a PostgreSQL URL) opened
 // read-only through varbo::Study, and the fitted surrogate of its complete trials, cached until a new trial
 // completes (a κ-slider move then costs a search, never a refit).
+#include <atomic>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -36,9 +37,16 @@ class DashboardStudy {
   DashboardStudy(const std::string& study, std::uint64_t seed);
 
   const std::string& address() const { return address_; }
-  /// False when the study file has gone since the server started (a request then answers 404).
-  bool present() const;
-  const Study& study() const { return study_; }
+  /// False when the study file has gone since the server started (a request then answers 404). A file replaced
+  /// since it was opened (another study written in its place, a deleted one restored) is opened again, and the
+  /// model cache dropped; InputError when the new file is not a study.
+  bool present();
+  std::shared_ptr<const Study> study() const {
+    std::lock_guard<std::mutex> lock(store_mutex_);
+    return study_;
+  }
+  /// Bumped whenever the study file is opened again (a cache key of answers computed from it).
+  std::uint64_t generation() const { return generation_.load(); }
 
   /// Short reads of the store, one at a time (the store object is not shared between threads).
   std::vector<TrialRecord> trials() const;
@@ -64,7 +72,9 @@ class DashboardStudy {
   std::string address_;
   bool is_file_ = false;
   std::uint64_t seed_;
-  Study study_;
+  std::shared_ptr<Study> study_;  ///< guarded by store_mutex_ (swapped when the file is replaced)
+  std::uint64_t dev_ = 0, ino_ = 0;  ///< the identity of the file study_ has open
+  std::atomic<std::uint64_t> generation_{0};
   mutable std::mutex store_mutex_;
   mutable std::mutex model_mutex_;
   mutable std::map<std::int64_t, std::optional<double>> regret_cache_;

@@ -11,6 +11,7 @@
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -321,6 +322,10 @@ double SearchSpace::parse_value(std::size_t i, const std::string& text) const {
   if (p.type == ParameterType::Categorical) {
     for (std::size_t j = 0; j < p.choices.size(); ++j)
       if (p.choices[j] == text) return static_cast<double>(j);
+    // trials.csv writes a label's control characters escaped (csv_text: a newline as the two characters "\n"): a
+    // run whose label held one could not be read back (`varbo plot`/`select`: "is not one of its choices").
+    for (std::size_t j = 0; j < p.choices.size(); ++j)
+      if (printable(p.choices[j]) == text) return static_cast<double>(j);
     const std::string near = closest_match(text, p.choices);
     throw InputError(fmt::format("parameter '{}': '{}' is not one of its choices ({}){}", p.name, text,
                                  join(p.choices), near.empty() ? "" : "; did you mean '" + near + "'?"));
