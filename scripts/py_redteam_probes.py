@@ -116,6 +116,7 @@ probe("B", "select('a')", "s=mk(); s.select('a')", ("TypeError", "ValueError"), 
 probe("B", "abandon(None)", "mk().abandon(None)", ("TypeError",), ("older_than",))
 probe("B", "abandon(-1)", "s=mk(); s.ask(); s.abandon(-1.0)", ("InputError",), ("age",))
 probe("B", "heartbeat(None)", "mk().heartbeat(None)", ("TypeError",), ("state",))
+probe("B", "trial of another study, same id", "a=mk(); b=mk('b.db'); ta=a.ask()[0]; b.ask(); b.tell(ta, 1.0)", ("InputError",), ("s.db",))
 probe("B", "trial from another study", "a=mk(); b=mk('b.db'); ta=a.ask(3)[-1]; b.ask(); b.tell(ta, 1.0)", ("InputError",), ())
 
 # ---- C. minimize ----
@@ -249,6 +250,24 @@ probe("G", "VarboSampler objective returns NaN", OPT +
       "s.optimize(lambda t: float('nan') if t.number % 2 else t.suggest_float('x', 0, 1), n_trials=8)", None)
 probe("G", "VarboSampler pickled", OPT + "pickle.loads(pickle.dumps(varbo.optuna.VarboSampler(seed=1)))", None)
 probe("G", "VarboSampler threads=-1", OPT + "varbo.optuna.VarboSampler(seed=1, threads=-1)", ("ValueError",), ("threads",))
+
+# ---- H. module functions and odd corners ----
+probe("H", "ask(10**9) with budget 8", "s=mk(); assert len(s.ask(10**9))==8", None)
+probe("H", "set_log_level('loud')", "varbo.set_log_level('loud')", ("ConfigError", "InputError", "ValueError"), ("loud",))
+probe("H", "set_log_level(None)", "varbo.set_log_level(None)", ("TypeError",), ("level: expected",))
+probe("H", "describe(None)", "varbo.describe(None)", ("TypeError",), ("name: expected",))
+probe("H", "describe('')", "varbo.describe('')", ("UnknownComponentError", "ConfigError"), ())
+probe("H", "plugins(123)", "varbo.plugins(123)", ("TypeError",), ("kind: expected",))
+probe("H", "load_plugin(None)", "varbo.load_plugin(None)", ("TypeError",), ("path: expected",))
+probe("H", "load_plugin(directory)", "varbo.load_plugin(T)", ("InputError", "PluginLoadError"), ("probe-",))
+probe("H", "config path is a directory", "d=os.path.join(T,'c.yaml'); os.mkdir(d); mk('x.db', d)", ("InputError", "ConfigError"), ("c.yaml",))
+probe("H", "fun returns dict cost 'abc'", "r=varbo.minimize(lambda p: {'cost': 'abc'}, RND, **MIN); assert r.failed==6 and 'abc' in r.trials[0].error", None)
+probe("H", "fun returns dict components list", "r=varbo.minimize(lambda p: {'cost': 1.0, 'components': [1]}, RND, **MIN); assert r.failed==6 and 'components' in r.trials[0].error", None)
+probe("H", "fun returns np.int64", "r=varbo.minimize(lambda p: np.int64(3), RND, **MIN); assert r.failed==0 and r.fun==3.0", None)
+probe("H", "minimize into non-empty folder without overwrite", "o=os.path.join(T,'o'); varbo.minimize(q, SP, budget=2, seed=1, output=o)\nvarbo.minimize(q, SP, budget=2, seed=1, output=o)", ("InputError", "ConfigError"), ("o",))
+probe("H", "callback calls minimize (re-entrant)", "r=varbo.minimize(q, SP, budget=3, seed=1, callback=lambda t: varbo.minimize(q, SP, budget=2, seed=2) and False); assert r.evaluations==3", None)
+probe("H", "callback uses Study of the run", "r=varbo.minimize(q, SP, budget=3, seed=1, callback=lambda t: None); s=varbo.Study.open(r.output + '/study.db'); assert len(s.trials(as_frame=False))==3", None)
+probe("H", "trials(as_frame=False) after minimize + tell_point", "r=varbo.minimize(q, SP, budget=3, seed=1); s=varbo.Study.open(r.output + '/study.db'); i=s.tell_point({'x': 0.1, 'y': 1.0}, 0.5); t=s.trials(as_frame=False)[-1]; assert t.id==i and t.phase=='manual' and t.cost==0.5", None)
 
 
 def main():

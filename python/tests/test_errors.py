@@ -208,3 +208,40 @@ def test_redteam_optuna_sampler_arguments():
         vo.VarboSampler(seed=-1)
     with pytest.raises(varbo.InputError, match="VarboSampler: threads"):
         vo.VarboSampler(seed=1, threads=-1)
+
+
+def test_redteam_module_functions_name_their_argument(tmp_path):
+    # were pybind11's "incompatible function arguments" listings
+    with pytest.raises(TypeError, match="set_log_level: level"):
+        varbo.set_log_level(None)
+    with pytest.raises(TypeError, match="describe: name"):
+        varbo.describe(None)
+    with pytest.raises(TypeError, match="plugins: kind"):
+        varbo.plugins(123)
+    with pytest.raises(TypeError, match="load_plugin: path"):
+        varbo.load_plugin(None)
+    assert varbo.describe("ei")["kind"] == "acquisition" and varbo.plugins("surrogate")
+
+
+def test_redteam_trial_of_another_study_is_refused(tmp_path):
+    # Both studies have a trial 0: telling a's trial to b recorded the result on b's trial 0, silently.
+    a = varbo.Study.create(tmp_path / "a.db", _RT_CFG)
+    b = varbo.Study.create(tmp_path / "b.db", _RT_CFG)
+    ta, tb = a.ask()[0], b.ask()[0]
+    with pytest.raises(varbo.InputError, match="a.db"):
+        b.tell(ta, 1.0)
+    with pytest.raises(varbo.InputError, match="a.db"):
+        b.fail(ta, "x")
+    assert b.trials(as_frame=False)[0].state == "pending"
+    b.tell(tb.id, 1.0)  # an id is taken as this study's
+    a2 = varbo.Study.open(tmp_path / "a.db")  # the same store through another object: fine
+    a2.tell(ta, 2.0)
+    assert a.best().cost == 2.0
+
+
+def test_redteam_trial_by_another_path_of_the_same_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    a = varbo.Study.create("rel.db", _RT_CFG)
+    t = a.ask()[0]
+    varbo.Study.open(str(tmp_path / "rel.db")).tell(t, 1.0)  # the same file by its absolute path
+    assert a.best().cost == 1.0

@@ -22,7 +22,35 @@ from . import _checks
 from ._config import has_parameters, has_task, is_path, to_yaml
 from ._types import OptimizeResult, Prediction, Selection, Trial, trial_from
 from ._varbo import (ConfigError, Error, InputError, NumericalError, PluginLoadError, UnknownComponentError,
-                     describe, load_plugin, plugins, set_log_level, skipped_plugins)
+                     skipped_plugins)
+
+
+def _str_arg(v: Any, what: str, optional: bool = False) -> Any:
+    if (optional and v is None) or isinstance(v, str):
+        return v
+    raise TypeError(f"{what}: expected a str{' or None' if optional else ''}, got {v!r:.60} (type {type(v).__name__})")
+
+
+def plugins(kind: Optional[str] = None) -> List[Dict[str, Any]]:
+    """The loaded components (dicts: name, full_name, kind, plugin, library, builtin, description, provides, needs),
+    all or those of one kind ("task", "algorithm", "surrogate", ...)."""
+    return _varbo.plugins(_str_arg(kind, "plugins: kind", optional=True))
+
+
+def describe(name: str) -> Dict[str, Any]:
+    """A component's description with its options; ``describe("study")`` the study file's top-level keys."""
+    return _varbo.describe(_str_arg(name, "describe: name"))
+
+
+def load_plugin(path: Union[str, "os.PathLike[str]"]) -> None:
+    """Loads a third-party ``libvarbo_NAME.so`` into the process (and appends it to ``VARBO_PLUGIN_PATH``)."""
+    _varbo.load_plugin(_checks.path(path, "load_plugin: path"))
+
+
+def set_log_level(level: str) -> None:
+    """debug, info, warn, error or quiet (the engine's messages on stderr)."""
+    _varbo.set_log_level(_str_arg(level, "set_log_level: level"))
+
 
 __version__ = _varbo.__version__
 # Quiet by default, as Python's logging is: warnings and errors on stderr; a run folder's log.txt still gets every
@@ -37,8 +65,24 @@ __all__ = [
 Config = Union[Mapping[str, Any], str, "os.PathLike[str]"]
 
 
-def _trial_id(trial_or_id: Union[Trial, int]) -> int:
+def _same_store(a: str, b: str) -> bool:
+    """Two locations of one store: equal, or one file by two paths (relative/absolute, a symlink)."""
+    if a == b:
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # a URL, or a file deleted meanwhile
+        return False
+
+
+def _trial_id(trial_or_id: Union[Trial, int], study: Optional["Study"] = None) -> int:
     if isinstance(trial_or_id, Trial):
+        # A Trial asked from another study has an id this study may hold too: telling it here would record the
+        # result on the wrong trial, silently (red-team pass py11). Trials remember the store they came from.
+        origin = getattr(trial_or_id, "_store", None)
+        if study is not None and origin is not None and not _same_store(origin, study._location):
+            raise InputError(f"trial {trial_or_id.id} belongs to the study {origin}, not to {study._location}; "
+                             "tell each study its own trials")
         return trial_or_id.id
     if isinstance(trial_or_id, (int, np.integer)) and not isinstance(trial_or_id, (bool, np.bool_)):
         i = int(trial_or_id)
@@ -78,6 +122,12 @@ class Study:
         if not isinstance(impl, _varbo._Study):
             raise TypeError("varbo.Study is made by Study.create(path, config) or Study.open(path), not Study(...)")
         self._impl = impl
+        self._location = impl.location
+
+    def _trial(self, d: Dict[str, Any]) -> Trial:
+        t = trial_from(d)
+        t._store = self._location  # not a dataclass field: equality and repr stay as they were
+        return t
 
     def __copy__(self) -> "Study":
         return Study(self._impl)  # the same connection (calls stay serialized)
@@ -105,18 +155,18 @@ class Study:
 
     def ask(self, n: int = 1) -> List[Trial]:
         """Up to ``n`` new pending trials (fewer, possibly none, once the budget is spent)."""
-        return [trial_from(d) for d in self._impl.ask(_checks.integer(n, "ask: n", 1))]
+        return [self._trial(d) for d in self._impl.ask(_checks.integer(n, "ask: n", 1))]
 
     def tell(self, trial_or_id: Union[Trial, int], cost: Union[float, Mapping[str, Any]],
              components: Optional[Mapping[str, float]] = None) -> None:
         """Records the result of a pending trial: a finite cost (or ``{"cost": c, "components": {...}}``).
         A NaN or infinite cost is an InputError: report a trial that could not be measured with ``fail``."""
         c, comps = _cost_and_components(cost, components)
-        self._impl.tell(_trial_id(trial_or_id), c, comps)
+        self._impl.tell(_trial_id(trial_or_id, self), c, comps)
 
     def fail(self, trial_or_id: Union[Trial, int], reason: str = "failed") -> None:
         """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
-        self._impl.fail(_trial_id(trial_or_id), str(reason))
+        self._impl.fail(_trial_id(trial_or_id, self), str(reason))
 
     def tell_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], cost: float,
                    components: Optional[Mapping[str, float]] = None) -> int:
@@ -134,12 +184,12 @@ class Study:
     def best(self) -> Optional[Trial]:
         """The complete trial with the lowest observed cost (None before the first result)."""
         d = self._impl.best()
-        return None if d is None else trial_from(d)
+        return None if d is None else self._trial(d)
 
     def trials(self, as_frame: Optional[bool] = None):
         """Every trial by id: a ``pandas.DataFrame`` when pandas is importable (columns ``params_<name>`` and
         ``components_<name>``, as Optuna's ``trials_dataframe``), else a list of Trial. ``as_frame`` forces either."""
-        records = [trial_from(d) for d in self._impl.trials()]
+        records = [self._trial(d) for d in self._impl.trials()]
         if as_frame is False:
             return records
         try:
