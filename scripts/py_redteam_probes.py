@@ -136,6 +136,7 @@ probe("C", "budget='10'", "varbo.minimize(q, SP, budget='10')", ("TypeError",), 
 probe("C", "budget=2.5", "varbo.minimize(q, SP, budget=2.5)", ("TypeError",), ("budget",))
 probe("C", "budget=True", "varbo.minimize(q, SP, budget=True)", ("TypeError",), ("budget",))
 probe("C", "budget=-1", "varbo.minimize(q, SP, budget=-1)", ("ValueError",), ("budget",))
+probe("C", "budget=0", "varbo.minimize(q, SP, budget=0)", ("ValueError",), ("budget",))
 probe("C", "budget=np.int64(4)", "r=varbo.minimize(q, SP, budget=np.int64(4), seed=1); assert r.evaluations==4", None)
 probe("C", "budget=10**30", "varbo.minimize(q, SP, budget=10**30)", ("ValueError", "OverflowError"), ("budget",))
 probe("C", "seed=-1", "varbo.minimize(q, SP, budget=3, seed=-1)", ("ValueError",), ("seed",))
@@ -224,6 +225,20 @@ probe("E", "del Study while a thread uses it",
       "s=mk('g.db', 'task: {type: branin}\\nbudget: 200\\nseed: 1\\nalgorithm: {type: random}\\n')\n"
       "def w(st):\n  for _ in range(50):\n    for t in st.ask(): st.tell(t, 1.0)\n"
       "th=threading.Thread(target=w, args=(s,)); th.start(); del s; import gc; gc.collect(); th.join()", None)
+
+probe("E", "sys.exit inside fun -> SystemExit, study consistent",
+      "o=os.path.join(T,'se')\ntry:\n  varbo.minimize(lambda p: sys.exit(3), SP, budget=4, seed=1, output=o)\nexcept SystemExit as e: assert e.code==3\n"
+      "else: raise AssertionError('no SystemExit')\nst=[t.state for t in varbo.Study.open(o+'/study.db').trials(as_frame=False)]; assert 'pending' not in st, st", None)
+probe("E", "callback raises KeyboardInterrupt", "varbo.minimize(q, SP, budget=4, seed=1, callback=lambda t: (_ for _ in ()).throw(KeyboardInterrupt()))", ("KeyboardInterrupt",), ())
+probe("E", "Ctrl-C latency during slow bo asks (N=150, 6-D)",
+      "s=mk('l.db','task: {type: hartmann6}\\nbudget: 400\\nseed: 1\\n'); [s.tell(t, float(i)) for i,t in enumerate(s.ask(150))]\n"
+      "t0=time.time(); s.tell(s.ask()[0], 1.0); one=time.time()-t0\n"
+      "threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT)).start(); t=time.time()\n"
+      "try:\n  while True:\n    for tr in s.ask(): s.tell(tr, 1.0)\nexcept KeyboardInterrupt: pass\n"
+      "lat=time.time()-t-0.2; print('one ask+tell', one, 'latency', lat); assert lat < max(3.0, 2*one), (one, lat)\n"
+      "assert 'pending' not in [x.state for x in s.trials(as_frame=False)][:-1]", None)
+probe("C", "progress='yes'", "varbo.minimize(q, SP, budget=2, seed=1, progress='yes')", ("TypeError",), ("minimize: progress",))
+probe("C", "resume=1 (an int flag)", "o=os.path.join(T,'r1'); varbo.minimize(q, SP, budget=2, seed=1, output=o); r=varbo.minimize(q, SP, budget=3, seed=1, output=o, resume=1); assert r.evaluations==3", None)
 
 # ---- F. objects: pickling, copying, lifecycle ----
 probe("F", "pickle Study", "pickle.dumps(mk())", ("TypeError",), ("Study",))

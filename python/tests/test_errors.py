@@ -245,3 +245,11 @@ def test_redteam_trial_by_another_path_of_the_same_file(tmp_path, monkeypatch):
     t = a.ask()[0]
     varbo.Study.open(str(tmp_path / "rel.db")).tell(t, 1.0)  # the same file by its absolute path
     assert a.best().cost == 1.0
+
+
+def test_redteam_minimize_flags_and_budget_zero():
+    with pytest.raises(TypeError, match="minimize: progress"):  # was "incompatible function arguments"
+        varbo.minimize(_rt_quad, _RT_SPACE, budget=2, progress="yes")
+    for b in (0, -1):  # were a silent empty result (fun None, no trial)
+        with pytest.raises(varbo.InputError, match="minimize: budget"):
+            varbo.minimize(_rt_quad, _RT_SPACE, budget=b)

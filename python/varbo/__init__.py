@@ -345,11 +345,14 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
         raise TypeError("minimize: fun must be callable")
     if callback is not None and not callable(callback):
         raise TypeError("minimize: callback must be callable or None")
-    budget = _checks.optional_integer(budget, "minimize: budget", 0)
+    budget = _checks.optional_integer(budget, "minimize: budget", 1)  # as the config's budget: [1, inf]
     seed = _checks.optional_integer(seed, "minimize: seed", 0, _checks.UINT64_MAX)
     threads = _checks.optional_integer(threads, "minimize: threads", 0, 2 ** 31 - 1)
     if output is not None:
         output = _checks.path(output, "minimize: output")
+    resume = _checks.flag(resume, "minimize: resume")
+    overwrite = _checks.flag(overwrite, "minimize: overwrite")
+    progress = _checks.flag(progress, "minimize: progress")
     if isinstance(config_or_space, np.ndarray):  # [[low, high], ...] as an array
         config_or_space = [tuple(r) for r in config_or_space.tolist()] if config_or_space.ndim == 2 else config_or_space
     if isinstance(space, np.ndarray):

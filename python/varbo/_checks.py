@@ -74,3 +74,10 @@ def path(v: Any, what: str) -> str:
     if not p:
         raise _input_error(f"{what}: the path is empty")
     return p
+
+
+def flag(v: Any, what: str) -> bool:
+    """A yes/no argument: bool, NumPy bool or an int (0/1); not a str ("no" would be true)."""
+    if isinstance(v, (bool, np.bool_, numbers.Integral, np.integer)):
+        return bool(v)
+    raise TypeError(f"{what}: expected True or False, got {v!r:.60} (type {_type_name(v)})")
