@@ -246,7 +246,11 @@ probe("F", "deepcopy Study", "copy.deepcopy(mk())", ("TypeError",), ("Study",))
 probe("F", "copy.copy Study", "s=mk(); c=copy.copy(s); c.tell(s.ask()[0], 1.0); assert s.best() is not None", None)
 probe("F", "pickle Model", XY + "pickle.dumps(varbo.fit('gp', X, y, optimize=False))", ("TypeError",), ("Model",))
 probe("F", "pickle Trial / OptimizeResult", "s=mk(); t=s.ask()[0]; pickle.loads(pickle.dumps(t))\nr=varbo.minimize(q, RND, **MIN); pickle.loads(pickle.dumps(r))", None)
-probe("F", "Study after file deleted", "s=mk(); s.tell(s.ask()[0], 1.0); os.remove(s.location); s.tell(s.ask()[0], 2.0)", ("InputError", "Error", None), ())
+probe("F", "Study after file deleted", "s=mk(); t=s.ask(2); s.tell(t[0], 1.0); os.remove(s.location); s.tell(t[1], 2.0)", ("InputError",), ("deleted",))
+probe("F", "Study after file replaced", "s=mk(); t=s.ask(2); s.tell(t[0], 1.0); p=s.location; os.rename(p, p+'.old'); open(p, 'w').write('x')\ntry: s.tell(t[1], 2.0)\nfinally: assert open(p).read()=='x'", ("InputError",), ("replaced",))
+probe("F", "create where an open study's file was moved away (its -wal left)",
+      "s=mk(); t=s.ask(2); s.tell(t[0], 1.0); p=s.location; os.rename(p, p+'.old')\n"
+      "try:\n  n=mk(); st=[x.state for x in n.trials(as_frame=False)]; assert st==[], st\nexcept varbo.InputError as e: assert '-wal' in str(e), e", None)
 probe("F", "_Study() direct construction", "varbo._varbo._Study()", ("TypeError",), ())
 probe("F", "Study(None)", "varbo.Study(None).ask()", ("TypeError",), ("Study",))
 

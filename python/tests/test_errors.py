@@ -253,3 +253,20 @@ def test_redteam_minimize_flags_and_budget_zero():
     for b in (0, -1):  # were a silent empty result (fun None, no trial)
         with pytest.raises(varbo.InputError, match="minimize: budget"):
             varbo.minimize(_rt_quad, _RT_SPACE, budget=b)
+
+
+def test_redteam_study_file_deleted_or_replaced(tmp_path):
+    # SQLite wrote on through its open descriptor: results told after `rm` were lost without a word.
+    s = varbo.Study.create(tmp_path / "s.db", _RT_CFG)
+    t = s.ask(2)
+    s.tell(t[0], 1.0)
+    os.rename(tmp_path / "s.db", tmp_path / "old.db")
+    with pytest.raises(varbo.InputError, match="s.db-wal"):  # a new study here would take in the open one's WAL
+        varbo.Study.create(tmp_path / "s.db", _RT_CFG)
+    (tmp_path / "s.db").write_text("another file")
+    with pytest.raises(varbo.InputError, match="replaced"):
+        s.tell(t[1], 2.0)
+    assert (tmp_path / "s.db").read_text() == "another file"
+    os.remove(tmp_path / "s.db")
+    with pytest.raises(varbo.InputError, match="deleted"):
+        s.ask()

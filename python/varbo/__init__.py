@@ -123,6 +123,30 @@ class Study:
             raise TypeError("varbo.Study is made by Study.create(path, config) or Study.open(path), not Study(...)")
         self._impl = impl
         self._location = impl.location
+        # The file this object writes to (None: a URL). SQLite keeps writing to a deleted or replaced file through
+        # its open descriptor, so results told after `rm study.db` would vanish silently (red-team pass py11):
+        # every writing call first checks that the path still names that file (one stat, ~µs).
+        self._file: Optional[tuple] = None
+        if "://" not in self._location:
+            try:
+                st = os.stat(self._location)
+                self._file = (os.path.abspath(self._location), st.st_dev, st.st_ino)
+            except OSError:
+                pass
+
+    def _check_file(self) -> None:
+        if self._file is None:
+            return
+        path, dev, ino = self._file
+        try:
+            st = os.stat(path)
+            if (st.st_dev, st.st_ino) == (dev, ino):
+                return
+            what = "replaced by another file"
+        except OSError:
+            what = "deleted or moved"
+        raise InputError(f"{path}: the study file was {what} after this Study opened it; nothing written (results "
+                         "told now would be lost): open the study again with varbo.Study.open")
 
     def _trial(self, d: Dict[str, Any]) -> Trial:
         t = trial_from(d)
@@ -143,6 +167,15 @@ class Study:
         file ``varbo run`` takes: task, algorithm, budget, seed, ...). An existing file is an InputError; a bad
         configuration a ConfigError naming file:line:col and the key."""
         location = _checks.path(path_or_url, "Study.create: path_or_url")
+        if "://" not in location:
+            # SQLite would take a leftover -wal/-shm (of a study file deleted or moved while open) as the new
+            # file's own: the new study would show the old trials and be overwritten by them at the next
+            # checkpoint (red-team pass py11).
+            stale = [location + sfx for sfx in ("-wal", "-shm", "-journal") if os.path.exists(location + sfx)]
+            if stale and not os.path.exists(location):
+                raise InputError(f"{location}: {', '.join(stale)} left by an earlier study file of this name (still "
+                                 "open somewhere, or not closed cleanly) would be taken into the new one; close "
+                                 "that study or remove them first")
         if is_path(config):
             return cls(_varbo._Study.create_from_file(location, os.fspath(config)))
         text, name = to_yaml(config)
@@ -155,18 +188,24 @@ class Study:
 
     def ask(self, n: int = 1) -> List[Trial]:
         """Up to ``n`` new pending trials (fewer, possibly none, once the budget is spent)."""
-        return [self._trial(d) for d in self._impl.ask(_checks.integer(n, "ask: n", 1))]
+        n = _checks.integer(n, "ask: n", 1)
+        self._check_file()
+        return [self._trial(d) for d in self._impl.ask(n)]
 
     def tell(self, trial_or_id: Union[Trial, int], cost: Union[float, Mapping[str, Any]],
              components: Optional[Mapping[str, float]] = None) -> None:
         """Records the result of a pending trial: a finite cost (or ``{"cost": c, "components": {...}}``).
         A NaN or infinite cost is an InputError: report a trial that could not be measured with ``fail``."""
         c, comps = _cost_and_components(cost, components)
-        self._impl.tell(_trial_id(trial_or_id, self), c, comps)
+        i = _trial_id(trial_or_id, self)
+        self._check_file()
+        self._impl.tell(i, c, comps)
 
     def fail(self, trial_or_id: Union[Trial, int], reason: str = "failed") -> None:
         """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
-        self._impl.fail(_trial_id(trial_or_id, self), str(reason))
+        i = _trial_id(trial_or_id, self)
+        self._check_file()
+        self._impl.fail(i, str(reason))
 
     def tell_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], cost: float,
                    components: Optional[Mapping[str, float]] = None) -> int:
@@ -177,6 +216,7 @@ class Study:
         θ as an array (a category by its index). An unknown, missing or inadmissible value is an InputError (a
         ValueError) naming the parameter, with nothing written."""
         c, comps = _checks.real(cost, "tell_point: cost"), _components(components)
+        self._check_file()
         if isinstance(x, Mapping):
             return self._impl.tell_params(dict(x), c, comps)
         return self._impl.tell_point(_checks.float_array(x, "tell_point: x"), c, comps)
@@ -225,7 +265,9 @@ class Study:
 
     def abandon(self, older_than: float = 0.0) -> List[int]:
         """Marks pending trials abandoned (all, or those older than ``older_than`` seconds); returns their ids."""
-        return list(self._impl.abandon(_checks.real(older_than, "abandon: older_than")))
+        older_than = _checks.real(older_than, "abandon: older_than")
+        self._check_file()
+        return list(self._impl.abandon(older_than))
 
     def heartbeat(self, state: str = "running") -> None:
         """A sign of life of this worker: once sent, a worker silent for longer than the study's heartbeat_timeout
