@@ -20,6 +20,8 @@ import numpy as np, varbo
 # A background shell starts children with SIGINT ignored; Python then keeps it ignored. Ctrl-C probes need it.
 signal.signal(signal.SIGINT, signal.default_int_handler)
 T = tempfile.mkdtemp(prefix="probe-")
+import atexit, shutil
+atexit.register(shutil.rmtree, T, True)
 CFG = "task: {type: branin}\nbudget: 8\nseed: 1\nalgorithm: {type: random}\n"
 def mk(name="s.db", cfg=CFG): return varbo.Study.create(os.path.join(T, name), cfg)
 def digest(p): return hashlib.sha256(open(p, "rb").read()).hexdigest()
