@@ -66,7 +66,13 @@ Evaluation failed(std::string why) {
 }
 
 double number(const py::handle& h) {
-  if (h.is_none()) return std::nan("");
+  // None and bool are not costs: a forgotten `return` or a `return ok` is a failed trial that says so (red-team
+  // pass py11), not a NaN with no reason or a silent cost of 0/1.
+  if (h.is_none())
+    throw InputError("the objective returned None (a missing return?); expected a number or a dict with 'cost'");
+  if (py::isinstance<py::bool_>(h) || py::isinstance(h, py::module_::import("numpy").attr("bool_")))
+    throw InputError(fmt::format("the objective returned {} (type bool); expected a number or a dict with 'cost'",
+                                 py::cast<std::string>(py::repr(h))));
   try {
     return py::cast<double>(h);
   } catch (const py::cast_error&) {

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cmath>
 #include <mutex>
 
 #include "common.hpp"
@@ -147,6 +148,8 @@ void bind_study(py::module_& m) {
       .def(
           "select",
           [](PyStudy& s, double kappa) -> py::object {
+            // A NaN κ reached the selection's arithmetic as a std::bad_alloc (red-team pass py11).
+            if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
             auto sel = s.locked([&](Study& st) { return st.select(kappa); });
             if (!sel) return py::none();
             py::dict d;

@@ -62,3 +62,211 @@ def test_set_log_level():
     varbo.set_log_level("warn")  # the default after import
     with pytest.raises(varbo.InputError):
         varbo.set_log_level("loud")
+
+
+# ---- Red-team pass (py11): hostile-but-realistic arguments (scripts/py_redteam_probes.py has every probe) --------
+# Each case failed before the pass: a pybind11 "incompatible function arguments" text, a silent int(2.5) or
+# float("1.5"), a message naming nothing, a std::bad_alloc, a leaked RecursionError, a wrong result kept.
+import copy
+import math
+import pickle
+
+import numpy as np
+
+_RT_CFG = "task: {type: branin}\nbudget: 8\nseed: 1\nalgorithm: {type: random}\n"
+_RT_SPACE = {"x": (-1.0, 1.0), "y": (0.0, 2.0)}
+_RT_RANDOM = {"algorithm": {"type": "random"}}
+
+
+def _rt_quad(p):
+    return (p["x"] - 0.3) ** 2 + (p["y"] - 1) ** 2
+
+
+@pytest.fixture
+def rt_study(tmp_path):
+    return varbo.Study.create(tmp_path / "s.db", _RT_CFG)
+
+
+def test_redteam_paths_and_configs(tmp_path):
+    for bad in (None, 123):
+        with pytest.raises(TypeError, match="path_or_url"):
+            varbo.Study.create(bad, _RT_CFG)
+        with pytest.raises(TypeError, match="path_or_url"):
+            varbo.Study.open(bad)
+    with pytest.raises(TypeError, match="config dict"):  # a tuple key: json's message, named
+        varbo.Study.create(tmp_path / "a.db", {"task": {"type": "branin"}, (1, 2): 2})
+    deep = {}
+    c = deep
+    for _ in range(5000):
+        c["a"] = {}
+        c = c["a"]
+    with pytest.raises(varbo.ConfigError, match="nested too deeply"):  # was a RecursionError
+        varbo.Study.create(tmp_path / "b.db", {"task": {"type": "branin"}, "x": deep})
+    assert not os.path.exists(tmp_path / "a.db") and not os.path.exists(tmp_path / "b.db")
+    with pytest.raises(TypeError, match="Study.create"):
+        varbo.Study(None)
+
+
+def test_redteam_ask_tell_types(rt_study):
+    s = rt_study
+    for bad in ("2", 2.5, True, None):
+        with pytest.raises(TypeError, match="ask: n"):
+            s.ask(bad)
+    with pytest.raises(varbo.InputError, match="ask: n"):  # was pybind11's "incompatible function arguments"
+        s.ask(10 ** 30)
+    assert len(s.ask(np.int64(2))) == 2
+    t = s.ask()[0]
+    for bad in (None, "1.5", 1 + 2j, np.array([1.0, 2.0]), {"cost": None}):
+        with pytest.raises(TypeError, match="cost"):
+            s.tell(t, bad)
+    with pytest.raises(varbo.InputError, match="cost"):  # was OverflowError
+        s.tell(t, 10 ** 400)
+    with pytest.raises(TypeError, match="components"):  # a list of pairs was taken as a dict
+        s.tell(t, 1.0, [("a", 1.0)])
+    with pytest.raises(varbo.InputError, match="unknown trial id"):  # was "incompatible function arguments"
+        s.tell(2 ** 70, 1.0)
+    with pytest.raises(TypeError, match="Trial"):
+        s.tell(True, 1.0)
+    assert all(tr.state == "pending" for tr in s.trials(as_frame=False))  # nothing written by a refusal
+    s.tell(t, np.array([1.5]))  # a one-element array is a number
+    assert s.best().cost == 1.5
+    with pytest.raises(varbo.InputError, match="tell_point: x"):  # was numpy's "could not convert string"
+        s.tell_point(np.array(["a", 1.0], dtype=object), 1.0)
+    with pytest.raises(TypeError, match="tell_point: cost"):
+        s.tell_point([1.0, 2.0], "1")
+    for bad in (float("nan"), math.inf):  # NaN was a std::bad_alloc (MemoryError) from the C++ selection
+        with pytest.raises(varbo.InputError, match="kappa"):
+            s.select(bad)
+    with pytest.raises(TypeError, match="kappa"):
+        s.select("a")
+    with pytest.raises(TypeError, match="older_than"):
+        s.abandon(None)
+    with pytest.raises(TypeError, match="state"):
+        s.heartbeat(None)
+
+
+def test_redteam_copy_and_pickle(rt_study):
+    s = rt_study
+    with pytest.raises(TypeError, match="Study.open"):
+        pickle.dumps(s)
+    with pytest.raises(TypeError, match="Study.open"):
+        copy.deepcopy(s)
+    c = copy.copy(s)  # the same connection
+    c.tell(s.ask()[0], 1.0)
+    assert s.best().cost == 1.0
+
+
+def test_redteam_minimize_arguments():
+    for kw, exc in [({"budget": "10"}, TypeError), ({"budget": 2.5}, TypeError), ({"budget": True}, TypeError),
+                    ({"budget": -1}, varbo.InputError), ({"budget": 10 ** 30}, varbo.InputError),
+                    ({"seed": -1}, varbo.InputError), ({"seed": 2 ** 64}, varbo.InputError),
+                    ({"seed": 1.5}, TypeError), ({"threads": -1}, varbo.InputError), ({"threads": "2"}, TypeError)]:
+        name = next(iter(kw))
+        with pytest.raises(exc, match=f"minimize: {name}"):
+            varbo.minimize(_rt_quad, _RT_SPACE, **kw)
+    with pytest.raises(varbo.ConfigError, match="space: x"):  # was "no search space"
+        varbo.minimize(_rt_quad, {"x": ("0", "1")}, budget=3)
+    with pytest.raises(varbo.ConfigError, match="space: x: the bounds must be finite"):
+        varbo.minimize(_rt_quad, {"x": (float("nan"), 1.0)}, budget=3)
+    with pytest.raises(varbo.ConfigError, match="space: empty"):
+        varbo.minimize(_rt_quad, space=[], budget=3)
+    r = varbo.minimize(lambda p: p["x1"] ** 2 + p["x2"] ** 2, np.array([[-1.0, 1.0], [-1.0, 1.0]]), budget=3, seed=1)
+    assert r.evaluations == 3  # a (d, 2) array of bounds is a space (was a TypeError about configs)
+    assert varbo.minimize(_rt_quad, _RT_SPACE, budget=np.int64(3), seed=np.uint64(2 ** 63)).evaluations == 3
+
+
+@pytest.mark.parametrize("ret,word", [(None, "None"), (True, "bool"), (np.bool_(False), "bool")])
+def test_redteam_objective_none_or_bool_is_a_failed_trial(ret, word):
+    r = varbo.minimize(lambda p: ret, _RT_RANDOM, space=_RT_SPACE, budget=3, seed=1)
+    assert r.failed == 3 and all(t.state == "failed" for t in r.trials)
+    assert word in r.trials[0].error and "expected a number" in r.trials[0].error
+
+
+def test_redteam_fit_arguments():
+    X = np.random.default_rng(0).uniform(size=(10, 2))
+    y = X.sum(1)
+    with pytest.raises(varbo.InputError, match="fit: seed"):  # was "incompatible function arguments"
+        varbo.fit("gp", X, y, seed=-1)
+    with pytest.raises(TypeError, match="fit: seed"):  # was int(1.5) == 1
+        varbo.fit("gp", X, y, seed=1.5)
+    with pytest.raises(varbo.InputError, match="fit: threads"):
+        varbo.fit("gp", X, y, threads=-1)
+    Xo = X.astype(object)
+    Xo[0, 0] = "a"
+    with pytest.raises(varbo.InputError, match="fit: X"):
+        varbo.fit("gp", Xo, y)
+    m = varbo.fit("gp", X, y, optimize=False)
+    with pytest.raises(TypeError, match="predict: X"):
+        m.predict("abc")
+
+
+def test_redteam_optuna_sampler_arguments():
+    vo = pytest.importorskip("varbo.optuna")
+    with pytest.raises(TypeError, match="VarboSampler: seed"):
+        vo.VarboSampler(seed="a")
+    with pytest.raises(varbo.InputError, match="VarboSampler: seed"):  # was numpy's "Seed must be between"
+        vo.VarboSampler(seed=-1)
+    with pytest.raises(varbo.InputError, match="VarboSampler: threads"):
+        vo.VarboSampler(seed=1, threads=-1)
+
+
+def test_redteam_module_functions_name_their_argument(tmp_path):
+    # were pybind11's "incompatible function arguments" listings
+    with pytest.raises(TypeError, match="set_log_level: level"):
+        varbo.set_log_level(None)
+    with pytest.raises(TypeError, match="describe: name"):
+        varbo.describe(None)
+    with pytest.raises(TypeError, match="plugins: kind"):
+        varbo.plugins(123)
+    with pytest.raises(TypeError, match="load_plugin: path"):
+        varbo.load_plugin(None)
+    assert varbo.describe("ei")["kind"] == "acquisition" and varbo.plugins("surrogate")
+
+
+def test_redteam_trial_of_another_study_is_refused(tmp_path):
+    # Both studies have a trial 0: telling a's trial to b recorded the result on b's trial 0, silently.
+    a = varbo.Study.create(tmp_path / "a.db", _RT_CFG)
+    b = varbo.Study.create(tmp_path / "b.db", _RT_CFG)
+    ta, tb = a.ask()[0], b.ask()[0]
+    with pytest.raises(varbo.InputError, match="a.db"):
+        b.tell(ta, 1.0)
+    with pytest.raises(varbo.InputError, match="a.db"):
+        b.fail(ta, "x")
+    assert b.trials(as_frame=False)[0].state == "pending"
+    b.tell(tb.id, 1.0)  # an id is taken as this study's
+    a2 = varbo.Study.open(tmp_path / "a.db")  # the same store through another object: fine
+    a2.tell(ta, 2.0)
+    assert a.best().cost == 2.0
+
+
+def test_redteam_trial_by_another_path_of_the_same_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    a = varbo.Study.create("rel.db", _RT_CFG)
+    t = a.ask()[0]
+    varbo.Study.open(str(tmp_path / "rel.db")).tell(t, 1.0)  # the same file by its absolute path
+    assert a.best().cost == 1.0
+
+
+def test_redteam_minimize_flags_and_budget_zero():
+    with pytest.raises(TypeError, match="minimize: progress"):  # was "incompatible function arguments"
+        varbo.minimize(_rt_quad, _RT_SPACE, budget=2, progress="yes")
+    for b in (0, -1):  # were a silent empty result (fun None, no trial)
+        with pytest.raises(varbo.InputError, match="minimize: budget"):
+            varbo.minimize(_rt_quad, _RT_SPACE, budget=b)
+
+
+def test_redteam_study_file_deleted_or_replaced(tmp_path):
+    # SQLite wrote on through its open descriptor: results told after `rm` were lost without a word.
+    s = varbo.Study.create(tmp_path / "s.db", _RT_CFG)
+    t = s.ask(2)
+    s.tell(t[0], 1.0)
+    os.rename(tmp_path / "s.db", tmp_path / "old.db")
+    with pytest.raises(varbo.InputError, match="s.db-wal"):  # a new study here would take in the open one's WAL
+        varbo.Study.create(tmp_path / "s.db", _RT_CFG)
+    (tmp_path / "s.db").write_text("another file")
+    with pytest.raises(varbo.InputError, match="replaced"):
+        s.tell(t[1], 2.0)
+    assert (tmp_path / "s.db").read_text() == "another file"
+    os.remove(tmp_path / "s.db")
+    with pytest.raises(varbo.InputError, match="deleted"):
+        s.ask()

@@ -18,10 +18,39 @@ from typing import Any, Callable, Dict, Iterable, List, Mapping, Optional, Seque
 import numpy as np
 
 from . import _varbo
+from . import _checks
 from ._config import has_parameters, has_task, is_path, to_yaml
 from ._types import OptimizeResult, Prediction, Selection, Trial, trial_from
 from ._varbo import (ConfigError, Error, InputError, NumericalError, PluginLoadError, UnknownComponentError,
-                     describe, load_plugin, plugins, set_log_level, skipped_plugins)
+                     skipped_plugins)
+
+
+def _str_arg(v: Any, what: str, optional: bool = False) -> Any:
+    if (optional and v is None) or isinstance(v, str):
+        return v
+    raise TypeError(f"{what}: expected a str{' or None' if optional else ''}, got {v!r:.60} (type {type(v).__name__})")
+
+
+def plugins(kind: Optional[str] = None) -> List[Dict[str, Any]]:
+    """The loaded components (dicts: name, full_name, kind, plugin, library, builtin, description, provides, needs),
+    all or those of one kind ("task", "algorithm", "surrogate", ...)."""
+    return _varbo.plugins(_str_arg(kind, "plugins: kind", optional=True))
+
+
+def describe(name: str) -> Dict[str, Any]:
+    """A component's description with its options; ``describe("study")`` the study file's top-level keys."""
+    return _varbo.describe(_str_arg(name, "describe: name"))
+
+
+def load_plugin(path: Union[str, "os.PathLike[str]"]) -> None:
+    """Loads a third-party ``libvarbo_NAME.so`` into the process (and appends it to ``VARBO_PLUGIN_PATH``)."""
+    _varbo.load_plugin(_checks.path(path, "load_plugin: path"))
+
+
+def set_log_level(level: str) -> None:
+    """debug, info, warn, error or quiet (the engine's messages on stderr)."""
+    _varbo.set_log_level(_str_arg(level, "set_log_level: level"))
+
 
 __version__ = _varbo.__version__
 # Quiet by default, as Python's logging is: warnings and errors on stderr; a run folder's log.txt still gets every
@@ -36,20 +65,48 @@ __all__ = [
 Config = Union[Mapping[str, Any], str, "os.PathLike[str]"]
 
 
-def _trial_id(trial_or_id: Union[Trial, int]) -> int:
+def _same_store(a: str, b: str) -> bool:
+    """Two locations of one store: equal, or one file by two paths (relative/absolute, a symlink)."""
+    if a == b:
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # a URL, or a file deleted meanwhile
+        return False
+
+
+def _trial_id(trial_or_id: Union[Trial, int], study: Optional["Study"] = None) -> int:
     if isinstance(trial_or_id, Trial):
+        # A Trial asked from another study has an id this study may hold too: telling it here would record the
+        # result on the wrong trial, silently (red-team pass py11). Trials remember the store they came from.
+        origin = getattr(trial_or_id, "_store", None)
+        if study is not None and origin is not None and not _same_store(origin, study._location):
+            raise InputError(f"trial {trial_or_id.id} belongs to the study {origin}, not to {study._location}; "
+                             "tell each study its own trials")
         return trial_or_id.id
-    if isinstance(trial_or_id, (int, np.integer)) and not isinstance(trial_or_id, bool):
-        return int(trial_or_id)
+    if isinstance(trial_or_id, (int, np.integer)) and not isinstance(trial_or_id, (bool, np.bool_)):
+        i = int(trial_or_id)
+        if not -2 ** 63 <= i < 2 ** 63:  # no trial has it (the C++ id is int64)
+            raise InputError(f"unknown trial id {i}: no trial of this study has it")
+        return i
     raise TypeError(f"expected a Trial or a trial id (int), got {type(trial_or_id).__name__}")
+
+
+def _components(components: Any) -> Optional[Dict[str, Any]]:
+    if components is None:
+        return None
+    if not isinstance(components, Mapping):
+        raise TypeError(f"components: expected a dict {{name: number}}, got {type(components).__name__}")
+    return dict(components)
 
 
 def _cost_and_components(cost: Any, components: Optional[Mapping[str, float]]):
     if isinstance(cost, Mapping):
         if "cost" not in cost:
             raise InputError("a result dict needs 'cost' (and optionally 'components')")
-        return float(cost["cost"]), dict(cost.get("components") or {}) if components is None else dict(components)
-    return float(cost), None if components is None else dict(components)
+        comps = cost.get("components") if components is None else components
+        return _checks.real(cost["cost"], "cost"), _components(comps)
+    return _checks.real(cost, "cost"), _components(components)
 
 
 class Study:
@@ -62,14 +119,63 @@ class Study:
     """
 
     def __init__(self, impl: "_varbo._Study") -> None:
+        if not isinstance(impl, _varbo._Study):
+            raise TypeError("varbo.Study is made by Study.create(path, config) or Study.open(path), not Study(...)")
         self._impl = impl
+        self._location = impl.location
+        # The file this object writes to (None: a URL). SQLite keeps writing to a deleted or replaced file through
+        # its open descriptor, so results told after `rm study.db` would vanish silently (red-team pass py11):
+        # every writing call first checks that the path still names that file (one stat, ~µs).
+        self._file: Optional[tuple] = None
+        if "://" not in self._location:
+            try:
+                st = os.stat(self._location)
+                self._file = (os.path.abspath(self._location), st.st_dev, st.st_ino)
+            except OSError:
+                pass
+
+    def _check_file(self) -> None:
+        if self._file is None:
+            return
+        path, dev, ino = self._file
+        try:
+            st = os.stat(path)
+            if (st.st_dev, st.st_ino) == (dev, ino):
+                return
+            what = "replaced by another file"
+        except OSError:
+            what = "deleted or moved"
+        raise InputError(f"{path}: the study file was {what} after this Study opened it; nothing written (results "
+                         "told now would be lost): open the study again with varbo.Study.open")
+
+    def _trial(self, d: Dict[str, Any]) -> Trial:
+        t = trial_from(d)
+        t._store = self._location  # not a dataclass field: equality and repr stay as they were
+        return t
+
+    def __copy__(self) -> "Study":
+        return Study(self._impl)  # the same connection (calls stay serialized)
+
+    def __reduce__(self):
+        # A Study is a live connection to its store (and the algorithm's state): reopen it by its location.
+        raise TypeError(f"cannot pickle or deepcopy a varbo.Study; pickle its location and reopen it with "
+                        f"varbo.Study.open({self.location!r})")
 
     @classmethod
     def create(cls, path_or_url: Union[str, "os.PathLike[str]"], config: Config) -> "Study":
         """Creates a new study at ``path_or_url`` from a study configuration (a dict, YAML text or a YAML file: the
         file ``varbo run`` takes: task, algorithm, budget, seed, ...). An existing file is an InputError; a bad
         configuration a ConfigError naming file:line:col and the key."""
-        location = os.fspath(path_or_url)
+        location = _checks.path(path_or_url, "Study.create: path_or_url")
+        if "://" not in location:
+            # SQLite would take a leftover -wal/-shm (of a study file deleted or moved while open) as the new
+            # file's own: the new study would show the old trials and be overwritten by them at the next
+            # checkpoint (red-team pass py11).
+            stale = [location + sfx for sfx in ("-wal", "-shm", "-journal") if os.path.exists(location + sfx)]
+            if stale and not os.path.exists(location):
+                raise InputError(f"{location}: {', '.join(stale)} left by an earlier study file of this name (still "
+                                 "open somewhere, or not closed cleanly) would be taken into the new one; close "
+                                 "that study or remove them first")
         if is_path(config):
             return cls(_varbo._Study.create_from_file(location, os.fspath(config)))
         text, name = to_yaml(config)
@@ -78,22 +184,28 @@ class Study:
     @classmethod
     def open(cls, path_or_url: Union[str, "os.PathLike[str]"]) -> "Study":
         """Opens an existing study (the algorithm is restored from its saved state)."""
-        return cls(_varbo._Study.open(os.fspath(path_or_url)))
+        return cls(_varbo._Study.open(_checks.path(path_or_url, "Study.open: path_or_url")))
 
     def ask(self, n: int = 1) -> List[Trial]:
         """Up to ``n`` new pending trials (fewer, possibly none, once the budget is spent)."""
-        return [trial_from(d) for d in self._impl.ask(int(n))]
+        n = _checks.integer(n, "ask: n", 1)
+        self._check_file()
+        return [self._trial(d) for d in self._impl.ask(n)]
 
     def tell(self, trial_or_id: Union[Trial, int], cost: Union[float, Mapping[str, Any]],
              components: Optional[Mapping[str, float]] = None) -> None:
         """Records the result of a pending trial: a finite cost (or ``{"cost": c, "components": {...}}``).
         A NaN or infinite cost is an InputError: report a trial that could not be measured with ``fail``."""
         c, comps = _cost_and_components(cost, components)
-        self._impl.tell(_trial_id(trial_or_id), c, comps)
+        i = _trial_id(trial_or_id, self)
+        self._check_file()
+        self._impl.tell(i, c, comps)
 
     def fail(self, trial_or_id: Union[Trial, int], reason: str = "failed") -> None:
         """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
-        self._impl.fail(_trial_id(trial_or_id), str(reason))
+        i = _trial_id(trial_or_id, self)
+        self._check_file()
+        self._impl.fail(i, str(reason))
 
     def tell_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], cost: float,
                    components: Optional[Mapping[str, float]] = None) -> int:
@@ -103,19 +215,21 @@ class Study:
         ones; a fixed parameter may be left out — parsed exactly as ``varbo observe new --param name=value``; or
         θ as an array (a category by its index). An unknown, missing or inadmissible value is an InputError (a
         ValueError) naming the parameter, with nothing written."""
+        c, comps = _checks.real(cost, "tell_point: cost"), _components(components)
+        self._check_file()
         if isinstance(x, Mapping):
-            return self._impl.tell_params(dict(x), float(cost), components)
-        return self._impl.tell_point(np.asarray(x, dtype=float), float(cost), components)
+            return self._impl.tell_params(dict(x), c, comps)
+        return self._impl.tell_point(_checks.float_array(x, "tell_point: x"), c, comps)
 
     def best(self) -> Optional[Trial]:
         """The complete trial with the lowest observed cost (None before the first result)."""
         d = self._impl.best()
-        return None if d is None else trial_from(d)
+        return None if d is None else self._trial(d)
 
     def trials(self, as_frame: Optional[bool] = None):
         """Every trial by id: a ``pandas.DataFrame`` when pandas is importable (columns ``params_<name>`` and
         ``components_<name>``, as Optuna's ``trials_dataframe``), else a list of Trial. ``as_frame`` forces either."""
-        records = [trial_from(d) for d in self._impl.trials()]
+        records = [self._trial(d) for d in self._impl.trials()]
         if as_frame is False:
             return records
         try:
@@ -139,25 +253,33 @@ class Study:
         E[y] + κ·sqrt(V[y]) under the study's surrogate refitted on every result; κ > 0 is risk-averse. One
         Selection for a number, a list for a sequence of κ; None when nothing is complete."""
         if isinstance(kappas, (int, float, np.floating, np.integer)):
-            d = self._impl.select(float(kappas))
+            d = self._impl.select(_checks.real(kappas, "select: kappa", finite=True))
             return None if d is None else Selection(**d)
+        if isinstance(kappas, (str, bytes)) or not isinstance(kappas, Iterable):
+            raise TypeError(f"select: kappa: expected a number or a sequence of numbers, got {type(kappas).__name__}")
         out = []
         for k in kappas:
-            d = self._impl.select(float(k))
+            d = self._impl.select(_checks.real(k, "select: kappa", finite=True))
             out.append(None if d is None else Selection(**d))
         return out
 
     def abandon(self, older_than: float = 0.0) -> List[int]:
         """Marks pending trials abandoned (all, or those older than ``older_than`` seconds); returns their ids."""
-        return list(self._impl.abandon(float(older_than)))
+        older_than = _checks.real(older_than, "abandon: older_than")
+        self._check_file()
+        return list(self._impl.abandon(older_than))
 
     def heartbeat(self, state: str = "running") -> None:
         """A sign of life of this worker: once sent, a worker silent for longer than the study's heartbeat_timeout
         has its pending trials abandoned by the next ask of any process."""
+        if not isinstance(state, str):
+            raise TypeError(f"heartbeat: state: expected a str, got {type(state).__name__}")
         self._impl.heartbeat(state)
 
     def set_worker(self, name: str) -> None:
         """Name recorded as the worker of the trials this object asks for (default "host:pid")."""
+        if not isinstance(name, str):
+            raise TypeError(f"set_worker: name: expected a str, got {type(name).__name__}")
         self._impl.set_worker(name)
 
     @property
@@ -215,9 +337,11 @@ def _space_task(space: Any) -> Dict[str, Any]:
         bounds = [tuple(b) if isinstance(b, (list, tuple, np.ndarray)) else b for b in space]
         names = None
     for i, b in enumerate(bounds):
+        where = names[i] if names else f"entry {i}"
         if not _is_bounds(b):
-            where = names[i] if names else f"entry {i}"
             raise ConfigError(f"space: {where}: expected (low, high), got {b!r}")
+        if not (math.isfinite(float(b[0])) and math.isfinite(float(b[1]))):
+            raise ConfigError(f"space: {where}: the bounds must be finite, got {b!r}")
     task = {"type": "python", "lower": [float(b[0]) for b in bounds], "upper": [float(b[1]) for b in bounds]}
     if names:
         task["names"] = names
@@ -263,6 +387,28 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
         raise TypeError("minimize: fun must be callable")
     if callback is not None and not callable(callback):
         raise TypeError("minimize: callback must be callable or None")
+    budget = _checks.optional_integer(budget, "minimize: budget", 1)  # as the config's budget: [1, inf]
+    seed = _checks.optional_integer(seed, "minimize: seed", 0, _checks.UINT64_MAX)
+    threads = _checks.optional_integer(threads, "minimize: threads", 0, 2 ** 31 - 1)
+    if output is not None:
+        output = _checks.path(output, "minimize: output")
+    resume = _checks.flag(resume, "minimize: resume")
+    overwrite = _checks.flag(overwrite, "minimize: overwrite")
+    progress = _checks.flag(progress, "minimize: progress")
+    if isinstance(config_or_space, np.ndarray):  # [[low, high], ...] as an array
+        config_or_space = [tuple(r) for r in config_or_space.tolist()] if config_or_space.ndim == 2 else config_or_space
+    if isinstance(space, np.ndarray):
+        space = [tuple(r) for r in space.tolist()] if space.ndim == 2 else space
+    if (config_or_space is not None and space is None and isinstance(config_or_space, Mapping) and config_or_space
+            and not ({"task", "parameters"} & set(config_or_space))
+            and all(isinstance(v, (list, tuple)) and len(v) == 2 for v in config_or_space.values())):
+        space, config_or_space = config_or_space, None  # {name: (low, high)} with a bad bound: _space_task says which
+    if space is not None and not _is_typed_space(space):
+        if isinstance(space, (str, bytes)) or not isinstance(space, (Mapping, list, tuple)):
+            raise TypeError(f"minimize: space: expected {{name: (low, high)}}, [(low, high), ...] or parameter "
+                            f"declarations, got {type(space).__name__}")
+        if len(space) == 0:
+            raise ConfigError("minimize: space: empty; give at least one (low, high)")
     if config_or_space is not None and space is None and _looks_like_space(config_or_space):
         space, config_or_space = config_or_space, None
     if config_or_space is None:
@@ -349,7 +495,7 @@ class Model:
 
     def predict(self, X: Any, gradients: bool = False) -> Prediction:
         """The predictive distribution at each row of X (n × d; a 1-D X is one point)."""
-        X = np.asarray(X, dtype=float)
+        X = _checks.float_array(X, "predict: X")
         if X.ndim == 1:
             X = X.reshape(1, -1) if X.size == self.dim else X.reshape(-1, 1)
         return Prediction(**self._impl.predict(X, bool(gradients)))
@@ -365,8 +511,10 @@ def fit(surrogate_config: Config, X: Any, y: Any, *, seed: int = 1, optimize: bo
     the same seed gives the same numbers. ``optimize=False`` only conditions on the hyperparameters the config gives
     (``varbo fit --no-optimize``). The GIL is released during the fit."""
     text, name = to_yaml(surrogate_config, "surrogate")
-    X = np.asarray(X, dtype=float)
+    seed = _checks.integer(seed, "fit: seed", 0, _checks.UINT64_MAX)
+    threads = _checks.integer(threads, "fit: threads", 0, 2 ** 31 - 1)
+    X = _checks.float_array(X, "fit: X")
     if X.ndim == 1:
         X = X.reshape(-1, 1)
-    return Model(_varbo._fit(text, name, X, np.asarray(y, dtype=float).ravel(), int(seed), bool(optimize),
-                             int(threads)))
+    return Model(_varbo._fit(text, name, X, _checks.float_array(y, "fit: y").ravel(), seed, bool(optimize),
+                             threads))

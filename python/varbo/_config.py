@@ -42,7 +42,13 @@ def to_yaml(config: Any, what: str = "config") -> Tuple[str, str]:
             from . import InputError
             raise InputError(f"{path}: cannot read the {what}: {e.strerror}") from None
     if isinstance(config, dict):
-        return json.dumps(config, indent=2, default=_plain), f"<{what} dict>"
+        try:
+            return json.dumps(config, indent=2, default=_plain), f"<{what} dict>"
+        except RecursionError:
+            from . import ConfigError
+            raise ConfigError(f"<{what} dict>: nested too deeply to be a varbo configuration") from None
+        except TypeError as e:  # a key that is not a str/int/float/bool/None, a value of an unknown type
+            raise TypeError(f"<{what} dict>: {e}") from None
     if isinstance(config, str):
         return config, f"<{what} string>"
     raise TypeError(f"{what}: expected a dict, a YAML string or a path, got {type(config).__name__}")

@@ -31,7 +31,7 @@ from optuna.samplers import BaseSampler, RandomSampler
 from optuna.study import StudyDirection
 from optuna.trial import FrozenTrial, TrialState
 
-from . import _varbo
+from . import _checks, _varbo
 from ._config import to_yaml
 
 try:  # Optuna >= 3.2 moved it
@@ -136,10 +136,12 @@ class VarboSampler(BaseSampler):
                  independent_sampler: Optional[BaseSampler] = None, budget: int = 0, threads: int = 0,
                  warn_independent_sampling: bool = True) -> None:
         self._yaml, self._yaml_name = to_yaml(algorithm if algorithm is not None else {"type": "bo"}, "algorithm")
-        self._seed = int(seed) if seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
+        # Optuna's RandomSampler (the default independent sampler) takes seeds in [0, 2^32 - 1].
+        self._seed = (_checks.integer(seed, "VarboSampler: seed", 0, 2 ** 32 - 1) if seed is not None
+                      else int(np.random.SeedSequence().generate_state(1)[0]))
         self._independent = independent_sampler or RandomSampler(seed=self._seed)
-        self._budget = int(budget)
-        self._threads = int(threads)
+        self._budget = _checks.integer(budget, "VarboSampler: budget", 0)
+        self._threads = _checks.integer(threads, "VarboSampler: threads", 0, 2 ** 31 - 1)
         self._warn = warn_independent_sampling
         self._search_space = IntersectionSearchSpace()
         # The live algorithm and the trial numbers told to it, in order: a later call that only adds results

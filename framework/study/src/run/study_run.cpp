@@ -121,6 +121,8 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
     if (!ov.overwrite) refuse_to_replace(study.output, store_path);
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
+  } else if (!ov.resume && ov.overwrite) {
+    remove_store_files(store_path);  // no study file, but maybe its leftover -wal, which creating would refuse
   }
   Study st = Study::attach(store_path, study, registry);
   st.set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());

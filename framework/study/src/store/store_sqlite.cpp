@@ -526,6 +526,16 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
     throw InputError(fmt::format("{}: a file with this name exists already; choose another study file or continue "
                                  "it with `varbo suggest`/`varbo run --resume`",
                                  path));
+  // SQLite replays a hot journal or WAL that carries the new file's name into it: a -wal left by an earlier
+  // study of this name (moved away while open, or a crash) made its tables and trials appear in the new one.
+  for (const char* suffix : {"-wal", "-journal"}) {
+    std::error_code ec;
+    if (fs::exists(path + suffix, ec))
+      throw InputError(fmt::format("{0}{1}: a leftover SQLite {2} of an earlier file named {0} exists; SQLite would "
+                                   "replay it into the new study. Move it away (with its study file, if you still "
+                                   "have that) or choose another name",
+                                   path, suffix, suffix + 1));
+  }
   const std::string tmp = fmt::format("{}.creating-{}", path, static_cast<long>(getpid()));
   auto cleanup = [&] {
     std::error_code ec;

@@ -1,0 +1,83 @@
+"""Argument checks of the Python layer (red-team pass py11, docs/python.md): a wrong type or value is a TypeError
+or a ValueError (InputError) that names the argument and the expected form, before anything reaches C++ — so no
+pybind11 "incompatible function arguments" text, no silent float("1.5") or int(2.5), no OverflowError."""
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from typing import Any, Optional
+
+import numpy as np
+
+INT64_MAX = 2 ** 63 - 1
+UINT64_MAX = 2 ** 64 - 1
+
+
+def _input_error(msg: str) -> Exception:
+    from ._varbo import InputError
+    return InputError(msg)
+
+
+def _type_name(v: Any) -> str:
+    return type(v).__name__
+
+
+def integer(v: Any, what: str, low: int = 0, high: int = INT64_MAX) -> int:
+    """An int (Python or NumPy integer, not bool) in [low, high]."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Integral, np.integer)):
+        raise TypeError(f"{what}: expected an int, got {v!r} (type {_type_name(v)})")
+    i = int(v)
+    if not low <= i <= high:
+        raise _input_error(f"{what}: expected an int in [{low}, {high}], got {i}")
+    return i
+
+
+def optional_integer(v: Any, what: str, low: int = 0, high: int = INT64_MAX) -> Optional[int]:
+    return None if v is None else integer(v, what, low, high)
+
+
+def real(v: Any, what: str, finite: bool = False) -> float:
+    """A real number (int, float, NumPy scalar or a one-element array), not bool, str or complex."""
+    if isinstance(v, np.ndarray) and v.size == 1 and v.dtype.kind in "iuf":
+        v = v.reshape(()).item()
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (numbers.Real, np.integer, np.floating)):
+        raise TypeError(f"{what}: expected a number, got {v!r:.80} (type {_type_name(v)})")
+    try:
+        x = float(v)
+    except OverflowError:
+        raise _input_error(f"{what}: {v!r:.40} is too large for a float") from None
+    if finite and not math.isfinite(x):
+        raise _input_error(f"{what}: expected a finite number, got {x}")
+    return x
+
+
+def float_array(v: Any, what: str) -> np.ndarray:
+    """np.asarray(v, dtype=float) with a ValueError that names the argument (strings, objects, ragged lists)."""
+    if isinstance(v, (str, bytes)):
+        raise TypeError(f"{what}: expected an array of numbers, got a {_type_name(v)}")
+    try:
+        with np.errstate(all="ignore"):
+            a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError, OverflowError) as e:
+        raise _input_error(f"{what}: expected an array of numbers ({e})") from None
+    return a
+
+
+def path(v: Any, what: str) -> str:
+    """A filesystem path or URL (str or os.PathLike)."""
+    if not isinstance(v, (str, os.PathLike)):
+        raise TypeError(f"{what}: expected a path or URL (str or os.PathLike), got {v!r:.60} (type {_type_name(v)})")
+    p = os.fspath(v)
+    if isinstance(p, bytes):
+        p = os.fsdecode(p)
+    if not p:
+        raise _input_error(f"{what}: the path is empty")
+    return p
+
+
+def flag(v: Any, what: str) -> bool:
+    """A yes/no argument: bool, NumPy bool or an int (0/1); not a str ("no" would be true)."""
+    if isinstance(v, (bool, np.bool_, numbers.Integral, np.integer)):
+        return bool(v)
+    raise TypeError(f"{what}: expected True or False, got {v!r:.60} (type {_type_name(v)})")
