@@ -1,6 +1,7 @@
 // varbo::Study: ask/tell through the store, replay after reopening, batches with pending trials, bad input; the
 // tests marked "both backends" run on a SQLite file and on a PostgreSQL study (backends.hpp).
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <thread>
 
@@ -160,6 +161,9 @@ TEST_CASE("best() and select(kappa): a complete trial, value = mean + kappa * st
     // than the selection by more than the model's own spread (sanity: the selection is a good trial).
     CHECK(t->cost <= s.best()->cost + 5.0);
   }
+  // A non-finite kappa is refused before any model work (a NaN reached an allocation sized by it).
+  for (double kappa : {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()})
+    CHECK_THROWS_AS(s.select(kappa), InputError);
 }
 
 TEST_CASE("bad input: each is an InputError and nothing is written") {

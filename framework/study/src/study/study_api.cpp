@@ -772,6 +772,8 @@ std::optional<TrialRecord> Study::best() const {
 }
 
 std::optional<Selection> Study::select(double kappa) const {
+  // A NaN κ ordered nothing and reached an allocation sized by it (std::bad_alloc in the Python binding, py11).
+  if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
   const Impl& m = *impl_;
   std::vector<TrialRecord> done;
   for (const auto& t : m.store->trials())
