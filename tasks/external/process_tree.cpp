@@ -187,6 +187,11 @@ void write_all(int fd, const char* text) {
   }
 }
 
+// "varbo external task: <what><path><sep><reason>\n" on stderr, from the forked child (async-signal-safe).
+void write_failure(const char* what, const char* path, const char* sep, const char* reason) {
+  for (const char* part : {"varbo external task: ", what, path, sep, reason, "\n"}) write_all(STDERR_FILENO, part);
+}
+
 void close_all_but(const int* keep, int n) {
   // Closes [0, max) except the kept descriptors, with close_range between them.
   int sorted[8];
@@ -231,22 +236,12 @@ void close_all_but(const int* keep, int n) {
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
   if (p.workdir != nullptr && ::chdir(p.workdir) != 0) {
     // Named, with the reason: the message is what trials.csv shows for every trial of such a run.
-    const char* reason = errno_text(errno);
-    write_all(STDERR_FILENO, "varbo external task: cannot change to the working directory '");
-    write_all(STDERR_FILENO, p.workdir);
-    write_all(STDERR_FILENO, "': ");
-    write_all(STDERR_FILENO, reason);
-    write_all(STDERR_FILENO, "\n");
+    write_failure("cannot change to the working directory '", p.workdir, "': ", errno_text(errno));
     ::_exit(126);
   }
   ::execve(p.path, const_cast<char* const*>(p.argv), p.envp != nullptr ? p.envp : environ);
   // Said, not only exit 127 ("command not found?"): a 3 MB command line fails here with E2BIG.
-  const char* reason = errno_text(errno);
-  write_all(STDERR_FILENO, "varbo external task: cannot run ");
-  write_all(STDERR_FILENO, p.path);
-  write_all(STDERR_FILENO, ": ");
-  write_all(STDERR_FILENO, reason);
-  write_all(STDERR_FILENO, "\n");
+  write_failure("cannot run ", p.path, ": ", errno_text(errno));
   ::_exit(127);
 }
 

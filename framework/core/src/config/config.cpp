@@ -8,6 +8,7 @@
 #include <optional>
 #include <sstream>
 
+#include "../io/utf8.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo {
@@ -53,23 +54,8 @@ struct WalkBudget {
 /// Offset of the first byte of `s` that does not start a well-formed UTF-8 sequence (RFC 3629), or npos.
 std::size_t invalid_utf8_at(const std::string& s) {
   for (std::size_t i = 0; i < s.size();) {
-    const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[i + k]); };
-    const unsigned char c = b(0);
-    std::size_t n = 0;
-    unsigned char lo = 0x80, hi = 0xBF;
-    if (c < 0x80) n = 1;
-    else if (c >= 0xC2 && c <= 0xDF) n = 2;
-    else if (c == 0xE0) n = 3, lo = 0xA0;
-    else if (c == 0xED) n = 3, hi = 0x9F;
-    else if (c >= 0xE1 && c <= 0xEF) n = 3;
-    else if (c == 0xF0) n = 4, lo = 0x90;
-    else if (c == 0xF4) n = 4, hi = 0x8F;
-    else if (c >= 0xF1 && c <= 0xF3) n = 4;
-    else return i;
-    if (i + n > s.size()) return i;
-    if (n > 1 && (b(1) < lo || b(1) > hi)) return i;
-    for (std::size_t k = 2; k < n; ++k)
-      if ((b(k) & 0xC0) != 0x80) return i;
+    const std::size_t n = detail::utf8_length(s, i);
+    if (n == 0) return i;
     i += n;
   }
   return std::string::npos;

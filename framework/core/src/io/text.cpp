@@ -1,5 +1,7 @@
 #include "varbo/text.hpp"
 
+#include "utf8.hpp"
+
 #include <fmt/format.h>
 
 namespace varbo {
@@ -8,8 +10,10 @@ namespace {
 
 bool is_continuation(unsigned char c) { return (c & 0xC0) == 0x80; }
 
-// Length of the well-formed UTF-8 sequence starting at s[i] (RFC 3629: no overlongs, no surrogates,
-// nothing above U+10FFFF), or 0 when the bytes there are not one.
+}  // namespace
+
+namespace detail {
+
 std::size_t utf8_length(std::string_view s, std::size_t i) {
   const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[i + k]); };
   const unsigned char c = b(0);
@@ -31,7 +35,7 @@ std::size_t utf8_length(std::string_view s, std::size_t i) {
   return n;
 }
 
-}  // namespace
+}  // namespace detail
 
 std::string abbreviate(std::string_view text, std::size_t keep) {
   if (text.size() <= 2 * keep + 64) return std::string(text);
@@ -47,7 +51,7 @@ std::string printable(std::string_view text) {
   out.reserve(text.size());
   for (std::size_t i = 0; i < text.size();) {
     const unsigned char c = static_cast<unsigned char>(text[i]);
-    const std::size_t n = utf8_length(text, i);
+    const std::size_t n = detail::utf8_length(text, i);
     if (n == 1 && c >= 0x20 && c != 0x7F) {
       out += static_cast<char>(c);
     } else if (n > 1) {
