@@ -315,9 +315,14 @@ Result check_case(const Case& c, const fs::path& root, const std::map<std::strin
   const std::set<std::string> before = listing(dir);
   std::vector<std::string> argv = split_args(substitute(c.cmd, v));
   argv.insert(argv.begin(), vars.at("{varbo}"));
-  const Outcome o = run(argv, dir, env, c.timeout);
+#ifdef VARBO_CASE_TIMEOUT_SCALE
+  const double timeout = c.timeout * VARBO_CASE_TIMEOUT_SCALE;  // ASan + UBSan build
+#else
+  const double timeout = c.timeout;
+#endif
+  const Outcome o = run(argv, dir, env, timeout);
   const std::string where = "\n--- output ---\n" + excerpt(o.output);
-  if (o.timed_out) bad.push_back("hang: no exit within " + std::to_string(c.timeout) + " s" + where);
+  if (o.timed_out) bad.push_back("hang: no exit within " + std::to_string(timeout) + " s" + where);
   else if (o.signal) bad.push_back("crash: killed by signal " + std::to_string(o.signal) + " (" + strsignal(o.signal) + ")" + where);
   else if (o.exit_code != c.exit_code)
     bad.push_back("exit " + std::to_string(o.exit_code) + ", expected " + std::to_string(c.exit_code) + where);

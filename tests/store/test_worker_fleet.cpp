@@ -41,12 +41,17 @@ int fleet_trials() {
   return e && *e ? std::atoi(e) : 200;
 }
 
+#ifndef VARBO_FLEET_HEARTBEAT_TIMEOUT
+#define VARBO_FLEET_HEARTBEAT_TIMEOUT 3  // seconds; 10 in a sanitizer build (CMakeLists.txt)
+#endif
+
 void run_fleet(test::Backend backend, const std::string& dir, int budget, bool two_hosts) {
   const std::string cfg = dir + "/cfg.yaml";
   std::ofstream(cfg) << "task: {type: branin}\nbudget: " << budget
                      // 3 s: with 1 s, a live worker whose heartbeat waited behind 7 others' SQLite writes (a sanitizer
                      // build, a loaded machine) was judged silent, its trial retried, and its late result kept too.
-                     << "\nseed: 11\nalgorithm: {type: random}\nheartbeat_timeout: 3\nretry_abandoned: true\n";
+                     << "\nseed: 11\nalgorithm: {type: random}\nheartbeat_timeout: " << VARBO_FLEET_HEARTBEAT_TIMEOUT
+                     << "\nretry_abandoned: true\n";
   const std::string study = test::study_address(backend, dir, "fleet");
   REQUIRE(test::run({VARBO_EXE, "study", "create", study, cfg}, dir + "/create.log").exit_code == 0);
   const std::string cmd = trial_command(dir);

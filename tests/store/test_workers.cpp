@@ -94,7 +94,9 @@ TEST_CASE("workers: 4 processes, 2 SIGKILLed mid-trial: each result once, abando
 TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs a killed worker's θ as it was") {
   const std::string dir = test::temp_folder("workers_term");
   const std::string db = make_study(dir, 4, "retry_abandoned: true\n");
-  const std::string slow = trial_script(dir, 0.8);
+  // 3 s: long enough that the signal lands during the trial a poll has seen start, even when a sanitizer build on
+  // a loaded machine takes a second to notice (0.8 s let the trial end first: a second trial was then running).
+  const std::string slow = trial_script(dir, 3.0);
   // SIGTERM during a trial: it completes, then the worker exits 128 + 15.
   const pid_t term = test::spawn({VARBO_EXE, "worker", db, "--command", slow}, dir + "/worker.log");
   wait_for_trials(db, 1);
