@@ -64,7 +64,7 @@ def test_set_log_level():
         varbo.set_log_level("loud")
 
 
-# ---- Red-team pass (py11): hostile-but-realistic arguments (scripts/py_redteam_probes.py has every probe) --------
+# ---- Red-team pass (py11): hostile-but-realistic arguments (scripts/red_team/probe_python.py has every probe) --------
 # Each case failed before the pass: a pybind11 "incompatible function arguments" text, a silent int(2.5) or
 # float("1.5"), a message naming nothing, a std::bad_alloc, a leaked RecursionError, a wrong result kept.
 import copy

@@ -2,7 +2,7 @@
 """Red-team probes of the Python API (docs/python.md, "Red-team pass (py11)"): each probe runs in its own
 interpreter (a crash or hang cannot hide the others), with a 2 GB address-space limit and a timeout.
 
-    PYTHONPATH=build/python /usr/bin/python3 scripts/py_redteam_probes.py [substring]
+    PYTHONPATH=build/python /usr/bin/python3 scripts/red_team/probe_python.py [substring]
 
 A probe passes when its code runs through (its own asserts hold) or raises one of the expected exception types,
 and the message contains every required word. Anything else — a signal, a timeout, another exception type, a
