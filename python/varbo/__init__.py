@@ -167,15 +167,6 @@ class Study:
         file ``varbo run`` takes: task, algorithm, budget, seed, ...). An existing file is an InputError; a bad
         configuration a ConfigError naming file:line:col and the key."""
         location = _checks.path(path_or_url, "Study.create: path_or_url")
-        if "://" not in location:
-            # SQLite would take a leftover -wal/-shm (of a study file deleted or moved while open) as the new
-            # file's own: the new study would show the old trials and be overwritten by them at the next
-            # checkpoint (red-team pass py11).
-            stale = [location + sfx for sfx in ("-wal", "-shm", "-journal") if os.path.exists(location + sfx)]
-            if stale and not os.path.exists(location):
-                raise InputError(f"{location}: {', '.join(stale)} left by an earlier study file of this name (still "
-                                 "open somewhere, or not closed cleanly) would be taken into the new one; close "
-                                 "that study or remove them first")
         if is_path(config):
             return cls(_varbo._Study.create_from_file(location, os.fspath(config)))
         text, name = to_yaml(config)
