@@ -4,8 +4,10 @@
 #include <fmt/format.h>
 #include <sqlite3.h>
 
+#include <sys/statvfs.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -28,6 +30,23 @@ using namespace store_codec;
 constexpr const char* kFormat = "varbo-study";
 constexpr int kBusyTimeoutMs = 10000;
 constexpr int kBeginAttempts = 60;  // × up to 10 s of busy waiting each: a writer may hold the lock for a fit
+
+bool on_read_only_filesystem(const std::string& path) {
+  struct statvfs fs{};
+  return statvfs(path.c_str(), &fs) == 0 && (fs.f_flag & ST_RDONLY) != 0;
+}
+
+/// `path` as an SQLite URI filename (RFC 3986 percent-encoding of everything but unreserved characters and '/').
+std::string sqlite_uri(const std::string& path, const char* query) {
+  std::string out = "file:";
+  for (const unsigned char c : path) {
+    if (std::isalnum(c) || c == '/' || c == '-' || c == '_' || c == '.' || c == '~')
+      out += static_cast<char>(c);
+    else
+      out += fmt::format("%{:02X}", c);
+  }
+  return out + "?" + query;
+}
 
 const char* kSchema = R"SQL(
 CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -161,6 +180,7 @@ class SqliteStore final : public StudyStore {
       db_ = nullptr;
       throw InputError(fmt::format("{}: cannot open the study file: {}", path, msg));
     }
+    if (!create && on_read_only_filesystem(path)) reopen_read_only();
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
     try {
       if (create) {
@@ -173,9 +193,9 @@ class SqliteStore final : public StudyStore {
         });
       } else {
         check_format();
-        upgrade();
+        if (!read_only_) upgrade();
       }
-      exec("PRAGMA synchronous=NORMAL");  // WAL + NORMAL: a commit survives a process crash (not a power loss)
+      if (!read_only_) exec("PRAGMA synchronous=NORMAL");  // WAL + NORMAL: a commit survives a process crash (not a power loss)
       exec("PRAGMA foreign_keys=ON");
     } catch (...) {
       sqlite3_close(db_);
@@ -203,6 +223,11 @@ class SqliteStore final : public StudyStore {
       --depth_;
       return;
     }
+    if (read_only_)
+      throw InputError(fmt::format("{}: the study is on a read-only file system: it can be read (varbo status, "
+                                   "export, plot, dashboard) but not changed; copy its folder to a writable place "
+                                   "to continue it",
+                                   path_));
     begin_immediate();
     depth_ = 1;
     try {
@@ -504,6 +529,37 @@ class SqliteStore final : public StudyStore {
     });
   }
 
+  /// A study on a read-only mount (a finished experiment archived, a snapshot, a CD): SQLite's WAL mode needs its
+  /// `-shm` index, which it cannot create there, so a plain open fails at the first read ("unable to open database
+  /// file"). Without a `-wal` holding changes the file alone is the whole study and is opened `immutable` (no
+  /// locks, no index: nothing can change it on this mount); with a `-shm` next to it SQLite reads the `-wal` through a
+  /// private copy of the index; a `-wal` without its `-shm` cannot be read, which is said rather than showing an
+  /// older state of the study.
+  void reopen_read_only() {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const auto wal_size = fs::file_size(path_ + "-wal", ec);
+    const bool wal_has_changes = !ec && wal_size > 0;
+    const bool has_shm = fs::exists(path_ + "-shm", ec);
+    sqlite3_close(db_);
+    db_ = nullptr;
+    if (wal_has_changes && !has_shm)
+      throw InputError(fmt::format("{}: the study is on a read-only file system and its newest changes are in {}-wal, "
+                                   "which SQLite cannot read there without its {}-shm; copy the folder to a writable "
+                                   "place and open the copy",
+                                   path_, path_, path_));
+    const std::string uri = sqlite_uri(path_, has_shm ? "mode=ro" : "immutable=1");
+    if (sqlite3_open_v2(uri.c_str(), &db_, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_FULLMUTEX, nullptr) !=
+        SQLITE_OK) {
+      const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      throw InputError(fmt::format("{}: cannot open the study file (read-only file system): {}", path_, msg));
+    }
+    read_only_ = true;
+    log_debug("{}: on a read-only file system; opened read-only{}", path_, has_shm ? "" : " (immutable)");
+  }
+
   bool has_table(const std::string& name) const {
     Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = ?", path_);
     s.bind(1, name);
@@ -513,6 +569,7 @@ class SqliteStore final : public StudyStore {
   std::string path_;
   sqlite3* db_ = nullptr;
   int depth_ = 0;
+  bool read_only_ = false;  ///< on a read-only file system: reads only (reopen_read_only)
 };
 
 }  // namespace
