@@ -434,6 +434,7 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   // Whatever is still in the trial's cgroup — everything the command started, when its supervisor was killed
   // (`kill -9 $PPID`), whatever group, session or environment it moved to — is killed at once, and the cgroup
   // removed (the supervisor removed it already unless it was killed).
+  const bool cgroup_used = cgroup.active();
   if (cgroup.active() && !cgroup.remove()) {
     static std::atomic<bool> warned{false};
     if (!warned.exchange(true))
@@ -480,6 +481,7 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
       r.signal = WTERMSIG(rep.status);
     }
   }
+  r.in_cgroup = cgroup_used && rep.cgroup_errno == 0 && rep.shell > 0;
   r.seconds = seconds_since(t0);
   return r;
 }

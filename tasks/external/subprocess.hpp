@@ -40,6 +40,7 @@ struct ProcessResult {
   std::string err;          ///< stderr tail
   std::string error;        ///< why it could not start
   double seconds = 0;       ///< wall time
+  bool in_cgroup = false;   ///< the command ran in a trial cgroup of its own (trial_cgroup.hpp)
   /// "exit status 3", "killed by signal 9 (Killed)", "timed out after 0.5 s", ...
   std::string status_text() const;
 };
