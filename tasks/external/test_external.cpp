@@ -631,3 +631,40 @@ TEST_CASE("cgroup: a nested varbo's trial cgroups below ours are killed and remo
   CHECK(eventually([&] { return processes_with(marker).empty(); }));
   CHECK(our_trial_cgroups().empty());
 }
+
+TEST_CASE("cgroup: the raw helpers (enter, populated, signal_listed: the kill path before Linux 5.14)") {
+  if (!cgroups_here()) return;
+  TrialCgroup cg;
+  std::string why;
+  REQUIRE(cg.create(why));
+  CHECK_FALSE(cgroup_raw::populated(cg.dir_fd()));
+  pid_t kids[3];
+  for (pid_t& k : kids) {
+    k = ::fork();
+    if (k == 0) {
+      if (cgroup_raw::enter(cg.dir_fd()) != 0) ::_exit(3);
+      ::execl("/bin/sleep", "sleep", "30", static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    REQUIRE(k > 0);
+  }
+  CHECK(eventually([&] {
+    std::ifstream f(cg.path() + "/cgroup.procs");
+    int n = 0;
+    for (long p; f >> p;) ++n;
+    return n == 3;
+  }));
+  CHECK(cgroup_raw::populated(cg.dir_fd()));
+  // What kill_all falls back to without cgroup.kill: every listed process, one by one.
+  CHECK(cgroup_raw::signal_listed(cg.dir_fd(), SIGKILL) == 3);
+  for (pid_t k : kids) {
+    int st = 0;
+    CHECK(::waitpid(k, &st, 0) == k);
+    CHECK(WIFSIGNALED(st));
+    CHECK(WTERMSIG(st) == SIGKILL);
+  }
+  CHECK_FALSE(cgroup_raw::populated(cg.dir_fd()));
+  const std::string path = cg.path();
+  CHECK(cg.remove());
+  CHECK_FALSE(std::filesystem::exists(path));
+}
