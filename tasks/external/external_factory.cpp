@@ -32,6 +32,12 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
           .above(0),
       opt::string("workdir", opt::nested(&S::process, &ProcessOptions::working_directory),
                   "working directory of the command (default: inherited)"),
+      opt::choice("containment", opt::nested(&S::process, &ProcessOptions::containment),
+                  {{"auto", Containment::Auto}, {"cgroup", Containment::Cgroup},
+                   {"process_group", Containment::ProcessGroup}},
+                  "how a trial's processes are held together to be killed: auto: a cgroup v2 per trial where "
+                  "varbo may make one (root or a delegated cgroup), else the process group and supervisor; "
+                  "cgroup: always a cgroup, a trial fails without one; process_group: never a cgroup"),
   };
   return set;
 }
@@ -71,6 +77,12 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
                "until it does",
                o.node("workdir").where(), o.node("workdir").path(), s.process.working_directory);
   }
+  // Like a missing workdir: a warning here (the task is also built to read a study elsewhere), a failed trial
+  // saying why at each start.
+  if (s.process.containment == Containment::Cgroup && !cgroup_unavailable().empty())
+    log_warn("{}: key '{}': containment: cgroup, but no cgroup can be made for a trial here ({}): every trial "
+             "will fail; use containment: auto to fall back to the process group",
+             o.node("containment").where(), o.node("containment").path(), cgroup_unavailable());
   // Keys that define the domain here, for set_search_space to refuse when the study declares `parameters:`.
   for (const char* key : {"dim", "bounds", "lower", "upper", "names"})
     if (o.given(key) && !(std::string(key) == "dim" && o.integer("dim") == 0))  // dim: 0 is the resolved default

@@ -96,7 +96,10 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
     return fail("its stdout was kept open by a process it started outside its process tree; the answer may be "
                 "incomplete");
   if (!r.exited && r.signal == 0)  // no verdict: the supervisor was killed (subprocess.cpp swept the tree)
-    return fail("its supervisor was killed (by the command?); every process carrying the trial's token was killed");
+    return fail(r.in_cgroup ? "its supervisor was killed (by the command?); every process in the trial's cgroup and "
+                              "every process carrying the trial's token was killed"
+                            : "its supervisor was killed (by the command?); every process carrying the trial's token "
+                              "was killed");
   if (!r.exited) return fail("terminated by a signal");
   if (r.exit_status != 0)
     return fail(r.exit_status == 127 ? "non-zero exit (127: command not found?)" : "non-zero exit");

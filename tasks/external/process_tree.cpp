@@ -15,6 +15,8 @@
 #include <cstring>
 #include <initializer_list>
 
+#include "trial_cgroup.hpp"
+
 extern char** environ;
 
 // Everything below runs in a forked child of a possibly multi-threaded process: no allocation, no stdio,
@@ -171,6 +173,11 @@ const char* errno_text(int e) {
     case ENOEXEC: return "Exec format error";
     case ETXTBSY: return "Text file busy";
     case EIO: return "Input/output error";
+    case EPERM: return "Operation not permitted";
+    case EROFS: return "Read-only file system";
+    case EBUSY: return "Device or resource busy";
+    case EINVAL: return "Invalid argument";
+    case EOPNOTSUPP: return "Operation not supported";
     default: return "system error";
   }
 }
@@ -218,6 +225,16 @@ void close_all_but(const int* keep, int n) {
 }
 
 [[noreturn]] void exec_command(const SupervisorPlan& p) {
+  // Into the trial's cgroup first, before anything of the command runs: all it ever starts inherits it.
+  if (p.cgroup_fd >= 0) {
+    if (const int e = cgroup_raw::enter(p.cgroup_fd)) {
+      if (p.cgroup_required) {
+        write_failure("containment: cgroup: cannot enter the trial's cgroup ", p.cgroup_path, ": ", errno_text(e));
+        ::_exit(126);
+      }
+      report(p.report_fd, kCgroupError, e);  // varbo falls back to the process group and tree walk
+    }
+  }
   ::setpgid(0, 0);  // its own group: a terminal's Ctrl-C goes to varbo, which stops the command itself
   // Onto 0, 1, 2 via high copies, so that no dup2 overwrites a descriptor still to be copied.
   const int in = ::fcntl(p.stdin_fd, F_DUPFD_CLOEXEC, 10);
@@ -263,8 +280,8 @@ void close_all_but(const int* keep, int n) {
   {
     // Only our four pipe ends stay open: varbo's other descriptors (another trial's pipes, in a
     // multi-threaded varbo) must not be held by us or the command.
-    const int keep[4] = {p.stdin_fd, p.stdout_fd, p.stderr_fd, p.report_fd};
-    close_all_but(keep, 4);
+    const int keep[5] = {p.stdin_fd, p.stdout_fd, p.stderr_fd, p.report_fd, p.cgroup_fd};
+    close_all_but(keep, p.cgroup_fd >= 0 ? 5 : 4);
   }
   const pid_t shell = stop ? -1 : ::fork();
   if (shell == 0) exec_command(p);
@@ -293,23 +310,42 @@ void close_all_but(const int* keep, int n) {
   const bool reported = shell_done && shell > 0;
   if (reported) report(p.report_fd, kStatus, shell_status);  // the verdict first: varbo may be waiting
 
+  // With a cgroup that holds the command (it is empty only if the shell could not enter it, or if everything
+  // has already ended), every process of the command is listed there, wherever it moved: a new session, a
+  // cleared environment, an orphan of a killed supervisor of a nested varbo.
+  const bool in_cgroup = p.cgroup_fd >= 0 && cgroup_raw::populated(p.cgroup_fd);
   if (stop) {
     // Polite first (a simulator may want to save its state), then certain.
     const long hard = now_ms() + p.grace_ms;
-    signal_tree(SIGTERM, shell);
+    // The cgroup lists every process of the command: no walk of /proc (which reads every process's stat, a
+    // few times over) is needed for the polite round; the SIGKILL round below still walks the tree once.
+    if (in_cgroup) cgroup_raw::signal_listed(p.cgroup_fd, SIGTERM);
+    else signal_tree(SIGTERM, shell);
     while (now_ms() < hard) {
       reap(shell, shell_status, shell_done);
-      if (!find_descendants() || g_tree_size == 0) break;
+      if (in_cgroup ? !cgroup_raw::populated(p.cgroup_fd) : (!find_descendants() || g_tree_size == 0)) break;
       sleep_ms(5);
     }
   }
   // Whatever is left (background jobs, daemons in their own session) would outlive the trial and could hold
-  // its pipes: kill it, sweep again for what it forked meanwhile, reap, until nothing is left (bounded).
+  // its pipes: kill it — the cgroup at once, then sweeps of the tree for anything outside it (or everything,
+  // without a cgroup) and for what it forked meanwhile —, reap, until nothing is left (bounded).
   const long give_up = now_ms() + 3000;
+  if (in_cgroup) {
+    while (cgroup_raw::populated(p.cgroup_fd) && now_ms() < give_up) {
+      cgroup_raw::kill_all(p.cgroup_fd);
+      reap(shell, shell_status, shell_done);
+      if (!cgroup_raw::populated(p.cgroup_fd)) break;
+      sleep_ms(1);
+    }
+  }
   while (signal_tree(SIGKILL, shell) > 0 && now_ms() < give_up) {
     sleep_ms(2);
     reap(shell, shell_status, shell_done);
   }
+  // Empty now: removed here too, so that a varbo killed by SIGKILL leaves none behind (varbo removes it
+  // otherwise; a nested varbo's cgroups below it make this rmdir fail, and varbo removes those first).
+  if (p.cgroup_path != nullptr && p.cgroup_fd >= 0 && !cgroup_raw::populated(p.cgroup_fd)) ::rmdir(p.cgroup_path);
   reap(shell, shell_status, shell_done);
   if (!reported && shell_done && shell > 0) report(p.report_fd, kStatus, shell_status);
   ::_exit(0);

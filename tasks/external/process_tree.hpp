@@ -7,7 +7,8 @@
 // and it takes the command's tree down with it.
 //
 // Protocol on the report pipe: {kPid, pid of the shell} once it is forked, {kStatus, its wait status} when it
-// has exited, {kStartError, errno} if fork failed. The supervisor then kills what the command left and exits.
+// has exited, {kStartError, errno} if fork failed, {kCgroupError, errno} (from the shell's process, before
+// its exec) if it could not enter the trial's cgroup. The supervisor then kills what the command left and exits.
 // Sending it SIGTERM (or SIGINT/SIGHUP) stops the command: SIGTERM to the tree, then SIGKILL after the grace.
 #include <sys/types.h>
 
@@ -22,9 +23,14 @@ struct SupervisorPlan {
   int report_fd = -1;                  ///< write end of the report pipe (O_CLOEXEC)
   pid_t parent = 0;                    ///< varbo's pid
   long grace_ms = 200;                 ///< SIGTERM -> SIGKILL delay when told to stop
+  /// The trial's cgroup (trial_cgroup.hpp), open directory, or -1: the shell enters it before exec, and the
+  /// supervisor kills through it (cgroup.kill) before its tree walk, then removes it.
+  int cgroup_fd = -1;
+  const char* cgroup_path = nullptr;
+  bool cgroup_required = false;        ///< the shell exits 126 (saying why) if it cannot enter the cgroup
 };
 
-enum SupervisorReport : int { kPid = 1, kStatus = 2, kStartError = 3 };
+enum SupervisorReport : int { kPid = 1, kStatus = 2, kStartError = 3, kCgroupError = 4 };
 
 /// Runs in the child of fork() and never returns. Makes only async-signal-safe calls (the parent may have
 /// other threads), so everything it needs is prepared in `plan` before the fork.

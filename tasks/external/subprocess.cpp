@@ -24,6 +24,7 @@
 
 #include "process_tree.hpp"
 #include "varbo/interrupt.hpp"
+#include "varbo/log.hpp"
 
 extern char** environ;
 
@@ -131,6 +132,7 @@ struct Reports {
   bool have_status = false;
   int status = 0;
   int start_errno = 0;
+  int cgroup_errno = 0;  ///< the shell could not enter the trial's cgroup
   bool eof = false;
   std::string partial;
   void read() {
@@ -157,6 +159,7 @@ struct Reports {
         status = msg[1];
       }
       if (msg[0] == kStartError) start_errno = msg[1];
+      if (msg[0] == kCgroupError) cgroup_errno = msg[1];
     }
   }
   bool command_ended() const { return have_status || eof || start_errno != 0; }
@@ -215,6 +218,18 @@ struct Environment {
   }
 };
 
+// Once per process: which containment the trials get, and why not a cgroup (a debug line, not a warning:
+// most machines without root or delegation cannot, and the fallback is the documented mechanism).
+void note_containment(const std::string& why_not) {
+  static std::atomic<bool> said{false};
+  if (said.exchange(true)) return;
+  if (why_not.empty())
+    log_debug("external task: each trial runs in its own cgroup v2 below {}", cgroup_home().dir);
+  else
+    log_debug("external task: trials are contained by their process group and supervisor, not by a cgroup: {}",
+              why_not);
+}
+
 }  // namespace
 
 std::string ProcessResult::status_text() const {
@@ -263,6 +278,23 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   const std::string token_entry = fmt::format("{}={}", kTokenVar, new_token());
   Environment env(token_entry);
   plan.envp = env.pointers.data();
+  // The trial's cgroup (trial_cgroup.hpp). Failing to make one falls back to the process group and the tree
+  // walk, unless `containment: cgroup` asked for it.
+  TrialCgroup cgroup;
+  if (options.containment != Containment::ProcessGroup) {
+    std::string why;
+    if (cgroup.create(why)) {
+      note_containment("");
+    } else if (options.containment == Containment::Cgroup) {
+      r.error = "containment: cgroup: " + why;
+      return r;
+    } else {
+      note_containment(why);
+    }
+  }
+  plan.cgroup_fd = cgroup.dir_fd();
+  plan.cgroup_path = cgroup.active() ? cgroup.path().c_str() : nullptr;
+  plan.cgroup_required = options.containment == Containment::Cgroup;
 
   const pid_t supervisor = ::fork();
   if (supervisor < 0) {
@@ -397,8 +429,21 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
       else if (p.fd == rep.fd.fd) rep.read();
     }
   }
+  if (rep.cgroup_errno != 0)
+    note_containment(fmt::format("the command could not enter its cgroup: {}", std::strerror(rep.cgroup_errno)));
+  // Whatever is still in the trial's cgroup — everything the command started, when its supervisor was killed
+  // (`kill -9 $PPID`), whatever group, session or environment it moved to — is killed at once, and the cgroup
+  // removed (the supervisor removed it already unless it was killed).
+  const bool cgroup_used = cgroup.active();
+  if (cgroup.active() && !cgroup.remove()) {
+    static std::atomic<bool> warned{false};
+    if (!warned.exchange(true))
+      log_warn("external task: a trial's cgroup could not be emptied and removed within 3 s (a process in "
+               "uninterruptible sleep?); it is left behind");
+  }
   // A supervisor killed by a signal (the command ran `kill -9 $PPID`, or anyone else did) left the command's
-  // tree orphaned and running: kill it through its environment token, until none is left (bounded).
+  // tree orphaned and running: without a cgroup, and as the second line of defence with one, kill it through
+  // its environment token, until none is left (bounded).
   if (WIFSIGNALED(sup_status)) {
     const auto sweep_end = Clock::now() + seconds(3.0);
     while (signal_token(token_entry, SIGKILL) > 0 && Clock::now() < sweep_end)
@@ -436,6 +481,7 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
       r.signal = WTERMSIG(rep.status);
     }
   }
+  r.in_cgroup = cgroup_used && rep.cgroup_errno == 0 && rep.shell > 0;
   r.seconds = seconds_since(t0);
   return r;
 }

@@ -3,10 +3,13 @@
 // hanging or leaving a process behind. The command runs under a supervisor process (process_tree.hpp)
 // that finds and kills its whole tree — background jobs, processes in a new session, orphans — when the
 // command exits, when the deadline passes, when varbo is asked to stop (interrupt.hpp) and when varbo
-// dies. Non-blocking pipes multiplexed with poll(); SIGPIPE blocked in the calling thread while writing
+// dies. Where the machine allows it, the command also runs in a cgroup of its own (trial_cgroup.hpp), which
+// holds every process it starts whatever it does, and is killed as a whole. Non-blocking pipes multiplexed with poll(); SIGPIPE blocked in the calling thread while writing
 // stdin; at most max_stdout bytes of output are held in memory.
 #include <cstddef>
 #include <string>
+
+#include "trial_cgroup.hpp"
 
 namespace varbo::tasks {
 
@@ -19,6 +22,9 @@ struct ProcessOptions {
   /// After the command has exited, how long its output may stay open: a process outside its tree (which
   /// the supervisor cannot find) may hold it; reading stops then.
   double output_close_seconds = 2.0;
+  /// How the command's processes are held together (trial_cgroup.hpp): a cgroup per trial where possible
+  /// (Auto), always (Cgroup: the trial does not start without one), or never (ProcessGroup).
+  Containment containment = Containment::Auto;
 };
 
 struct ProcessResult {
@@ -34,6 +40,7 @@ struct ProcessResult {
   std::string err;          ///< stderr tail
   std::string error;        ///< why it could not start
   double seconds = 0;       ///< wall time
+  bool in_cgroup = false;   ///< the command ran in a trial cgroup of its own (trial_cgroup.hpp)
   /// "exit status 3", "killed by signal 9 (Killed)", "timed out after 0.5 s", ...
   std::string status_text() const;
 };

@@ -7,6 +7,7 @@
 //  - a 50 MB answer line and a binary answer: short messages, trials.csv valid UTF-8 with one line per trial.
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -24,6 +25,7 @@
 #include "varbo/interrupt.hpp"
 #include "varbo/store.hpp"
 #include "process_probe.hpp"
+#include "trial_cgroup.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -98,6 +100,18 @@ std::size_t lines_of(const std::string& file) {
 
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// The trial cgroups (trial_cgroup.hpp) of the varbo process `pid` that exist now.
+std::vector<std::string> trial_cgroups_of(pid_t pid) {
+  std::vector<std::string> out;
+  const std::string& home = tasks::cgroup_home().dir;
+  if (home.empty()) return out;
+  const std::string prefix = fmt::format("{}{}-", tasks::kTrialCgroupPrefix, static_cast<long>(pid));
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator(home, ec))
+    if (e.path().filename().string().rfind(prefix, 0) == 0) out.push_back(e.path().string());
+  return out;
+}
+
 }  // namespace
 
 TEST_CASE("varbo run: a stop signal kills the running command's tree, abandons its trial, --resume finishes") {
@@ -136,6 +150,11 @@ TEST_CASE("varbo run: a stop signal kills the running command's tree, abandons i
       CHECK(read_file(log).find("--resume") != std::string::npos);
     }
     for (pid_t p : pids) CHECK_FALSE(alive(p));
+    // The trial's cgroup is gone too (after SIGKILL the supervisor removes it once it has emptied it).
+    const auto cg_deadline = Clock::now() + std::chrono::seconds(3);
+    while (!trial_cgroups_of(varbo).empty() && Clock::now() < cg_deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    CHECK(trial_cgroups_of(varbo).empty());
     {
       auto store = open_sqlite_store(out + "/study.db");
       const auto trials = store->trials();
@@ -295,4 +314,41 @@ TEST_CASE("varbo run: an external task's declared cost components reach trials.c
            err.find("expected a non-empty list of cost component names") != std::string::npos));
     CHECK(!std::filesystem::exists(dir + "/bad/trials.csv"));
   }
+}
+
+TEST_CASE("varbo run: empty trial cgroups of a varbo that is gone are removed, a populated one is left") {
+  if (!tasks::cgroup_unavailable().empty()) {
+    MESSAGE("cgroup containment is not available here, skipped: " << tasks::cgroup_unavailable());
+    return;
+  }
+  const std::string& home = tasks::cgroup_home().dir;
+  // A pid that is gone: a child that exited and was reaped.
+  const pid_t dead = ::fork();
+  if (dead == 0) ::_exit(0);
+  REQUIRE(dead > 0);
+  ::waitpid(dead, nullptr, 0);
+  const std::string stale = fmt::format("{}/{}{}-0-0", home, tasks::kTrialCgroupPrefix, static_cast<long>(dead));
+  const std::string busy = fmt::format("{}/{}{}-1-0", home, tasks::kTrialCgroupPrefix, static_cast<long>(dead));
+  REQUIRE(::mkdir(stale.c_str(), 0755) == 0);
+  REQUIRE(::mkdir((stale + "/nested").c_str(), 0755) == 0);  // a nested varbo's, empty too
+  REQUIRE(::mkdir(busy.c_str(), 0755) == 0);
+  const pid_t sleeper = ::fork();
+  if (sleeper == 0) {
+    std::ofstream(busy + "/cgroup.procs") << ::getpid() << std::flush;
+    ::execl("/bin/sleep", "sleep", "30", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  REQUIRE(sleeper > 0);
+  const auto until = Clock::now() + std::chrono::seconds(5);
+  while (read_file(busy + "/cgroup.procs").empty() && Clock::now() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  const std::string dir = test::temp_folder("ext_cli_stale_cgroup");
+  std::ofstream(dir + "/study.yaml") << "task: {type: external, command: 'echo 1', dim: 1}\n"
+                                     << "algorithm: {type: random}\nbudget: 1\nseed: 1\n";
+  CHECK(run_varbo({"run", dir + "/study.yaml", "-o", dir + "/run", "--no-progress"}, dir + "/log.txt") == 0);
+  CHECK_FALSE(std::filesystem::exists(stale));
+  CHECK(std::filesystem::exists(busy));  // its process is not ours to kill
+  ::kill(sleeper, SIGKILL);
+  ::waitpid(sleeper, nullptr, 0);
+  CHECK(::rmdir(busy.c_str()) == 0);
 }
