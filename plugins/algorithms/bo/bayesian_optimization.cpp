@@ -124,8 +124,9 @@ const OptionSet<BoSettings>& bo_options() {
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
                 "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
-                "-1, stall_remaining: 0}; the acquisition is weighted by P(success | θ) from a GP classifier of "
-                "successes and failures and θ with P < min_probability are never suggested (docs/failures.md)"),
+                "-1, stall_remaining: 0, stall_attempt: false}; the acquisition is weighted by P(success | θ) from a "
+                "GP classifier of successes and failures and θ with P < min_probability are never suggested "
+                "(docs/failures.md)"),
   };
   return set;
 }
@@ -585,8 +586,9 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       value_stall && failure_settings_.stall_value > 0 && !failed_.empty() &&
       failure_settings_.active(static_cast<Index>(failed_.size()))) {
     ValueStall rule;
-    const bool late = failure_settings_.stall_remaining > 0 && budget_ > 0 &&
-                      budget_ - k < failure_settings_.stall_remaining;
+    const bool late = budget_ > 0 && ((failure_settings_.stall_remaining > 0 &&
+                                       budget_ - k < failure_settings_.stall_remaining) ||
+                                      (failure_settings_.stall_attempt && budget_ - k < k - fresh_trial_));
     rule.fraction = late ? 0.0 : failure_settings_.stall_value;
     rule.scale = failure_settings_.stall_scale == "range" ? ValueStall::Scale::Range
                  : failure_settings_.stall_scale == "std" ? ValueStall::Scale::Std

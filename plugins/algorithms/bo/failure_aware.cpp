@@ -66,6 +66,10 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "> 0: value stalls count only while at least this many trials of the budget remain (a later cut "
                    "leaves a fresh start too few trials and ends the polishing of the attempt it cuts); 0 = always")
           .at_least(0),
+      opt::boolean("stall_attempt", &FailureModelSettings::stall_attempt,
+                   "value stalls count only while the trials left in the budget are at least as many as the current "
+                   "attempt has used (design included): a fresh start gets at least the trials of the attempt it "
+                   "replaces, whatever the budget and dimension"),
   };
   return set;
 }
@@ -79,7 +83,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
   if (!node.is_map())
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
-              "stall_strict: bool, stall_incumbent: t, stall_remaining: n}");
+              "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

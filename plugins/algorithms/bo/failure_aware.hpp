@@ -54,6 +54,10 @@ struct FailureModelSettings {
   /// > 0: value stalls count only while at least this many trials of the budget remain (a later cut leaves a
   /// fresh start too few trials to converge, and costs the polishing of the attempt it ends); 0 = always.
   int stall_remaining = 0;
+  /// Value stalls count only while the trials left in the budget are at least as many as the current attempt has
+  /// used (its design included): a fresh start then gets at least the trials the attempt it replaces had, on the
+  /// problem's own scale (dimension, budget, how long an attempt takes to converge) instead of a fixed count.
+  bool stall_attempt = false;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -244,7 +244,8 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {stall_value: 1}}", "{type: bo, failure_model: {stall_value: -0.1}}",
                        "{type: bo, failure_model: {stall_scale: max}}", "{type: bo, failure_model: {stall_strict: 2}}",
                        "{type: bo, failure_model: {stall_incumbent: -2}}",
-                       "{type: bo, failure_model: {stall_remaining: -1}}"};
+                       "{type: bo, failure_model: {stall_remaining: -1}}",
+                       "{type: bo, failure_model: {stall_attempt: 2}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -274,7 +275,8 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
   const std::vector<std::string> variants = {
       "{type: bo, failure_model: {stall_value: 0.001}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true}}",
-      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}"};
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}",
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
@@ -303,4 +305,12 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_remaining: 70}}", 70, 1);
   REQUIRE(never.size() == h.size());
   for (std::size_t i = 0; i < h.size(); ++i) CHECK((never[i].u - h[i].u).norm() == 0.0);
+  // stall_attempt (fail12): value stalls count only while the trials left (70 − k) are at least those the attempt
+  // has used (k − its first trial, ≤ k); up to trial 35 that holds for every attempt, so the first 36 trials are
+  // the ungated rule's.
+  const std::vector<Trial> gated = run(
+      "sv_h6_attempt", task, unit,
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_attempt: true}}", 70, 1);
+  REQUIRE(gated.size() == h.size());
+  for (std::size_t i = 0; i <= 35; ++i) CHECK((gated[i].u - sv[i].u).norm() == 0.0);
 }
