@@ -196,6 +196,26 @@ TEST_CASE("recommendation: lowest_mean_evaluated breaks ties within a tenth of t
   CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, lucky, 0.5), data) == 1);
 }
 
+TEST_CASE("recommendation: a model that treats the cost as deterministic ties means within its whole noise std") {
+  Dataset data = Dataset::empty(1);
+  for (double x : {0.1, 0.2, 0.3, 0.4}) data.add(Vec::Constant(1, x), 0.0);
+  data.y << 5.0, 1.0 + 2e-9, 1.0, 0.2;  // std(y) = 2.1
+  // Noise 1e-6 <= 1e-5 std(y): means 0.5 noise std apart in the wrong order (a misfit of the model, not noise)
+  // tie, and the tie goes to the lower cost; 1.5 noise std apart the lowest mean wins.
+  const Vec half = (Vec(4) << 5.0, 1.0 - 5e-7, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, half, 1e-6), data) == 2);
+  const Vec wide = (Vec(4) << 5.0, 1.0 - 1.5e-6, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, wide, 1e-6), data) == 1);
+  // A noisy cost (noise 0.1 > 1e-5 std(y)): the same half-noise gap is no tie (the winner's curse).
+  const Vec noisy = (Vec(4) << 5.0, 1.0 - 0.05, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, noisy, 0.1), data) == 1);
+  // Noise 1e-4, above 1e-5 std(y): only a tenth of it ties.
+  const Vec small = (Vec(4) << 5.0, 1.0 - 5e-5, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, small, 1e-4), data) == 1);
+  const Vec tiny = (Vec(4) << 5.0, 1.0 - 5e-6, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, tiny, 1e-4), data) == 2);
+}
+
 TEST_CASE("recommendation: a vhgp's final refit continues its fit schedule from the run model (warm_final_refit)") {
   set_log_level(LogLevel::Error);
   // 25 noisy observations of a 1-D cost; the run's model last fitted (fully, N > 20) on the first 24.
