@@ -72,7 +72,9 @@ const OptionSet<GpSettings>& gp_options() {
       opt::real("max_lengthscale", &S::max_lengthscale, "upper bound of each lengthscale (unit cube)").above(0),
       opt::real("min_signal_std", &S::min_signal_std, "lower bound of the signal std, relative to std(y)").above(0),
       opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
-      opt::real("min_noise_std", &S::min_noise_std, "lower bound of the noise std, relative to std(y) (when not given: 1e-7 with kernel: se_ard)").above(0),
+      opt::real("min_noise_std", &S::min_noise_std,
+                "lower bound of the noise std, relative to std(y) (when not given: 1e-7 with kernel: se_ard)")
+          .above(0),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
       opt::choice("output_transform", "none", transforms::output_transform_names(),
                   transforms::output_transform_description()),
