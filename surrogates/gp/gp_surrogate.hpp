@@ -39,8 +39,12 @@ struct GpSettings {
   double min_signal_std = 0.05, max_signal_std = 20.0;
   // Floor 1e-6: the fitted noise of deterministic costs sits on the floor, and 1e-4 capped Hartmann-6's regret at
   // ~2e-5 (README); robust_cholesky's jitter keeps duplicated points factorizable.
+  // The `gp` component lowers the floor to kSeArdMinNoiseStd for `kernel: se_ard` when min_noise_std is not given.
   double min_noise_std = 1e-6, max_noise_std = 2.0;
 };
+
+/// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
+inline constexpr double kSeArdMinNoiseStd = 1e-7;
 
 class GpSurrogate final : public Surrogate, public ComponentState {
  public:

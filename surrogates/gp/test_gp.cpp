@@ -412,6 +412,26 @@ TEST_CASE("gp component: options, hyperparameters map, errors with positions") {
   }
 }
 
+TEST_CASE("gp component: the noise floor by kernel (1e-7 for se_ard unless min_noise_std is given, 1e-6 otherwise)") {
+  auto& reg = test::registry();
+  BuildContext ctx;
+  ctx.dim = 2;
+  const auto floor_of = [&](const std::string& yaml) {
+    const auto s = reg.create<Surrogate>(yaml, ctx);
+    const auto* gp = dynamic_cast<const GpSurrogate*>(s.get());
+    REQUIRE(gp != nullptr);
+    const Box b = gp->log_box(2);  // the fit box's last coordinate: log of the noise std relative to std(y)
+    return std::exp(b.lower(b.dim() - 1));
+  };
+  CHECK(floor_of("{type: gp, kernel: se_ard}") == doctest::Approx(kSeArdMinNoiseStd).epsilon(1e-12));
+  CHECK(floor_of("{type: gp}") == doctest::Approx(1e-6).epsilon(1e-12));
+  CHECK(floor_of("{type: gp, kernel: matern32_ard}") == doctest::Approx(1e-6).epsilon(1e-12));
+  CHECK(floor_of("{type: gp, kernel: se_ard, min_noise_std: 1.0e-6}") == doctest::Approx(1e-6).epsilon(1e-12));
+  CHECK(floor_of("{type: gp, kernel: se_ard, min_noise_std: 1.0e-3}") == doctest::Approx(1e-3).epsilon(1e-12));
+  // A composite with SE inside keeps the general floor (its other terms decide the spectrum).
+  CHECK(floor_of("{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}") == doctest::Approx(1e-6).epsilon(1e-12));
+}
+
 TEST_CASE("full_fit_growth: warm-only refits between full fits, all restarts once N has grown by the factor") {
   GpSettings s = settings_for(KernelType::Matern52);
   s.full_fit_growth = 1.25;

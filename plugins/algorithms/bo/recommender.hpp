@@ -24,7 +24,8 @@ const std::vector<std::string>& recommendation_rule_names();
 RecommendationRule recommendation_rule(const std::string& name);
 
 /// The rule `lowest_mean_evaluated`: the index of the evaluated point with the lowest posterior mean, ties
-/// within a tenth of the noise std broken by the lowest observed cost (recommender.cpp says why).
+/// within a tenth of the noise std broken by the lowest observed cost; the lowest observed cost outright when the
+/// model's noise is at most 1e-5 of std(y), i.e. it treats the cost as deterministic (recommender.cpp says why).
 Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data);
 
 class Recommender {

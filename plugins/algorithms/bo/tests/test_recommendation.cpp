@@ -182,18 +182,36 @@ class ScriptedModel final : public Surrogate {
 TEST_CASE("recommendation: lowest_mean_evaluated breaks ties within a tenth of the noise std by the observed cost") {
   Dataset data = Dataset::empty(1);
   for (double x : {0.1, 0.2, 0.3, 0.4}) data.add(Vec::Constant(1, x), 0.0);
-  data.y << 5.0, 1.0 + 2e-9, 1.0, 0.2;  // row 2 is the best of the near-equal pair; row 3 the lowest cost
-  // A deterministic cost (noise 1e-6): the means of rows 1 and 2 differ by less than the noise and in the wrong
-  // order; the tie goes to the lower cost. Row 3's mean is far above: not tied, however low its cost.
-  const Vec means = (Vec(4) << 5.0, 1.0 - 3e-8, 1.0, 1.5).finished();
-  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 1e-6), data) == 2);
+  data.y << 5.0, 1.0 + 2e-9, 1.0, 0.2;  // row 2 is the best of the near-equal pair; row 3 the lowest cost; std(y) 2.1
+  // A nearly deterministic cost (noise 1e-4, above 1e-5 std(y)): the means of rows 1 and 2 differ by less than a
+  // tenth of the noise and in the wrong order; the tie goes to the lower cost. Row 3's mean is far above: not tied,
+  // however low its cost.
+  const Vec means = (Vec(4) << 5.0, 1.0 - 3e-6, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 1e-4), data) == 2);
   // With a mean gap of 2 noise std the model does order them: the lowest mean wins.
-  const Vec apart = (Vec(4) << 5.0, 1.0 - 2e-6, 1.0, 1.5).finished();
-  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, apart, 1e-6), data) == 1);
+  const Vec apart = (Vec(4) << 5.0, 1.0 - 2e-4, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, apart, 1e-4), data) == 1);
+  // Half a noise std is no tie either (the winner's curse of a noisy cost).
+  const Vec half = (Vec(4) << 5.0, 1.0 - 5e-5, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, half, 1e-4), data) == 1);
   // A noisy cost (noise 0.5): only means within 0.05 tie; row 3 (mean 1.5, cost 0.2) is not recommended.
   CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 0.5), data) == 2);
   const Vec lucky = (Vec(4) << 5.0, 1.0, 1.06, 1.5).finished();
   CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, lucky, 0.5), data) == 1);
+}
+
+TEST_CASE("recommendation: a model that treats the cost as deterministic recommends the lowest observed cost") {
+  Dataset data = Dataset::empty(1);
+  for (double x : {0.1, 0.2, 0.3, 0.4}) data.add(Vec::Constant(1, x), 0.0);
+  data.y << 5.0, 1.0 + 2e-9, 1.0, 0.2;  // std(y) = 2.1
+  // Noise 1e-6 <= 1e-5 std(y): the observations are the costs; means that miss them (misfit, rounding) do not
+  // outvote them, whatever the gap.
+  const Vec means = (Vec(4) << 5.0, 1.0 - 3e-8, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, means, 1e-6), data) == 3);
+  const Vec apart = (Vec(4) << 5.0, 0.5, 1.0, 1.5).finished();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, apart, 2e-5), data) == 3);
+  // Just above the threshold (noise 3e-5 > 1e-5 std(y)): the lowest mean again.
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, apart, 3e-5), data) == 1);
 }
 
 TEST_CASE("recommendation: a vhgp's final refit continues its fit schedule from the run model (warm_final_refit)") {
