@@ -19,25 +19,13 @@
 #include <string>
 #include <vector>
 
+#include "process_probe.hpp"
 #include "subprocess.hpp"
 #include "trial_cgroup.hpp"
 
 using namespace varbo::tasks;
 
-namespace {
-std::vector<pid_t> processes_with(const std::string& marker) {
-  std::vector<pid_t> out;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator("/proc", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
-    std::ifstream f(e.path() / "cmdline", std::ios::binary);
-    const std::string c((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (c.find(marker) != std::string::npos) out.push_back(static_cast<pid_t>(std::stol(name)));
-  }
-  return out;
-}
-}  // namespace
+using varbo::test::processes_with;
 
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 7;

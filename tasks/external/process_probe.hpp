@@ -1,9 +1,13 @@
 #pragma once
-// Test helpers: which processes a command started (it writes their pids to a file) and whether they still run.
+// Test and benchmark helpers: which processes a command started (it writes their pids to a file) and whether they still run.
 #include <signal.h>
 #include <sys/types.h>
 
+#include <unistd.h>
+
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -25,6 +29,22 @@ inline bool alive(pid_t pid) {
   std::getline(f, s);
   const auto p = s.rfind(')');
   return p == std::string::npos || p + 2 >= s.size() || s[p + 2] != 'Z';
+}
+
+/// Live processes (not zombies) other than this one whose command line holds `marker`, from /proc.
+inline std::vector<pid_t> processes_with(const std::string& marker) {
+  std::vector<pid_t> out;
+  std::error_code ec;
+  for (const auto& e : std::filesystem::directory_iterator("/proc", ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    const pid_t pid = static_cast<pid_t>(std::stol(name));
+    if (pid == ::getpid()) continue;
+    std::ifstream f(e.path() / "cmdline", std::ios::binary);
+    const std::string cmdline((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    if (cmdline.find(marker) != std::string::npos && alive(pid)) out.push_back(pid);
+  }
+  return out;
 }
 
 }  // namespace varbo::test

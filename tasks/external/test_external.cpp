@@ -30,6 +30,7 @@
 using namespace varbo;
 using test::alive;
 using test::pids_in;
+using test::processes_with;
 using namespace varbo::tasks;
 
 namespace {
@@ -452,22 +453,6 @@ std::vector<std::string> our_trial_cgroups() {
   return out;
 }
 
-// Live processes (not zombies) whose command line holds `marker`, from /proc.
-std::vector<pid_t> processes_with(const std::string& marker) {
-  std::vector<pid_t> out;
-  std::error_code ec;
-  for (const auto& e : std::filesystem::directory_iterator("/proc", ec)) {
-    const std::string name = e.path().filename().string();
-    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
-    const pid_t pid = static_cast<pid_t>(std::stol(name));
-    if (pid == ::getpid()) continue;
-    std::ifstream f(e.path() / "cmdline", std::ios::binary);
-    const std::string cmdline((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    if (cmdline.find(marker) != std::string::npos && alive(pid)) out.push_back(pid);
-  }
-  return out;
-}
-
 // A sleep whose duration is unique to this test process and call: "59.<pid><n>" marks its command line.
 std::string new_marker() {
   static int n = 0;
@@ -491,38 +476,47 @@ std::string escapee_command(const std::string& dir, const std::string& marker) {
                      "while [ ! -s {0}/escapee ]; do sleep 0.01; done; sleep 30",
                      dir, marker);
 }
+
+struct EscapeeRun {
+  std::string marker;
+  ProcessResult result;
+  std::vector<pid_t> escapee;  // the pid the escapee wrote
+};
+
+// Runs escapee_command under `containment` with a 5 s timeout.
+EscapeeRun run_escapee(const std::string& folder, Containment containment) {
+  const std::string dir = test::temp_folder(folder);
+  EscapeeRun run{new_marker(), {}, {}};
+  ProcessOptions po;
+  po.timeout_seconds = 5;
+  po.containment = containment;
+  run.result = run_shell(escapee_command(dir, run.marker), "", po);
+  run.escapee = pids_in(dir + "/escapee");
+  return run;
+}
 }  // namespace
 
 TEST_CASE("cgroup: an escapee with a cleared environment in a new session that kills its supervisor is killed") {
   if (!cgroups_here()) return;
-  const std::string dir = test::temp_folder("ext_cg_escapee");
-  const std::string marker = new_marker();
-  ProcessOptions po;
-  po.timeout_seconds = 5;
-  po.containment = Containment::Cgroup;
-  const ProcessResult r = run_shell(escapee_command(dir, marker), "", po);
+  const EscapeeRun run = run_escapee("ext_cg_escapee", Containment::Cgroup);
+  const ProcessResult& r = run.result;
+  const std::string& marker = run.marker;
   CHECK(r.started);
   CHECK_FALSE(r.exited);
   CHECK(r.signal == 0);  // no verdict: the supervisor was killed
   CHECK(contains(r.status_text(), "supervisor process was killed"));
-  const auto escapee = pids_in(dir + "/escapee");
-  REQUIRE(escapee.size() == 1);
-  CHECK(eventually([&] { return !alive(escapee[0]) && processes_with(marker).empty(); }));
+  REQUIRE(run.escapee.size() == 1);
+  CHECK(eventually([&] { return !alive(run.escapee[0]) && processes_with(marker).empty(); }));
   CHECK(processes_with(marker).empty());
   CHECK(our_trial_cgroups().empty());
 }
 
 TEST_CASE("cgroup: the same escapee survives without a cgroup (the documented limit the cgroup closes)") {
   // Shows that the scenario above really escapes the process group, the tree walk and the token sweep.
-  const std::string dir = test::temp_folder("ext_pg_escapee");
-  const std::string marker = new_marker();
-  ProcessOptions po;
-  po.timeout_seconds = 5;
-  po.containment = Containment::ProcessGroup;
-  const ProcessResult r = run_shell(escapee_command(dir, marker), "", po);
-  CHECK(r.started);
-  const auto escapee = pids_in(dir + "/escapee");
-  REQUIRE(escapee.size() == 1);
+  const EscapeeRun run = run_escapee("ext_pg_escapee", Containment::ProcessGroup);
+  const std::string& marker = run.marker;
+  CHECK(run.result.started);
+  REQUIRE(run.escapee.size() == 1);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   const auto left = processes_with(marker);
   CHECK_FALSE(left.empty());
