@@ -322,13 +322,13 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
   // creep12. Hartmann-3 with bench_failures' ball (seed 1): the plain run's first attempt creeps along the ball's
   // edge and then re-evaluates its incumbent exactly (docs/failures.md, session fail12). With the rule, no attempt
   // repeats one of its own points (the final refinement may: it is not an attempt), and a fresh start comes sooner.
-  const std::string task =
-      "{type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
-  const auto trials = [&](const std::string& name, const std::string& algorithm) {
+  const std::string ball = "failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
+  const std::string task = "{type: hartmann3, " + ball, noisy = "{type: hartmann3, noise_std: 0.01, " + ball;
+  const auto trials = [](const std::string& name, const std::string& algorithm, const std::string& t) {
     RunOverrides ov;
     ov.output = test::temp_folder("failure_aware_" + name);
     ov.threads = 1;
-    test::run_yaml("task: " + task + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
+    test::run_yaml("task: " + t + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
     const auto rows = test::read_rows(*ov.output + "/trials.csv");
     const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
               phase = test::column_of(rows[0], "phase");
@@ -357,8 +357,8 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
       if (t[i].phase == "restart") return i;
     return t.size();
   };
-  const std::vector<Trial> plain = trials("rd_plain", "{type: bo, failure_model: {repeat_distance: 0}}");
-  const std::vector<Trial> rule = trials("rd_rule", "{type: bo}");  // the default, 1e-9
+  const std::vector<Trial> plain = trials("rd_plain", "{type: bo, failure_model: {repeat_distance: 0}}", task);
+  const std::vector<Trial> rule = trials("rd_rule", "{type: bo}", task);  // the default, 1e-9
   REQUIRE(plain.size() == 50);
   REQUIRE(rule.size() == 50);
   CHECK(repeats(plain) >= 2);  // the behaviour the rule is for (trials 38, 40, 41 in session fail12)
@@ -366,4 +366,11 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
   CHECK(first_restart(rule) < first_restart(plain));
   // The same trials until the proposal that would have repeated a point.
   for (std::size_t i = 0; i < first_restart(rule); ++i) CHECK((rule[i].u - plain[i].u).norm() == 0.0);
+  // Under noise (σ = 0.01 on costs of std ~1: the fitted noise is far above the floor) a repeat is a measurement:
+  // the rule stays off and the run is the plain one, although that run repeats points too.
+  const std::vector<Trial> noisy_plain = trials("rd_noisy_plain", "{type: bo, failure_model: {repeat_distance: 0}}", noisy);
+  const std::vector<Trial> noisy_rule = trials("rd_noisy_rule", "{type: bo}", noisy);
+  REQUIRE(noisy_plain.size() == noisy_rule.size());
+  CHECK(repeats(noisy_plain) >= 1);
+  for (std::size_t i = 0; i < noisy_plain.size(); ++i) CHECK((noisy_rule[i].u - noisy_plain[i].u).norm() == 0.0);
 }
