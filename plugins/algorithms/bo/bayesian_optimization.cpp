@@ -124,7 +124,7 @@ const OptionSet<BoSettings>& bo_options() {
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
                 "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
-                "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 1e-9}; the acquisition is weighted by P(success | θ) from a "
+                "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0}; the acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };

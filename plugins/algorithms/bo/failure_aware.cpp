@@ -74,8 +74,7 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "> 0: once a trial has failed, an attempt whose acquisition proposes a θ within this distance "
                 "(max-norm, unit cube) of a point it has already evaluated counts as converged and the region "
                 "restarts afresh instead of repeating it; only while the cost model's noise is at its floor (a "
-                "deterministic cost: a repeat teaches nothing; under noise it is a measurement); 0 = off, default "
-                "1e-9 (an exact repeat)")
+                "deterministic cost: a repeat teaches nothing; under noise it is a measurement); 0 = off")
           .at_least(0)
           .below(1),
   };

@@ -279,7 +279,7 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
-      "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 0}}"};
+      "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 1e-9}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
@@ -357,8 +357,8 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
       if (t[i].phase == "restart") return i;
     return t.size();
   };
-  const std::vector<Trial> plain = trials("rd_plain", "{type: bo, failure_model: {repeat_distance: 0}}", task);
-  const std::vector<Trial> rule = trials("rd_rule", "{type: bo}", task);  // the default, 1e-9
+  const std::vector<Trial> plain = trials("rd_plain", "{type: bo}", task);
+  const std::vector<Trial> rule = trials("rd_rule", "{type: bo, failure_model: {repeat_distance: 1e-9}}", task);
   REQUIRE(plain.size() == 50);
   REQUIRE(rule.size() == 50);
   CHECK(repeats(plain) >= 2);  // the behaviour the rule is for (trials 38, 40, 41 in session fail12)
@@ -368,8 +368,8 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
   for (std::size_t i = 0; i < first_restart(rule); ++i) CHECK((rule[i].u - plain[i].u).norm() == 0.0);
   // Under noise (σ = 0.01 on costs of std ~1: the fitted noise is far above the floor) a repeat is a measurement:
   // the rule stays off and the run is the plain one, although that run repeats points too.
-  const std::vector<Trial> noisy_plain = trials("rd_noisy_plain", "{type: bo, failure_model: {repeat_distance: 0}}", noisy);
-  const std::vector<Trial> noisy_rule = trials("rd_noisy_rule", "{type: bo}", noisy);
+  const std::vector<Trial> noisy_plain = trials("rd_noisy_plain", "{type: bo}", noisy);
+  const std::vector<Trial> noisy_rule = trials("rd_noisy_rule", "{type: bo, failure_model: {repeat_distance: 1e-9}}", noisy);
   REQUIRE(noisy_plain.size() == noisy_rule.size());
   CHECK(repeats(noisy_plain) >= 1);
   for (std::size_t i = 0; i < noisy_plain.size(); ++i) CHECK((noisy_rule[i].u - noisy_plain[i].u).norm() == 0.0);
