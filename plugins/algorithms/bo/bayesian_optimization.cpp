@@ -124,7 +124,7 @@ const OptionSet<BoSettings>& bo_options() {
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
                 "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
-                "-1, stall_remaining: 0, stall_attempt: false}; the acquisition is weighted by P(success | θ) from a "
+                "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0}; the acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };
@@ -582,10 +582,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const auto t_acq = std::chrono::steady_clock::now();
   Rng region_rng = rng_.stream(kOptimize, uk * 2 + 1);
   // failure_model.stall_value: once trials have failed, an attempt converged in value hands over sooner.
+  ValueStall region_rule;  // the rule this update uses (restored after repeat_distance's fantasy updates)
   if (auto* value_stall = dynamic_cast<ValueStallRegion*>(region_.get());
       value_stall && failure_settings_.stall_value > 0 && !failed_.empty() &&
       failure_settings_.active(static_cast<Index>(failed_.size()))) {
-    ValueStall rule;
+    ValueStall& rule = region_rule;
     const bool late = budget_ > 0 && ((failure_settings_.stall_remaining > 0 &&
                                        budget_ - k < failure_settings_.stall_remaining) ||
                                       (failure_settings_.stall_attempt && budget_ - k < k - fresh_trial_));
@@ -696,12 +697,82 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   s.x = Box::unit(dim_).clamp(res.x);
   s.phase = refining_ ? "refine" : phase.name;
+  if (fresh_region && !refining_ && !final_stretch && restart_points_ > 0 &&
+      converged_on_repeat(k, s.x, data, *model_data, region_rule, region_rng)) {
+    fresh_starts_ = fresh_region->fresh_starts();
+    fresh_trial_ = k;
+    fresh_from_ = data.size();
+    attempt_starts_.push_back(fresh_from_);
+    log_info("bo: trial {}: the attempt proposed a point it has evaluated: converged; the region restarts afresh "
+             "({}): a new design of {} points", k, fresh_starts_, restart_points_);
+    s.x = fresh_design_point(k, refit);
+    s.phase = "restart";
+    return s;
+  }
   if (feasible)
     log_debug("bo: trial {} acquisition {:.6g} {} | P(success) here {:.3g}", k, res.value, acquisition.state(),
               feasibility_->probability(s.x));
   else
     log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
   return s;
+}
+
+bool BayesianOptimization::converged_on_repeat(Index k, const Vec& x, const Dataset& data, const Dataset& model_data,
+                                               const ValueStall& rule, Rng& region_rng) {
+  // failure_model.repeat_distance (docs/failures.md, session creep12): once a trial has failed, the acquisition
+  // of an attempt creeping along a failure boundary collapsed onto the attempt's own points (Hartmann-3 with a
+  // ball: 27 exact repeats of a successful θ in 10 of 20 runs with failures, none without). On a deterministic cost
+  // a repeat teaches nothing: the attempt has converged and the region restarts afresh now.
+  const double delta = failure_settings_.repeat_distance;
+  if (!(delta > 0) || failed_.empty() || !failure_settings_.active(static_cast<Index>(failed_.size()))) return false;
+  const Index from = std::min(fresh_from_, data.size());
+  Index near = -1;
+  double nearest = std::numeric_limits<double>::infinity();
+  for (Index i = from; i < data.size(); ++i) {
+    const double d = (data.X.row(i).transpose() - x).lpNorm<Eigen::Infinity>();
+    if (d < nearest) nearest = d, near = i;
+  }
+  if (near < 0 || nearest > delta) return false;
+  // Deterministic only: the model's noise at the point at most 1e-5 of the costs' std (lowest_mean_evaluated's
+  // test); under noise a repeat is a measurement.
+  if (model_data.size() < 2) return false;
+  const double spread = std::sqrt((model_data.y.array() - model_data.y.mean()).square().sum() /
+                                  static_cast<double>(model_data.size() - 1));
+  const double noise_std = std::sqrt(surrogate_->predict(data.X.row(near).transpose(), false).noise_var());
+  if (!(noise_std <= 1e-5 * spread)) return false;
+  auto* fresh_region = dynamic_cast<FreshStartRegion*>(region_.get());
+  auto* value_stall = dynamic_cast<ValueStallRegion*>(region_.get());
+  ComponentState* state = state_of(region_.get());
+  if (!fresh_region || !state) return false;
+  // The region's own stall rule decides, on the repeat's known outcome (deterministic: the cost observed there):
+  // fantasized repeats, each a trial without improvement that counts as a stall, until the region restarts.
+  const std::string before = state->save_state();
+  const int starts = fresh_region->fresh_starts();
+  if (value_stall) {
+    ValueStall all;
+    all.fraction = std::numeric_limits<double>::max();  // every trial without improvement is a stall
+    value_stall->set_value_stall(all);
+  }
+  Dataset fantasy = data;
+  for (int j = 0; j < 8 && fresh_region->fresh_starts() == starts; ++j) {
+    fantasy.X.conservativeResize(fantasy.X.rows() + 1, Eigen::NoChange);
+    fantasy.y.conservativeResize(fantasy.y.size() + 1);
+    fantasy.X.row(fantasy.X.rows() - 1) = data.X.row(near);
+    fantasy.y(fantasy.y.size() - 1) = data.y(near);
+    region_->update(surrogate_.get(), fantasy, region_rng);
+  }
+  if (value_stall) value_stall->set_value_stall(rule);
+  if (fresh_region->fresh_starts() == starts) {
+    state->restore_state(before);  // the region would not restart (e.g. refining): nothing changes
+    return false;
+  }
+  // The restart belongs to the real data: the new attempt's points begin at this trial.
+  StateMap m = StateMap::parse(state->save_state(), "region state");
+  if (m.has("restart_at")) m.put_int("restart_at", static_cast<long long>(data.size()));
+  if (m.has("seen")) m.put_int("seen", static_cast<long long>(data.size()));
+  state->restore_state(m.text());
+  log_debug("bo: trial {}: proposed θ at distance {:.3g} of trial point {} of the attempt", k, nearest, near);
+  return true;
 }
 
 std::vector<Suggestion> BayesianOptimization::ask(Index q) {

@@ -14,6 +14,7 @@
 #include "varbo/registry.hpp"
 #include "varbo/search_space.hpp"
 #include "varbo/state.hpp"
+#include "varbo/value_stall.hpp"
 
 namespace varbo::bo {
 
@@ -59,6 +60,9 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Trial k's point of the current fresh start's design (drawn anew from its own stream, so a restored run
   /// draws the same), or a random point where success is likely when failure is likely there.
   Vec fresh_design_point(Index k, bool refit);
+  /// failure_model.repeat_distance: whether proposing x ends the attempt (the region restarts afresh); see the .cpp.
+  bool converged_on_repeat(Index k, const Vec& x, const Dataset& data, const Dataset& model_data,
+                           const ValueStall& rule, Rng& region_rng);
   /// restart_design: away: of 16 designs, the one farthest from the best point of every earlier attempt.
   Mat design_away_from_minima(Rng& rng) const;
   /// The best point of every attempt before the latest fresh start.

@@ -70,6 +70,13 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "value stalls count only while the trials left in the budget are at least as many as the current "
                    "attempt has used (design included): a fresh start gets at least the trials of the attempt it "
                    "replaces, whatever the budget and dimension"),
+      opt::real("repeat_distance", &FailureModelSettings::repeat_distance,
+                "> 0: once a trial has failed, an attempt whose acquisition proposes a θ within this distance "
+                "(max-norm, unit cube) of a point it has already evaluated counts as converged and the region "
+                "restarts afresh instead of repeating it; only while the cost model's noise is at its floor (a "
+                "deterministic cost: a repeat teaches nothing; under noise it is a measurement); 0 = off")
+          .at_least(0)
+          .below(1),
   };
   return set;
 }
@@ -83,7 +90,8 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
   if (!node.is_map())
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
-              "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool}");
+              "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
+              "repeat_distance: d}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

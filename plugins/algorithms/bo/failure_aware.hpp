@@ -58,6 +58,14 @@ struct FailureModelSettings {
   /// used (its design included): a fresh start then gets at least the trials the attempt it replaces had, on the
   /// problem's own scale (dimension, budget, how long an attempt takes to converge) instead of a fixed count.
   bool stall_attempt = false;
+  /// > 0: once a trial has failed, an attempt whose acquisition proposes a θ within this distance (∞-norm, unit
+  /// cube) of a point already evaluated in the attempt has converged (its search collapsed onto its own data, e.g.
+  /// creeping along a failure boundary): the region restarts afresh at once instead of spending the trial on a
+  /// repeat. Only while the cost model treats the cost as deterministic (its noise at a data point below 1e-5 of the
+  /// costs' std, as lowest_mean_evaluated): under noise a repeat is a legitimate measurement. 0 = off (the
+  /// default: 1e-9 helps Hartmann-3 with a ball at budget 50 but costs it precision at 100; docs/failures.md,
+  /// session creep12).
+  double repeat_distance = 0;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

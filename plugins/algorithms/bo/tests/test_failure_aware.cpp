@@ -245,7 +245,9 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {stall_scale: max}}", "{type: bo, failure_model: {stall_strict: 2}}",
                        "{type: bo, failure_model: {stall_incumbent: -2}}",
                        "{type: bo, failure_model: {stall_remaining: -1}}",
-                       "{type: bo, failure_model: {stall_attempt: 2}}"};
+                       "{type: bo, failure_model: {stall_attempt: 2}}",
+                       "{type: bo, failure_model: {repeat_distance: 1}}",
+                       "{type: bo, failure_model: {repeat_distance: -1e-9}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -276,7 +278,8 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}",
-      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}"};
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
+      "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 1e-9}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
@@ -313,4 +316,61 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_attempt: true}}", 70, 1);
   REQUIRE(gated.size() == h.size());
   for (std::size_t i = 0; i <= 35; ++i) CHECK((gated[i].u - sv[i].u).norm() == 0.0);
+}
+
+TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afresh instead of repeating it") {
+  // creep12. Hartmann-3 with bench_failures' ball (seed 1): the plain run's first attempt creeps along the ball's
+  // edge and then re-evaluates its incumbent exactly (docs/failures.md, session fail12). With the rule, no attempt
+  // repeats one of its own points (the final refinement may: it is not an attempt), and a fresh start comes sooner.
+  const std::string ball = "failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
+  const std::string task = "{type: hartmann3, " + ball, noisy = "{type: hartmann3, noise_std: 0.01, " + ball;
+  const auto trials = [](const std::string& name, const std::string& algorithm, const std::string& t) {
+    RunOverrides ov;
+    ov.output = test::temp_folder("failure_aware_" + name);
+    ov.threads = 1;
+    test::run_yaml("task: " + t + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
+    const auto rows = test::read_rows(*ov.output + "/trials.csv");
+    const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
+              phase = test::column_of(rows[0], "phase");
+    REQUIRE(x1 >= 0);
+    std::vector<Trial> out;
+    for (std::size_t r = 1; r < rows.size(); ++r) {
+      Vec u(3);  // Hartmann-3's box is the unit cube
+      for (int d = 0; d < 3; ++d) u(d) = std::stod(rows[r][static_cast<std::size_t>(x1 + d)]);
+      out.push_back({u, rows[r][static_cast<std::size_t>(ok)] == "1", rows[r][static_cast<std::size_t>(phase)]});
+    }
+    return out;
+  };
+  // Trials (outside the final refinement) that repeat an earlier successful trial exactly; the first restart.
+  const auto repeats = [](const std::vector<Trial>& t) {
+    int n = 0;
+    for (std::size_t i = 0; i < t.size(); ++i)
+      for (std::size_t j = 0; j < i && t[i].phase != "refine"; ++j)
+        if (t[j].ok && (t[i].u - t[j].u).lpNorm<Eigen::Infinity>() == 0.0) {
+          ++n;
+          break;
+        }
+    return n;
+  };
+  const auto first_restart = [](const std::vector<Trial>& t) {
+    for (std::size_t i = 0; i < t.size(); ++i)
+      if (t[i].phase == "restart") return i;
+    return t.size();
+  };
+  const std::vector<Trial> plain = trials("rd_plain", "{type: bo}", task);
+  const std::vector<Trial> rule = trials("rd_rule", "{type: bo, failure_model: {repeat_distance: 1e-9}}", task);
+  REQUIRE(plain.size() == 50);
+  REQUIRE(rule.size() == 50);
+  CHECK(repeats(plain) >= 2);  // the behaviour the rule is for (trials 38, 40, 41 in session fail12)
+  CHECK(repeats(rule) == 0);
+  CHECK(first_restart(rule) < first_restart(plain));
+  // The same trials until the proposal that would have repeated a point.
+  for (std::size_t i = 0; i < first_restart(rule); ++i) CHECK((rule[i].u - plain[i].u).norm() == 0.0);
+  // Under noise (σ = 0.01 on costs of std ~1: the fitted noise is far above the floor) a repeat is a measurement:
+  // the rule stays off and the run is the plain one, although that run repeats points too.
+  const std::vector<Trial> noisy_plain = trials("rd_noisy_plain", "{type: bo}", noisy);
+  const std::vector<Trial> noisy_rule = trials("rd_noisy_rule", "{type: bo, failure_model: {repeat_distance: 1e-9}}", noisy);
+  REQUIRE(noisy_plain.size() == noisy_rule.size());
+  CHECK(repeats(noisy_plain) >= 1);
+  for (std::size_t i = 0; i < noisy_plain.size(); ++i) CHECK((noisy_rule[i].u - noisy_plain[i].u).norm() == 0.0);
 }
