@@ -321,6 +321,13 @@ void BayesianOptimization::fit_model(Index k, const Dataset& data) {
   snapshot_.note = rep.ok ? "" : rep.message;
 }
 
+void BayesianOptimization::begin_fresh_attempt(Index k, int fresh_starts, const Dataset& data) {
+  fresh_starts_ = fresh_starts;
+  fresh_trial_ = k;
+  fresh_from_ = data.size();
+  attempt_starts_.push_back(fresh_from_);
+}
+
 Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(fresh_starts_));
   const Mat design = restart_away_ ? design_away_from_minima(drng)
@@ -612,10 +619,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     region_->update(surrogate_.get(), data, region_rng);
   }
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0) {
-    fresh_starts_ = fresh_region->fresh_starts();
-    fresh_trial_ = k;
-    fresh_from_ = data.size();
-    attempt_starts_.push_back(fresh_from_);
+    begin_fresh_attempt(k, fresh_region->fresh_starts(), data);
     log_info("bo: trial {}: the region restarts afresh ({}): a new design of {} points, then a model of the new "
              "points", k, fresh_starts_, restart_points_);
     s.x = fresh_design_point(k, refit);
@@ -699,10 +703,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   s.phase = refining_ ? "refine" : phase.name;
   if (fresh_region && !refining_ && !final_stretch && restart_points_ > 0 &&
       converged_on_repeat(k, s.x, data, *model_data, region_rule, region_rng)) {
-    fresh_starts_ = fresh_region->fresh_starts();
-    fresh_trial_ = k;
-    fresh_from_ = data.size();
-    attempt_starts_.push_back(fresh_from_);
+    begin_fresh_attempt(k, fresh_region->fresh_starts(), data);
     log_info("bo: trial {}: the attempt proposed a point it has evaluated: converged; the region restarts afresh "
              "({}): a new design of {} points", k, fresh_starts_, restart_points_);
     s.x = fresh_design_point(k, refit);

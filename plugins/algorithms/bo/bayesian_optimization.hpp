@@ -60,6 +60,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Trial k's point of the current fresh start's design (drawn anew from its own stream, so a restored run
   /// draws the same), or a random point where success is likely when failure is likely there.
   Vec fresh_design_point(Index k, bool refit);
+  /// The region restarted afresh (its `fresh_starts` count) at trial k: a new attempt begins with the data so far.
+  void begin_fresh_attempt(Index k, int fresh_starts, const Dataset& data);
   /// failure_model.repeat_distance: whether proposing x ends the attempt (the region restarts afresh); see the .cpp.
   bool converged_on_repeat(Index k, const Vec& x, const Dataset& data, const Dataset& model_data,
                            const ValueStall& rule, Rng& region_rng);
