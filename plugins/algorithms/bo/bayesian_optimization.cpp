@@ -734,13 +734,9 @@ bool BayesianOptimization::converged_on_repeat(Index k, const Vec& x, const Data
     if (d < nearest) nearest = d, near = i;
   }
   if (near < 0 || nearest > delta) return false;
-  // Deterministic only: the model's noise at the point at most 1e-5 of the costs' std (lowest_mean_evaluated's
-  // test); under noise a repeat is a measurement.
-  if (model_data.size() < 2) return false;
-  const double spread = std::sqrt((model_data.y.array() - model_data.y.mean()).square().sum() /
-                                  static_cast<double>(model_data.size() - 1));
+  // Deterministic only (lowest_mean_evaluated's test): under noise a repeat is a measurement.
   const double noise_std = std::sqrt(surrogate_->predict(data.X.row(near).transpose(), false).noise_var());
-  if (!(noise_std <= 1e-5 * spread)) return false;
+  if (!treats_cost_as_deterministic(noise_std, model_data.y)) return false;
   auto* fresh_region = dynamic_cast<FreshStartRegion*>(region_.get());
   auto* value_stall = dynamic_cast<ValueStallRegion*>(region_.get());
   ComponentState* state = state_of(region_.get());

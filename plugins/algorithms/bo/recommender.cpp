@@ -43,6 +43,13 @@ Index best_observed(const Dataset& data) {
 // posterior mean at a data point is y_i − σ_n²·α_i, and that shift reordered near-equal points (Branin with
 // the plain default: recommended 3.2e-8 against 1e-9 best observed, seeds 1–20; docs/defaults.md). A tenth of
 // σ_n keeps the winner's curse of a noisy cost (picking the luckiest of tied draws) negligible.
+bool treats_cost_as_deterministic(double noise_std, const Vec& y) {
+  constexpr double kDeterministicNoise = 1e-5;
+  if (y.size() < 2) return false;
+  const double spread = std::sqrt((y.array() - y.mean()).square().sum() / static_cast<double>(y.size() - 1));
+  return noise_std <= kDeterministicNoise * spread;
+}
+
 Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
   if (data.size() == 0) throw std::logic_error("lowest_mean_evaluated without data");
   // One prediction per point: the means, the lowest (first on ties, as find_incumbent) and its noise.
@@ -55,17 +62,13 @@ Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
   }
   const double lowest = p[static_cast<std::size_t>(inc)].mean;
   const double noise_std = std::sqrt(p[static_cast<std::size_t>(inc)].noise_var());
-  // A model whose noise is below kDeterministicNoise of the costs' spread treats the cost as deterministic: every
+  // A model whose noise is at most 1e-5 of the costs' spread treats the cost as deterministic: every
   // observation is then the cost itself (up to that noise), and the means at the data differ from the observations
   // only by misfit (μ_i − y_i = −σ_n²α_i) and rounding (cond(K + σ_n²I) ~ 1e16 at such a noise): with SE-ARD on
   // Branin the lowest mean fell on a point of regret 2.7e-5 when one of 5.4e-11 had been observed (docs/defaults.md,
   // "Why SE-ARD is weaker"). The lowest observed cost is then the recommendation; its winner's curse is at most the
   // noise.
-  constexpr double kDeterministicNoise = 1e-5;
-  if (data.size() > 1) {
-    const double spread = std::sqrt((data.y.array() - data.y.mean()).square().sum() / double(data.size() - 1));
-    if (noise_std <= kDeterministicNoise * spread) return best_observed(data);
-  }
+  if (treats_cost_as_deterministic(noise_std, data.y)) return best_observed(data);
   const double tol = 0.1 * noise_std;
   Index best = inc;
   if (!(tol > 0) || !std::isfinite(tol)) return best;

@@ -28,6 +28,10 @@ RecommendationRule recommendation_rule(const std::string& name);
 /// model's noise is at most 1e-5 of std(y), i.e. it treats the cost as deterministic (recommender.cpp says why).
 Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data);
 
+/// Whether a model with noise std `noise_std` treats costs `y` as deterministic: the noise at most 1e-5 of their
+/// standard deviation (the recommendation and failure_model.repeat_distance use this test; needs ≥ 2 costs).
+bool treats_cost_as_deterministic(double noise_std, const Vec& y);
+
 class Recommender {
  public:
   /// `model` is a second instance of the run's surrogate: it is conditioned (or refitted) on all data and

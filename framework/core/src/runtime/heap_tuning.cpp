@@ -5,9 +5,10 @@
 // Cholesky factor, L⁻¹, K⁻¹, W = αα' − K⁻¹, ...): 320 KB each at N = 200. glibc's defaults either map such a block
 // fresh (mmap threshold 128 KB until it adapts) or, once adapted, give the top of the heap back to the kernel
 // whenever more than twice the block size is free (the dynamic trim threshold) — so every evaluation page-faults
-// and zeroes a few MB again. Measured on Hartmann-6 data, d = 6, N = 200 (bench_gp BM_GpFit, all 4 restarts, one
-// thread): 3.1 ms per likelihood evaluation with glibc's defaults, 1.4 ms with the blocks kept (README, "Iteration
-// wall time"). jemalloc and tcmalloc keep such blocks by design; this is the glibc equivalent.
+// and zeroes a few MB again. Measured on the idle 2-core VM (bench_gp BM_LogPosterior, d = 6): one evaluation
+// with its gradient 4.46 ms with glibc's defaults, 1.28 ms with the blocks kept at N = 200 (206 / 104 ms at
+// N = 1000), and two threads made a 4-restart fit no faster than one before (docs/defaults.md, "The allocator").
+// jemalloc and tcmalloc keep such blocks by design; this is the glibc equivalent.
 //
 // What is kept: blocks up to 64 MB come from the heap (an N × N matrix up to N ≈ 2,900), and the heap is trimmed
 // only once 256 MB at its top are free. The `varbo` CLI, a short process, keeps more (framework/cli/main.cpp).
