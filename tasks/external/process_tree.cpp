@@ -15,6 +15,7 @@
 #include <cstring>
 #include <initializer_list>
 
+#include "signal_safe_text.hpp"
 #include "trial_cgroup.hpp"
 
 extern char** environ;
@@ -64,12 +65,8 @@ bool parse_pid(const char* s, pid_t& out) {
 
 // The parent pid from /proc/PID/stat ("pid (comm) state ppid ..."; comm may hold spaces and ')').
 pid_t parent_of(pid_t pid) {
-  char path[32] = "/proc/";
-  char digits[16];
-  int n = 0;
-  for (long v = pid; v > 0 && n < 15; v /= 10) digits[n++] = static_cast<char>('0' + v % 10);
-  int len = 6;
-  while (n > 0) path[len++] = digits[--n];
+  char path[40] = "/proc/";
+  int len = 6 + signal_safe::decimal(pid, path + 6);
   for (const char* t = "/stat"; *t;) path[len++] = *t++;
   path[len] = '\0';
   const int fd = ::open(path, O_RDONLY | O_CLOEXEC);

@@ -18,6 +18,8 @@
 #include <thread>
 #include <vector>
 
+#include "signal_safe_text.hpp"
+
 namespace varbo::tasks {
 
 // ---------------------------------------------------------------------------------------------------------
@@ -40,12 +42,8 @@ ssize_t write_text(int dir_fd, const char* file, const char* text, std::size_t n
 }  // namespace
 
 int enter(int dir_fd) {
-  char digits[24];
-  int n = 0;
-  for (long v = ::getpid(); v > 0 && n < 20; v /= 10) digits[n++] = static_cast<char>('0' + v % 10);
   char text[24];
-  int len = 0;
-  while (n > 0) text[len++] = digits[--n];
+  const int len = signal_safe::decimal(::getpid(), text);
   if (write_text(dir_fd, "cgroup.procs", text, static_cast<std::size_t>(len)) != len) return errno != 0 ? errno : EIO;
   return 0;
 }
