@@ -1,6 +1,7 @@
 // libvarbo_dashboard_http.so: cpp-httplib serving the page at / and the JSON API under /api/ for `varbo dashboard`
 // (dashboard_http.hpp says why it is a library of its own). Read-only: GET only.
 #include "dashboard_http.hpp"
+#include "growing_pool.hpp"
 
 #include <fmt/format.h>
 #include <httplib.h>
@@ -8,11 +9,7 @@
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
-#include <deque>
-#include <mutex>
 #include <thread>
-#include <vector>
 
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
@@ -33,50 +30,15 @@ void json_reply(httplib::Response& res, int status, const std::string& body) {
   res.set_content(body, "application/json; charset=utf-8");
 }
 
-/// cpp-httplib's ThreadPool has a fixed number of threads, each held by one connection until its request has
-/// arrived (or the read timeout): 8 idle or slow (slowloris) clients stalled every other request, and 300 idle
-/// connections kept a GET waiting > 30 s (docs/dashboard.md, "Red-team pass"). This pool starts a thread whenever
-/// none is idle, up to kMaxThreads, so slow clients only hold threads of their own; past that, requests queue.
-class GrowingPool : public httplib::TaskQueue {
+/// cpp-httplib's task queue interface over GrowingPool (growing_pool.hpp says why not httplib's ThreadPool).
+class GrowingTaskQueue : public httplib::TaskQueue {
  public:
   static constexpr std::size_t kMaxThreads = 128;
-  void enqueue(std::function<void()> fn) override {
-    std::unique_lock<std::mutex> lock(mutex_);
-    jobs_.push_back(std::move(fn));
-    if (idle_ == 0 && threads_.size() < kMaxThreads) threads_.emplace_back([this] { work(); });
-    else cond_.notify_one();
-  }
-  void shutdown() override {
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    cond_.notify_all();
-    for (auto& t : threads_) t.join();
-  }
+  void enqueue(std::function<void()> fn) override { pool_.enqueue(std::move(fn)); }
+  void shutdown() override { pool_.shutdown(); }
 
  private:
-  void work() {
-    for (;;) {
-      std::function<void()> fn;
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        ++idle_;
-        cond_.wait(lock, [&] { return stop_ || !jobs_.empty(); });
-        --idle_;
-        if (jobs_.empty()) return;  // stopping, nothing left
-        fn = std::move(jobs_.front());
-        jobs_.pop_front();
-      }
-      fn();
-    }
-  }
-  std::mutex mutex_;
-  std::condition_variable cond_;
-  std::deque<std::function<void()>> jobs_;
-  std::vector<std::thread> threads_;
-  std::size_t idle_ = 0;
-  bool stop_ = false;
+  GrowingPool pool_{kMaxThreads};
 };
 
 int hex_digit(char c) {
@@ -126,7 +88,7 @@ void serve(const DashboardHttp& http) {
   httplib::Server server;
   // A few threads: requests are short reads; model requests queue on the model's lock. A browser keeps up to 6
   // connections open, each holding a thread while it idles: a short keep-alive frees them for the next poll.
-  server.new_task_queue = [] { return new GrowingPool(); };
+  server.new_task_queue = [] { return new GrowingTaskQueue(); };
   server.set_keep_alive_timeout(1);
   server.set_read_timeout(3);  // a request that has not arrived in 3 s of silence frees its thread
   server.set_default_headers({{"X-Content-Type-Options", "nosniff"},
