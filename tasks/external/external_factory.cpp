@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <filesystem>
+#include <mutex>
 #include <set>
 
 #include "external_task.hpp"
@@ -54,6 +55,17 @@ std::vector<std::string> unique_names(const ConfigNode& n, const std::string& wh
   }
   return out;
 }
+/// A warning about the configuration, once per process: a command builds the task more than once (the study's
+/// domain, then the task that runs the trials), and the same line twice reads like two problems.
+void warn_once(const std::string& message) {
+  static std::mutex mutex;
+  static std::set<std::string> said;
+  {
+    const std::lock_guard<std::mutex> lock(mutex);
+    if (!said.insert(message).second) return;
+  }
+  log_warn("{}", message);
+}
 }  // namespace
 
 std::vector<OptionSpec> external_options() { return external_option_set().specs(); }
@@ -73,16 +85,16 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
   if (!s.process.working_directory.empty()) {
     std::error_code ec;
     if (!std::filesystem::is_directory(s.process.working_directory, ec))
-      log_warn("{}: key '{}': working directory '{}' does not exist (or is not a folder): every trial will fail "
-               "until it does",
-               o.node("workdir").where(), o.node("workdir").path(), s.process.working_directory);
+      warn_once(fmt::format("{}: key '{}': working directory '{}' does not exist (or is not a folder): every trial "
+                            "will fail until it does",
+                            o.node("workdir").where(), o.node("workdir").path(), s.process.working_directory));
   }
   // Like a missing workdir: a warning here (the task is also built to read a study elsewhere), a failed trial
   // saying why at each start.
   if (s.process.containment == Containment::Cgroup && !cgroup_unavailable().empty())
-    log_warn("{}: key '{}': containment: cgroup, but no cgroup can be made for a trial here ({}): every trial "
-             "will fail; use containment: auto to fall back to the process group",
-             o.node("containment").where(), o.node("containment").path(), cgroup_unavailable());
+    warn_once(fmt::format("{}: key '{}': containment: cgroup, but no cgroup can be made for a trial here ({}): every "
+                          "trial will fail; use containment: auto to fall back to the process group",
+                          o.node("containment").where(), o.node("containment").path(), cgroup_unavailable()));
   // Keys that define the domain here, for set_search_space to refuse when the study declares `parameters:`.
   for (const char* key : {"dim", "bounds", "lower", "upper", "names"})
     if (o.given(key) && !(std::string(key) == "dim" && o.integer("dim") == 0))  // dim: 0 is the resolved default

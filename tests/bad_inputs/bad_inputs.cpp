@@ -38,7 +38,7 @@ struct Case {
   std::string name, source;  ///< name and "file:line" of its `===` line
   std::string pending;
   std::vector<std::pair<std::string, std::string>> steps;  ///< ("sh" | "setup", text), in file order
-  std::vector<std::string> env, expect, reject, absent, exists, allow_new, utf8;
+  std::vector<std::string> env, expect, expect_once, reject, absent, exists, allow_new, utf8;
   std::vector<std::pair<std::string, std::string>> file_contains;
   std::vector<std::pair<std::string, long>> max_size;
   std::vector<InlineFile> files;
@@ -145,6 +145,7 @@ std::vector<Case> parse_cases(const fs::path& file) {
     else if (key == "sh" || key == "setup") c.steps.emplace_back(key, value);
     else if (key == "env") c.env.push_back(value);
     else if (key == "expect") c.expect.push_back(value);
+    else if (key == "expect_once") c.expect_once.push_back(value);
     else if (key == "reject") c.reject.push_back(value);
     else if (key == "absent") c.absent.push_back(value);
     else if (key == "exists") c.exists.push_back(value);
@@ -330,6 +331,12 @@ Result check_case(const Case& c, const fs::path& root, const std::map<std::strin
     if (o.output.find(crash) != std::string::npos) bad.push_back(std::string("crash: output says '") + crash + "'" + where);
   for (const auto& e : c.expect)
     if (o.output.find(substitute(e, v)) == std::string::npos) bad.push_back("message lacks '" + substitute(e, v) + "'" + where);
+  for (const auto& e : c.expect_once) {
+    const std::string text = substitute(e, v);
+    const std::size_t first = o.output.find(text);
+    if (first == std::string::npos) bad.push_back("message lacks '" + text + "'" + where);
+    else if (o.output.find(text, first + 1) != std::string::npos) bad.push_back("message repeats '" + text + "'" + where);
+  }
   for (const auto& e : c.reject)
     if (o.output.find(substitute(e, v)) != std::string::npos) bad.push_back("message has '" + substitute(e, v) + "'" + where);
   for (const auto& p : c.absent)
