@@ -123,10 +123,12 @@ ComponentInfo gp_component() {
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));
         if (o.is_set("hyperparameters")) {
           const ConfigNode node = o.node("hyperparameters");
+          std::vector<std::string> names;
+          for (const auto& h : gp->hyperparameters()) names.push_back(h.name);
+          // Outside the try: a parse error already names its own key and position.
+          const Hyperparameters values = kernels::parse_hyperparameter_map(node, names, {"mean"});
           try {
-            std::vector<std::string> names;
-            for (const auto& h : gp->hyperparameters()) names.push_back(h.name);
-            gp->set_hyperparameters(kernels::parse_hyperparameter_map(node, names, {"mean"}));
+            gp->set_hyperparameters(values);
           } catch (const ConfigError& e) {
             node.fail(e.what());
           }

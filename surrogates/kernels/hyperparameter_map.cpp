@@ -33,6 +33,22 @@ bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+/// The keys a user may write: every name, indexed ones (lengthscale[0], ...) also by their base name.
+std::vector<std::string> writable_keys(const std::vector<std::string>& names, const std::vector<std::string>& signed_names) {
+  std::vector<std::string> keys;
+  auto add = [&](const std::string& k) {
+    if (!contains(keys, k)) keys.push_back(k);
+  };
+  for (const auto& n : names) {
+    if (!n.empty() && n.back() == ']') {
+      if (const std::size_t open = n.rfind('['); open != std::string::npos) add(n.substr(0, open));
+    }
+    add(n);
+  }
+  for (const auto& n : signed_names) add(n);
+  return keys;
+}
+
 }  // namespace
 
 Hyperparameters parse_hyperparameter_map(const ConfigNode& node, const std::vector<std::string>& names,
@@ -48,6 +64,13 @@ Hyperparameters parse_hyperparameter_map(const ConfigNode& node, const std::vect
   for (const auto& key : node.keys()) {
     const ConfigNode v = node.child(key);
     const std::size_t count = indexed_count(key, names);
+    if (count == 0 && !contains(names, key) && !contains(signed_names, key)) {
+      // Named here, before the value is read: `lengthscales: [..]` said "expected a number" (the list's shape).
+      const std::vector<std::string> keys = writable_keys(names, signed_names);
+      const std::string near = closest_match(key, keys);
+      v.fail("unknown hyperparameter '" + key + "'; known: " + join(keys) +
+             (near.empty() ? "" : "; did you mean '" + near + "'?"));
+    }
     if (count > 0 && v.is_sequence()) {
       if (v.size() != count) {
         // The lengthscales of an ARD kernel (lengthscale, lengthscale_f, terms[0].lengthscale, ...).
