@@ -48,7 +48,8 @@ const OptionSet<GpSettings>& gp_options() {
                      "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
                      "lengthscales and amplitudes take the priors and bounds below"),
       opt::integer("restarts", &S::restarts, "optimizer runs per fit (the first warm-started from the previous fit)")
-          .at_least(1),
+          .at_least(1)
+          .at_most(1000),
       opt::real("full_fit_growth", &S::full_fit_growth,
                 "all restarts once N has grown by this factor since the last such fit (and always up to N = 20); "
                 "in between only the warm start (1: all restarts at every fit)")

@@ -68,7 +68,8 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
                   "(a GP) by less than 1/2 p log N, p = the number of g's hyperparameters (its BIC penalty); "
                   "heteroscedastic: always the paper's model; homoscedastic: always constant noise"),
       opt::integer("restarts", &C::restarts, "optimizer starts per fit (warm start, GP initialization, random)")
-          .at_least(1),
+          .at_least(1)
+          .at_most(1000),
       opt::integer("restart_evaluations", &C::restart_evaluations,
                    "objective evaluations per start before only the best `finalists` starts continue to "
                    "convergence; 0: every start runs to convergence")
