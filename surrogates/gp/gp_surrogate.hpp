@@ -45,11 +45,6 @@ struct GpSettings {
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
 inline constexpr double kSeArdMinNoiseStd = 1e-7;
-/// The default noise-std hyperprior (log-normal: median relative to std(y), sd of the log) of the `gp` component
-/// with `kernel: se_ard` (gp_component.cpp; docs/defaults.md, "Session se13"). The general prior is
-/// LogNormal(log 1e-2, 3).
-inline constexpr double kSeArdNoisePriorMedian = 1e-6;
-inline constexpr double kSeArdNoisePriorSd = 1.5;
 
 class GpSurrogate final : public Surrogate, public ComponentState {
  public:

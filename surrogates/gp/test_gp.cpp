@@ -432,37 +432,6 @@ TEST_CASE("gp component: the noise floor by kernel (1e-7 for se_ard unless min_n
   CHECK(floor_of("{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}") == doctest::Approx(1e-6).epsilon(1e-12));
 }
 
-TEST_CASE("gp component: the noise prior by kernel (LogNormal(log 1e-6, 1.5) for se_ard unless given)") {
-  auto& reg = test::registry();
-  BuildContext ctx;
-  ctx.dim = 2;
-  const auto prior_of = [&](const std::string& yaml) {
-    const auto s = reg.create<Surrogate>(yaml, ctx);
-    const auto* gp = dynamic_cast<const GpSurrogate*>(s.get());
-    REQUIRE(gp != nullptr);
-    return gp->settings().priors.noise_std;
-  };
-  const LogNormalPrior general = HyperPriors{}.noise_std;
-  CHECK(std::exp(general.mean) == doctest::Approx(1e-2).epsilon(1e-12));
-  CHECK(general.sd == 3.0);
-  const LogNormalPrior se = prior_of("{type: gp, kernel: se_ard}");
-  CHECK(std::exp(se.mean) == doctest::Approx(kSeArdNoisePriorMedian).epsilon(1e-12));
-  CHECK(se.sd == kSeArdNoisePriorSd);
-  for (const char* other : {"{type: gp}", "{type: gp, kernel: matern32_ard}",
-                            "{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}"}) {
-    CAPTURE(other);
-    CHECK(prior_of(other).mean == general.mean);
-    CHECK(prior_of(other).sd == general.sd);
-  }
-  // Either field given keeps the user's value; the other still follows the kernel.
-  const LogNormalPrior med = prior_of("{type: gp, kernel: se_ard, noise_std_prior_median: 0.01}");
-  CHECK(std::exp(med.mean) == doctest::Approx(1e-2).epsilon(1e-12));
-  CHECK(med.sd == kSeArdNoisePriorSd);
-  const LogNormalPrior sd = prior_of("{type: gp, kernel: se_ard, noise_std_prior_sd: 3}");
-  CHECK(std::exp(sd.mean) == doctest::Approx(kSeArdNoisePriorMedian).epsilon(1e-12));
-  CHECK(sd.sd == 3.0);
-}
-
 TEST_CASE("full_fit_growth: warm-only refits between full fits, all restarts once N has grown by the factor") {
   GpSettings s = settings_for(KernelType::Matern52);
   s.full_fit_growth = 1.25;
