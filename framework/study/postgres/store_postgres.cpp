@@ -500,6 +500,13 @@ class PostgresStore final : public StudyStore {
     });
   }
 
+  /// A trial's vector; the message naming the trial is formatted only for a corrupt one.
+  Vec trial_vec(const pqxx::field& f, std::int64_t id) const {
+    const std::string text = to_text(f);
+    if (Vec v; read_number_array(text, v)) return v;
+    return text_vec(text, fmt::format("{}: trial {}", location(), id));
+  }
+
   /// Trial rows (kColumns first); a row whose id is NULL (an outer join's empty side) is skipped.
   std::vector<TrialRecord> trials_of(const pqxx::result& r) const {
       std::vector<TrialRecord> out;
@@ -510,9 +517,8 @@ class PostgresStore final : public StudyStore {
         x.id = to_int(row[0]);
         x.state = state_from_name(to_text(row[1]));
         x.phase = to_text(row[2]);
-        const std::string where = fmt::format("{}: trial {}", location(), x.id);
-        x.x = text_vec(to_text(row[3]), where);
-        x.theta = text_vec(to_text(row[4]), where);
+        x.x = trial_vec(row[3], x.id);
+        x.theta = trial_vec(row[4], x.id);
         x.cost = to_double(row[5]);
         x.components = text_components(to_text(row[6]));
         x.noiseless_cost = to_double(row[7]);
