@@ -5,7 +5,6 @@
 #   python3 bench/store/make_study.py build/bin/varbo STUDY.db N
 import json, math, os, subprocess, sys, tempfile
 
-varbo, study, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
 A = [[10, 3, 17, 3.5, 1.7, 8], [0.05, 10, 17, 0.1, 8, 14], [3, 3.5, 1.7, 10, 17, 8], [17, 8, 0.05, 10, 0.1, 14]]
 P = [[1312, 1696, 5569, 124, 8283, 5886], [2329, 4135, 8307, 3736, 1004, 9991],
      [2348, 1451, 3522, 2883, 3047, 6650], [4047, 8828, 8732, 5743, 1091, 381]]
@@ -16,13 +15,15 @@ def hartmann6(x):
     return -sum(ALPHA[i] * math.exp(-sum(A[i][j] * (x[j] - P[i][j] * 1e-4) ** 2 for j in range(6))) for i in range(4))
 
 
-if not os.path.exists(study):
-    with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as cfg:
-        cfg.write("task: {type: hartmann6}\nbudget: 1000\nseed: 1\nalgorithm: {type: bo}\n")
-    subprocess.run([varbo, "-q", "study", "create", study, cfg.name], check=True, stdout=subprocess.DEVNULL)
-    os.remove(cfg.name)
-for _ in range(n):
-    out = subprocess.run([varbo, "-q", "suggest", study, "--json"], check=True, capture_output=True, text=True).stdout
-    t = json.loads(out)[0]
-    subprocess.run([varbo, "-q", "observe", study, str(t["id"]), repr(hartmann6(t["theta"]))], check=True,
-                   stdout=subprocess.DEVNULL)
+if __name__ == "__main__":
+    varbo, study, n = sys.argv[1], sys.argv[2], int(sys.argv[3])
+    if not os.path.exists(study):
+        with tempfile.NamedTemporaryFile("w", suffix=".yaml", delete=False) as cfg:
+            cfg.write("task: {type: hartmann6}\nbudget: 1000\nseed: 1\nalgorithm: {type: bo}\n")
+        subprocess.run([varbo, "-q", "study", "create", study, cfg.name], check=True, stdout=subprocess.DEVNULL)
+        os.remove(cfg.name)
+    for _ in range(n):
+        out = subprocess.run([varbo, "-q", "suggest", study, "--json"], check=True, capture_output=True, text=True).stdout
+        t = json.loads(out)[0]
+        subprocess.run([varbo, "-q", "observe", study, str(t["id"]), repr(hartmann6(t["theta"]))], check=True,
+                       stdout=subprocess.DEVNULL)

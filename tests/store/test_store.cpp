@@ -214,6 +214,57 @@ TEST_CASE("a transaction that throws writes nothing") {
   }
 }
 
+// The PostgreSQL store saves round trips: pending_trials() in a transaction brings next_finish_seq() along (kept
+// until the transaction writes a trial), add_trial picks its id in the INSERT, and the open reads the meta entries
+// Study::open needs (each handed out once, before any other use). Reads must still see every write.
+TEST_CASE("reads see the transaction's own writes and other processes' later ones") {
+  const std::string dir = test::temp_folder("store_read_your_writes");
+  for (const auto backend : test::all_backends()) {
+    CAPTURE(test::backend_name(backend));
+    const std::string address = test::study_address(backend, dir, "read_your_writes");
+    {
+      auto store = create_store(address, {{store_key::kConfig, "v1"}, {store_key::kIdentity, "i1"}});
+      TrialRecord p = sample_trial();
+      p.state = TrialState::Pending;
+      p.cost = std::nan("");
+      p.finish_seq = -1;
+      store->transaction([&] {
+        CHECK(store->pending_trials().empty());
+        CHECK(store->next_finish_seq() == 0);
+        CHECK(store->add_trial(p) == 0);
+        CHECK(store->add_trial(p) == 1);
+        const auto pending = store->pending_trials();
+        REQUIRE(pending.size() == 2);
+        CHECK(store->next_finish_seq() == 0);
+        TrialRecord done = pending[1];
+        done.state = TrialState::Complete;
+        done.cost = 1.5;
+        done.finish_seq = store->next_finish_seq();
+        store->update_trial(done);
+        CHECK(store->next_finish_seq() == 1);
+        CHECK(store->pending_trials().size() == 1);
+        TrialRecord c = sample_trial();
+        c.finish_seq = store->next_finish_seq();
+        CHECK(store->add_trial(c) == 2);
+        CHECK(store->next_finish_seq() == 2);
+        CHECK(store->pending_trials().size() == 1);
+      });
+      CHECK(store->next_finish_seq() == 2);
+    }
+    auto a = open_store(address);
+    auto b = open_store(address);
+    b->transaction([&] { b->set_meta(store_key::kConfig, "v2"); });
+    (void)a->meta(store_key::kConfig);  // PostgreSQL: the value read with the open, as if read then
+    CHECK(a->meta(store_key::kConfig).value() == "v2");  // any later read is fresh
+    auto c = open_store(address);
+    b->transaction([&] { b->set_meta(store_key::kIdentity, "i2"); });
+    CHECK(c->trials().size() == 3);  // another use forgets what the open read
+    CHECK(c->meta(store_key::kIdentity).value() == "i2");
+    CHECK(c->meta(store_key::kConfig).value() == "v2");
+    c->transaction([&] { CHECK(c->meta(store_key::kIdentity).value() == "i2"); });
+  }
+}
+
 TEST_CASE("schema version: a store written by a newer varbo is a clear error naming the study") {
   const std::string dir = test::temp_folder("store_schema");
   for (const auto backend : test::all_backends()) {

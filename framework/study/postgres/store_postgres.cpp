@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <pqxx/pqxx>
 #include <random>
 #include <thread>
@@ -102,6 +103,9 @@ CREATE TABLE IF NOT EXISTS varbo_workers (
 );
 )SQL";
 
+// CREATE ... IF NOT EXISTS would print notices; warnings and errors still reach the exceptions.
+constexpr const char* kQuietNotices = "SET client_min_messages TO WARNING";
+
 constexpr const char* kColumns =
     "id, state, phase, x, theta, cost, components, noiseless_cost, error, worker, created_at, finished_at, "
     "finish_seq, finished_before, pending_before, batch_size, batch_index, fit_seconds, acquisition_seconds, "
@@ -135,7 +139,7 @@ class PostgresStore final : public StudyStore {
   PostgresStore(const PostgresAddress& address, bool create,
                 const std::vector<std::pair<std::string, std::string>>& meta)
       : address_(address) {
-    connect();
+    connect(create);
     guarded("open", [&] {
       // Opening takes locks too (creation's rows, a first creation's tables): a deadlock or serialization
       // failure there is retried like any transaction's, with backoff.
@@ -166,7 +170,9 @@ class PostgresStore final : public StudyStore {
       body();
       return;
     }
+    prefetched_.clear();
     for (int attempt = 1;; ++attempt) {
+      tx_next_finish_seq_.reset();
       try {
         reconnect_if_needed();
         pqxx::work w(*conn_, "varbo");
@@ -208,6 +214,15 @@ class PostgresStore final : public StudyStore {
   }
 
   std::optional<std::string> meta(const std::string& key) const override {
+    if (!tx_) {  // an entry read by the open (check_study), handed out once
+      const auto it = prefetched_.find(key);
+      if (it != prefetched_.end()) {
+        std::optional<std::string> v = std::move(it->second);
+        prefetched_.erase(it);
+        return v;
+      }
+    }
+    prefetched_.clear();
     return read("read meta", [&](pqxx::transaction_base& t) -> std::optional<std::string> {
       const auto r = t.exec_params("SELECT value FROM varbo_meta WHERE study = $1 AND key = $2", address_.study, key);
       if (r.empty()) return std::nullopt;
@@ -215,6 +230,7 @@ class PostgresStore final : public StudyStore {
     });
   }
   void set_meta(const std::string& key, const std::string& value) override {
+    prefetched_.clear();
     write([&](pqxx::transaction_base& t) {
       t.exec_params("INSERT INTO varbo_meta (study, key, value) VALUES ($1, $2, $3) "
                     "ON CONFLICT (study, key) DO UPDATE SET value = excluded.value",
@@ -232,25 +248,43 @@ class PostgresStore final : public StudyStore {
     return select_trials("AND finish_seq >= $2 AND state IN ('complete', 'failed') ORDER BY finish_seq", seq);
   }
   std::vector<TrialRecord> pending_trials() const override {
-    return select_trials("AND state = 'pending' ORDER BY id", std::nullopt);
+    if (!tx_) return select_trials("AND state = 'pending' ORDER BY id", std::nullopt);
+    // In a transaction (which holds the study's lock: no other process writes its trials until it ends) the next
+    // finish_seq comes along, for next_finish_seq() until this transaction writes a trial: one round trip less
+    // for a suggestion. The one-row side keeps that value when nothing is pending.
+    return read("read trials", [&](pqxx::transaction_base& t) {
+      const pqxx::result r = t.exec_params(std::string("SELECT ") + kColumns +
+                                               ", n.next FROM (SELECT COALESCE(MAX(finish_seq) + 1, 0) AS next FROM "
+                                               "varbo_trials WHERE study = $1) n LEFT JOIN varbo_trials ON study = $1 "
+                                               "AND state = 'pending' ORDER BY id",
+                                           address_.study);
+      tx_next_finish_seq_ = std::max<std::int64_t>(0, to_int(r[0][20]));
+      return trials_of(r);
+    });
   }
 
   std::int64_t add_trial(const TrialRecord& t) override {
+    tx_next_finish_seq_.reset();
     std::int64_t id = 0;
     write([&](pqxx::transaction_base& w) {
-      id = to_int(w.exec_params("SELECT COALESCE(MAX(id) + 1, 0) FROM varbo_trials WHERE study = $1", address_.study)[0][0]);
+      // The next id and the insert in one statement (one round trip); the transaction holds the study's lock, so
+      // no other writer adds a trial in between. $2 (0) is the id of a study's first trial.
       TrialRecord r = t;
-      r.id = id;
-      exec_trial(w,
-                 std::string("INSERT INTO varbo_trials (study, ") + kColumns +
-                     ") VALUES ($1, $2, $3, $4, $5, $6, NULLIF($7, '')::float8, $8, NULLIF($9, '')::float8, $10, $11, "
-                     "$12, $13, $14, $15, $16, $17, $18, $19, $20, $21)",
-                 r);
+      r.id = 0;
+      const pqxx::result res = exec_trial(
+          w,
+          std::string("INSERT INTO varbo_trials (study, ") + kColumns +
+              ") VALUES ($1, COALESCE((SELECT MAX(id) + 1 FROM varbo_trials WHERE study = $1), $2), $3, $4, $5, $6, "
+              "NULLIF($7, '')::float8, $8, NULLIF($9, '')::float8, $10, $11, $12, $13, $14, $15, $16, $17, $18, $19, "
+              "$20, $21) RETURNING id",
+          r);
+      id = to_int(res[0][0]);
     });
     return id;
   }
 
   void update_trial(const TrialRecord& t) override {
+    tx_next_finish_seq_.reset();
     write([&](pqxx::transaction_base& w) {
       const auto r = exec_trial(w,
                                 std::string("UPDATE varbo_trials SET (") + kColumns +
@@ -262,6 +296,7 @@ class PostgresStore final : public StudyStore {
   }
 
   std::int64_t next_finish_seq() const override {
+    if (tx_ && tx_next_finish_seq_) return *tx_next_finish_seq_;
     return read("read trials", [&](pqxx::transaction_base& t) {
       return std::max<std::int64_t>(
           0, to_int(t.exec_params("SELECT COALESCE(MAX(finish_seq) + 1, 0) FROM varbo_trials WHERE study = $1",
@@ -305,10 +340,12 @@ class PostgresStore final : public StudyStore {
 
   void add_algorithm_state(const AlgorithmSnapshot& snap) override {
     write([&](pqxx::transaction_base& t) {
-      t.exec_params("INSERT INTO varbo_algorithm_states (study, finished, outstanding, state, created_at) VALUES "
-                    "($1, $2, $3, $4, $5)",
-                    address_.study, snap.finished, snap.outstanding, snap.state, num(snap.created_at));
-      t.exec_params("DELETE FROM varbo_algorithm_states WHERE study = $1 AND finished < $2", address_.study,
+      // One statement (one round trip): the DELETE does not see the row its WITH inserts (one snapshot), and
+      // that row is not older than the kept window anyway.
+      t.exec_params("WITH inserted AS (INSERT INTO varbo_algorithm_states (study, finished, outstanding, state, "
+                    "created_at) VALUES ($1, $2, $3, $4, $5)) DELETE FROM varbo_algorithm_states WHERE study = $1 AND "
+                    "finished < $6",
+                    address_.study, snap.finished, snap.outstanding, snap.state, num(snap.created_at),
                     snap.finished - 2);
     });
   }
@@ -391,12 +428,14 @@ class PostgresStore final : public StudyStore {
     return ms / 2 + static_cast<int>(rng() % static_cast<unsigned>(ms / 2 + 1));
   }
 
-  void connect() const {
+  /// `set_messages` false: the caller sends kQuietNotices with its first query (check_study: one round trip less).
+  void connect(bool set_messages = true) const {
     try {
       conn_ = std::make_unique<pqxx::connection>(address_.conninfo);
-      // CREATE ... IF NOT EXISTS would print notices; warnings and errors still reach the exceptions.
-      pqxx::nontransaction n(*conn_);
-      n.exec("SET client_min_messages TO WARNING");
+      if (set_messages) {
+        pqxx::nontransaction n(*conn_);
+        n.exec(kQuietNotices);
+      }
     } catch (const pqxx::broken_connection& e) {
       throw StoreConnectionError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
     } catch (const pqxx::failure& e) {
@@ -414,6 +453,7 @@ class PostgresStore final : public StudyStore {
   /// Runs a read (or a single autocommitted statement) in the current transaction, else on its own.
   template <class F>
   auto read(const char* what, F&& f) const -> decltype(f(std::declval<pqxx::transaction_base&>())) {
+    prefetched_.clear();
     if (tx_) return f(*tx_);
     return guarded(what, [&] {
       reconnect_if_needed();
@@ -456,17 +496,29 @@ class PostgresStore final : public StudyStore {
   std::vector<TrialRecord> select_trials(const std::string& clause, std::optional<std::int64_t> arg) const {
     return read("read trials", [&](pqxx::transaction_base& t) {
       const std::string sql = std::string("SELECT ") + kColumns + " FROM varbo_trials WHERE study = $1 " + clause;
-      const pqxx::result r = arg ? t.exec_params(sql, address_.study, *arg) : t.exec_params(sql, address_.study);
+      return trials_of(arg ? t.exec_params(sql, address_.study, *arg) : t.exec_params(sql, address_.study));
+    });
+  }
+
+  /// A trial's vector; the message naming the trial is formatted only for a corrupt one.
+  Vec trial_vec(const pqxx::field& f, std::int64_t id) const {
+    const std::string text = to_text(f);
+    if (Vec v; read_number_array(text, v)) return v;
+    return text_vec(text, fmt::format("{}: trial {}", location(), id));
+  }
+
+  /// Trial rows (kColumns first); a row whose id is NULL (an outer join's empty side) is skipped.
+  std::vector<TrialRecord> trials_of(const pqxx::result& r) const {
       std::vector<TrialRecord> out;
       out.reserve(r.size());
       for (const auto& row : r) {
+        if (row[0].is_null()) continue;
         TrialRecord x;
         x.id = to_int(row[0]);
         x.state = state_from_name(to_text(row[1]));
         x.phase = to_text(row[2]);
-        const std::string where = fmt::format("{}: trial {}", location(), x.id);
-        x.x = text_vec(to_text(row[3]), where);
-        x.theta = text_vec(to_text(row[4]), where);
+        x.x = trial_vec(row[3], x.id);
+        x.theta = trial_vec(row[4], x.id);
         x.cost = to_double(row[5]);
         x.components = text_components(to_text(row[6]));
         x.noiseless_cost = to_double(row[7]);
@@ -485,7 +537,6 @@ class PostgresStore final : public StudyStore {
         out.push_back(std::move(x));
       }
       return out;
-    });
   }
 
   /// The tables (made once per database, under an advisory lock so that two first creations do not race) and
@@ -532,10 +583,32 @@ class PostgresStore final : public StudyStore {
     return r[0][0].as<std::size_t>() == names.size();
   }
 
+  /// Opening costs two round trips: the session setting with the tables' existence, then the study's row with the
+  /// meta entries that the open and Study::open read (kept in prefetched_ and handed out once by meta()).
   void check_study() {
     {
       pqxx::nontransaction n(*conn_);
-      check_study_row(n);
+      if (to_text(n.exec(std::string(kQuietNotices) + "; SELECT to_regclass('varbo_studies')::text")[0][0]).empty())
+        throw InputError(fmt::format("{}: no study named '{}': the database holds no varbo studies (create one with "
+                                     "`varbo study create '{}' CONFIG.yaml`)",
+                                     location(), address_.study, location()));
+      const auto study_and_meta = [&] {
+        return n.exec_params(
+            "SELECT m.key, m.value FROM varbo_studies s LEFT JOIN varbo_meta m ON m.study = s.name AND m.key IN "
+            "('format', 'schema_version', 'config', 'plugin_paths', 'identity') WHERE s.name = $1",
+            address_.study);
+      };
+      pqxx::result r = study_and_meta();
+      if (r.empty()) {  // no such study: the message lists the studies there (unless it was created just now)
+        check_study_row(n);
+        r = study_and_meta();
+      }
+      prefetched_.clear();
+      for (const char* k : {"format", "schema_version", store_key::kConfig, store_key::kPluginPaths,
+                            store_key::kIdentity})
+        prefetched_[k] = std::nullopt;
+      for (const auto& row : r)
+        if (!row[0].is_null()) prefetched_[to_text(row[0])] = to_text(row[1]);
     }
     check_meta();
   }
@@ -580,6 +653,11 @@ class PostgresStore final : public StudyStore {
 
   PostgresAddress address_;
   mutable std::unique_ptr<pqxx::connection> conn_;  // reopened by reads too, after the server dropped it
+  /// Meta entries read with the open, each handed out once by meta() outside a transaction: as if those reads had
+  /// been made at the open. Any other use of the store (a transaction, another read) forgets them.
+  mutable std::map<std::string, std::optional<std::string>> prefetched_;
+  /// next_finish_seq() of the current transaction, read by pending_trials(); forgotten when it writes a trial.
+  mutable std::optional<std::int64_t> tx_next_finish_seq_;
   pqxx::transaction_base* tx_ = nullptr;
 };
 

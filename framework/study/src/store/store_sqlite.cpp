@@ -414,6 +414,13 @@ class SqliteStore final : public StudyStore {
         .bind(20, t.evaluation_seconds);
   }
 
+  /// A trial's vector; the message naming the trial is formatted only for a corrupt one (a study's open reads
+  /// every finished trial).
+  Vec trial_vec(const std::string& text, std::int64_t id) const {
+    if (Vec v; read_number_array(text, v)) return v;
+    return text_vec(text, fmt::format("{}: trial {}", path_, id));
+  }
+
   std::vector<TrialRecord> select_trials(const std::string& clause, std::optional<std::int64_t> id) const {
     std::vector<TrialRecord> out;
     Statement s(db_, std::string("SELECT ") + kColumns + " FROM trials " + clause, path_);
@@ -423,9 +430,8 @@ class SqliteStore final : public StudyStore {
       t.id = s.integer(0);
       t.state = state_from_name(s.text(1));
       t.phase = s.text(2);
-      const std::string where = fmt::format("{}: trial {}", path_, t.id);
-      t.x = text_vec(s.text(3), where);
-      t.theta = text_vec(s.text(4), where);
+      t.x = trial_vec(s.text(3), t.id);
+      t.theta = trial_vec(s.text(4), t.id);
       t.cost = s.real(5);
       t.components = text_components(s.text(6));
       t.noiseless_cost = s.real(7);

@@ -192,20 +192,21 @@ struct Study::Impl {
   }
 
   /// A fresh algorithm, continued from the saved state that reaches furthest into the finished trials when
-  /// the algorithm offers AlgorithmState; sync() replays the rest.
-  void rebuild() {
+  /// the algorithm offers AlgorithmState; sync() replays the rest. Returns the finished trials it read (all of
+  /// them, in finish order), or nothing when it read none.
+  std::optional<std::vector<TrialRecord>> rebuild() {
     alg = make_algorithm();
     told_ids.clear();
     outstanding.reset();
     dirty = false;
     auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
-    if (!resumable) return;
-    const std::vector<TrialRecord> finished = store->finished_since(0);
+    if (!resumable) return std::nullopt;
+    std::vector<TrialRecord> finished = store->finished_since(0);
     const std::vector<AlgorithmSnapshot> states = store->algorithm_states();
     std::int64_t reach = 0;
     const AlgorithmSnapshot* best = best_state(states, finished, reach);
     saved_reach = std::max(saved_reach, reach);
-    if (!best) return;
+    if (!best) return finished;
     const auto m = static_cast<std::size_t>(best->finished);
     try {
       resumable->restore_state(best->state, observations_of(finished, m));
@@ -213,10 +214,22 @@ struct Study::Impl {
       log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
                store->location(), m, e.what());
       alg = make_algorithm();
-      return;
+      return finished;
     }
     for (std::size_t i = 0; i < m; ++i) told_ids.push_back(finished[i].id);
     if (best->outstanding >= 0) outstanding = best->outstanding;
+    return finished;
+  }
+
+  /// The finished trials from finish_seq told_ids.size() on: taken from `all` (every finished trial, in finish
+  /// order, as rebuild() just read them) when given, else read from the store.
+  std::vector<TrialRecord> untold(std::optional<std::vector<TrialRecord>>&& all) const {
+    const auto told = static_cast<std::int64_t>(told_ids.size());
+    if (!all) return store->finished_since(told);
+    // finished_since(told): those with finish_seq >= told, `all` being sorted by finish_seq.
+    all->erase(all->begin(), std::partition_point(all->begin(), all->end(),
+                                                  [&](const TrialRecord& t) { return t.finish_seq < told; }));
+    return std::move(*all);
   }
 
   /// True when other processes finished more than one trial since this object's algorithm was told and a
@@ -279,8 +292,9 @@ struct Study::Impl {
   /// Brings the live algorithm in step with the finished trials of the store. finish_seq values are assigned
   /// once, in order, and never change, so only the trials finished since the last sync need reading.
   void sync() {
-    if (!alg || dirty || saved_state_is_further()) rebuild();
-    std::vector<TrialRecord> fresh = store->finished_since(static_cast<std::int64_t>(told_ids.size()));
+    std::optional<std::vector<TrialRecord>> read;
+    if (!alg || dirty || saved_state_is_further()) read = rebuild();
+    std::vector<TrialRecord> fresh = untold(std::move(read));
     std::size_t i = 0;
     if (outstanding) {
       if (!fresh.empty() && fresh[0].id == *outstanding) {
@@ -291,8 +305,7 @@ struct Study::Impl {
       } else {
         // The trial this object asked for did not finish next: the state after that ask is not the canonical
         // one (results told in finish order); start again from the saved states.
-        rebuild();
-        fresh = store->finished_since(static_cast<std::int64_t>(told_ids.size()));
+        fresh = untold(rebuild());
         if (outstanding) {  // a saved state that had asked for exactly the next trial to finish
           alg->tell({observation_of(fresh[0])});
           told_ids.push_back(fresh[0].id);
