@@ -122,7 +122,8 @@ const OptionSet<BoSettings>& bo_options() {
                 "randomize: true}}]; the last phase continues until the budget is spent"),
       opt::node("failure_model", "",
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
-                "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
+                "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, "
+                "incumbent_level: always|refinement|fixed, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
                 "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
                 "boundary_reach: 0.05, boundary_tabu: 0.05}; the acquisition is weighted by P(success | θ) from a "
@@ -658,7 +659,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // failure boundary beside the minimizer (docs/defaults.md).
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
   double p_min = exclusion_threshold_;
-  if (weighted && (refining_ || failure_settings_.incumbent_level == "always") && data_.size() > 0) {
+  if (weighted && (refining_ || failure_settings_.incumbent_level != "refinement") && data_.size() > 0) {
     // Success as likely as at the incumbent (up to refine_min_probability), not merely more likely than failure:
     // the refinement's mean minimum beside a failure boundary otherwise lay on the P = min_probability contour
     // and every other refinement trial failed; applied to every trial (incumbent_level: always) it halved
@@ -666,7 +667,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     Index best = 0;
     data_.y.minCoeff(&best);
     const double p_incumbent = feasibility_->probability(data_.X.row(best).transpose());
-    p_min = std::max(p_min, std::min(failure_settings_.refine_min_probability, p_incumbent));
+    // incumbent_level: fixed (session fail13): outside the refinement the level is not lowered to the incumbent's
+    // P, so an attempt cannot ratchet along a failure boundary (each new best a little closer, its lower P opening
+    // the next step: Hartmann-3 with a ball, docs/failures.md).
+    const bool fixed = failure_settings_.incumbent_level == "fixed" && !refining_;
+    p_min = std::max(p_min, fixed ? failure_settings_.refine_min_probability
+                                  : std::min(failure_settings_.refine_min_probability, p_incumbent));
   }
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(

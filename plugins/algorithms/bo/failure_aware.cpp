@@ -38,9 +38,11 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "min_probability contour, failing every other trial)")
           .at_least(0)
           .below(1),
-      opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always"},
+      opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always", "fixed"},
                   "where refine_min_probability's rule (P(success) at least min(refine_min_probability, the "
-                  "incumbent's P)) applies: the final refinement only, or every model-based trial"),
+                  "incumbent's P)) applies: the final refinement only, or every model-based trial; fixed = every "
+                  "model-based trial, outside the refinement at refine_min_probability itself (not lowered to the "
+                  "incumbent's P)"),
       opt::boolean("replace_design", &FailureModelSettings::replace_design,
                    "after the initial design, one replacement point per failed design point (where success is likely, "
                    "farthest from the design's successes), so the first cost model sees as many points as without "

@@ -34,7 +34,9 @@ struct FailureModelSettings {
   /// excludes θ with P(success) below this, or below the incumbent's P if that is lower (never below
   /// min_probability's threshold).
   double refine_min_probability = 0.8;
-  /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial).
+  /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial); "fixed"
+  /// (session fail13, not the default): every model-based trial, outside the refinement at refine_min_probability
+  /// itself, not lowered to the incumbent's P.
   std::string incumbent_level = "always";
   /// Each failed point of the initial design is followed by a replacement where success is likely.
   bool replace_design = false;

@@ -251,7 +251,8 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {boundary_restart: 3}}",
                        "{type: bo, failure_model: {boundary_reach: 0}}",
                        "{type: bo, failure_model: {boundary_reach: 1.5}}",
-                       "{type: bo, failure_model: {boundary_tabu: -0.1}}"};
+                       "{type: bo, failure_model: {boundary_tabu: -0.1}}",
+                       "{type: bo, failure_model: {incumbent_level: attempt}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -284,7 +285,8 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
       "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 1e-9}}",
-      "{type: bo, failure_model: {boundary_restart: true, boundary_reach: 0.2, boundary_tabu: 0.2}}"};
+      "{type: bo, failure_model: {boundary_restart: true, boundary_reach: 0.2, boundary_tabu: 0.2}}",
+      "{type: bo, failure_model: {incumbent_level: fixed}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
