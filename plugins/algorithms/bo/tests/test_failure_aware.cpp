@@ -391,10 +391,10 @@ TEST_CASE("boundary_restart: an attempt blocked by the failure boundary restarts
       "{type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
   const std::string on = "{type: bo, failure_model: {boundary_restart: true}}";
   std::vector<double> costs;  // of the latest run (NaN where it failed)
-  const auto trials = [&](const std::string& name, const std::string& algorithm) {
+  const auto trials = [&](const std::string& name, const std::string& algorithm, int threads = 1) {
     RunOverrides ov;
     ov.output = test::temp_folder("failure_aware_" + name);
-    ov.threads = 1;
+    ov.threads = threads;
     test::run_yaml("task: " + task + "\nbudget: 50\nseed: 20\nalgorithm: " + algorithm + "\n", test::registry(), ov);
     const auto rows = test::read_rows(*ov.output + "/trials.csv");
     const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
@@ -455,6 +455,10 @@ TEST_CASE("boundary_restart: an attempt blocked by the failure boundary restarts
       CAPTURE(i);
       CHECK((rule[i].u - rule[best].u).lpNorm<Eigen::Infinity>() >= 0.05);
     }
+  // A seed fixes the run whatever the thread count.
+  const std::vector<Trial> two = trials("br_rule_2", on, 2);
+  REQUIRE(two.size() == rule.size());
+  for (std::size_t i = 0; i < rule.size(); ++i) CHECK((two[i].u - rule[i].u).norm() == 0.0);
   // With the whole budget too short for a fresh start (2·8 + 4 trials) the rule never acts: the plain run.
   const std::vector<Trial> late = trials("br_late", "{type: bo, initial_points: 24, failure_model: {boundary_restart: true}}");
   const std::vector<Trial> late_plain = trials("br_late_plain", "{type: bo, initial_points: 24}");
