@@ -122,9 +122,11 @@ const OptionSet<BoSettings>& bo_options() {
                 "randomize: true}}]; the last phase continues until the budget is spent"),
       opt::node("failure_model", "",
                 "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
-                "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, incumbent_level: always|refinement, "
+                "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, "
+                "incumbent_level: always|refinement|fixed, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
-                "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0}; the acquisition is weighted by P(success | θ) from a "
+                "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
+                "boundary_reach: 0.05, boundary_tabu: 0.05}; the acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };
@@ -657,7 +659,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // failure boundary beside the minimizer (docs/defaults.md).
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
   double p_min = exclusion_threshold_;
-  if (weighted && (refining_ || failure_settings_.incumbent_level == "always") && data_.size() > 0) {
+  if (weighted && (refining_ || failure_settings_.incumbent_level != "refinement") && data_.size() > 0) {
     // Success as likely as at the incumbent (up to refine_min_probability), not merely more likely than failure:
     // the refinement's mean minimum beside a failure boundary otherwise lay on the P = min_probability contour
     // and every other refinement trial failed; applied to every trial (incumbent_level: always) it halved
@@ -665,11 +667,18 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     Index best = 0;
     data_.y.minCoeff(&best);
     const double p_incumbent = feasibility_->probability(data_.X.row(best).transpose());
-    p_min = std::max(p_min, std::min(failure_settings_.refine_min_probability, p_incumbent));
+    // incumbent_level: fixed (session fail13): outside the refinement the level is not lowered to the incumbent's
+    // P, so an attempt cannot ratchet along a failure boundary (each new best a little closer, its lower P opening
+    // the next step: Hartmann-3 with a ball, docs/failures.md).
+    const bool fixed = failure_settings_.incumbent_level == "fixed" && !refining_;
+    p_min = std::max(p_min, fixed ? failure_settings_.refine_min_probability
+                                  : std::min(failure_settings_.refine_min_probability, p_incumbent));
   }
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(
         base, *feasibility_, failure_utility(base, data_.X), p_min, !refining_ || refine_weighted_);
+  if (feasible && !refining_ && !blocked_.empty() && failure_settings_.boundary_tabu > 0)
+    feasible->set_tabu(blocked_, failure_settings_.boundary_tabu);
   const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : base;
   AcquisitionFunction f(acquisition, dim_);
   Rng orng = rng_.stream(kOptimize, uk * 2);
@@ -687,6 +696,13 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   s.acquisition_seconds = seconds_since(t_acq);
   if (res.x.size() != dim_ || !res.x.allFinite()) {
     log_warn("bo: acquisition optimization found no point at trial {} ({}); choosing at random", k, res.message);
+    s.x = random_point_avoiding_failures(orng);
+    s.phase = "random";
+    return s;
+  }
+  if (feasible && feasible->in_tabu(Box::unit(dim_).clamp(res.x))) {
+    // Every start ended next to a blocked attempt's best point (boundary_restart): a random point instead.
+    log_debug("bo: trial {}: the acquisition's best point lies next to a blocked attempt's best; choosing at random", k);
     s.x = random_point_avoiding_failures(orng);
     s.phase = "random";
     return s;
@@ -709,6 +725,19 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.x = fresh_design_point(k, refit);
     s.phase = "restart";
     return s;
+  }
+  if (fresh_region && !refining_ && !final_stretch && restart_points_ > 0 && feasible &&
+      blocked_at_boundary(k, s.x, data, p_min)) {
+    const Index blocked = attempt_best(data);
+    if (restart_on_known(data, blocked, region_rule, region_rng)) {
+      blocked_.push_back(data.X.row(blocked).transpose());
+      begin_fresh_attempt(k, fresh_region->fresh_starts(), data);
+      log_info("bo: trial {}: the attempt's best point is blocked by the failure boundary; the region restarts afresh "
+               "({}): a new design of {} points", k, fresh_starts_, restart_points_);
+      s.x = fresh_design_point(k, refit);
+      s.phase = "restart";
+      return s;
+    }
   }
   if (feasible)
     log_debug("bo: trial {} acquisition {:.6g} {} | P(success) here {:.3g}", k, res.value, acquisition.state(),
@@ -737,6 +766,13 @@ bool BayesianOptimization::converged_on_repeat(Index k, const Vec& x, const Data
   // Deterministic only (lowest_mean_evaluated's test): under noise a repeat is a measurement.
   const double noise_std = std::sqrt(surrogate_->predict(data.X.row(near).transpose(), false).noise_var());
   if (!treats_cost_as_deterministic(noise_std, model_data.y)) return false;
+  if (!restart_on_known(data, near, rule, region_rng)) return false;
+  log_debug("bo: trial {}: proposed θ at distance {:.3g} of trial point {} of the attempt", k, nearest, near);
+  return true;
+}
+
+bool BayesianOptimization::restart_on_known(const Dataset& data, Index near, const ValueStall& rule,
+                                            Rng& region_rng) {
   auto* fresh_region = dynamic_cast<FreshStartRegion*>(region_.get());
   auto* value_stall = dynamic_cast<ValueStallRegion*>(region_.get());
   ComponentState* state = state_of(region_.get());
@@ -768,8 +804,71 @@ bool BayesianOptimization::converged_on_repeat(Index k, const Vec& x, const Data
   if (m.has("restart_at")) m.put_int("restart_at", static_cast<long long>(data.size()));
   if (m.has("seen")) m.put_int("seen", static_cast<long long>(data.size()));
   state->restore_state(m.text());
-  log_debug("bo: trial {}: proposed θ at distance {:.3g} of trial point {} of the attempt", k, nearest, near);
   return true;
+}
+
+bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const {
+  // failure_model.boundary_restart (docs/failures.md, session fail13): Hartmann-3 with a ball creeps along the
+  // ball's edge (x1 0.86 → 0.734 in steps of 0.003–0.07, each a small improvement) towards a valley that continues
+  // inside the ball, then repeats its best point. The attempt is blocked when a failed trial lies within
+  // boundary_reach of its best point, ahead along the cost model's descent, with the modelled cost lower just before
+  // that failure (a minimum in between would be an interior one, to be polished). `level` (the acquisition's
+  // P(success) threshold) is only logged: a test on the classifier's contour fired on the way into the valley
+  // (seed 1, trial 13: P falls slowly, 0.87 → 0.78 over 0.05), so the evidence is an observed failure.
+  if (!failure_settings_.boundary_restart || failed_.empty() || !feasibility_on_ ||
+      !failure_settings_.active(static_cast<Index>(failed_.size())))
+    return false;
+  // A fresh start gets its design, as many model trials again, and the refinement.
+  if (budget_ <= 0 || budget_ - k < 2 * restart_points_ + refine_last_) return false;
+  const Index from = std::min(fresh_from_, data.size());
+  if (data.size() - from < 2) return false;
+  Index best = from;
+  for (Index i = from; i < data.size(); ++i)
+    if (data.y(i) < data.y(best)) best = i;
+  const Vec b = data.X.row(best).transpose();
+  const double reach = failure_settings_.boundary_reach;
+  // The attempt is working at its best point (not probing far away).
+  if ((x - b).lpNorm<Eigen::Infinity>() > reach) return false;
+  const Box unit = Box::unit(dim_);
+  const auto mean = [&](const Vec& z) { return surrogate_->predict(z, false).mean; };
+  Vec g(dim_);
+  const double h = 1e-5;
+  for (Index d = 0; d < dim_; ++d) {
+    Vec up = b, down = b;
+    up(d) = std::min(1.0, b(d) + h);
+    down(d) = std::max(0.0, b(d) - h);
+    g(d) = (mean(up) - mean(down)) / std::max(up(d) - down(d), 1e-300);
+  }
+  const double gn = g.lpNorm<Eigen::Infinity>();
+  if (!(gn > 0) || !std::isfinite(gn)) return false;
+  const Vec dir = -g / gn;  // a step t moves the point by t in its largest coordinate (∞-norm)
+  // A failed trial within reach of the best point, ahead along the descent (within 60° of it): the way down is
+  // blocked by a failure actually observed, not only by the classifier's smooth extrapolation (whose P falls
+  // slowly, so a contour test fired on the way into a valley; Hartmann-3 seed 1 at trial 13).
+  double ahead = -1;
+  for (const Vec& f : failed_) {
+    const Vec v = f - b;
+    const double along = v.dot(dir) / dir.norm();
+    if (v.lpNorm<Eigen::Infinity>() <= reach && along > 0.5 * v.norm() && (ahead < 0 || along < ahead)) ahead = along;
+  }
+  if (ahead < 0) return false;
+  // The cost model is lower just before that failure than at the best point (a minimum in between, where the
+  // model rises again before the failure, is an interior one: polish it).
+  const double at_best = mean(b);
+  const double previous = mean(unit.clamp(b + (0.8 * ahead / dir.norm()) * dir));
+  if (!(previous < at_best)) return false;
+  log_debug("bo: trial {}: the attempt's best point (trial point {}, P(success) {:.3g}, level {:.3g}) is blocked: the "
+            "cost model falls by {:.3g} along its descent up to a failed trial {:.3g} ahead", k, best,
+            feasibility_->probability(b), level, at_best - previous, ahead);
+  return true;
+}
+
+Index BayesianOptimization::attempt_best(const Dataset& data) const {
+  const Index from = std::min(fresh_from_, data.size());
+  Index best = from;
+  for (Index i = from; i < data.size(); ++i)
+    if (data.y(i) < data.y(best)) best = i;
+  return best;
 }
 
 std::vector<Suggestion> BayesianOptimization::ask(Index q) {

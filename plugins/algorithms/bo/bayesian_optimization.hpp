@@ -65,6 +65,13 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// failure_model.repeat_distance: whether proposing x ends the attempt (the region restarts afresh); see the .cpp.
   bool converged_on_repeat(Index k, const Vec& x, const Dataset& data, const Dataset& model_data,
                            const ValueStall& rule, Rng& region_rng);
+  /// Makes the region restart afresh by telling it repeats of data point `near` (a trial without improvement each,
+  /// counted as a stall) until it does, on the real data; false (region unchanged) if it would not.
+  bool restart_on_known(const Dataset& data, Index near, const ValueStall& rule, Rng& region_rng);
+  /// failure_model.boundary_restart: whether the attempt's best point is blocked by the failure boundary.
+  bool blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const;
+  /// The best successful point of the current attempt (since the last fresh start).
+  Index attempt_best(const Dataset& data) const;
   /// restart_design: away: of 16 designs, the one farthest from the best point of every earlier attempt.
   Mat design_away_from_minima(Rng& rng) const;
   /// The best point of every attempt before the latest fresh start.
@@ -132,6 +139,9 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   bool refine_local_ = false;  ///< refine_model: local (only the points near the incumbent, when there are enough)
   bool refining_ = false;
   std::vector<Index> attempt_starts_;  ///< successful observations before each fresh start
+  /// failure_model.boundary_restart: the best points of attempts that ended blocked by the failure boundary; later
+  /// attempts (not the refinement) do not search within boundary_reach of them.
+  std::vector<Vec> blocked_;
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt
   /// that found the incumbent) and those from refine_from_ on (the refinement's own).
   Index refine_lo_ = 0, refine_hi_ = 0, refine_from_ = 0;  ///< the final refinement after fresh starts has begun

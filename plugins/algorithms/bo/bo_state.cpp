@@ -49,6 +49,11 @@ std::optional<std::string> BayesianOptimization::save_state() const {
   m.put_int("refine_lo", refine_lo_);
   m.put_int("refine_hi", refine_hi_);
   m.put_int("refine_from", refine_from_);
+  if (!blocked_.empty()) {  // failure_model.boundary_restart's blocked points, flattened (absent without any)
+    Vec flat(static_cast<Index>(blocked_.size()) * dim_);
+    for (std::size_t i = 0; i < blocked_.size(); ++i) flat.segment(static_cast<Index>(i) * dim_, dim_) = blocked_[i];
+    m.put("blocked", flat);
+  }
   m.put("surrogate", surrogate->save_state());
   save_if_stateful(m, "region", region_.get());
   save_if_stateful(m, "design_sampler", design_sampler_.get());
@@ -79,6 +84,12 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
       refine_hi_ = static_cast<Index>(m.integer("refine_hi"));
       refine_from_ = static_cast<Index>(m.integer("refine_from"));
     }
+  }
+  blocked_.clear();
+  if (m.has("blocked")) {
+    const Vec flat = m.vec("blocked");
+    if (flat.size() % dim_ != 0) throw InputError("bo state: 'blocked' is not a list of points of the dimension");
+    for (Index i = 0; i < flat.size() / dim_; ++i) blocked_.push_back(flat.segment(i * dim_, dim_));
   }
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");

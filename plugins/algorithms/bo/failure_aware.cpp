@@ -38,9 +38,11 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "min_probability contour, failing every other trial)")
           .at_least(0)
           .below(1),
-      opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always"},
+      opt::choice("incumbent_level", &FailureModelSettings::incumbent_level, {"refinement", "always", "fixed"},
                   "where refine_min_probability's rule (P(success) at least min(refine_min_probability, the "
-                  "incumbent's P)) applies: the final refinement only, or every model-based trial"),
+                  "incumbent's P)) applies: the final refinement only, or every model-based trial; fixed = every "
+                  "model-based trial, outside the refinement at refine_min_probability itself (not lowered to the "
+                  "incumbent's P)"),
       opt::boolean("replace_design", &FailureModelSettings::replace_design,
                    "after the initial design, one replacement point per failed design point (where success is likely, "
                    "farthest from the design's successes), so the first cost model sees as many points as without "
@@ -77,6 +79,20 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "deterministic cost: a repeat teaches nothing; under noise it is a measurement); 0 = off")
           .at_least(0)
           .below(1),
+      opt::boolean("boundary_restart", &FailureModelSettings::boundary_restart,
+                   "once a trial has failed, an attempt whose best point is blocked by the failure boundary (the cost "
+                   "model's descent from it reaches θ where failure is likely within boundary_reach while the modelled "
+                   "cost still falls) restarts afresh, while a fresh start can still be followed up"),
+      opt::real("boundary_reach", &FailureModelSettings::boundary_reach,
+                "distance (max-norm, unit cube) from the attempt's best point within which boundary_restart looks for "
+                "the failure boundary along the cost model's descent")
+          .above(0)
+          .at_most(1),
+      opt::real("boundary_tabu", &FailureModelSettings::boundary_tabu,
+                "with boundary_restart, later attempts (not the final refinement) do not search within this distance "
+                "(max-norm, unit cube) of the best point of an attempt that ended blocked; 0 = they may")
+          .at_least(0)
+          .at_most(1),
   };
   return set;
 }
@@ -91,7 +107,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
-              "repeat_distance: d}");
+              "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 
@@ -122,7 +138,25 @@ double failure_utility(const Acquisition& base, const Mat& X) {
   return u;
 }
 
+bool FeasibilityWeightedAcquisition::in_tabu(const Vec& x) const {
+  for (const Vec& c : tabu_)
+    if ((x - c).lpNorm<Eigen::Infinity>() < tabu_radius_) return true;
+  return false;
+}
+
 double FeasibilityWeightedAcquisition::evaluate(const Vec& x, Vec* grad) const {
+  for (const Vec& c : tabu_) {
+    const Vec v = x - c;
+    Index j = 0;
+    const double d = v.cwiseAbs().maxCoeff(&j);
+    if (d < tabu_radius_) {
+      if (grad) {
+        *grad = Vec::Zero(x.size());
+        (*grad)(j) = (v(j) >= 0 ? 1.0 : -1.0) / tabu_radius_;
+      }
+      return -1.0 - (tabu_radius_ - d) / tabu_radius_;
+    }
+  }
   Vec dp;
   const double p = model_.probability(x, grad ? &dp : nullptr);
   if (p < p_min_) {

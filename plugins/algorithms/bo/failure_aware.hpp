@@ -34,7 +34,9 @@ struct FailureModelSettings {
   /// excludes θ with P(success) below this, or below the incumbent's P if that is lower (never below
   /// min_probability's threshold).
   double refine_min_probability = 0.8;
-  /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial).
+  /// Where the incumbent's level (above) applies: "refinement" only, or "always" (every model-based trial); "fixed"
+  /// (session fail13, not the default): every model-based trial, outside the refinement at refine_min_probability
+  /// itself, not lowered to the incumbent's P.
   std::string incumbent_level = "always";
   /// Each failed point of the initial design is followed by a replacement where success is likely.
   bool replace_design = false;
@@ -66,6 +68,16 @@ struct FailureModelSettings {
   /// default: 1e-9 helps Hartmann-3 with a ball at budget 50 but costs it precision at 100; docs/failures.md,
   /// session creep12).
   double repeat_distance = 0;
+  /// Once a trial has failed, an attempt whose best point is blocked by the failure boundary — a failed trial lies
+  /// within boundary_reach (∞-norm, unit cube) of it, ahead along the cost model's descent (within 60°), and the
+  /// modelled cost just before that failure is lower than at the best point — restarts afresh (while the budget
+  /// leaves a fresh start its design twice over plus the refinement), and later attempts keep boundary_tabu away
+  /// from that point. false = off (the default: it rescues one Hartmann-3 run of 20 but cuts three Hartmann-6 runs
+  /// in the global basin whose cost model points into the slab; docs/failures.md, session fail13).
+  bool boundary_restart = false;
+  double boundary_reach = 0.05;
+  /// Later attempts (not the refinement) do not search within this distance (∞-norm) of a blocked attempt's best.
+  double boundary_tabu = 0.05;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);
@@ -99,8 +111,19 @@ class FeasibilityWeightedAcquisition final : public Acquisition {
   double evaluate(const Vec& x, Vec* grad) const override;
   bool has_gradient() const override { return base_.has_gradient(); }
   std::string state() const override;
+  /// θ within `radius` (∞-norm) of a centre score below every other point, rising outwards (-1 - (radius - d) /
+  /// radius): bo's failure_model.boundary_restart keeps later attempts off the best points of attempts that ended
+  /// blocked by the failure boundary.
+  void set_tabu(std::vector<Vec> centres, double radius) {
+    tabu_ = std::move(centres);
+    tabu_radius_ = radius;
+  }
+  /// Whether x lies in the tabu zone.
+  bool in_tabu(const Vec& x) const;
 
  private:
+  std::vector<Vec> tabu_;
+  double tabu_radius_ = 0;
   const Acquisition& base_;
   const FeasibilityModel& model_;
   double u_fail_;

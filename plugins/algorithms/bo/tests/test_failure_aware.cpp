@@ -247,7 +247,12 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {stall_remaining: -1}}",
                        "{type: bo, failure_model: {stall_attempt: 2}}",
                        "{type: bo, failure_model: {repeat_distance: 1}}",
-                       "{type: bo, failure_model: {repeat_distance: -1e-9}}"};
+                       "{type: bo, failure_model: {repeat_distance: -1e-9}}",
+                       "{type: bo, failure_model: {boundary_restart: 3}}",
+                       "{type: bo, failure_model: {boundary_reach: 0}}",
+                       "{type: bo, failure_model: {boundary_reach: 1.5}}",
+                       "{type: bo, failure_model: {boundary_tabu: -0.1}}",
+                       "{type: bo, failure_model: {incumbent_level: attempt}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -279,7 +284,9 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
-      "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 1e-9}}"};
+      "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 1e-9}}",
+      "{type: bo, failure_model: {boundary_restart: true, boundary_reach: 0.2, boundary_tabu: 0.2}}",
+      "{type: bo, failure_model: {incumbent_level: fixed}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
@@ -373,4 +380,88 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
   REQUIRE(noisy_plain.size() == noisy_rule.size());
   CHECK(repeats(noisy_plain) >= 1);
   for (std::size_t i = 0; i < noisy_plain.size(); ++i) CHECK((noisy_rule[i].u - noisy_plain[i].u).norm() == 0.0);
+}
+
+TEST_CASE("boundary_restart: an attempt blocked by the failure boundary restarts afresh; later attempts keep off") {
+  // fail13. Hartmann-3 with bench_failures' ball, seed 20 (budget 50): the plain run's first attempt creeps along the
+  // ball's edge at x1 ≈ 0.74 (trials 22–37) towards the valley x2 ≈ 0.55, x3 ≈ 0.855 that continues inside the ball
+  // (docs/failures.md). With the rule the attempt ends at the first model-based trial whose attempt's best point has
+  // a failed trial within boundary_reach ahead along the cost model's descent.
+  const std::string task =
+      "{type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
+  const std::string on = "{type: bo, failure_model: {boundary_restart: true}}";
+  std::vector<double> costs;  // of the latest run (NaN where it failed)
+  const auto trials = [&](const std::string& name, const std::string& algorithm, int threads = 1) {
+    RunOverrides ov;
+    ov.output = test::temp_folder("failure_aware_" + name);
+    ov.threads = threads;
+    test::run_yaml("task: " + task + "\nbudget: 50\nseed: 20\nalgorithm: " + algorithm + "\n", test::registry(), ov);
+    const auto rows = test::read_rows(*ov.output + "/trials.csv");
+    const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
+              phase = test::column_of(rows[0], "phase"), cost = test::column_of(rows[0], "cost");
+    REQUIRE(x1 >= 0);
+    REQUIRE(cost >= 0);
+    std::vector<Trial> out;
+    costs.clear();
+    for (std::size_t r = 1; r < rows.size(); ++r) {
+      Vec u(3);  // Hartmann-3's box is the unit cube
+      for (int d = 0; d < 3; ++d) u(d) = std::stod(rows[r][static_cast<std::size_t>(x1 + d)]);
+      const bool success = rows[r][static_cast<std::size_t>(ok)] == "1";
+      out.push_back({u, success, rows[r][static_cast<std::size_t>(phase)]});
+      costs.push_back(success ? std::stod(rows[r][static_cast<std::size_t>(cost)]) : NAN);
+    }
+    return out;
+  };
+  const std::vector<Trial> plain = trials("br_plain", "{type: bo}");
+  const std::vector<Trial> rule = trials("br_rule", on);
+  const std::vector<double> rule_costs = costs;
+  REQUIRE(plain.size() == 50);
+  REQUIRE(rule.size() == 50);
+  std::size_t restart = rule.size();
+  for (std::size_t i = 0; i < rule.size() && restart == rule.size(); ++i)
+    if (rule[i].phase == "restart") restart = i;
+  std::size_t plain_restart = plain.size();
+  for (std::size_t i = 0; i < plain.size() && plain_restart == plain.size(); ++i)
+    if (plain[i].phase == "restart") plain_restart = i;
+  REQUIRE(restart < plain_restart);
+  // Identical until then; a fresh start needs 2 designs plus the refinement (2·8 + 4) left.
+  for (std::size_t i = 0; i < restart; ++i) CHECK((rule[i].u - plain[i].u).norm() == 0.0);
+  CHECK(50 - restart >= 20);
+  // The blocked point: the attempt's best before the restart, with the ball's edge right beside it (a failed trial
+  // within 0.05) — checked on the task's own region, not the model's.
+  const Vec centre{{0.45, 0.55, 0.55}};
+  std::size_t best = 0;
+  double best_cost = 1e300;
+  bool failed_beside = false;
+  for (std::size_t i = 0; i < restart; ++i)
+    if (!rule[i].ok) {
+      CHECK((rule[i].u - centre).norm() <= 0.415 + 1e-12);  // failed trials are inside the ball
+    }
+  // The attempt's best point lies on the ball's edge (within 0.02 outside it).
+  for (std::size_t i = 0; i < restart; ++i)
+    if (rule[i].ok && rule_costs[i] < best_cost) {
+      best_cost = rule_costs[i];
+      best = i;
+    }
+  const double edge = (rule[best].u - centre).norm() - 0.415;
+  CHECK(edge > 0);
+  CHECK(edge < 0.02);
+  for (std::size_t i = 0; i < restart; ++i)
+    if (!rule[i].ok && (rule[i].u - rule[best].u).lpNorm<Eigen::Infinity>() <= 0.05) failed_beside = true;
+  CHECK(failed_beside);
+  // Later attempts' model-based trials (not the design, not the refinement) keep boundary_tabu (0.05) away from it.
+  for (std::size_t i = restart; i < rule.size(); ++i)
+    if (rule[i].phase != "restart" && rule[i].phase != "refine") {
+      CAPTURE(i);
+      CHECK((rule[i].u - rule[best].u).lpNorm<Eigen::Infinity>() >= 0.05);
+    }
+  // A seed fixes the run whatever the thread count.
+  const std::vector<Trial> two = trials("br_rule_2", on, 2);
+  REQUIRE(two.size() == rule.size());
+  for (std::size_t i = 0; i < rule.size(); ++i) CHECK((two[i].u - rule[i].u).norm() == 0.0);
+  // With the whole budget too short for a fresh start (2·8 + 4 trials) the rule never acts: the plain run.
+  const std::vector<Trial> late = trials("br_late", "{type: bo, initial_points: 24, failure_model: {boundary_restart: true}}");
+  const std::vector<Trial> late_plain = trials("br_late_plain", "{type: bo, initial_points: 24}");
+  REQUIRE(late.size() == late_plain.size());
+  for (std::size_t i = 0; i < late.size(); ++i) CHECK((late[i].u - late_plain[i].u).norm() == 0.0);
 }
