@@ -717,26 +717,23 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   s.x = Box::unit(dim_).clamp(res.x);
   s.phase = refining_ ? "refine" : phase.name;
-  if (fresh_region && !refining_ && !final_stretch && restart_points_ > 0 &&
-      converged_on_repeat(k, s.x, data, *model_data, region_rule, region_rng)) {
+  // The attempt ends here (why: the log's reason); the region restarts afresh with a new design.
+  const auto restart_afresh = [&](const char* why) {
     begin_fresh_attempt(k, fresh_region->fresh_starts(), data);
-    log_info("bo: trial {}: the attempt proposed a point it has evaluated: converged; the region restarts afresh "
-             "({}): a new design of {} points", k, fresh_starts_, restart_points_);
+    log_info("bo: trial {}: {}; the region restarts afresh ({}): a new design of {} points", k, why, fresh_starts_,
+             restart_points_);
     s.x = fresh_design_point(k, refit);
     s.phase = "restart";
     return s;
-  }
-  if (fresh_region && !refining_ && !final_stretch && restart_points_ > 0 && feasible &&
-      blocked_at_boundary(k, s.x, data, p_min)) {
+  };
+  const bool may_restart = fresh_region && !refining_ && !final_stretch && restart_points_ > 0;
+  if (may_restart && converged_on_repeat(k, s.x, data, *model_data, region_rule, region_rng))
+    return restart_afresh("the attempt proposed a point it has evaluated: converged");
+  if (may_restart && feasible && blocked_at_boundary(k, s.x, data, p_min)) {
     const Index blocked = attempt_best(data);
     if (restart_on_known(data, blocked, region_rule, region_rng)) {
       blocked_.push_back(data.X.row(blocked).transpose());
-      begin_fresh_attempt(k, fresh_region->fresh_starts(), data);
-      log_info("bo: trial {}: the attempt's best point is blocked by the failure boundary; the region restarts afresh "
-               "({}): a new design of {} points", k, fresh_starts_, restart_points_);
-      s.x = fresh_design_point(k, refit);
-      s.phase = "restart";
-      return s;
+      return restart_afresh("the attempt's best point is blocked by the failure boundary");
     }
   }
   if (feasible)
