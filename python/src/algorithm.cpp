@@ -59,7 +59,7 @@ class PyAlgorithm {
     for (std::size_t i = 0; i < s.size(); ++i) {
       if (s[i].x.size() != dim_) throw Error("the algorithm suggested a point of the wrong dimension");
       const Vec x = Box::unit(dim_).clamp(s[i].x);
-      // Typed: the admissible θ the study would record for this suggestion (study_api.cpp, trial_x/theta_of).
+      // Typed: the admissible θ the study would record for this suggestion (study_impl.hpp, trial_x/theta_of).
       X.row(static_cast<Index>(i)) = (space_ ? space_->decode(space_->admissible(x)) : x).transpose();
       phases.append(s[i].phase);
     }

@@ -260,7 +260,7 @@ TEST_CASE("the budget bounds suggestions, pending ones included") {
 }
 
 TEST_CASE("studies reopened in parallel threads share the process's plugin registry and match a serial session") {
-  // Study::open(path) shares one registry per plugin path for the process (study_api.cpp); an extra (empty)
+  // Study::open(path) shares one registry per plugin path for the process (study_plugins.cpp); an extra (empty)
   // plugin path of this test's own gives it a fresh registry, so the threads load the plugins on demand into
   // it at the same time: every component must be found once and the trials must equal a serial session's.
   const std::string dir = test::temp_folder("study_parallel_open");

@@ -52,7 +52,7 @@ bool demand(const Registry& registry, const std::string& name) {
 
 namespace {
 /// Guards every Registry's component list: a registry that plugins fill on demand may be shared by the Study
-/// objects of several threads (Study::open keeps one per plugin path for the process, study_api.cpp), and a
+/// objects of several threads (Study::open keeps one per plugin path for the process, study_plugins.cpp), and a
 /// lookup in one thread may load a library, adding components, while another thread reads the list. Readers
 /// share it; add() takes it alone. Never held while a library loads (demand runs before the lock is taken),
 /// so a plugin's registration cannot deadlock on it. One lock for all registries: they change only when a

@@ -1,22 +1,18 @@
-// varbo::Study: ask/tell on a study store. The algorithm is rebuilt from its latest saved state (when it offers
-// AlgorithmState, varbo/state.hpp) plus a replay of the trials finished since; else by replaying every trial.
+// varbo::Study: ask/tell on a study store — creating and opening a study, asking for trials, recording results,
+// abandoning, selecting. The algorithm is rebuilt from its latest saved state plus a replay of the trials finished
+// since (study_rebuild.cpp); the state behind a Study is Study::Impl (study_impl.hpp).
 #include "varbo/study_api.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <filesystem>
-#include <map>
-#include <mutex>
-#include <set>
 #include <sstream>
-#include <tuple>
 
+#include "study_impl.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
-#include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/search_space_config.hpp"
@@ -27,21 +23,11 @@ namespace fs = std::filesystem;
 
 namespace varbo {
 
+using study_detail::emit;
+using study_detail::log_cpu;
+using study_detail::observation_of;
+
 namespace {
-
-constexpr double kReplayTolerance = 1e-12;  // unit-cube coordinates: a replay must give the same point
-
-std::string emit(const YAML::Node& n) {
-  YAML::Emitter em;
-  em << n;
-  return em.c_str();
-}
-
-std::string join_numbers(const Vec& v) {
-  std::string s = "[";
-  for (Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + exact(v[i]);
-  return s + "]";
-}
 
 std::vector<std::string> lines_of(const std::string& s) {
   std::vector<std::string> out;
@@ -49,22 +35,6 @@ std::vector<std::string> lines_of(const std::string& s) {
   std::string l;
   while (std::getline(ss, l)) out.push_back(l);
   return out;
-}
-
-/// The process's CPU time so far (all threads) at a step of opening a study or asking it, in the --verbose log:
-/// what a short `varbo suggest` process spends where (docs/studies.md, "Cost of varbo suggest").
-void log_cpu(const char* step) {
-  if (log_level() <= LogLevel::Debug)
-    log_debug("study: {}: process CPU {:.2f} ms", step, 1e3 * static_cast<double>(std::clock()) / CLOCKS_PER_SEC);
-}
-
-Observation observation_of(const TrialRecord& t) {
-  Observation o;
-  o.x = t.x;
-  o.ok = t.state == TrialState::Complete;
-  o.cost = o.ok ? t.cost : std::nan("");
-  o.components = t.components;
-  return o;
 }
 
 }  // namespace
@@ -81,408 +51,12 @@ std::string study_identity(const StudyConfig& c) {
   return emit(n);
 }
 
-struct Study::Impl {
-  std::unique_ptr<Registry> own_registry;
-  std::unique_ptr<PluginLoader> loader;
-  const Registry* registry = nullptr;
-  StudyConfig config;
-  std::unique_ptr<Task> task;
-  Domain domain;
-  SharedSpace space;  ///< typed parameters and constraints (docs/search_space.md); null for a plain box
-  std::optional<Vec> initial_unit;
-  std::unique_ptr<StudyStore> store;
-  std::string worker = default_worker_name();
-
-  // The live algorithm: it has been asked once and told once for each id in told_ids (in that order), plus
-  // possibly one more ask(1) whose trial is `outstanding`. Anything else (a batch, pending points) makes it
-  // `dirty`: the next use rebuilds it from the store.
-  std::unique_ptr<Algorithm> alg;
-  std::vector<std::int64_t> told_ids;
-  std::optional<std::int64_t> outstanding;
-  bool dirty = true;
-  Index mismatches = 0;
-  Index replayed = 0;         ///< trials replayed (ask + tell) since this object was opened
-  /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
-  /// saved only when the live algorithm is further.
-  std::int64_t saved_reach = -1;
-
-  /// Builds the task (for its domain) and checks the initial point, as `varbo run` does.
-  void init(const StudyConfig& c, const Registry& reg) {
-    registry = &reg;
-    config = c;
-    BuildContext tctx;
-    tctx.seed = config.seed;
-    task = reg.create<Task>(config.task, tctx);
-    init_space();
-    const Index d = domain.box.dim();
-    if (d < 1)
-      throw ConfigError(fmt::format("{}: task '{}' has no parameters{}", config.task.source.where(), config.task.info->name,
-                                    dynamic_cast<SpaceAware*>(task.get())
-                                        ? ": give its dim, lower/upper or names, or declare the study's `parameters:`"
-                                        : ""));
-    if (!space && !(domain.box.upper.array() > domain.box.lower.array()).all())
-      throw ConfigError(fmt::format("{}: task '{}' has an empty domain (every upper bound must exceed its lower bound)",
-                                    config.task.source.where(), config.task.info->name));
-    for (Index i = static_cast<Index>(domain.names.size()); i < d; ++i) domain.names.push_back(fmt::format("x{}", i + 1));
-    domain.names.resize(static_cast<std::size_t>(d));
-    std::optional<Vec> theta0 = config.initial_point ? config.initial_point : task->initial_point();
-    if (theta0) {
-      if (theta0->size() != d)
-        config.source.child("initial_point")
-            .fail(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
-      std::string why;
-      if (space && !space->contains(*theta0, &why))
-        config.source.child("initial_point").fail("the initial point is not admissible: " + why);
-      if (!domain.box.contains(*theta0))
-        config.source.child("initial_point").fail("the initial point lies outside the task's domain");
-      initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
-    }
-  }
-
-  void init_space() { space = resolve_study_space(config, *task, domain); }
-
-  /// The point a trial records for the algorithm's suggestion x (unit cube): admissible in the space.
-  Vec trial_x(const Vec& x) const {
-    const Index d = x.size();
-    return space ? space->admissible(x) : Vec(Box::unit(d).clamp(x));
-  }
-  Vec theta_of(const Vec& x) const { return space ? space->decode(x) : from_unit(x, domain.box); }
-  Index encoded_dim() const { return space ? space->encoded_dim() : domain.box.dim(); }
-
-  std::unique_ptr<Algorithm> make_algorithm() const {
-    BuildContext actx;
-    actx.dim = encoded_dim();
-    actx.seed = config.seed;
-    actx.budget = config.budget;
-    actx.initial_point = initial_unit;
-    std::unique_ptr<Algorithm> a = registry->create<Algorithm>(config.algorithm, actx);
-    if (space)
-      if (auto* aware = dynamic_cast<SpaceAware*>(a.get())) aware->set_search_space(space);
-    return a;
-  }
-
-  static std::vector<Observation> observations_of(const std::vector<TrialRecord>& trials, std::size_t n) {
-    std::vector<Observation> out;
-    for (std::size_t i = 0; i < n; ++i) out.push_back(observation_of(trials[i]));
-    return out;
-  }
-
-  /// The saved state reaching furthest into `finished` (the finished trials in finish order), and its reach
-  /// (results it stands for: +1 for a state after an ask whose trial finished next); nullptr if none.
-  const AlgorithmSnapshot* best_state(const std::vector<AlgorithmSnapshot>& states,
-                                      const std::vector<TrialRecord>& finished, std::int64_t& best_reach) const {
-    const AlgorithmSnapshot* best = nullptr;
-    best_reach = 0;
-    const auto n = static_cast<std::int64_t>(finished.size());
-    for (const auto& s : states) {
-      if (s.finished > n) continue;
-      std::int64_t reach = s.finished;
-      if (s.outstanding >= 0) {
-        // Usable only when that trial was the next to finish: it is then told without a new fit.
-        if (s.finished >= n || finished[static_cast<std::size_t>(s.finished)].id != s.outstanding) continue;
-        ++reach;
-      }
-      // Newest first; at equal reach a state after a result (nothing to tell) before one after an ask.
-      if (!best || reach > best_reach || (reach == best_reach && best->outstanding >= 0 && s.outstanding < 0)) {
-        best = &s;
-        best_reach = reach;
-      }
-    }
-    return best;
-  }
-
-  /// A fresh algorithm, continued from the saved state that reaches furthest into the finished trials when
-  /// the algorithm offers AlgorithmState; sync() replays the rest. Returns the finished trials it read (all of
-  /// them, in finish order), or nothing when it read none.
-  std::optional<std::vector<TrialRecord>> rebuild() {
-    alg = make_algorithm();
-    told_ids.clear();
-    outstanding.reset();
-    dirty = false;
-    auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
-    if (!resumable) return std::nullopt;
-    std::vector<TrialRecord> finished = store->finished_since(0);
-    const std::vector<AlgorithmSnapshot> states = store->algorithm_states();
-    std::int64_t reach = 0;
-    const AlgorithmSnapshot* best = best_state(states, finished, reach);
-    saved_reach = std::max(saved_reach, reach);
-    if (!best) return finished;
-    const auto m = static_cast<std::size_t>(best->finished);
-    try {
-      resumable->restore_state(best->state, observations_of(finished, m));
-    } catch (const Error& e) {
-      log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
-               store->location(), m, e.what());
-      alg = make_algorithm();
-      return finished;
-    }
-    for (std::size_t i = 0; i < m; ++i) told_ids.push_back(finished[i].id);
-    if (best->outstanding >= 0) outstanding = best->outstanding;
-    return finished;
-  }
-
-  /// The finished trials from finish_seq told_ids.size() on: taken from `all` (every finished trial, in finish
-  /// order, as rebuild() just read them) when given, else read from the store.
-  std::vector<TrialRecord> untold(std::optional<std::vector<TrialRecord>>&& all) const {
-    const auto told = static_cast<std::int64_t>(told_ids.size());
-    if (!all) return store->finished_since(told);
-    // finished_since(told): those with finish_seq >= told, `all` being sorted by finish_seq.
-    all->erase(all->begin(), std::partition_point(all->begin(), all->end(),
-                                                  [&](const TrialRecord& t) { return t.finish_seq < told; }));
-    return std::move(*all);
-  }
-
-  /// True when other processes finished more than one trial since this object's algorithm was told and a
-  /// saved state covers them: restoring it is cheaper than replaying them (one fit each).
-  bool saved_state_is_further() const {
-    if (!dynamic_cast<const AlgorithmState*>(alg.get())) return false;
-    if (store->next_finish_seq() <= static_cast<std::int64_t>(told_ids.size()) + 1) return false;
-    const std::vector<TrialRecord> finished = store->finished_since(0);
-    std::int64_t reach = 0;
-    best_state(store->algorithm_states(), finished, reach);
-    return reach > static_cast<std::int64_t>(told_ids.size()) + 1;
-  }
-
-  /// The caller makes sure the live algorithm is in a canonical state: told every finished result in finish
-  /// order, nothing pending, and at most one serial ask(1) since (the trial `asked_for`).
-  void save_state(std::optional<std::int64_t> asked_for = std::nullopt) {
-    auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
-    if (!resumable || !alg) return;
-    const auto told = static_cast<std::int64_t>(told_ids.size());
-    const std::int64_t reach = told + (asked_for ? 1 : 0);
-    if (reach <= saved_reach) return;
-    // A state that cannot be saved costs the next process a replay, never this suggestion or result.
-    try {
-      const std::optional<std::string> text = resumable->save_state();
-      if (!text) return;
-      AlgorithmSnapshot s;
-      s.finished = told;
-      s.outstanding = asked_for.value_or(-1);
-      s.state = *text;
-      s.created_at = unix_time();
-      store->add_algorithm_state(s);
-      saved_reach = reach;
-    } catch (const std::exception& e) {
-      log_warn("{}: the algorithm state after {} result(s) was not saved ({}); the next process replays instead",
-               store->location(), told, e.what());
-    }
-  }
-
-  /// ask(1) then tell(t): the step of an uninterrupted serial run that produced t.
-  void replay_one(const TrialRecord& t) {
-    ++replayed;
-    std::vector<Suggestion> s = alg->ask(1);
-    const bool serial = t.batch_size == 1 && t.pending_before == 0 &&
-                        t.finished_before == static_cast<std::int64_t>(told_ids.size());
-    if (serial) {
-      const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
-                        (trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
-      if (!same) {
-        ++mismatches;
-        log_warn("{}: replaying trial {}: the algorithm now suggests a different point than it did (is the run "
-                 "deterministic? same plugins?); continuing with the stored result",
-                 store->location(), t.id);
-      }
-    }
-    alg->tell({observation_of(t)});
-    told_ids.push_back(t.id);
-  }
-
-
-  /// Brings the live algorithm in step with the finished trials of the store. finish_seq values are assigned
-  /// once, in order, and never change, so only the trials finished since the last sync need reading.
-  void sync() {
-    std::optional<std::vector<TrialRecord>> read;
-    if (!alg || dirty || saved_state_is_further()) read = rebuild();
-    std::vector<TrialRecord> fresh = untold(std::move(read));
-    std::size_t i = 0;
-    if (outstanding) {
-      if (!fresh.empty() && fresh[0].id == *outstanding) {
-        alg->tell({observation_of(fresh[0])});
-        told_ids.push_back(fresh[0].id);
-        outstanding.reset();
-        i = 1;
-      } else {
-        // The trial this object asked for did not finish next: the state after that ask is not the canonical
-        // one (results told in finish order); start again from the saved states.
-        fresh = untold(rebuild());
-        if (outstanding) {  // a saved state that had asked for exactly the next trial to finish
-          alg->tell({observation_of(fresh[0])});
-          told_ids.push_back(fresh[0].id);
-          outstanding.reset();
-          i = 1;
-        }
-      }
-    }
-    for (; i < fresh.size(); ++i) replay_one(fresh[i]);
-  }
-
-  /// Pending trials of workers silent for longer than heartbeat_timeout are abandoned (their results will
-  /// not come: the worker died, on this machine or another). Trials of processes that never sent a heartbeat
-  /// (`varbo suggest`) are left alone.
-  void abandon_silent_workers() {
-    if (!(config.heartbeat_timeout > 0)) return;
-    const double now = unix_time();
-    std::vector<WorkerRecord> silent;
-    for (const auto& w : store->workers())
-      if (w.state == "running" && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
-    if (silent.empty()) return;
-    for (TrialRecord t : store->pending_trials()) {
-      for (const auto& w : silent) {
-        if (t.worker != w.id) continue;
-        t.state = TrialState::Abandoned;
-        t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id,
-                              now - w.heartbeat_at, config.heartbeat_timeout);
-        t.finished_at = now;
-        store->update_trial(t);
-        log_warn("{}: trial {} {}", store->location(), t.id, t.error);
-        dirty = true;
-      }
-    }
-  }
-
-  /// With retry_abandoned: new pending trials at the θ of abandoned trials not retried yet (phase "retry"),
-  /// at most `q`. The meta key retried/<id> links an abandoned trial to its retry.
-  std::vector<TrialRecord> retries(Index q) {
-    std::vector<TrialRecord> out;
-    if (!config.retry_abandoned) return out;
-    for (const auto& a : store->trials()) {
-      if (static_cast<Index>(out.size()) >= q) break;
-      if (a.state != TrialState::Abandoned || a.phase == "manual") continue;
-      const std::string key = fmt::format("retried/{}", a.id);
-      if (store->meta(key)) continue;
-      TrialRecord r;
-      r.state = TrialState::Pending;
-      r.phase = "retry";
-      r.x = a.x;
-      r.theta = a.theta;
-      r.worker = worker;
-      r.created_at = unix_time();
-      r.finished_before = store->next_finish_seq();
-      r.batch_size = 0;  // not suggested by the algorithm: a replay need not reproduce it
-      r.id = store->add_trial(r);
-      store->set_meta(key, std::to_string(r.id));
-      out.push_back(r);
-    }
-    return out;
-  }
-
-  TrialRecord pending_trial(const std::int64_t id, const char* verb) const {
-    auto t = store->trial(id);
-    if (!t)
-      throw InputError(fmt::format("{}: no trial with id {} (see `varbo status {}`); nothing written", store->location(),
-                                   id, store->location()));
-    if (t->state == TrialState::Abandoned) {
-      log_warn("{}: trial {} had been abandoned; recording its late result", store->location(), id);
-    } else if (t->state != TrialState::Pending) {
-      throw InputError(fmt::format("{}: cannot {} trial {}: it is already {} (each trial takes one result); nothing "
-                                   "written",
-                                   store->location(), verb, id, state_name(t->state)));
-    }
-    return *t;
-  }
-
-  std::vector<std::pair<std::string, std::string>> meta_entries(const std::string& identity) const {
-    std::string paths;
-    for (const auto& p : plugin_paths_of(config.source)) paths += fs::absolute(p).string() + "\n";
-    return {{store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(config.resolved())},
-            {store_key::kIdentity, identity},
-            {store_key::kPluginPaths, paths}};
-  }
-};
-
 Study::Study(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Study::Study(Study&&) noexcept = default;
 Study& Study::operator=(Study&&) noexcept = default;
 Study::~Study() = default;
 
 namespace {
-/// `on_demand`: a study being opened loads only the built-in plugins its configuration looks up (loader.hpp);
-/// `varbo suggest` pays for two or three libraries, not every one installed.
-std::unique_ptr<Study::Impl> impl_with_plugins(const std::vector<std::string>& paths, bool on_demand = false) {
-  auto impl = std::make_unique<Study::Impl>();
-  impl->own_registry = std::make_unique<Registry>();
-  impl->loader = std::make_unique<PluginLoader>(*impl->own_registry);
-  impl->loader->set_on_demand(on_demand);
-  impl->loader->load_default(paths);
-  return impl;
-}
-
-/// The plugins of the studies a process opens (Study::open without components of the caller's), one registry
-/// and loader per plugin path, shared by every Study opened with that path and kept for the life of the
-/// process (plugins are never unloaded anyway): a second Study::open in the process neither reads the
-/// plugin index nor checks, maps and registers its libraries again (docs/studies.md, "Cost of varbo
-/// suggest"). Libraries still load on demand, into the shared registry (Registry guards its list for
-/// that). The key holds the study's extra plugin paths and VARBO_PLUGIN_PATH with the size and time of every
-/// library file they name, so that a library added or replaced there is seen as it was before (a fresh
-/// registry); the built-in folders are the build's own. Warnings of the loader (a missing plugin path) are
-/// given by the first open only.
-struct SharedPlugins {
-  Registry registry;
-  PluginLoader loader{registry};
-};
-
-std::string plugin_key(const std::vector<std::string>& extra) {
-  std::string key;
-  auto add_file = [&key](const fs::path& p) {
-    std::error_code ec;
-    const auto size = fs::file_size(p, ec);
-    const auto time = fs::last_write_time(p, ec);
-    key += fmt::format("{}|{}|{}\n", p.string(), ec ? 0 : size, ec ? 0 : time.time_since_epoch().count());
-  };
-  std::vector<std::string> paths = extra;
-  for (auto& p : PluginLoader::env_path()) paths.push_back(std::move(p));
-  for (const auto& p : paths) {
-    key += "path " + p + "\n";
-    std::error_code ec;
-    if (!fs::is_directory(p, ec)) {
-      add_file(p);
-      continue;
-    }
-    std::vector<fs::path> files;
-    for (fs::directory_iterator it(p, ec), end; !ec && it != end; it.increment(ec)) files.push_back(it->path());
-    std::sort(files.begin(), files.end());
-    for (const auto& f : files)
-      if (f.extension() == ".so") add_file(f);
-  }
-  return key;
-}
-
-const Registry& shared_registry(const std::vector<std::string>& extra) {
-  static std::mutex mutex;
-  static auto* cache = new std::map<std::string, std::unique_ptr<SharedPlugins>>();  // never freed (see above)
-  const std::string key = plugin_key(extra);
-  std::lock_guard<std::mutex> lock(mutex);
-  auto it = cache->find(key);
-  if (it == cache->end()) {
-    auto plugins = std::make_unique<SharedPlugins>();
-    plugins->loader.set_on_demand(true);
-    plugins->loader.load_default(extra);  // throws (nothing cached) when a plugin named explicitly cannot load
-    it = cache->emplace(key, std::move(plugins)).first;
-  }
-  return it->second->registry;
-}
-
-/// Stored configurations whose identity was found to match with a shared registry: the check (a YAML emit of
-/// the resolved configuration) gives the same answer for the same text and the same loaded plugins, so a
-/// process checks each study once.
-std::mutex& identity_mutex() {
-  static std::mutex m;
-  return m;
-}
-std::set<std::tuple<const Registry*, std::string, std::string>>& identities_checked() {
-  static auto* s = new std::set<std::tuple<const Registry*, std::string, std::string>>();
-  return *s;
-}
-bool identity_checked(const Registry& registry, const std::string& text, const std::string& identity) {
-  std::lock_guard<std::mutex> lock(identity_mutex());
-  return identities_checked().count({&registry, text, identity}) > 0;
-}
-void remember_identity(const Registry& registry, const std::string& text, const std::string& identity) {
-  std::lock_guard<std::mutex> lock(identity_mutex());
-  identities_checked().insert({&registry, text, identity});
-}
-
 void create_study_store(Study::Impl& impl, const std::string& store_path) {
   impl.make_algorithm();  // surface configuration errors before any file is written
   impl.store = create_store(store_path, impl.meta_entries(study_identity(impl.config)));
@@ -860,75 +434,5 @@ void Study::heartbeat(const std::string& state) {
 }
 Index Study::replay_mismatches() const { return impl_->mismatches; }
 Index Study::replayed() const { return impl_->replayed; }
-
-namespace {
-std::string first_difference(const std::string& stored, const std::string& replayed) {
-  std::size_t i = 0;
-  while (i < stored.size() && i < replayed.size() && stored[i] == replayed[i]) ++i;
-  const std::size_t from = i > 40 ? i - 40 : 0;
-  return fmt::format("at character {}: stored '…{}…' vs replayed '…{}…'", i, stored.substr(from, 100),
-                     replayed.substr(from, 100));
-}
-}  // namespace
-
-VerifyReport Study::verify() {
-  Impl& m = *impl_;
-  VerifyReport rep;
-  std::unique_ptr<Algorithm> alg = m.make_algorithm();
-  const auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
-  const std::vector<TrialRecord> finished = m.store->finished_since(0);
-  const std::vector<AlgorithmSnapshot> states = m.store->algorithm_states();
-  // A state saved by an earlier version may write the same values in another form (a list per vector before
-  // vectors became one scalar): what counts is the state it restores, so it is compared as this version saves it.
-  auto as_saved_now = [&](const AlgorithmSnapshot& s) -> std::optional<std::string> {
-    try {
-      std::unique_ptr<Algorithm> fresh = m.make_algorithm();
-      auto* r = dynamic_cast<AlgorithmState*>(fresh.get());
-      if (!r || s.finished > static_cast<std::int64_t>(finished.size())) return std::nullopt;
-      r->restore_state(s.state, Impl::observations_of(finished, static_cast<std::size_t>(s.finished)));
-      return r->save_state();
-    } catch (const Error&) {
-      return std::nullopt;
-    }
-  };
-  auto compare = [&](std::int64_t told, std::int64_t outstanding) {
-    if (!resumable) return true;
-    for (const auto& s : states) {
-      if (s.finished != told || s.outstanding != outstanding) continue;
-      const std::optional<std::string> now = resumable->save_state();
-      ++rep.states_compared;
-      if (now && *now == s.state) continue;
-      if (now && as_saved_now(s) == now) continue;
-      rep.divergence = fmt::format("the saved algorithm state after {} result(s){} differs from the replayed one {}",
-                                   told, outstanding >= 0 ? fmt::format(" and the ask of trial {}", outstanding) : "",
-                                   now ? first_difference(s.state, *now) : "(the replayed algorithm saves none)");
-      return false;
-    }
-    return true;
-  };
-  if (!compare(0, -1)) return rep;
-  for (std::size_t i = 0; i < finished.size(); ++i) {
-    const TrialRecord& t = finished[i];
-    const std::vector<Suggestion> s = alg->ask(1);
-    ++rep.replayed;
-    const bool serial =
-        t.batch_size == 1 && t.pending_before == 0 && t.finished_before == static_cast<std::int64_t>(i);
-    if (serial) {
-      const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
-                        (m.trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
-      if (!same) {
-        rep.divergence = fmt::format(
-            "trial {} (result {} in finish order): the replay suggests {} instead of the stored {}", t.id, i,
-            s.empty() ? std::string("nothing") : join_numbers(m.theta_of(m.trial_x(s[0].x))),
-            join_numbers(t.theta));
-        return rep;
-      }
-    }
-    if (!compare(static_cast<std::int64_t>(i), t.id)) return rep;
-    alg->tell({observation_of(t)});
-    if (!compare(static_cast<std::int64_t>(i) + 1, -1)) return rep;
-  }
-  return rep;
-}
 
 }  // namespace varbo

@@ -1,0 +1,159 @@
+// Study::Impl (study_impl.hpp): building a study from its configuration, the workers' liveness, retries of
+// abandoned trials, and the small helpers the study's files share.
+#include "study_impl.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/search_space_config.hpp"
+
+namespace fs = std::filesystem;
+
+namespace varbo {
+
+namespace study_detail {
+
+Observation observation_of(const TrialRecord& t) {
+  Observation o;
+  o.x = t.x;
+  o.ok = t.state == TrialState::Complete;
+  o.cost = o.ok ? t.cost : std::nan("");
+  o.components = t.components;
+  return o;
+}
+
+void log_cpu(const char* step) {
+  if (log_level() <= LogLevel::Debug)
+    log_debug("study: {}: process CPU {:.2f} ms", step, 1e3 * static_cast<double>(std::clock()) / CLOCKS_PER_SEC);
+}
+
+std::string emit(const YAML::Node& n) {
+  YAML::Emitter em;
+  em << n;
+  return em.c_str();
+}
+
+}  // namespace study_detail
+
+using study_detail::emit;
+
+void Study::Impl::init(const StudyConfig& c, const Registry& reg) {
+  registry = &reg;
+  config = c;
+  BuildContext tctx;
+  tctx.seed = config.seed;
+  task = reg.create<Task>(config.task, tctx);
+  init_space();
+  const Index d = domain.box.dim();
+  if (d < 1)
+    throw ConfigError(fmt::format("{}: task '{}' has no parameters{}", config.task.source.where(), config.task.info->name,
+                                  dynamic_cast<SpaceAware*>(task.get())
+                                      ? ": give its dim, lower/upper or names, or declare the study's `parameters:`"
+                                      : ""));
+  if (!space && !(domain.box.upper.array() > domain.box.lower.array()).all())
+    throw ConfigError(fmt::format("{}: task '{}' has an empty domain (every upper bound must exceed its lower bound)",
+                                  config.task.source.where(), config.task.info->name));
+  for (Index i = static_cast<Index>(domain.names.size()); i < d; ++i) domain.names.push_back(fmt::format("x{}", i + 1));
+  domain.names.resize(static_cast<std::size_t>(d));
+  std::optional<Vec> theta0 = config.initial_point ? config.initial_point : task->initial_point();
+  if (theta0) {
+    if (theta0->size() != d)
+      config.source.child("initial_point")
+          .fail(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
+    std::string why;
+    if (space && !space->contains(*theta0, &why))
+      config.source.child("initial_point").fail("the initial point is not admissible: " + why);
+    if (!domain.box.contains(*theta0))
+      config.source.child("initial_point").fail("the initial point lies outside the task's domain");
+    initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
+  }
+}
+
+void Study::Impl::init_space() { space = resolve_study_space(config, *task, domain); }
+
+std::unique_ptr<Algorithm> Study::Impl::make_algorithm() const {
+  BuildContext actx;
+  actx.dim = encoded_dim();
+  actx.seed = config.seed;
+  actx.budget = config.budget;
+  actx.initial_point = initial_unit;
+  std::unique_ptr<Algorithm> a = registry->create<Algorithm>(config.algorithm, actx);
+  if (space)
+    if (auto* aware = dynamic_cast<SpaceAware*>(a.get())) aware->set_search_space(space);
+  return a;
+}
+
+void Study::Impl::abandon_silent_workers() {
+  if (!(config.heartbeat_timeout > 0)) return;
+  const double now = unix_time();
+  std::vector<WorkerRecord> silent;
+  for (const auto& w : store->workers())
+    if (w.state == "running" && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
+  if (silent.empty()) return;
+  for (TrialRecord t : store->pending_trials()) {
+    for (const auto& w : silent) {
+      if (t.worker != w.id) continue;
+      t.state = TrialState::Abandoned;
+      t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id,
+                            now - w.heartbeat_at, config.heartbeat_timeout);
+      t.finished_at = now;
+      store->update_trial(t);
+      log_warn("{}: trial {} {}", store->location(), t.id, t.error);
+      dirty = true;
+    }
+  }
+}
+
+std::vector<TrialRecord> Study::Impl::retries(Index q) {
+  std::vector<TrialRecord> out;
+  if (!config.retry_abandoned) return out;
+  for (const auto& a : store->trials()) {
+    if (static_cast<Index>(out.size()) >= q) break;
+    if (a.state != TrialState::Abandoned || a.phase == "manual") continue;
+    const std::string key = fmt::format("retried/{}", a.id);
+    if (store->meta(key)) continue;
+    TrialRecord r;
+    r.state = TrialState::Pending;
+    r.phase = "retry";
+    r.x = a.x;
+    r.theta = a.theta;
+    r.worker = worker;
+    r.created_at = unix_time();
+    r.finished_before = store->next_finish_seq();
+    r.batch_size = 0;  // not suggested by the algorithm: a replay need not reproduce it
+    r.id = store->add_trial(r);
+    store->set_meta(key, std::to_string(r.id));
+    out.push_back(r);
+  }
+  return out;
+}
+
+TrialRecord Study::Impl::pending_trial(std::int64_t id, const char* verb) const {
+  auto t = store->trial(id);
+  if (!t)
+    throw InputError(fmt::format("{}: no trial with id {} (see `varbo status {}`); nothing written", store->location(),
+                                 id, store->location()));
+  if (t->state == TrialState::Abandoned) {
+    log_warn("{}: trial {} had been abandoned; recording its late result", store->location(), id);
+  } else if (t->state != TrialState::Pending) {
+    throw InputError(fmt::format("{}: cannot {} trial {}: it is already {} (each trial takes one result); nothing "
+                                 "written",
+                                 store->location(), verb, id, state_name(t->state)));
+  }
+  return *t;
+}
+
+std::vector<std::pair<std::string, std::string>> Study::Impl::meta_entries(const std::string& identity) const {
+  std::string paths;
+  for (const auto& p : plugin_paths_of(config.source)) paths += fs::absolute(p).string() + "\n";
+  return {{store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(config.resolved())},
+          {store_key::kIdentity, identity},
+          {store_key::kPluginPaths, paths}};
+}
+
+}  // namespace varbo

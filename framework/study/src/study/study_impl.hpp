@@ -1,0 +1,145 @@
+// The state behind varbo::Study (study_api.hpp): the study's configuration, task, space and store, and the live
+// algorithm with what it has been told. Private to libvarbo_study; its methods are defined by concern:
+// study_impl.cpp (building the study, workers' liveness, retries), study_rebuild.cpp (the algorithm rebuilt from
+// saved states plus a replay of the rest), study_plugins.cpp (the plugins a process's studies share).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "varbo/loader.hpp"
+#include "varbo/registry.hpp"
+#include "varbo/store.hpp"
+#include "varbo/study_api.hpp"
+
+namespace varbo {
+
+namespace study_detail {
+
+/// Unit-cube coordinates: a replay must give the same point.
+constexpr double kReplayTolerance = 1e-12;
+
+/// What the algorithm is told about a finished trial.
+Observation observation_of(const TrialRecord& t);
+
+/// The process's CPU time so far (all threads) at a step of opening a study or asking it, in the --verbose log:
+/// what a short `varbo suggest` process spends where (docs/studies.md, "Cost of varbo suggest").
+void log_cpu(const char* step);
+
+/// A YAML node as text (the stored configuration, the study's identity).
+std::string emit(const YAML::Node& n);
+
+}  // namespace study_detail
+
+struct Study::Impl {
+  std::unique_ptr<Registry> own_registry;
+  std::unique_ptr<PluginLoader> loader;
+  const Registry* registry = nullptr;
+  StudyConfig config;
+  std::unique_ptr<Task> task;
+  Domain domain;
+  SharedSpace space;  ///< typed parameters and constraints (docs/search_space.md); null for a plain box
+  std::optional<Vec> initial_unit;
+  std::unique_ptr<StudyStore> store;
+  std::string worker = default_worker_name();
+
+  // The live algorithm: it has been asked once and told once for each id in told_ids (in that order), plus
+  // possibly one more ask(1) whose trial is `outstanding`. Anything else (a batch, pending points) makes it
+  // `dirty`: the next use rebuilds it from the store.
+  std::unique_ptr<Algorithm> alg;
+  std::vector<std::int64_t> told_ids;
+  std::optional<std::int64_t> outstanding;
+  bool dirty = true;
+  Index mismatches = 0;
+  Index replayed = 0;         ///< trials replayed (ask + tell) since this object was opened
+  /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
+  /// saved only when the live algorithm is further.
+  std::int64_t saved_reach = -1;
+
+  // --- the study (study_impl.cpp) ---
+
+  /// Builds the task (for its domain) and checks the initial point, as `varbo run` does.
+  void init(const StudyConfig& c, const Registry& reg);
+  void init_space();
+
+  /// The point a trial records for the algorithm's suggestion x (unit cube): admissible in the space.
+  Vec trial_x(const Vec& x) const {
+    const Index d = x.size();
+    return space ? space->admissible(x) : Vec(Box::unit(d).clamp(x));
+  }
+  Vec theta_of(const Vec& x) const { return space ? space->decode(x) : from_unit(x, domain.box); }
+  Index encoded_dim() const { return space ? space->encoded_dim() : domain.box.dim(); }
+
+  std::unique_ptr<Algorithm> make_algorithm() const;
+
+  /// Pending trials of workers silent for longer than heartbeat_timeout are abandoned (their results will
+  /// not come: the worker died, on this machine or another). Trials of processes that never sent a heartbeat
+  /// (`varbo suggest`) are left alone.
+  void abandon_silent_workers();
+
+  /// With retry_abandoned: new pending trials at the θ of abandoned trials not retried yet (phase "retry"),
+  /// at most `q`. The meta key retried/<id> links an abandoned trial to its retry.
+  std::vector<TrialRecord> retries(Index q);
+
+  /// The trial `id`, which must be pending (or abandoned: a late result); `verb` names the command refused.
+  TrialRecord pending_trial(std::int64_t id, const char* verb) const;
+
+  /// The meta entries a new store is created with: the resolved configuration, its identity, the plugin paths.
+  std::vector<std::pair<std::string, std::string>> meta_entries(const std::string& identity) const;
+
+  // --- the algorithm rebuilt from saved states and the trials (study_rebuild.cpp) ---
+
+  static std::vector<Observation> observations_of(const std::vector<TrialRecord>& trials, std::size_t n);
+
+  /// The saved state reaching furthest into `finished` (the finished trials in finish order), and its reach
+  /// (results it stands for: +1 for a state after an ask whose trial finished next); nullptr if none.
+  const AlgorithmSnapshot* best_state(const std::vector<AlgorithmSnapshot>& states,
+                                      const std::vector<TrialRecord>& finished, std::int64_t& best_reach) const;
+
+  /// A fresh algorithm, continued from the saved state that reaches furthest into the finished trials when
+  /// the algorithm offers AlgorithmState; sync() replays the rest. Returns the finished trials it read (all of
+  /// them, in finish order), or nothing when it read none.
+  std::optional<std::vector<TrialRecord>> rebuild();
+
+  /// The finished trials from finish_seq told_ids.size() on: taken from `all` (every finished trial, in finish
+  /// order, as rebuild() just read them) when given, else read from the store.
+  std::vector<TrialRecord> untold(std::optional<std::vector<TrialRecord>>&& all) const;
+
+  /// True when other processes finished more than one trial since this object's algorithm was told and a
+  /// saved state covers them: restoring it is cheaper than replaying them (one fit each).
+  bool saved_state_is_further() const;
+
+  /// The caller makes sure the live algorithm is in a canonical state: told every finished result in finish
+  /// order, nothing pending, and at most one serial ask(1) since (the trial `asked_for`).
+  void save_state(std::optional<std::int64_t> asked_for = std::nullopt);
+
+  /// ask(1) then tell(t): the step of an uninterrupted serial run that produced t.
+  void replay_one(const TrialRecord& t);
+
+  /// Brings the live algorithm in step with the finished trials of the store. finish_seq values are assigned
+  /// once, in order, and never change, so only the trials finished since the last sync need reading.
+  void sync();
+};
+
+// --- the plugins of a process's studies (study_plugins.cpp) ---
+
+/// A Study::Impl with a registry and plugin loader of its own over `paths`. `on_demand`: a study being opened
+/// loads only the built-in plugins its configuration looks up (loader.hpp).
+std::unique_ptr<Study::Impl> impl_with_plugins(const std::vector<std::string>& paths, bool on_demand = false);
+
+/// The registry shared by every Study::open of this process with the same extra plugin paths (and the same
+/// library files there).
+const Registry& shared_registry(const std::vector<std::string>& extra);
+
+/// Whether the stored configuration `text` was already found to have the stored `identity` with `registry`
+/// (a process checks each study once), and remembering that it has.
+bool identity_checked(const Registry& registry, const std::string& text, const std::string& identity);
+void remember_identity(const Registry& registry, const std::string& text, const std::string& identity);
+
+}  // namespace varbo

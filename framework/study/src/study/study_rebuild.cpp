@@ -1,0 +1,159 @@
+// How varbo::Study brings its algorithm up to date (docs/studies.md, "How the algorithm is rebuilt"): from the
+// saved state that reaches furthest into the finished trials (when the algorithm offers AlgorithmState,
+// varbo/state.hpp), then a replay (ask(1), tell) of the trials finished since; a saved state after every change.
+#include <fmt/format.h>
+
+#include <algorithm>
+
+#include "study_impl.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/state.hpp"
+
+namespace varbo {
+
+using study_detail::kReplayTolerance;
+using study_detail::observation_of;
+
+std::vector<Observation> Study::Impl::observations_of(const std::vector<TrialRecord>& trials, std::size_t n) {
+  std::vector<Observation> out;
+  for (std::size_t i = 0; i < n; ++i) out.push_back(observation_of(trials[i]));
+  return out;
+}
+
+const AlgorithmSnapshot* Study::Impl::best_state(const std::vector<AlgorithmSnapshot>& states,
+                                                  const std::vector<TrialRecord>& finished, std::int64_t& best_reach) const {
+  const AlgorithmSnapshot* best = nullptr;
+  best_reach = 0;
+  const auto n = static_cast<std::int64_t>(finished.size());
+  for (const auto& s : states) {
+    if (s.finished > n) continue;
+    std::int64_t reach = s.finished;
+    if (s.outstanding >= 0) {
+      // Usable only when that trial was the next to finish: it is then told without a new fit.
+      if (s.finished >= n || finished[static_cast<std::size_t>(s.finished)].id != s.outstanding) continue;
+      ++reach;
+    }
+    // Newest first; at equal reach a state after a result (nothing to tell) before one after an ask.
+    if (!best || reach > best_reach || (reach == best_reach && best->outstanding >= 0 && s.outstanding < 0)) {
+      best = &s;
+      best_reach = reach;
+    }
+  }
+  return best;
+}
+
+std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
+  alg = make_algorithm();
+  told_ids.clear();
+  outstanding.reset();
+  dirty = false;
+  auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
+  if (!resumable) return std::nullopt;
+  std::vector<TrialRecord> finished = store->finished_since(0);
+  const std::vector<AlgorithmSnapshot> states = store->algorithm_states();
+  std::int64_t reach = 0;
+  const AlgorithmSnapshot* best = best_state(states, finished, reach);
+  saved_reach = std::max(saved_reach, reach);
+  if (!best) return finished;
+  const auto m = static_cast<std::size_t>(best->finished);
+  try {
+    resumable->restore_state(best->state, observations_of(finished, m));
+  } catch (const Error& e) {
+    log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
+             store->location(), m, e.what());
+    alg = make_algorithm();
+    return finished;
+  }
+  for (std::size_t i = 0; i < m; ++i) told_ids.push_back(finished[i].id);
+  if (best->outstanding >= 0) outstanding = best->outstanding;
+  return finished;
+}
+
+std::vector<TrialRecord> Study::Impl::untold(std::optional<std::vector<TrialRecord>>&& all) const {
+  const auto told = static_cast<std::int64_t>(told_ids.size());
+  if (!all) return store->finished_since(told);
+  // finished_since(told): those with finish_seq >= told, `all` being sorted by finish_seq.
+  all->erase(all->begin(), std::partition_point(all->begin(), all->end(),
+                                                [&](const TrialRecord& t) { return t.finish_seq < told; }));
+  return std::move(*all);
+}
+
+bool Study::Impl::saved_state_is_further() const {
+  if (!dynamic_cast<const AlgorithmState*>(alg.get())) return false;
+  if (store->next_finish_seq() <= static_cast<std::int64_t>(told_ids.size()) + 1) return false;
+  const std::vector<TrialRecord> finished = store->finished_since(0);
+  std::int64_t reach = 0;
+  best_state(store->algorithm_states(), finished, reach);
+  return reach > static_cast<std::int64_t>(told_ids.size()) + 1;
+}
+
+void Study::Impl::save_state(std::optional<std::int64_t> asked_for) {
+  auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
+  if (!resumable || !alg) return;
+  const auto told = static_cast<std::int64_t>(told_ids.size());
+  const std::int64_t reach = told + (asked_for ? 1 : 0);
+  if (reach <= saved_reach) return;
+  // A state that cannot be saved costs the next process a replay, never this suggestion or result.
+  try {
+    const std::optional<std::string> text = resumable->save_state();
+    if (!text) return;
+    AlgorithmSnapshot s;
+    s.finished = told;
+    s.outstanding = asked_for.value_or(-1);
+    s.state = *text;
+    s.created_at = unix_time();
+    store->add_algorithm_state(s);
+    saved_reach = reach;
+  } catch (const std::exception& e) {
+    log_warn("{}: the algorithm state after {} result(s) was not saved ({}); the next process replays instead",
+             store->location(), told, e.what());
+  }
+}
+
+void Study::Impl::replay_one(const TrialRecord& t) {
+  ++replayed;
+  std::vector<Suggestion> s = alg->ask(1);
+  const bool serial = t.batch_size == 1 && t.pending_before == 0 &&
+                      t.finished_before == static_cast<std::int64_t>(told_ids.size());
+  if (serial) {
+    const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
+                      (trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
+    if (!same) {
+      ++mismatches;
+      log_warn("{}: replaying trial {}: the algorithm now suggests a different point than it did (is the run "
+               "deterministic? same plugins?); continuing with the stored result",
+               store->location(), t.id);
+    }
+  }
+  alg->tell({observation_of(t)});
+  told_ids.push_back(t.id);
+}
+
+void Study::Impl::sync() {
+  std::optional<std::vector<TrialRecord>> read;
+  if (!alg || dirty || saved_state_is_further()) read = rebuild();
+  std::vector<TrialRecord> fresh = untold(std::move(read));
+  std::size_t i = 0;
+  if (outstanding) {
+    if (!fresh.empty() && fresh[0].id == *outstanding) {
+      alg->tell({observation_of(fresh[0])});
+      told_ids.push_back(fresh[0].id);
+      outstanding.reset();
+      i = 1;
+    } else {
+      // The trial this object asked for did not finish next: the state after that ask is not the canonical
+      // one (results told in finish order); start again from the saved states.
+      fresh = untold(rebuild());
+      if (outstanding) {  // a saved state that had asked for exactly the next trial to finish
+        alg->tell({observation_of(fresh[0])});
+        told_ids.push_back(fresh[0].id);
+        outstanding.reset();
+        i = 1;
+      }
+    }
+  }
+  for (; i < fresh.size(); ++i) replay_one(fresh[i]);
+}
+
+}  // namespace varbo
