@@ -126,7 +126,8 @@ const OptionSet<BoSettings>& bo_options() {
                 "incumbent_level: always|refinement|fixed, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
                 "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
-                "boundary_reach: 0.05, boundary_tabu: 0.05}; the acquisition is weighted by P(success | θ) from a "
+                "boundary_reach: 0.05, boundary_tabu: 0.05, feasible_region: off, feasible_shrink: count, feasible_margin: "
+                "0.02}; the acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };
@@ -607,6 +608,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     rule.incumbent = failure_settings_.stall_incumbent;
     value_stall->set_value_stall(rule);
   }
+  force_region_failures(k);
   region_->update(surrogate_.get(), data, region_rng);
   Dataset late_refined;
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0 &&
@@ -736,12 +738,51 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       return restart_afresh("the attempt's best point is blocked by the failure boundary");
     }
   }
+  if (feasible && !refining_ && failure_settings_.feasible_region != "off" &&
+      feasibility_->probability(s.x) <= p_min + failure_settings_.feasible_margin) {
+    // failure_model.feasible_region: limited: the step was held back by the failure model, not by the cost model.
+    limited_trials_.push_back(k);
+    log_debug("bo: trial {}: the step is limited by P(success) ({:.3g}, level {:.3g})", k,
+              feasibility_->probability(s.x), p_min);
+  }
   if (feasible)
     log_debug("bo: trial {} acquisition {:.6g} {} | P(success) here {:.3g}", k, res.value, acquisition.state(),
               feasibility_->probability(s.x));
   else
     log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
   return s;
+}
+
+void BayesianOptimization::force_region_failures(Index k) {
+  // failure_model.feasible_region (docs/failures.md, session fail14): Hartmann-3 with a ball creeps along the ball's
+  // edge with the trust region at its maximum size, every creep step (a small improvement at the level of P(success)
+  // the incumbent allows) counting as a region success. Here the failed model-based trials and the steps limited by
+  // P(success) count as trials without improvement, so the region shrinks and, collapsed, restarts afresh.
+  const std::string& mode = failure_settings_.feasible_region;
+  const Index from = region_counted_to_;
+  region_counted_to_ = std::max(region_counted_to_, k);
+  if (mode == "off" || refining_ || failed_.empty() || !failure_settings_.active(static_cast<Index>(failed_.size())))
+    return;
+  ComponentState* state = state_of(region_.get());
+  if (!state) return;
+  // The current attempt's model-based trials only (its design's failures are the design's).
+  const Index attempt_from = fresh_starts_ > 0 ? fresh_trial_ + restart_points_ : design_.rows();
+  const Index lo = std::max(from, attempt_from);
+  const auto in_range = [&](Index t) { return t >= lo && t < k; };
+  int events = 0;
+  if (mode == "failed" || mode == "both")
+    for (const Index t : failed_trials_) events += in_range(t);
+  if (mode == "limited" || mode == "both")
+    for (const Index t : limited_trials_)
+      events += in_range(t) && (mode == "limited" ||
+                                std::find(failed_trials_.begin(), failed_trials_.end(), t) == failed_trials_.end());
+  if (events == 0) return;
+  StateMap m = StateMap::parse(state->save_state(), "region state");
+  if (!m.has("successes") || !m.has("failures")) return;  // not a trust region
+  const char* key = failure_settings_.feasible_shrink == "halve" ? "forced_halvings" : "forced_failures";
+  m.put_int(key, (m.has(key) ? m.integer(key) : 0) + events);
+  state->restore_state(m.text());
+  log_debug("bo: trial {}: {} failed or limited trial(s) count as trust region failures", k, events);
 }
 
 bool BayesianOptimization::converged_on_repeat(Index k, const Vec& x, const Dataset& data, const Dataset& model_data,
@@ -918,6 +959,7 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
       design_failed_ += in_design;
       // Failed trials inform the failure model only (the cost model has no value for them).
       if (o.x.size() == dim_ && o.x.allFinite()) failed_.push_back(o.x);
+      failed_trials_.push_back(told_ - 1);
       continue;
     }
     if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));

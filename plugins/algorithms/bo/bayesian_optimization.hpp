@@ -142,6 +142,15 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// failure_model.boundary_restart: the best points of attempts that ended blocked by the failure boundary; later
   /// attempts (not the refinement) do not search within boundary_reach of them.
   std::vector<Vec> blocked_;
+  /// failure_model.feasible_region (session fail14): the trial indices of failed observations (from tell, so a restored
+  /// run has them), of model-based steps limited by the probability of success, and the trial up to which the region
+  /// has been told of them.
+  std::vector<Index> failed_trials_;
+  std::vector<Index> limited_trials_;
+  Index region_counted_to_ = 0;
+  /// Tells the trust region (its state's forced_failures / forced_halvings) of the failed and limited model-based
+  /// trials of the current attempt since the last update, before the update at trial k.
+  void force_region_failures(Index k);
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt
   /// that found the incumbent) and those from refine_from_ on (the refinement's own).
   Index refine_lo_ = 0, refine_hi_ = 0, refine_from_ = 0;  ///< the final refinement after fresh starts has begun

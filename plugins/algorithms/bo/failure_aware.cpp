@@ -93,6 +93,20 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "(max-norm, unit cube) of the best point of an attempt that ended blocked; 0 = they may")
           .at_least(0)
           .at_most(1),
+      opt::choice("feasible_region", &FailureModelSettings::feasible_region, {"off", "failed", "limited", "both"},
+                  "once a trial has failed, what the trust region counts as a trial without improvement besides its "
+                  "own (TuRBO's failure counter, which shrinks it): each failed model-based trial (failed), each "
+                  "model-based step whose point was limited by the probability of success (P(success) within "
+                  "feasible_margin of the level it had to reach), even if it improved (limited), or both; off = "
+                  "neither"),
+      opt::choice("feasible_shrink", &FailureModelSettings::feasible_shrink, {"count", "halve"},
+                  "how feasible_region's events shrink the trust region: as one failure each of its counter (count) "
+                  "or one halving of its side each (halve)"),
+      opt::real("feasible_margin", &FailureModelSettings::feasible_margin,
+                "feasible_region: limited: a step is limited when its point's P(success) lies within this of the level "
+                "it had to reach")
+          .at_least(0)
+          .at_most(1),
   };
   return set;
 }
@@ -107,7 +121,8 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
-              "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r}");
+              "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
+              "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -78,6 +78,14 @@ struct FailureModelSettings {
   double boundary_reach = 0.05;
   /// Later attempts (not the refinement) do not search within this distance (∞-norm) of a blocked attempt's best.
   double boundary_tabu = 0.05;
+  /// A failure-aware trust region (session fail14): once a trial has failed, the region also counts as trials without
+  /// improvement (TuRBO's failure counter; feasible_shrink: halve = one halving of L each) every failed model-based
+  /// trial ("failed"), every model-based step whose point's P(success) lay within feasible_margin of the level it had
+  /// to reach — the acquisition's optimum pressed against the failure model — even if it improved ("limited"), or
+  /// both. "off" = neither (the default).
+  std::string feasible_region = "off";
+  std::string feasible_shrink = "count";
+  double feasible_margin = 0.02;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -252,7 +252,10 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {boundary_reach: 0}}",
                        "{type: bo, failure_model: {boundary_reach: 1.5}}",
                        "{type: bo, failure_model: {boundary_tabu: -0.1}}",
-                       "{type: bo, failure_model: {incumbent_level: attempt}}"};
+                       "{type: bo, failure_model: {incumbent_level: attempt}}",
+                       "{type: bo, failure_model: {feasible_region: on}}",
+                       "{type: bo, failure_model: {feasible_shrink: third}}",
+                       "{type: bo, failure_model: {feasible_margin: -0.1}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -286,7 +289,9 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
       "{type: bo, failure_model: {repeat_distance: 0.001}}", "{type: bo, failure_model: {repeat_distance: 1e-9}}",
       "{type: bo, failure_model: {boundary_restart: true, boundary_reach: 0.2, boundary_tabu: 0.2}}",
-      "{type: bo, failure_model: {incumbent_level: fixed}}"};
+      "{type: bo, failure_model: {incumbent_level: fixed}}",
+      "{type: bo, failure_model: {feasible_region: both}}",
+      "{type: bo, failure_model: {feasible_region: both, feasible_shrink: halve, feasible_margin: 1}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
