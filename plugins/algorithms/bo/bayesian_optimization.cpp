@@ -1,6 +1,7 @@
 #include "bayesian_optimization.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
@@ -127,7 +128,7 @@ const OptionSet<BoSettings>& bo_options() {
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
                 "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
                 "boundary_reach: 0.05, boundary_tabu: 0.05, feasible_region: off, feasible_shrink: count, feasible_margin: "
-                "0.02}; the acquisition is weighted by P(success | θ) from a "
+                "0.02, attempt_memory: 0, boundary_jump: false}; the acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };
@@ -446,6 +447,26 @@ Dataset BayesianOptimization::model_data_of(const Dataset& data) const {
   }
   if (fresh_starts_ > 0 && !refining_ && data.size() >= fresh_from_ + 2) {
     Dataset local;
+    const double memory = failure_settings_.attempt_memory;
+    if (memory > 0 && !failed_.empty() && failure_settings_.active(static_cast<Index>(failed_.size()))) {
+      // failure_model.attempt_memory (session fail14): once trials have failed, a fresh attempt's model also sees
+      // the earlier attempts' points farther than attempt_memory (∞-norm) from every earlier attempt's best point:
+      // it knows the landscape it already paid for, but not the basins it was sent away from.
+      const std::vector<Vec> minima = earlier_minima();
+      local = Dataset::empty(dim_);
+      for (Index i = 0; i < data.size(); ++i) {
+        bool keep = i >= fresh_from_;
+        for (std::size_t j = 0; !keep && j <= minima.size(); ++j) {
+          if (j == minima.size()) {
+            keep = true;
+            break;
+          }
+          if ((data.X.row(i).transpose() - minima[j]).lpNorm<Eigen::Infinity>() <= memory) break;
+        }
+        if (keep) local.add(data.X.row(i).transpose(), data.y(i));
+      }
+      return local;
+    }
     local.X = data.X.bottomRows(data.size() - fresh_from_);
     local.y = data.y.tail(data.size() - fresh_from_);
     return local;
@@ -738,6 +759,41 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       return restart_afresh("the attempt's best point is blocked by the failure boundary");
     }
   }
+  if (may_restart && feasible && failure_settings_.boundary_jump && feasibility_on_ && !failed_.empty() &&
+      failure_settings_.active(static_cast<Index>(failed_.size()))) {
+    // failure_model.boundary_jump (session fail14): an attempt whose best point is blocked by an observed failure
+    // ahead along the cost model's descent probes, once per blocked point, the far side of the failure zone along
+    // that descent: the first point past the zone where P(success) is back above the exclusion threshold.
+    const Index b = attempt_best(data);
+    const Vec bx = data.X.row(b).transpose();
+    bool done = false;
+    for (const Vec& j : jumped_) done = done || (j - bx).lpNorm<Eigen::Infinity>() <= failure_settings_.boundary_reach;
+    if (!done)
+      if (const auto blocked = blocked_direction(k, s.x, data, p_min)) {
+        const Vec& dir = blocked->first;  // ∞-norm 1: a step t moves the largest coordinate by t
+        jumped_.push_back(bx);
+        bool dipped = false;
+        double lowest = 1, t_end = 0;
+        for (double t = blocked->second / dir.norm() * 0.8; t <= 2.0; t += 0.01) {
+          const Vec z = bx + t * dir;
+          t_end = t;
+          if ((z.array() < 0.0).any() || (z.array() > 1.0).any()) break;  // left the box: no far side
+          const double p = feasibility_->probability(z);
+          lowest = std::min(lowest, p);
+          if (p < exclusion_threshold_) dipped = true;
+          else if (dipped) {
+            log_debug("bo: trial {}: blocked at trial point {}; probing the far side of the failure zone at distance "
+                      "{:.3g} (P(success) {:.3g})", k, b, t, p);
+            s.x = z;
+            s.phase = "jump";
+            return s;
+          }
+        }
+        log_debug("bo: trial {}: blocked at trial point {}, no far side along the descent ({}): lowest P(success) "
+                  "{:.3g} (threshold {:.3g}), the ray left the box at {:.3g}", k, b, fmt::join(dir, ", "), lowest,
+                  exclusion_threshold_, t_end);
+      }
+  }
   if (feasible && !refining_ && failure_settings_.feasible_region != "off" &&
       feasibility_->probability(s.x) <= p_min + failure_settings_.feasible_margin) {
     // failure_model.feasible_region: limited: the step was held back by the failure model, not by the cost model.
@@ -858,15 +914,20 @@ bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Data
     return false;
   // A fresh start gets its design, as many model trials again, and the refinement.
   if (budget_ <= 0 || budget_ - k < 2 * restart_points_ + refine_last_) return false;
+  return blocked_direction(k, x, data, level).has_value();
+}
+
+std::optional<std::pair<Vec, double>> BayesianOptimization::blocked_direction(Index k, const Vec& x, const Dataset& data,
+                                                                              double level) const {
   const Index from = std::min(fresh_from_, data.size());
-  if (data.size() - from < 2) return false;
+  if (data.size() - from < 2) return std::nullopt;
   Index best = from;
   for (Index i = from; i < data.size(); ++i)
     if (data.y(i) < data.y(best)) best = i;
   const Vec b = data.X.row(best).transpose();
   const double reach = failure_settings_.boundary_reach;
   // The attempt is working at its best point (not probing far away).
-  if ((x - b).lpNorm<Eigen::Infinity>() > reach) return false;
+  if ((x - b).lpNorm<Eigen::Infinity>() > reach) return std::nullopt;
   const Box unit = Box::unit(dim_);
   const auto mean = [&](const Vec& z) { return surrogate_->predict(z, false).mean; };
   Vec g(dim_);
@@ -878,7 +939,7 @@ bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Data
     g(d) = (mean(up) - mean(down)) / std::max(up(d) - down(d), 1e-300);
   }
   const double gn = g.lpNorm<Eigen::Infinity>();
-  if (!(gn > 0) || !std::isfinite(gn)) return false;
+  if (!(gn > 0) || !std::isfinite(gn)) return std::nullopt;
   const Vec dir = -g / gn;  // a step t moves the point by t in its largest coordinate (∞-norm)
   // A failed trial within reach of the best point, ahead along the descent (within 60° of it): the way down is
   // blocked by a failure actually observed, not only by the classifier's smooth extrapolation (whose P falls
@@ -889,16 +950,16 @@ bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Data
     const double along = v.dot(dir) / dir.norm();
     if (v.lpNorm<Eigen::Infinity>() <= reach && along > 0.5 * v.norm() && (ahead < 0 || along < ahead)) ahead = along;
   }
-  if (ahead < 0) return false;
+  if (ahead < 0) return std::nullopt;
   // The cost model is lower just before that failure than at the best point (a minimum in between, where the
   // model rises again before the failure, is an interior one: polish it).
   const double at_best = mean(b);
   const double previous = mean(unit.clamp(b + (0.8 * ahead / dir.norm()) * dir));
-  if (!(previous < at_best)) return false;
+  if (!(previous < at_best)) return std::nullopt;
   log_debug("bo: trial {}: the attempt's best point (trial point {}, P(success) {:.3g}, level {:.3g}) is blocked: the "
             "cost model falls by {:.3g} along its descent up to a failed trial {:.3g} ahead", k, best,
             feasibility_->probability(b), level, at_best - previous, ahead);
-  return true;
+  return std::make_pair(dir, ahead);
 }
 
 Index BayesianOptimization::attempt_best(const Dataset& data) const {

@@ -70,6 +70,12 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   bool restart_on_known(const Dataset& data, Index near, const ValueStall& rule, Rng& region_rng);
   /// failure_model.boundary_restart: whether the attempt's best point is blocked by the failure boundary.
   bool blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const;
+  /// The test itself, without boundary_restart's gates: the cost model's descent from the attempt's best (∞-norm 1)
+  /// and the distance along it to the blocking failed trial.
+  std::optional<std::pair<Vec, double>> blocked_direction(Index k, const Vec& x, const Dataset& data,
+                                                          double level) const;
+  /// failure_model.boundary_jump: the attempt best points from which the far side was probed.
+  std::vector<Vec> jumped_;
   /// The best successful point of the current attempt (since the last fresh start).
   Index attempt_best(const Dataset& data) const;
   /// restart_design: away: of 16 designs, the one farthest from the best point of every earlier attempt.

@@ -107,6 +107,16 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "it had to reach")
           .at_least(0)
           .at_most(1),
+      opt::real("attempt_memory", &FailureModelSettings::attempt_memory,
+                "> 0: once a trial has failed, a fresh attempt's cost model also sees the earlier attempts' points "
+                "farther than this (max-norm, unit cube) from every earlier attempt's best point; 0 = its own points "
+                "only")
+          .at_least(0)
+          .at_most(1),
+      opt::boolean("boundary_jump", &FailureModelSettings::boundary_jump,
+                   "once a trial has failed, an attempt whose best point is blocked by an observed failure ahead along "
+                   "the cost model's descent (boundary_restart's test) probes once the far side of the failure zone "
+                   "along that descent, if the ray stays in the box"),
   };
   return set;
 }
@@ -122,7 +132,8 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
-              "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m}");
+              "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
+              "attempt_memory: r, boundary_jump: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

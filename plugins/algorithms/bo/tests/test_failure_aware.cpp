@@ -470,3 +470,37 @@ TEST_CASE("boundary_restart: an attempt blocked by the failure boundary restarts
   REQUIRE(late.size() == late_plain.size());
   for (std::size_t i = 0; i < late.size(); ++i) CHECK((late[i].u - late_plain[i].u).norm() == 0.0);
 }
+
+TEST_CASE("feasible_region: failed model-based trials reach the trust region; the run is the plain one until then") {
+  // fail14. Hartmann-3 with bench_failures' ball (seed 1, budget 50): with feasible_region: failed (feasible_shrink:
+  // halve) each failed model-based trial halves the trust region at the next update, so the runs are identical up to
+  // and including the first failed trial after the design and differ later; test_trust_region.cpp tests the counting.
+  const std::string task =
+      "{type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
+  const Box unit{Vec::Zero(2), Vec::Ones(2)};
+  const auto trials = [&](const std::string& name, const std::string& algorithm) {
+    RunOverrides ov;
+    ov.output = test::temp_folder("failure_aware_" + name);
+    ov.threads = 1;
+    test::run_yaml("task: " + task + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
+    return read_trials(*ov.output, unit);  // x1, x2 of the unit cube: enough to tell trials apart
+  };
+  const std::vector<Trial> plain = trials("fr_plain", "{type: bo}");
+  for (const char* mode : {"failed", "both"}) {
+    CAPTURE(mode);
+    const std::vector<Trial> rule =
+        trials("fr_rule", std::string("{type: bo, failure_model: {feasible_region: ") + mode + ", feasible_shrink: halve}}");
+    REQUIRE(rule.size() == plain.size());
+    std::size_t first_failed = plain.size();
+    for (std::size_t i = 8; i < plain.size() && first_failed == plain.size(); ++i)
+      if (!plain[i].ok) first_failed = i;
+    REQUIRE(first_failed < 40);
+    std::size_t first_difference = plain.size();
+    for (std::size_t i = 0; i < plain.size() && first_difference == plain.size(); ++i)
+      if ((plain[i].u - rule[i].u).norm() > 0) first_difference = i;
+    CHECK(first_difference > 8);  // the design and the first model-based trial are the plain run's
+    CHECK(first_difference < plain.size());
+    // "failed" can act only after a failed model-based trial; "both" may act after a limited step before it.
+    if (std::string(mode) == "failed") CHECK(first_difference > first_failed);
+  }
+}
