@@ -128,7 +128,8 @@ const OptionSet<BoSettings>& bo_options() {
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
                 "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
                 "boundary_reach: 0.05, boundary_tabu: 0.05, feasible_region: off, feasible_shrink: count, feasible_margin: "
-                "0.02, attempt_memory: 0, boundary_jump: false}; the acquisition is weighted by P(success | θ) from a "
+                "0.02, feasible_after: 1, attempt_memory: 0, boundary_jump: off}; the "
+                "acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };
@@ -759,7 +760,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       return restart_afresh("the attempt's best point is blocked by the failure boundary");
     }
   }
-  if (may_restart && feasible && failure_settings_.boundary_jump && feasibility_on_ && !failed_.empty() &&
+  if (may_restart && feasible && failure_settings_.boundary_jump != "off" && feasibility_on_ && !failed_.empty() &&
       failure_settings_.active(static_cast<Index>(failed_.size()))) {
     // failure_model.boundary_jump (session fail14): an attempt whose best point is blocked by an observed failure
     // ahead along the cost model's descent probes, once per blocked point, the far side of the failure zone along
@@ -773,13 +774,26 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
         const Vec& dir = blocked->first;  // ∞-norm 1: a step t moves the largest coordinate by t
         jumped_.push_back(bx);
         bool dipped = false;
-        double lowest = 1, t_end = 0;
+        double lowest = 1, t_end = 0, p_last = 0;
+        Vec last;
         for (double t = blocked->second / dir.norm() * 0.8; t <= 2.0; t += 0.01) {
           const Vec z = bx + t * dir;
           t_end = t;
-          if ((z.array() < 0.0).any() || (z.array() > 1.0).any()) break;  // left the box: no far side
+          if ((z.array() < 0.0).any() || (z.array() > 1.0).any()) {
+            // Left the box: no far side, unless (edge) P(success) was rising again at the box's face.
+            if (failure_settings_.boundary_jump == "edge" && dipped && last.size() == dim_ && p_last > lowest) {
+              log_debug("bo: trial {}: blocked at trial point {}; probing the box's face past the failure zone at "
+                        "distance {:.3g} (P(success) {:.3g}, lowest {:.3g})", k, b, t - 0.01, p_last, lowest);
+              s.x = last;
+              s.phase = "jump";
+              return s;
+            }
+            break;
+          }
           const double p = feasibility_->probability(z);
           lowest = std::min(lowest, p);
+          last = z;
+          p_last = p;
           if (p < exclusion_threshold_) dipped = true;
           else if (dipped) {
             log_debug("bo: trial {}: blocked at trial point {}; probing the far side of the failure zone at distance "
@@ -826,8 +840,14 @@ void BayesianOptimization::force_region_failures(Index k) {
   const Index lo = std::max(from, attempt_from);
   const auto in_range = [&](Index t) { return t >= lo && t < k; };
   int events = 0;
+  // feasible_after: k: a failed trial counts only as the k-th (or later) of consecutive failed trials of the attempt.
+  const auto run_of_failures = [&](Index t) {
+    Index n = 0;
+    while (t - n >= attempt_from && std::find(failed_trials_.begin(), failed_trials_.end(), t - n) != failed_trials_.end()) ++n;
+    return n;
+  };
   if (mode == "failed" || mode == "both")
-    for (const Index t : failed_trials_) events += in_range(t);
+    for (const Index t : failed_trials_) events += in_range(t) && run_of_failures(t) >= failure_settings_.feasible_after;
   if (mode == "limited" || mode == "both")
     for (const Index t : limited_trials_)
       events += in_range(t) && (mode == "limited" ||

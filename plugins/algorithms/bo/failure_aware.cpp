@@ -107,16 +107,21 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "it had to reach")
           .at_least(0)
           .at_most(1),
+      opt::integer("feasible_after", &FailureModelSettings::feasible_after,
+                   "feasible_region: failed or both: a failed trial counts only as the k-th or later of consecutive "
+                   "failed trials of the attempt (1 = every failed trial)")
+          .at_least(1),
       opt::real("attempt_memory", &FailureModelSettings::attempt_memory,
                 "> 0: once a trial has failed, a fresh attempt's cost model also sees the earlier attempts' points "
                 "farther than this (max-norm, unit cube) from every earlier attempt's best point; 0 = its own points "
                 "only")
           .at_least(0)
           .at_most(1),
-      opt::boolean("boundary_jump", &FailureModelSettings::boundary_jump,
-                   "once a trial has failed, an attempt whose best point is blocked by an observed failure ahead along "
-                   "the cost model's descent (boundary_restart's test) probes once the far side of the failure zone "
-                   "along that descent, if the ray stays in the box"),
+      opt::choice("boundary_jump", &FailureModelSettings::boundary_jump, {"off", "far", "edge"},
+                  "once a trial has failed, an attempt whose best point is blocked by an observed failure ahead along "
+                  "the cost model's descent (boundary_restart's test) probes once the far side of the failure zone "
+                  "along that descent (far: the first point past it with P(success) above the exclusion threshold; "
+                  "edge: also the box's face where the ray leaves the box with P(success) rising again); off = never"),
   };
   return set;
 }
@@ -133,7 +138,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
-              "attempt_memory: r, boundary_jump: bool}");
+              "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

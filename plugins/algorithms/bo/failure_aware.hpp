@@ -86,6 +86,9 @@ struct FailureModelSettings {
   std::string feasible_region = "off";
   std::string feasible_shrink = "count";
   double feasible_margin = 0.02;
+  /// feasible_region: failed/both: a failed trial counts only when it ends a run of at least this many consecutive
+  /// failed trials of the attempt (1 = every failed trial).
+  int feasible_after = 1;
   /// > 0: once a trial has failed, a fresh attempt's cost model also sees the earlier attempts' points farther than
   /// this (∞-norm, unit cube) from every earlier attempt's best point (TuRBO's fresh start sees its own points only).
   /// 0 = off (the default; session fail14).
@@ -93,7 +96,9 @@ struct FailureModelSettings {
   /// Once a trial has failed, an attempt whose best point is blocked (boundary_restart's test) probes once, instead of
   /// its proposal, the far side of the failure zone along the cost model's descent (the first point past the zone
   /// with P(success) at least the exclusion threshold, if the descent's ray does not leave the box first).
-  bool boundary_jump = false;
+  /// "off" (the default), "far", or "edge": as far, and where the ray leaves the box with P(success) rising again
+  /// past the zone, the last point in the box.
+  std::string boundary_jump = "off";
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);
