@@ -764,7 +764,8 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       failure_settings_.active(static_cast<Index>(failed_.size()))) {
     // failure_model.boundary_jump (session fail14): an attempt whose best point is blocked by an observed failure
     // ahead along the cost model's descent probes, once per blocked point, the far side of the failure zone along
-    // that descent: the first point past the zone where P(success) is back above the exclusion threshold.
+    // that descent: the first point past the zone where P(success) is back above the exclusion threshold (far), or
+    // (edge) also, where the ray leaves the box first with P(success) rising again, the last point in the box.
     const Index b = attempt_best(data);
     const Vec bx = data.X.row(b).transpose();
     bool done = false;
