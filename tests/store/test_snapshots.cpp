@@ -44,6 +44,12 @@ const Case kCases[] = {
      "{type: bo, initial_points: 3, refine_last: 4, refine_model: attempt, region: {type: trust_region, "
      "failure_tolerance: 1, length_min: 0.3}}",
      16},
+    // fail14: the trust region's forced failures and bo's limited trials / jumped points are state too (with
+    // failures where x1 > 8).
+    {"bo_feasible_region",
+     "{type: bo, initial_points: 4, failure_model: {feasible_region: both, feasible_shrink: halve, feasible_margin: 1, "
+     "boundary_jump: edge}}",
+     16},
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
     {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},

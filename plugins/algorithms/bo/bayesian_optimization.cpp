@@ -1,6 +1,7 @@
 #include "bayesian_optimization.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <chrono>
@@ -126,7 +127,9 @@ const OptionSet<BoSettings>& bo_options() {
                 "incumbent_level: always|refinement|fixed, "
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
                 "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
-                "boundary_reach: 0.05, boundary_tabu: 0.05}; the acquisition is weighted by P(success | θ) from a "
+                "boundary_reach: 0.05, boundary_tabu: 0.05, feasible_region: off, feasible_shrink: count, feasible_margin: "
+                "0.02, feasible_after: 1, attempt_memory: 0, boundary_jump: off}; the "
+                "acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),
   };
@@ -445,6 +448,26 @@ Dataset BayesianOptimization::model_data_of(const Dataset& data) const {
   }
   if (fresh_starts_ > 0 && !refining_ && data.size() >= fresh_from_ + 2) {
     Dataset local;
+    const double memory = failure_settings_.attempt_memory;
+    if (memory > 0 && !failed_.empty() && failure_settings_.active(static_cast<Index>(failed_.size()))) {
+      // failure_model.attempt_memory (session fail14): once trials have failed, a fresh attempt's model also sees
+      // the earlier attempts' points farther than attempt_memory (∞-norm) from every earlier attempt's best point:
+      // it knows the landscape it already paid for, but not the basins it was sent away from.
+      const std::vector<Vec> minima = earlier_minima();
+      local = Dataset::empty(dim_);
+      for (Index i = 0; i < data.size(); ++i) {
+        bool keep = i >= fresh_from_;
+        for (std::size_t j = 0; !keep && j <= minima.size(); ++j) {
+          if (j == minima.size()) {
+            keep = true;
+            break;
+          }
+          if ((data.X.row(i).transpose() - minima[j]).lpNorm<Eigen::Infinity>() <= memory) break;
+        }
+        if (keep) local.add(data.X.row(i).transpose(), data.y(i));
+      }
+      return local;
+    }
     local.X = data.X.bottomRows(data.size() - fresh_from_);
     local.y = data.y.tail(data.size() - fresh_from_);
     return local;
@@ -607,6 +630,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     rule.incumbent = failure_settings_.stall_incumbent;
     value_stall->set_value_stall(rule);
   }
+  force_region_failures(k);
   region_->update(surrogate_.get(), data, region_rng);
   Dataset late_refined;
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0 &&
@@ -736,12 +760,106 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       return restart_afresh("the attempt's best point is blocked by the failure boundary");
     }
   }
+  if (may_restart && feasible && failure_settings_.boundary_jump != "off" && feasibility_on_ && !failed_.empty() &&
+      failure_settings_.active(static_cast<Index>(failed_.size()))) {
+    // failure_model.boundary_jump (session fail14): an attempt whose best point is blocked by an observed failure
+    // ahead along the cost model's descent probes, once per blocked point, the far side of the failure zone along
+    // that descent: the first point past the zone where P(success) is back above the exclusion threshold (far), or
+    // (edge) also, where the ray leaves the box first with P(success) rising again, the last point in the box.
+    const Index b = attempt_best(data);
+    const Vec bx = data.X.row(b).transpose();
+    bool done = false;
+    for (const Vec& j : jumped_) done = done || (j - bx).lpNorm<Eigen::Infinity>() <= failure_settings_.boundary_reach;
+    if (!done)
+      if (const auto blocked = blocked_direction(k, s.x, data, p_min)) {
+        const Vec& dir = blocked->first;  // ∞-norm 1: a step t moves the largest coordinate by t
+        jumped_.push_back(bx);
+        bool dipped = false;
+        double lowest = 1, t_end = 0, p_last = 0;
+        Vec last;
+        for (double t = blocked->second / dir.norm() * 0.8; t <= 2.0; t += 0.01) {
+          const Vec z = bx + t * dir;
+          t_end = t;
+          if ((z.array() < 0.0).any() || (z.array() > 1.0).any()) {
+            // Left the box: no far side, unless (edge) P(success) was rising again at the box's face.
+            if (failure_settings_.boundary_jump == "edge" && dipped && last.size() == dim_ && p_last > lowest) {
+              log_debug("bo: trial {}: blocked at trial point {}; probing the box's face past the failure zone at "
+                        "distance {:.3g} (P(success) {:.3g}, lowest {:.3g})", k, b, t - 0.01, p_last, lowest);
+              s.x = last;
+              s.phase = "jump";
+              return s;
+            }
+            break;
+          }
+          const double p = feasibility_->probability(z);
+          lowest = std::min(lowest, p);
+          last = z;
+          p_last = p;
+          if (p < exclusion_threshold_) dipped = true;
+          else if (dipped) {
+            log_debug("bo: trial {}: blocked at trial point {}; probing the far side of the failure zone at distance "
+                      "{:.3g} (P(success) {:.3g})", k, b, t, p);
+            s.x = z;
+            s.phase = "jump";
+            return s;
+          }
+        }
+        log_debug("bo: trial {}: blocked at trial point {}, no far side along the descent ({}): lowest P(success) "
+                  "{:.3g} (threshold {:.3g}), the ray left the box at {:.3g}", k, b, fmt::join(dir, ", "), lowest,
+                  exclusion_threshold_, t_end);
+      }
+  }
+  if (feasible && !refining_ && failure_settings_.feasible_region != "off" &&
+      feasibility_->probability(s.x) <= p_min + failure_settings_.feasible_margin) {
+    // failure_model.feasible_region: limited: the step was held back by the failure model, not by the cost model.
+    limited_trials_.push_back(k);
+    log_debug("bo: trial {}: the step is limited by P(success) ({:.3g}, level {:.3g})", k,
+              feasibility_->probability(s.x), p_min);
+  }
   if (feasible)
     log_debug("bo: trial {} acquisition {:.6g} {} | P(success) here {:.3g}", k, res.value, acquisition.state(),
               feasibility_->probability(s.x));
   else
     log_debug("bo: trial {} acquisition {:.6g} {}", k, res.value, acquisition.state());
   return s;
+}
+
+void BayesianOptimization::force_region_failures(Index k) {
+  // failure_model.feasible_region (docs/failures.md, session fail14): Hartmann-3 with a ball creeps along the ball's
+  // edge with the trust region at its maximum size, every creep step (a small improvement at the level of P(success)
+  // the incumbent allows) counting as a region success. Here the failed model-based trials and the steps limited by
+  // P(success) count as trials without improvement, so the region shrinks and, collapsed, restarts afresh.
+  const std::string& mode = failure_settings_.feasible_region;
+  const Index from = region_counted_to_;
+  region_counted_to_ = std::max(region_counted_to_, k);
+  if (mode == "off" || refining_ || failed_.empty() || !failure_settings_.active(static_cast<Index>(failed_.size())))
+    return;
+  ComponentState* state = state_of(region_.get());
+  if (!state) return;
+  // The current attempt's model-based trials only (its design's failures are the design's).
+  const Index attempt_from = fresh_starts_ > 0 ? fresh_trial_ + restart_points_ : design_.rows();
+  const Index lo = std::max(from, attempt_from);
+  const auto in_range = [&](Index t) { return t >= lo && t < k; };
+  int events = 0;
+  // feasible_after: k: a failed trial counts only as the k-th (or later) of consecutive failed trials of the attempt.
+  const auto run_of_failures = [&](Index t) {
+    Index n = 0;
+    while (t - n >= attempt_from && std::find(failed_trials_.begin(), failed_trials_.end(), t - n) != failed_trials_.end()) ++n;
+    return n;
+  };
+  if (mode == "failed" || mode == "both")
+    for (const Index t : failed_trials_) events += in_range(t) && run_of_failures(t) >= failure_settings_.feasible_after;
+  if (mode == "limited" || mode == "both")
+    for (const Index t : limited_trials_)
+      events += in_range(t) && (mode == "limited" ||
+                                std::find(failed_trials_.begin(), failed_trials_.end(), t) == failed_trials_.end());
+  if (events == 0) return;
+  StateMap m = StateMap::parse(state->save_state(), "region state");
+  if (!m.has("successes") || !m.has("failures")) return;  // not a trust region
+  const char* key = failure_settings_.feasible_shrink == "halve" ? "forced_halvings" : "forced_failures";
+  m.put_int(key, (m.has(key) ? m.integer(key) : 0) + events);
+  state->restore_state(m.text());
+  log_debug("bo: trial {}: {} failed or limited trial(s) count as trust region failures", k, events);
 }
 
 bool BayesianOptimization::converged_on_repeat(Index k, const Vec& x, const Dataset& data, const Dataset& model_data,
@@ -817,15 +935,20 @@ bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Data
     return false;
   // A fresh start gets its design, as many model trials again, and the refinement.
   if (budget_ <= 0 || budget_ - k < 2 * restart_points_ + refine_last_) return false;
+  return blocked_direction(k, x, data, level).has_value();
+}
+
+std::optional<std::pair<Vec, double>> BayesianOptimization::blocked_direction(Index k, const Vec& x, const Dataset& data,
+                                                                              double level) const {
   const Index from = std::min(fresh_from_, data.size());
-  if (data.size() - from < 2) return false;
+  if (data.size() - from < 2) return std::nullopt;
   Index best = from;
   for (Index i = from; i < data.size(); ++i)
     if (data.y(i) < data.y(best)) best = i;
   const Vec b = data.X.row(best).transpose();
   const double reach = failure_settings_.boundary_reach;
   // The attempt is working at its best point (not probing far away).
-  if ((x - b).lpNorm<Eigen::Infinity>() > reach) return false;
+  if ((x - b).lpNorm<Eigen::Infinity>() > reach) return std::nullopt;
   const Box unit = Box::unit(dim_);
   const auto mean = [&](const Vec& z) { return surrogate_->predict(z, false).mean; };
   Vec g(dim_);
@@ -837,7 +960,7 @@ bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Data
     g(d) = (mean(up) - mean(down)) / std::max(up(d) - down(d), 1e-300);
   }
   const double gn = g.lpNorm<Eigen::Infinity>();
-  if (!(gn > 0) || !std::isfinite(gn)) return false;
+  if (!(gn > 0) || !std::isfinite(gn)) return std::nullopt;
   const Vec dir = -g / gn;  // a step t moves the point by t in its largest coordinate (∞-norm)
   // A failed trial within reach of the best point, ahead along the descent (within 60° of it): the way down is
   // blocked by a failure actually observed, not only by the classifier's smooth extrapolation (whose P falls
@@ -848,16 +971,16 @@ bool BayesianOptimization::blocked_at_boundary(Index k, const Vec& x, const Data
     const double along = v.dot(dir) / dir.norm();
     if (v.lpNorm<Eigen::Infinity>() <= reach && along > 0.5 * v.norm() && (ahead < 0 || along < ahead)) ahead = along;
   }
-  if (ahead < 0) return false;
+  if (ahead < 0) return std::nullopt;
   // The cost model is lower just before that failure than at the best point (a minimum in between, where the
   // model rises again before the failure, is an interior one: polish it).
   const double at_best = mean(b);
   const double previous = mean(unit.clamp(b + (0.8 * ahead / dir.norm()) * dir));
-  if (!(previous < at_best)) return false;
+  if (!(previous < at_best)) return std::nullopt;
   log_debug("bo: trial {}: the attempt's best point (trial point {}, P(success) {:.3g}, level {:.3g}) is blocked: the "
             "cost model falls by {:.3g} along its descent up to a failed trial {:.3g} ahead", k, best,
             feasibility_->probability(b), level, at_best - previous, ahead);
-  return true;
+  return std::make_pair(dir, ahead);
 }
 
 Index BayesianOptimization::attempt_best(const Dataset& data) const {
@@ -918,6 +1041,7 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
       design_failed_ += in_design;
       // Failed trials inform the failure model only (the cost model has no value for them).
       if (o.x.size() == dim_ && o.x.allFinite()) failed_.push_back(o.x);
+      failed_trials_.push_back(told_ - 1);
       continue;
     }
     if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));

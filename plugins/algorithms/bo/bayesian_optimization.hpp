@@ -70,6 +70,12 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   bool restart_on_known(const Dataset& data, Index near, const ValueStall& rule, Rng& region_rng);
   /// failure_model.boundary_restart: whether the attempt's best point is blocked by the failure boundary.
   bool blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const;
+  /// The test itself, without boundary_restart's gates: the cost model's descent from the attempt's best (∞-norm 1)
+  /// and the distance along it to the blocking failed trial.
+  std::optional<std::pair<Vec, double>> blocked_direction(Index k, const Vec& x, const Dataset& data,
+                                                          double level) const;
+  /// failure_model.boundary_jump: the attempt best points from which the far side was probed.
+  std::vector<Vec> jumped_;
   /// The best successful point of the current attempt (since the last fresh start).
   Index attempt_best(const Dataset& data) const;
   /// restart_design: away: of 16 designs, the one farthest from the best point of every earlier attempt.
@@ -142,6 +148,15 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// failure_model.boundary_restart: the best points of attempts that ended blocked by the failure boundary; later
   /// attempts (not the refinement) do not search within boundary_reach of them.
   std::vector<Vec> blocked_;
+  /// failure_model.feasible_region (session fail14): the trial indices of failed observations (from tell, so a restored
+  /// run has them), of model-based steps limited by the probability of success, and the trial up to which the region
+  /// has been told of them.
+  std::vector<Index> failed_trials_;
+  std::vector<Index> limited_trials_;
+  Index region_counted_to_ = 0;
+  /// Tells the trust region (its state's forced_failures / forced_halvings) of the failed and limited model-based
+  /// trials of the current attempt since the last update, before the update at trial k.
+  void force_region_failures(Index k);
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt
   /// that found the incumbent) and those from refine_from_ on (the refinement's own).
   Index refine_lo_ = 0, refine_hi_ = 0, refine_from_ = 0;  ///< the final refinement after fresh starts has begun

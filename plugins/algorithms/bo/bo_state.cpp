@@ -54,6 +54,18 @@ std::optional<std::string> BayesianOptimization::save_state() const {
     for (std::size_t i = 0; i < blocked_.size(); ++i) flat.segment(static_cast<Index>(i) * dim_, dim_) = blocked_[i];
     m.put("blocked", flat);
   }
+  if (!jumped_.empty()) {  // failure_model.boundary_jump's points, flattened (absent without any)
+    Vec flat(static_cast<Index>(jumped_.size()) * dim_);
+    for (std::size_t i = 0; i < jumped_.size(); ++i) flat.segment(static_cast<Index>(i) * dim_, dim_) = jumped_[i];
+    m.put("jumped", flat);
+  }
+  if (!limited_trials_.empty()) {  // failure_model.feasible_region (absent without it)
+    Vec limited(static_cast<Index>(limited_trials_.size()));
+    for (std::size_t i = 0; i < limited_trials_.size(); ++i)
+      limited(static_cast<Index>(i)) = static_cast<double>(limited_trials_[i]);
+    m.put("limited_trials", limited);
+  }
+  if (failure_settings_.feasible_region != "off") m.put_int("region_counted_to", region_counted_to_);
   m.put("surrogate", surrogate->save_state());
   save_if_stateful(m, "region", region_.get());
   save_if_stateful(m, "design_sampler", design_sampler_.get());
@@ -91,6 +103,16 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
     if (flat.size() % dim_ != 0) throw InputError("bo state: 'blocked' is not a list of points of the dimension");
     for (Index i = 0; i < flat.size() / dim_; ++i) blocked_.push_back(flat.segment(i * dim_, dim_));
   }
+  jumped_.clear();
+  if (m.has("jumped")) {
+    const Vec flat = m.vec("jumped");
+    if (flat.size() % dim_ != 0) throw InputError("bo state: 'jumped' is not a list of points of the dimension");
+    for (Index i = 0; i < flat.size() / dim_; ++i) jumped_.push_back(flat.segment(i * dim_, dim_));
+  }
+  limited_trials_.clear();
+  if (m.has("limited_trials"))
+    for (const double v : m.vec("limited_trials")) limited_trials_.push_back(static_cast<Index>(v));
+  region_counted_to_ = m.has("region_counted_to") ? static_cast<Index>(m.integer("region_counted_to")) : 0;
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");
   surrogate->restore_state(m.str("surrogate"));

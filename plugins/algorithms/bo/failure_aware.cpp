@@ -93,6 +93,35 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "(max-norm, unit cube) of the best point of an attempt that ended blocked; 0 = they may")
           .at_least(0)
           .at_most(1),
+      opt::choice("feasible_region", &FailureModelSettings::feasible_region, {"off", "failed", "limited", "both"},
+                  "once a trial has failed, what the trust region counts as a trial without improvement besides its "
+                  "own (TuRBO's failure counter, which shrinks it): each failed model-based trial (failed), each "
+                  "model-based step whose point was limited by the probability of success (P(success) within "
+                  "feasible_margin of the level it had to reach), even if it improved (limited), or both; off = "
+                  "neither"),
+      opt::choice("feasible_shrink", &FailureModelSettings::feasible_shrink, {"count", "halve"},
+                  "how feasible_region's events shrink the trust region: as one failure each of its counter (count) "
+                  "or one halving of its side each (halve)"),
+      opt::real("feasible_margin", &FailureModelSettings::feasible_margin,
+                "feasible_region: limited: a step is limited when its point's P(success) lies within this of the level "
+                "it had to reach")
+          .at_least(0)
+          .at_most(1),
+      opt::integer("feasible_after", &FailureModelSettings::feasible_after,
+                   "feasible_region: failed or both: a failed trial counts only as the k-th or later of consecutive "
+                   "failed trials of the attempt (1 = every failed trial)")
+          .at_least(1),
+      opt::real("attempt_memory", &FailureModelSettings::attempt_memory,
+                "> 0: once a trial has failed, a fresh attempt's cost model also sees the earlier attempts' points "
+                "farther than this (max-norm, unit cube) from every earlier attempt's best point; 0 = its own points "
+                "only")
+          .at_least(0)
+          .at_most(1),
+      opt::choice("boundary_jump", &FailureModelSettings::boundary_jump, {"off", "far", "edge"},
+                  "once a trial has failed, an attempt whose best point is blocked by an observed failure ahead along "
+                  "the cost model's descent (boundary_restart's test) probes once the far side of the failure zone "
+                  "along that descent (far: the first point past it with P(success) above the exclusion threshold; "
+                  "edge: also the box's face where the ray leaves the box with P(success) rising again); off = never"),
   };
   return set;
 }
@@ -107,7 +136,9 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
               "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
-              "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r}");
+              "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
+              "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
+              "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

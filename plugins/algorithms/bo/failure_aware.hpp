@@ -78,6 +78,27 @@ struct FailureModelSettings {
   double boundary_reach = 0.05;
   /// Later attempts (not the refinement) do not search within this distance (∞-norm) of a blocked attempt's best.
   double boundary_tabu = 0.05;
+  /// A failure-aware trust region (session fail14): once a trial has failed, the region also counts as trials without
+  /// improvement (TuRBO's failure counter; feasible_shrink: halve = one halving of L each) every failed model-based
+  /// trial ("failed"), every model-based step whose point's P(success) lay within feasible_margin of the level it had
+  /// to reach — the acquisition's optimum pressed against the failure model — even if it improved ("limited"), or
+  /// both. "off" = neither (the default).
+  std::string feasible_region = "off";
+  std::string feasible_shrink = "count";
+  double feasible_margin = 0.02;
+  /// feasible_region: failed/both: a failed trial counts only when it ends a run of at least this many consecutive
+  /// failed trials of the attempt (1 = every failed trial).
+  int feasible_after = 1;
+  /// > 0: once a trial has failed, a fresh attempt's cost model also sees the earlier attempts' points farther than
+  /// this (∞-norm, unit cube) from every earlier attempt's best point (TuRBO's fresh start sees its own points only).
+  /// 0 = off (the default; session fail14).
+  double attempt_memory = 0;
+  /// Once a trial has failed, an attempt whose best point is blocked (boundary_restart's test) probes once, instead of
+  /// its proposal, the far side of the failure zone along the cost model's descent (the first point past the zone
+  /// with P(success) at least the exclusion threshold, if the descent's ray does not leave the box first).
+  /// "off" (the default), "far", or "edge": as far, and where the ray leaves the box with P(success) rising again
+  /// past the zone, the last point in the box.
+  std::string boundary_jump = "off";
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

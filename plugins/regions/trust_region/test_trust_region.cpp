@@ -319,3 +319,78 @@ TEST_CASE("trust_region: a value stall rule ends a converged attempt sooner; str
   CHECK(restart_at(rule) == 6);
   CHECK(restart_at(ValueStall{}) == -1);  // off: the points are never next to the incumbent
 }
+
+namespace {
+// Sets the region's forced failures / halvings through its state, as bo's failure_model.feasible_region does.
+void force(TrustRegion& tr, int failures, int halvings) {
+  StateMap m = StateMap::parse(tr.save_state(), "test");
+  if (failures > 0) m.put_int("forced_failures", failures);
+  if (halvings > 0) m.put_int("forced_halvings", halvings);
+  tr.restore_state(m.text());
+}
+}  // namespace
+
+TEST_CASE("trust_region: forced failures (session fail14) count as trials without improvement, even an improving one") {
+  TrustRegion tr(2, {});  // τ_fail = 4, τ_succ = 3
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 10.0);  // reference
+  CHECK(tr.save_state().find("forced") == std::string::npos);  // absent when 0: states without the option unchanged
+  // Forced failures before a reference update are dropped with it: not applicable here (reference done).
+  // An improving step that was limited: a failure, not a success; the box still centres on the new best.
+  force(tr, 1, 0);
+  CHECK(tr.forced_failures() == 1);
+  CHECK(StateMap::parse(tr.save_state(), "test").integer("forced_failures") == 1);
+  observe(tr, data, (Vec(2) << 0.6, 0.5).finished(), 5.0);
+  CHECK(tr.successes() == 0);
+  CHECK(tr.failures() == 1);
+  CHECK(tr.forced_failures() == 0);
+  CHECK(tr.center().isApprox((Vec(2) << 0.6, 0.5).finished()));
+  // The next plain improvement is measured against the new best (5): 4.0 is a success.
+  observe(tr, data, (Vec(2) << 0.62, 0.5).finished(), 4.0);
+  CHECK(tr.successes() == 1);
+  CHECK(tr.failures() == 0);
+  // Failed trials add no point: an update without new data counts the forced failures (3 here + 1 plain = τ_fail).
+  force(tr, 3, 0);
+  Rng rng(0);
+  tr.update(nullptr, data, rng);
+  CHECK(tr.failures() == 3);
+  CHECK(tr.successes() == 0);
+  CHECK(tr.stalls() == 0);  // no point next to the incumbent was added: no stall
+  CHECK(tr.length() == doctest::Approx(0.8));
+  observe(tr, data, (Vec(2) << 0.1, 0.1).finished(), 50.0);
+  CHECK(tr.length() == doctest::Approx(0.4));
+  CHECK(tr.failures() == 0);
+  // Nine forced failures at once: two halvings, one failure left over.
+  force(tr, 9, 0);
+  tr.update(nullptr, data, rng);
+  CHECK(tr.length() == doctest::Approx(0.1));
+  CHECK(tr.failures() == 1);
+  // Without forced failures an update without new data still changes nothing.
+  const std::string before = tr.save_state();
+  tr.update(nullptr, data, rng);
+  CHECK(tr.save_state() == before);
+}
+
+TEST_CASE("trust_region: forced halvings halve L each; a collapse restarts afresh; a reference update drops them") {
+  TrustRegion tr(2, {});
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 10.0);
+  force(tr, 0, 2);
+  Rng rng(0);
+  tr.update(nullptr, data, rng);
+  CHECK(tr.length() == doctest::Approx(0.2));
+  CHECK(tr.failures() == 0);  // halvings are not counted failures
+  // 0.2 / 2^5 = 0.00625 < 0.5^7: a restart (a fresh start with the default restart_center: new_points).
+  force(tr, 0, 5);
+  tr.update(nullptr, data, rng);
+  CHECK(tr.restarts() == 1);
+  CHECK(tr.fresh_starts() == 1);
+  CHECK(tr.length() == doctest::Approx(0.8));
+  // The fresh start's first point sets its reference: forced failures pending then are dropped.
+  force(tr, 2, 1);
+  observe(tr, data, (Vec(2) << 0.2, 0.2).finished(), 30.0);
+  CHECK(tr.forced_failures() == 0);
+  CHECK(tr.forced_halvings() == 0);
+  CHECK(tr.failures() == 0);
+  CHECK(tr.length() == doctest::Approx(0.8));
+}

@@ -36,6 +36,11 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   const bool fresh = options_.restart_center == "new_points" && !returned_;
   const Index from = fresh ? std::min(restart_at_, data.size()) : 0;
   Index arg = 0;
+  // Forced failures (bo's failure_model.feasible_region) belong to the update that follows them; one that sets the
+  // reference below (the design's or a fresh start's first) drops them.
+  const int forced_failures = forced_failures_, forced_halvings = forced_halvings_;
+  forced_failures_ = forced_halvings_ = 0;
+  const bool forced = forced_failures > 0 || forced_halvings > 0;
   if (from == data.size()) {
     data.y.minCoeff(&arg);  // no point since the restart yet: the box is the restart box around the incumbent
     seen_ = data.size();
@@ -47,17 +52,19 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   arg += from;
   if (seen_ == 0 || (fresh && restarts_ > 0 && seen_ == restart_at_)) {
     best_ = best;  // the first update (initial design, or the first point after a restart) sets the reference
-  } else if (data.size() > seen_) {
-    if (best < best_ - options_.improvement * std::abs(best_)) {
+  } else if (data.size() > seen_ || forced) {
+    if (!forced && best < best_ - options_.improvement * std::abs(best_)) {
       ++successes_;
       failures_ = 0;
       stalls_ = 0;
     } else {
-      ++failures_;
+      // A forced failure (failed trials, a step limited by the probability of success) counts as a trial without
+      // improvement even if the new best improved; a failed trial adds no point, so it is no stall either.
+      failures_ += forced ? forced_failures : 1;
       successes_ = 0;
       // A stall: every new point next to the incumbent (the centre of the previous update).
       // With a value stall rule (value_stall.hpp), also a point that costs as much as the attempt's best.
-      bool near = true;
+      bool near = data.size() > seen_;
       const Vec attempt = data.y.tail(data.size() - from);
       const double overall = data.y.minCoeff();
       for (Index i = std::max(seen_, from); i < data.size(); ++i) {
@@ -72,8 +79,13 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       successes_ = 0;
     } else if (failures_ >= failure_tolerance_) {
       length_ /= 2.0;
-      failures_ = 0;
+      failures_ = forced ? failures_ - failure_tolerance_ : 0;
+      while (failures_ >= failure_tolerance_) {  // several forced failures at once
+        length_ /= 2.0;
+        failures_ -= failure_tolerance_;
+      }
     }
+    for (int i = 0; i < forced_halvings; ++i) length_ /= 2.0;
     const int stall_tolerance = options_.stall_tolerance == 0 ? failure_tolerance_ : options_.stall_tolerance;
     if (stall_tolerance > 0 && stalls_ >= stall_tolerance && !returned_) {
       log_info("trust_region: {} trials in a row next to the incumbent without improvement: converged there",

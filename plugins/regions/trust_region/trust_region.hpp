@@ -82,6 +82,13 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   static bool value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall);
   bool returned() const { return returned_; }
   int failure_tolerance() const { return failure_tolerance_; }
+  /// Failures forced on the next update (bo's failure_model.feasible_region, session fail14): that update counts
+  /// `forced_failures` trials without improvement, each like TuRBO's τ_fail counter's (a failed trial; a step limited by
+  /// the probability of success, even if it improved), and `forced_halvings` halvings of L, then clears both. Set through
+  /// the state (keys of the same names, absent when 0), so no interface is needed; an update that sets the reference
+  /// (the first after the design or a fresh start) drops them.
+  int forced_failures() const { return forced_failures_; }
+  int forced_halvings() const { return forced_halvings_; }
   const Vec& center() const { return center_; }
 
  private:
@@ -99,6 +106,7 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   int successes_ = 0, failures_ = 0, restarts_ = 0;
   ValueStall value_stall_;
   int stalls_ = 0;  ///< consecutive stalls (see TrustRegionOptions::stall_distance)
+  int forced_failures_ = 0, forced_halvings_ = 0;  ///< see forced_failures()
 };
 
 }  // namespace varbo

@@ -16,6 +16,8 @@ std::string TrustRegion::save_state() const {
   m.put_int("restart_at", restart_at_);
   m.put("returned", returned_);
   m.put_int("stalls", stalls_);
+  if (forced_failures_ > 0) m.put_int("forced_failures", forced_failures_);  // absent when 0: older states unchanged
+  if (forced_halvings_ > 0) m.put_int("forced_halvings", forced_halvings_);
   return m.text();
 }
 
@@ -33,6 +35,9 @@ void TrustRegion::restore_state(const std::string& text) {
   restart_at_ = m.has("restart_at") ? static_cast<Index>(m.integer("restart_at")) : 0;  // older snapshots
   returned_ = m.has("returned") && m.boolean("returned");
   stalls_ = m.has("stalls") ? static_cast<int>(m.integer("stalls")) : 0;
+  forced_failures_ = m.has("forced_failures") ? static_cast<int>(m.integer("forced_failures")) : 0;
+  forced_halvings_ = m.has("forced_halvings") ? static_cast<int>(m.integer("forced_halvings")) : 0;
+  if (forced_failures_ < 0 || forced_halvings_ < 0) throw InputError("trust_region state: negative forced failures");
   set_box();
 }
 
