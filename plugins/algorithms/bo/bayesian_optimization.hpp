@@ -29,6 +29,8 @@ struct Phase {
 };
 
 std::vector<OptionSpec> options();  ///< bo_options().specs()
+/// The keys of one entry of `phases:` (bo_options.cpp).
+const OptionSet<Phase>& phase_options();
 
 class BayesianOptimization final : public Algorithm, public AlgorithmState, public SpaceAware {
  public:
