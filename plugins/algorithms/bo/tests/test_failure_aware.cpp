@@ -77,6 +77,30 @@ Dataset branin_data(const std::vector<Vec>& points) {
 
 }  // namespace
 
+namespace {
+
+/// A 50-trial run (seed 1, one thread) on a Hartmann-3 task with the given algorithm; every trial in the unit cube
+/// (Hartmann-3's box).
+std::vector<Trial> hartmann3_trials(const std::string& name, const std::string& algorithm, const std::string& task) {
+  RunOverrides ov;
+  ov.output = test::temp_folder("failure_aware_" + name);
+  ov.threads = 1;
+  test::run_yaml("task: " + task + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
+  const auto rows = test::read_rows(*ov.output + "/trials.csv");
+  const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
+            phase = test::column_of(rows[0], "phase");
+  REQUIRE(x1 >= 0);
+  std::vector<Trial> out;
+  for (std::size_t r = 1; r < rows.size(); ++r) {
+    Vec u(3);
+    for (int d = 0; d < 3; ++d) u(d) = std::stod(rows[r][static_cast<std::size_t>(x1 + d)]);
+    out.push_back({u, rows[r][static_cast<std::size_t>(ok)] == "1", rows[r][static_cast<std::size_t>(phase)]});
+  }
+  return out;
+}
+
+}  // namespace
+
 TEST_CASE("the feasibility-weighted acquisition's gradient matches central differences (ei and cb)") {
   Registry& reg = test::registry();
   BuildContext ctx;
@@ -341,21 +365,7 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
   const std::string ball = "failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
   const std::string task = "{type: hartmann3, " + ball, noisy = "{type: hartmann3, noise_std: 0.01, " + ball;
   const auto trials = [](const std::string& name, const std::string& algorithm, const std::string& t) {
-    RunOverrides ov;
-    ov.output = test::temp_folder("failure_aware_" + name);
-    ov.threads = 1;
-    test::run_yaml("task: " + t + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
-    const auto rows = test::read_rows(*ov.output + "/trials.csv");
-    const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
-              phase = test::column_of(rows[0], "phase");
-    REQUIRE(x1 >= 0);
-    std::vector<Trial> out;
-    for (std::size_t r = 1; r < rows.size(); ++r) {
-      Vec u(3);  // Hartmann-3's box is the unit cube
-      for (int d = 0; d < 3; ++d) u(d) = std::stod(rows[r][static_cast<std::size_t>(x1 + d)]);
-      out.push_back({u, rows[r][static_cast<std::size_t>(ok)] == "1", rows[r][static_cast<std::size_t>(phase)]});
-    }
-    return out;
+    return hartmann3_trials(name, algorithm, t);
   };
   // Trials (outside the final refinement) that repeat an earlier successful trial exactly; the first restart.
   const auto repeats = [](const std::vector<Trial>& t) {
@@ -517,21 +527,7 @@ TEST_CASE("boundary_jump: edge probes the box's face past the failure zone once,
   const std::string task =
       "{type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
   const auto trials = [&](const std::string& name, const std::string& algorithm) {
-    RunOverrides ov;
-    ov.output = test::temp_folder("failure_aware_" + name);
-    ov.threads = 1;
-    test::run_yaml("task: " + task + "\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n", test::registry(), ov);
-    const auto rows = test::read_rows(*ov.output + "/trials.csv");
-    const int x1 = test::column_of(rows[0], "x1"), ok = test::column_of(rows[0], "ok"),
-              phase = test::column_of(rows[0], "phase");
-    REQUIRE(x1 >= 0);
-    std::vector<Trial> out;
-    for (std::size_t r = 1; r < rows.size(); ++r) {
-      Vec u(3);
-      for (int d = 0; d < 3; ++d) u(d) = std::stod(rows[r][static_cast<std::size_t>(x1 + d)]);
-      out.push_back({u, rows[r][static_cast<std::size_t>(ok)] == "1", rows[r][static_cast<std::size_t>(phase)]});
-    }
-    return out;
+    return hartmann3_trials(name, algorithm, task);
   };
   const std::vector<Trial> plain = trials("bj_plain", "{type: bo}");
   const std::vector<Trial> edge = trials("bj_edge", "{type: bo, failure_model: {boundary_jump: edge}}");
