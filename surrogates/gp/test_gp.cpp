@@ -526,3 +526,112 @@ TEST_CASE("gp options: the defaults are GpSettings{}; given priors are stored as
   CHECK(s.priors.lengthscale.mean == ref.priors.lengthscale.mean);
   CHECK(s.min_signal_std == 0.1);
 }
+
+TEST_CASE("noise_prior_choice: the fit keeps whichever of the two single-prior fits scores higher") {
+  // The combined fit runs the same starts and streams under the general and under the deterministic noise prior,
+  // so its result must be bit-identical to one of the two fits run on their own (noise_prior_choice: none with
+  // either prior), and to the one with the larger log marginal likelihood (likelihood) / the larger log posterior
+  // under the general priors (posterior), both scored here independently of prefer_second_fit.
+  for (const double noise : {0.0, 0.3}) {
+    CAPTURE(noise);
+    Dataset data = branin_like(30, 21);
+    Rng noise_rng(22);
+    const double sd = std::sqrt((data.y.array() - data.y.mean()).square().sum() / 29.0);
+    data.y += noise * sd * noise_rng.normal_vec(30);
+    const auto fit_with = [&](GpSettings s) {
+      auto gp = std::make_unique<GpSurrogate>(2, s, lbfgs());
+      Rng rng(23);
+      const FitReport rep = gp->fit(data, rng);
+      REQUIRE(rep.ok);
+      return gp;
+    };
+    GpSettings general = settings_for(KernelType::SquaredExponential);
+    GpSettings tight = general;
+    tight.priors.noise_std = general.deterministic_noise_std;
+    const auto a = fit_with(general), b = fit_with(tight);
+    const double sy = sd * std::sqrt(1.0 + noise * noise);  // only to print
+    MESSAGE("general: σ_n = " << hp(*a, "noise_std") << ", deterministic prior: σ_n = " << hp(*b, "noise_std")
+                              << " (std(y) ≈ " << sy << ")");
+    // Independent scores: the log marginal likelihood of the standardized data at each fit's log-parameters.
+    const double shift = data.y.mean();
+    const double scale = std::sqrt((data.y.array() - shift).square().sum() / 29.0);
+    const Vec r = (data.y.array() - shift).matrix() / scale;
+    const auto lml = [&](const GpSurrogate& g) {
+      return log_marginal_likelihood(g.kernel(), g.log_params(scale), data.X, r, false).value;
+    };
+    const auto post = [&](const GpSurrogate& g) {
+      return lml(g) + general.priors.log_density(g.kernel(), g.log_params(scale), nullptr);
+    };
+    REQUIRE(lml(*a) != lml(*b));  // the two fits differ (else the test tests nothing)
+    for (const auto choice : {GpSettings::NoisePriorChoice::Likelihood, GpSettings::NoisePriorChoice::Posterior}) {
+      GpSettings both = general;
+      both.noise_prior_choice = choice;
+      const auto c = fit_with(both);
+      const bool second = choice == GpSettings::NoisePriorChoice::Likelihood ? lml(*b) > lml(*a) : post(*b) > post(*a);
+      const GpSurrogate& expected = second ? *b : *a;
+      const Hyperparameters hc = c->hyperparameters(), he = expected.hyperparameters();
+      REQUIRE(hc.size() == he.size());
+      for (std::size_t i = 0; i < hc.size(); ++i) {
+        CAPTURE(hc[i].name);
+        CHECK(hc[i].value == he[i].value);
+      }
+    }
+  }
+}
+
+TEST_CASE("prefer_second_fit: likelihood compares log N(r | 0, K + σ²I) without priors, posterior the objective") {
+  // Two hand-picked hyperparameter vectors on 12 points: a smooth fit with noise 0.3 and an interpolating one with
+  // noise 1e-4. The likelihood choice must follow the direct LU evaluation of log N; the posterior choice the
+  // objective's own value (which adds the priors): checked on both orders of the pair.
+  Rng rng(31);
+  const Index n = 12;
+  const Mat X = random_points(n, 1, rng);
+  Vec r(n);
+  for (Index i = 0; i < n; ++i) r(i) = std::sin(6 * X(i, 0)) + 0.3 * rng.normal();
+  r.array() -= r.mean();
+  const auto kernel = kernels::make_stationary_ard(KernelType::SquaredExponential, 1);
+  const auto direct = [&](double l, double sf, double sn) {
+    Mat S(n, n);
+    for (Index i = 0; i < n; ++i)
+      for (Index j = 0; j < n; ++j)
+        S(i, j) = sf * sf * std::exp(-0.5 * std::pow((X(i, 0) - X(j, 0)) / l, 2)) + (i == j ? sn * sn : 0.0);
+    const Eigen::FullPivLU<Mat> lu(S);
+    return -0.5 * r.dot(lu.inverse() * r) - 0.5 * std::log(lu.determinant()) - 0.5 * double(n) * std::log(2 * M_PI);
+  };
+  const Vec p = (Vec(3) << std::log(0.3), 0.0, std::log(0.3)).finished();
+  const Vec q = (Vec(3) << std::log(0.05), std::log(2.0), std::log(1e-4)).finished();
+  const double lp = direct(0.3, 1.0, 0.3), lq = direct(0.05, 2.0, 1e-4);
+  MESSAGE("log N: smooth + noise " << lp << ", interpolating " << lq);
+  REQUIRE(std::abs(lp - lq) > 1.0);
+  HyperPriors priors;
+  Box box;
+  box.lower = Vec::Constant(3, -30.0);
+  box.upper = Vec::Constant(3, 30.0);
+  const LogPosterior objective(*kernel, X, r, priors, box);
+  using C = GpSettings::NoisePriorChoice;
+  CHECK(prefer_second_fit(*kernel, X, r, objective, p, q, C::Likelihood) == (lq > lp));
+  CHECK(prefer_second_fit(*kernel, X, r, objective, q, p, C::Likelihood) == (lp > lq));
+  const double op = lp + priors.log_density(*kernel, p, nullptr), oq = lq + priors.log_density(*kernel, q, nullptr);
+  CHECK(objective.value(p, nullptr) == doctest::Approx(op).epsilon(1e-9));
+  CHECK(prefer_second_fit(*kernel, X, r, objective, p, q, C::Posterior) == (oq > op));
+  CHECK(prefer_second_fit(*kernel, X, r, objective, q, p, C::Posterior) == (op > oq));
+  CHECK_FALSE(prefer_second_fit(*kernel, X, r, objective, p, q, C::None));
+}
+
+TEST_CASE("gp options: noise_prior_choice and the deterministic noise prior") {
+  const auto read = [](const std::string& yaml) {
+    return gp::gp_options().read(
+        validate_options(ConfigNode::parse(yaml, "<test>"), gp::gp_options().specs(), "gp", &test::registry()));
+  };
+  const gp::GpSettings def = read("{}");
+  CHECK(def.noise_prior_choice == gp::GpSettings::NoisePriorChoice::None);
+  CHECK(def.deterministic_noise_std.mean == doctest::Approx(std::log(1e-6)).epsilon(1e-12));
+  CHECK(def.deterministic_noise_std.sd == 1.5);
+  const gp::GpSettings s = read(
+      "{noise_prior_choice: likelihood, deterministic_noise_std_prior_median: 1.0e-5, "
+      "deterministic_noise_std_prior_sd: 2}");
+  CHECK(s.noise_prior_choice == gp::GpSettings::NoisePriorChoice::Likelihood);
+  CHECK(s.deterministic_noise_std.mean == std::log(1e-5));
+  CHECK(s.deterministic_noise_std.sd == 2.0);
+  CHECK(read("{noise_prior_choice: posterior}").noise_prior_choice == gp::GpSettings::NoisePriorChoice::Posterior);
+}
