@@ -2,7 +2,6 @@
 // Homoscedastic GP surrogate: constant mean, standardized costs, any Kernel (default Matérn-5/2 ARD), Gaussian noise;
 // hyperparameters by maximum a posteriori (log marginal likelihood + log-normal hyperpriors,
 // Kuindersma 2013 eq. (13)) with parallel random restarts of a pluggable Optimizer.
-#include <cmath>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -42,21 +41,20 @@ struct GpSettings {
   // ~2e-5 (README); robust_cholesky's jitter keeps duplicated points factorizable.
   // The `gp` component lowers the floor to kSeArdMinNoiseStd for `kernel: se_ard` when min_noise_std is not given.
   double min_noise_std = 1e-6, max_noise_std = 2.0;
-  /// A second fit per refit under `deterministic_noise_std` instead of priors.noise_std (a prior that rules out
-  /// explaining structure as noise), from the same starts; its optimum is kept when it scores higher: by the log
-  /// marginal likelihood without the priors (Likelihood) or by the first fit's objective (Posterior). None: one fit.
-  enum class NoisePriorChoice { None, Likelihood, Posterior };
-  NoisePriorChoice noise_prior_choice = NoisePriorChoice::None;
-  LogNormalPrior deterministic_noise_std{std::log(1e-6), 1.5};
+  /// Where the random restarts of a fit draw their log noise std (in standardized units); none: from
+  /// priors.noise_std. The `gp` component sets the general prior here for `kernel: se_ard` when its tight noise
+  /// prior is the default: started from that prior, every optimizer run stayed in the mode that interpolates noisy
+  /// data even where the noise mode scores far higher under the tight prior itself (docs/defaults.md, "Session se14").
+  std::optional<LogNormalPrior> noise_start;
 };
-
-/// Whether the second fit's optimum q replaces the first's p (GpSettings::NoisePriorChoice): Posterior compares
-/// `objective` (the first fit's) at both, Likelihood the log marginal likelihood of the centred targets r at X.
-bool prefer_second_fit(const Kernel& kernel, const Mat& X, const Vec& r, const LogPosterior& objective, const Vec& p,
-                       const Vec& q, GpSettings::NoisePriorChoice choice);
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
 inline constexpr double kSeArdMinNoiseStd = 1e-7;
+/// The default noise-std hyperprior (log-normal: median relative to std(y), sd of the log) of the `gp` component
+/// with `kernel: se_ard` (gp_component.cpp; docs/defaults.md, "Session se13"). The general prior is
+/// LogNormal(log 1e-2, 3).
+inline constexpr double kSeArdNoisePriorMedian = 1e-6;
+inline constexpr double kSeArdNoisePriorSd = 1.5;
 
 class GpSurrogate final : public Surrogate, public ComponentState {
  public:

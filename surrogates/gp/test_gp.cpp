@@ -432,6 +432,81 @@ TEST_CASE("gp component: the noise floor by kernel (1e-7 for se_ard unless min_n
   CHECK(floor_of("{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}") == doctest::Approx(1e-6).epsilon(1e-12));
 }
 
+TEST_CASE("gp component: the noise prior by kernel (LogNormal(log 1e-6, 1.5) for se_ard unless given)") {
+  auto& reg = test::registry();
+  BuildContext ctx;
+  ctx.dim = 2;
+  const auto prior_of = [&](const std::string& yaml) {
+    const auto s = reg.create<Surrogate>(yaml, ctx);
+    const auto* gp = dynamic_cast<const GpSurrogate*>(s.get());
+    REQUIRE(gp != nullptr);
+    return gp->settings().priors.noise_std;
+  };
+  const LogNormalPrior general = HyperPriors{}.noise_std;
+  CHECK(std::exp(general.mean) == doctest::Approx(1e-2).epsilon(1e-12));
+  CHECK(general.sd == 3.0);
+  const LogNormalPrior se = prior_of("{type: gp, kernel: se_ard}");
+  CHECK(std::exp(se.mean) == doctest::Approx(kSeArdNoisePriorMedian).epsilon(1e-12));
+  CHECK(se.sd == kSeArdNoisePriorSd);
+  // The restarts of that default draw their noise from the general prior; any other setting from its own prior.
+  const auto start_of = [&](const std::string& yaml) {
+    const auto s = reg.create<Surrogate>(yaml, ctx);
+    return dynamic_cast<const GpSurrogate&>(*s).settings().noise_start;
+  };
+  const auto se_start = start_of("{type: gp, kernel: se_ard}");
+  REQUIRE(se_start.has_value());
+  CHECK(se_start->mean == general.mean);
+  CHECK(se_start->sd == general.sd);
+  CHECK_FALSE(start_of("{type: gp}").has_value());
+  CHECK_FALSE(start_of("{type: gp, kernel: se_ard, noise_std_prior_sd: 1.5}").has_value());
+  CHECK_FALSE(start_of("{type: gp, kernel: se_ard, noise_std_prior_median: 1.0e-6}").has_value());
+  for (const char* other : {"{type: gp}", "{type: gp, kernel: matern32_ard}",
+                            "{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}"}) {
+    CAPTURE(other);
+    CHECK(prior_of(other).mean == general.mean);
+    CHECK(prior_of(other).sd == general.sd);
+  }
+  // Either field given keeps the user's value; the other still follows the kernel.
+  const LogNormalPrior med = prior_of("{type: gp, kernel: se_ard, noise_std_prior_median: 0.01}");
+  CHECK(std::exp(med.mean) == doctest::Approx(1e-2).epsilon(1e-12));
+  CHECK(med.sd == kSeArdNoisePriorSd);
+  const LogNormalPrior sd = prior_of("{type: gp, kernel: se_ard, noise_std_prior_sd: 3}");
+  CHECK(std::exp(sd.mean) == doctest::Approx(kSeArdNoisePriorMedian).epsilon(1e-12));
+  CHECK(sd.sd == 3.0);
+}
+
+TEST_CASE("se_ard's default noise prior still lets the likelihood find real noise") {
+  // The tight prior LogNormal(log 1e-6, 1.5) (relative to std(y)) must not make SE-ARD interpolate noisy data:
+  // y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, 0.1²) at 150 uniform points (noise 1/20 of σ_f, 7 sd of
+  // the prior's log above its median). The fitted noise must be the true one within 50 %, as with the general
+  // prior, and ℓ_1 within 30 % (no collapse towards the bound 0.01). With the restarts started from the tight
+  // prior itself (before session se14's noise_start) this fit gave σ_n = 9.5e-7 and ℓ = (0.027, 0.14): the
+  // interpolating mode, whose log posterior under the tight prior was −110 against +9 for the noise mode.
+  Rng rng(7);
+  const Index n = 150;
+  const Mat X = random_points(n, 2, rng);
+  kernels::ArdKernel k(KernelType::SquaredExponential, 2);
+  k.set_log_params((Vec(3) << std::log(0.15), std::log(0.6), std::log(2.0)).finished());
+  Mat K = k.matrix(X);
+  K.diagonal().array() += 1e-10;
+  const Vec f = K.llt().matrixL() * rng.normal_vec(n);
+  const Dataset data{X, (f + 0.1 * rng.normal_vec(n)).array() + 10.0};
+  BuildContext ctx;
+  ctx.dim = 2;
+  for (const char* yaml : {"{type: gp, kernel: se_ard}", "{type: gp, kernel: se_ard, noise_std_prior_median: 0.01, "
+                                                          "noise_std_prior_sd: 3}"}) {
+    CAPTURE(yaml);
+    const auto gp = test::registry().create<Surrogate>(yaml, ctx);
+    Rng fit_rng(8);
+    REQUIRE(gp->fit(data, fit_rng).ok);
+    MESSAGE(std::string(yaml) << ": σ_n = " << hp(*gp, "noise_std") << ", ℓ = (" << hp(*gp, "lengthscale[0]") << ", "
+                 << hp(*gp, "lengthscale[1]") << "); true 0.1, (0.15, 0.6)");
+    // Relative bounds written out (doctest::Approx's epsilon is relative to 1 + |value|, too loose for 0.1).
+    CHECK(std::abs(hp(*gp, "noise_std") / 0.1 - 1.0) < 0.5);
+    CHECK(std::abs(hp(*gp, "lengthscale[0]") / 0.15 - 1.0) < 0.3);
+  }
+}
+
 TEST_CASE("full_fit_growth: warm-only refits between full fits, all restarts once N has grown by the factor") {
   GpSettings s = settings_for(KernelType::Matern52);
   s.full_fit_growth = 1.25;
@@ -525,113 +600,4 @@ TEST_CASE("gp options: the defaults are GpSettings{}; given priors are stored as
   CHECK(s.priors.lengthscale.sd == 2.5);
   CHECK(s.priors.lengthscale.mean == ref.priors.lengthscale.mean);
   CHECK(s.min_signal_std == 0.1);
-}
-
-TEST_CASE("noise_prior_choice: the fit keeps whichever of the two single-prior fits scores higher") {
-  // The combined fit runs the same starts and streams under the general and under the deterministic noise prior,
-  // so its result must be bit-identical to one of the two fits run on their own (noise_prior_choice: none with
-  // either prior), and to the one with the larger log marginal likelihood (likelihood) / the larger log posterior
-  // under the general priors (posterior), both scored here independently of prefer_second_fit.
-  for (const double noise : {0.0, 0.3}) {
-    CAPTURE(noise);
-    Dataset data = branin_like(30, 21);
-    Rng noise_rng(22);
-    const double sd = std::sqrt((data.y.array() - data.y.mean()).square().sum() / 29.0);
-    data.y += noise * sd * noise_rng.normal_vec(30);
-    const auto fit_with = [&](GpSettings s) {
-      auto gp = std::make_unique<GpSurrogate>(2, s, lbfgs());
-      Rng rng(23);
-      const FitReport rep = gp->fit(data, rng);
-      REQUIRE(rep.ok);
-      return gp;
-    };
-    GpSettings general = settings_for(KernelType::SquaredExponential);
-    GpSettings tight = general;
-    tight.priors.noise_std = general.deterministic_noise_std;
-    const auto a = fit_with(general), b = fit_with(tight);
-    const double sy = sd * std::sqrt(1.0 + noise * noise);  // only to print
-    MESSAGE("general: σ_n = " << hp(*a, "noise_std") << ", deterministic prior: σ_n = " << hp(*b, "noise_std")
-                              << " (std(y) ≈ " << sy << ")");
-    // Independent scores: the log marginal likelihood of the standardized data at each fit's log-parameters.
-    const double shift = data.y.mean();
-    const double scale = std::sqrt((data.y.array() - shift).square().sum() / 29.0);
-    const Vec r = (data.y.array() - shift).matrix() / scale;
-    const auto lml = [&](const GpSurrogate& g) {
-      return log_marginal_likelihood(g.kernel(), g.log_params(scale), data.X, r, false).value;
-    };
-    const auto post = [&](const GpSurrogate& g) {
-      return lml(g) + general.priors.log_density(g.kernel(), g.log_params(scale), nullptr);
-    };
-    REQUIRE(lml(*a) != lml(*b));  // the two fits differ (else the test tests nothing)
-    for (const auto choice : {GpSettings::NoisePriorChoice::Likelihood, GpSettings::NoisePriorChoice::Posterior}) {
-      GpSettings both = general;
-      both.noise_prior_choice = choice;
-      const auto c = fit_with(both);
-      const bool second = choice == GpSettings::NoisePriorChoice::Likelihood ? lml(*b) > lml(*a) : post(*b) > post(*a);
-      const GpSurrogate& expected = second ? *b : *a;
-      const Hyperparameters hc = c->hyperparameters(), he = expected.hyperparameters();
-      REQUIRE(hc.size() == he.size());
-      for (std::size_t i = 0; i < hc.size(); ++i) {
-        CAPTURE(hc[i].name);
-        CHECK(hc[i].value == he[i].value);
-      }
-    }
-  }
-}
-
-TEST_CASE("prefer_second_fit: likelihood compares log N(r | 0, K + σ²I) without priors, posterior the objective") {
-  // Two hand-picked hyperparameter vectors on 12 points: a smooth fit with noise 0.3 and an interpolating one with
-  // noise 1e-4. The likelihood choice must follow the direct LU evaluation of log N; the posterior choice the
-  // objective's own value (which adds the priors): checked on both orders of the pair.
-  Rng rng(31);
-  const Index n = 12;
-  const Mat X = random_points(n, 1, rng);
-  Vec r(n);
-  for (Index i = 0; i < n; ++i) r(i) = std::sin(6 * X(i, 0)) + 0.3 * rng.normal();
-  r.array() -= r.mean();
-  const auto kernel = kernels::make_stationary_ard(KernelType::SquaredExponential, 1);
-  const auto direct = [&](double l, double sf, double sn) {
-    Mat S(n, n);
-    for (Index i = 0; i < n; ++i)
-      for (Index j = 0; j < n; ++j)
-        S(i, j) = sf * sf * std::exp(-0.5 * std::pow((X(i, 0) - X(j, 0)) / l, 2)) + (i == j ? sn * sn : 0.0);
-    const Eigen::FullPivLU<Mat> lu(S);
-    return -0.5 * r.dot(lu.inverse() * r) - 0.5 * std::log(lu.determinant()) - 0.5 * double(n) * std::log(2 * M_PI);
-  };
-  const Vec p = (Vec(3) << std::log(0.3), 0.0, std::log(0.3)).finished();
-  const Vec q = (Vec(3) << std::log(0.05), std::log(2.0), std::log(1e-4)).finished();
-  const double lp = direct(0.3, 1.0, 0.3), lq = direct(0.05, 2.0, 1e-4);
-  MESSAGE("log N: smooth + noise " << lp << ", interpolating " << lq);
-  REQUIRE(std::abs(lp - lq) > 1.0);
-  HyperPriors priors;
-  Box box;
-  box.lower = Vec::Constant(3, -30.0);
-  box.upper = Vec::Constant(3, 30.0);
-  const LogPosterior objective(*kernel, X, r, priors, box);
-  using C = GpSettings::NoisePriorChoice;
-  CHECK(prefer_second_fit(*kernel, X, r, objective, p, q, C::Likelihood) == (lq > lp));
-  CHECK(prefer_second_fit(*kernel, X, r, objective, q, p, C::Likelihood) == (lp > lq));
-  const double op = lp + priors.log_density(*kernel, p, nullptr), oq = lq + priors.log_density(*kernel, q, nullptr);
-  CHECK(objective.value(p, nullptr) == doctest::Approx(op).epsilon(1e-9));
-  CHECK(prefer_second_fit(*kernel, X, r, objective, p, q, C::Posterior) == (oq > op));
-  CHECK(prefer_second_fit(*kernel, X, r, objective, q, p, C::Posterior) == (op > oq));
-  CHECK_FALSE(prefer_second_fit(*kernel, X, r, objective, p, q, C::None));
-}
-
-TEST_CASE("gp options: noise_prior_choice and the deterministic noise prior") {
-  const auto read = [](const std::string& yaml) {
-    return gp::gp_options().read(
-        validate_options(ConfigNode::parse(yaml, "<test>"), gp::gp_options().specs(), "gp", &test::registry()));
-  };
-  const gp::GpSettings def = read("{}");
-  CHECK(def.noise_prior_choice == gp::GpSettings::NoisePriorChoice::None);
-  CHECK(def.deterministic_noise_std.mean == doctest::Approx(std::log(1e-6)).epsilon(1e-12));
-  CHECK(def.deterministic_noise_std.sd == 1.5);
-  const gp::GpSettings s = read(
-      "{noise_prior_choice: likelihood, deterministic_noise_std_prior_median: 1.0e-5, "
-      "deterministic_noise_std_prior_sd: 2}");
-  CHECK(s.noise_prior_choice == gp::GpSettings::NoisePriorChoice::Likelihood);
-  CHECK(s.deterministic_noise_std.mean == std::log(1e-5));
-  CHECK(s.deterministic_noise_std.sd == 2.0);
-  CHECK(read("{noise_prior_choice: posterior}").noise_prior_choice == gp::GpSettings::NoisePriorChoice::Posterior);
 }
