@@ -66,9 +66,9 @@ const OptionSet<GpSettings>& gp_options() {
       prior_median("signal_std_prior_median", &HyperPriors::signal_std,
                    "median of the signal std prior, relative to std(y)"),
       prior_sd("signal_std_prior_sd", &HyperPriors::signal_std, "sd of log signal std"),
-      prior_median("noise_std_prior_median", &HyperPriors::noise_std, "median of the noise std prior, relative to std(y) (when not given: 1e-6 with kernel: se_ard)"),
+      prior_median("noise_std_prior_median", &HyperPriors::noise_std, "median of the noise std prior, relative to std(y)"),
       prior_sd("noise_std_prior_sd", &HyperPriors::noise_std,
-               "sd of log noise std (wide: the data decide between noise-free and noisy; when not given: 1.5 with kernel: se_ard, median 1e-6)"),
+               "sd of log noise std (wide: the data decide between noise-free and noisy)"),
       opt::real("min_lengthscale", &S::min_lengthscale, "lower bound of each lengthscale (unit cube)").above(0),
       opt::real("max_lengthscale", &S::max_lengthscale, "upper bound of each lengthscale (unit cube)").above(0),
       opt::real("min_signal_std", &S::min_signal_std, "lower bound of the signal std, relative to std(y)").above(0),
@@ -109,22 +109,8 @@ ComponentInfo gp_component() {
         // Matérn's, then explains misfits of up to half the floor as noise (Hartmann-3: residuals 5e-7·std(y)
         // against Matérn's 9e-8), which caps the precision of its refinement; docs/defaults.md, "Why SE-ARD is
         // weaker".
-        const bool se_ard = kernel.info && kernel.info->name == "se_ard";
-        if (!o.given("min_noise_std") && se_ard) s.min_noise_std = std::min(kSeArdMinNoiseStd, s.max_noise_std);
-        // The noise prior by kernel when not given: LogNormal(log 1e-6, 1.5) for se_ard, LogNormal(log 1e-2, 3)
-        // for the others. On Ackley's ripples SE has two modes, the ripples as noise (σ_n ≈ 0.1·std(y), lengthscales
-        // ~0.4: a smooth bowl whose minimum sits in whatever ripple the data favour, where EI creeps and the trust
-        // region collapses, even on the box's edge) and the ripples interpolated (lengthscales ~0.05); the wide
-        // general prior lets the first win early, and SE-ARD ended in a ripple in 8 of 20 runs. Matérn's rougher
-        // prior has an intermediate mode (lengthscales 0.1–0.2, σ_n ~1e-4) and keeps the general prior. On noisy
-        // costs the likelihood still decides (docs/defaults.md, "Session se13").
-        if (!o.given("noise_std_prior_median") && se_ard) s.priors.noise_std.mean = std::log(kSeArdNoisePriorMedian);
-        if (!o.given("noise_std_prior_sd") && se_ard) s.priors.noise_std.sd = kSeArdNoisePriorSd;
-        // With that prior the random restarts still start from the general one: started near 1e-6, every run stayed
-        // in the interpolating mode on noisy data (σ_n 1e-6 against 0.1 true, log posterior −110 against +9 for
-        // the noise mode under the tight prior itself; test_gp).
-        if (se_ard && !o.given("noise_std_prior_median") && !o.given("noise_std_prior_sd"))
-          s.noise_start = HyperPriors{}.noise_std;
+        if (!o.given("min_noise_std") && kernel.info && kernel.info->name == "se_ard")
+          s.min_noise_std = std::min(kSeArdMinNoiseStd, s.max_noise_std);
         const std::uint64_t seed = ctx.seed;
         s.kernel = [registry, kernel, seed](Index dim) {
           BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)

@@ -212,9 +212,8 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
       Rng& g = streams.back();
       const HyperPriors& pr = settings_.priors;
       for (Index j = 0; j < np; ++j) {
-        const LogNormalPrior& prior = j < m                          ? kernel_->parameters()[static_cast<std::size_t>(j)].prior
-                                      : settings_.noise_start.has_value() ? *settings_.noise_start
-                                                                          : pr.noise_std;
+        const LogNormalPrior& prior =
+            j < m ? kernel_->parameters()[static_cast<std::size_t>(j)].prior : pr.noise_std;
         p(j) = pr.enabled ? prior.mean + prior.sd * g.normal() : g.uniform(box.lower(j), box.upper(j));
       }
     }

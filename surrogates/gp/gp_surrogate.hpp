@@ -41,20 +41,10 @@ struct GpSettings {
   // ~2e-5 (README); robust_cholesky's jitter keeps duplicated points factorizable.
   // The `gp` component lowers the floor to kSeArdMinNoiseStd for `kernel: se_ard` when min_noise_std is not given.
   double min_noise_std = 1e-6, max_noise_std = 2.0;
-  /// Where the random restarts of a fit draw their log noise std (in standardized units); none: from
-  /// priors.noise_std. The `gp` component sets the general prior here for `kernel: se_ard` when its tight noise
-  /// prior is the default: started from that prior, every optimizer run stayed in the mode that interpolates noisy
-  /// data even where the noise mode scores far higher under the tight prior itself (docs/defaults.md, "Session se14").
-  std::optional<LogNormalPrior> noise_start;
 };
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
 inline constexpr double kSeArdMinNoiseStd = 1e-7;
-/// The default noise-std hyperprior (log-normal: median relative to std(y), sd of the log) of the `gp` component
-/// with `kernel: se_ard` (gp_component.cpp; docs/defaults.md, "Session se13"). The general prior is
-/// LogNormal(log 1e-2, 3).
-inline constexpr double kSeArdNoisePriorMedian = 1e-6;
-inline constexpr double kSeArdNoisePriorSd = 1.5;
 
 class GpSurrogate final : public Surrogate, public ComponentState {
  public:
