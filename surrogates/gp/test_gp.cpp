@@ -557,3 +557,38 @@ TEST_CASE("gp options: the defaults are GpSettings{}; given priors are stored as
   CHECK(s.priors.lengthscale.mean == ref.priors.lengthscale.mean);
   CHECK(s.min_signal_std == 0.1);
 }
+
+TEST_CASE("loo_log_predictive equals n explicit leave-one-out GP predictions") {
+  // Direct route: for each i, the posterior of r_i given the other n − 1 points from the (n−1)×(n−1) system
+  // solved by a full-pivot LU (mean k'S⁻¹r, variance k(x,x) + σ_n² − k'S⁻¹k), summed log N. Tolerance 1e-9 relative.
+  Rng rng(41);
+  const Index n = 11, d = 2;
+  const Mat X = random_points(n, d, rng);
+  const Vec r = rng.normal_vec(n);
+  const auto kernel = kernels::make_stationary_ard(KernelType::SquaredExponential, d);
+  for (const double sn : {0.3, 0.01}) {
+    CAPTURE(sn);
+    const Vec p = (Vec(4) << std::log(0.4), std::log(0.8), std::log(1.3), std::log(sn)).finished();
+    const std::unique_ptr<Kernel> k = kernel->clone();
+    k->set_log_params(p.head(3));
+    const Mat K = k->matrix(X);
+    double direct = 0;
+    for (Index i = 0; i < n; ++i) {
+      std::vector<Index> keep;
+      for (Index j = 0; j < n; ++j)
+        if (j != i) keep.push_back(j);
+      Mat S(n - 1, n - 1);
+      Vec kv(n - 1), rr(n - 1);
+      for (Index a = 0; a < n - 1; ++a) {
+        kv(a) = K(i, keep[static_cast<std::size_t>(a)]);
+        rr(a) = r(keep[static_cast<std::size_t>(a)]);
+        for (Index b = 0; b < n - 1; ++b)
+          S(a, b) = K(keep[static_cast<std::size_t>(a)], keep[static_cast<std::size_t>(b)]) + (a == b ? sn * sn : 0.0);
+      }
+      const Eigen::FullPivLU<Mat> lu(S);
+      const double mu = kv.dot(lu.solve(rr)), var = K(i, i) + sn * sn - kv.dot(lu.solve(kv));
+      direct += -0.5 * std::log(2 * M_PI * var) - 0.5 * (r(i) - mu) * (r(i) - mu) / var;
+    }
+    CHECK(loo_log_predictive(*kernel, p, X, r) == doctest::Approx(direct).epsilon(1e-9));
+  }
+}
