@@ -77,22 +77,6 @@ const OptionSet<GpSettings>& gp_options() {
                 "lower bound of the noise std, relative to std(y) (when not given: 1e-7 with kernel: se_ard)")
           .above(0),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
-      opt::choice("noise_prior_choice", &S::noise_prior_choice,
-                  {{"none", S::NoisePriorChoice::None},
-                   {"likelihood", S::NoisePriorChoice::Likelihood},
-                   {"posterior", S::NoisePriorChoice::Posterior},
-                   {"loo", S::NoisePriorChoice::LeaveOneOut}},
-                  "none: one fit per refit; likelihood / posterior: also fit under the deterministic noise prior "
-                  "below and keep that optimum when its log marginal likelihood (without priors) / its log "
-                  "posterior under the priors above / its leave-one-out log predictive probability is higher"),
-      {opt::real("deterministic_noise_std_prior_median", 1e-6,
-                 "median of the second fit's noise std prior (noise_prior_choice), relative to std(y)")
-           .above(0),
-       [](const Options& o, GpSettings& s) {
-         s.deterministic_noise_std.mean = std::log(o.real("deterministic_noise_std_prior_median"));
-       }},
-      {opt::real("deterministic_noise_std_prior_sd", 1.5, "sd of log noise std of the second fit's prior").above(0),
-       [](const Options& o, GpSettings& s) { s.deterministic_noise_std.sd = o.real("deterministic_noise_std_prior_sd"); }},
       opt::choice("output_transform", "none", transforms::output_transform_names(),
                   transforms::output_transform_description()),
       opt::node("hyperparameters", "",

@@ -14,25 +14,6 @@ Mat inverse_from_cholesky(const Eigen::LLT<Mat>& llt) {
   return Li.transpose().triangularView<Eigen::Upper>() * Li;
 }
 
-double loo_log_predictive(const Kernel& form, const Vec& log_params, const Mat& X, const Vec& r) {
-  const Index n = X.rows(), m = form.num_params();
-  const std::unique_ptr<Kernel> kernel = form.clone();
-  kernel->set_log_params(log_params.head(m));
-  Mat K = kernel->matrix(X);
-  K.diagonal().array() += std::exp(2.0 * log_params(m));
-  RobustCholesky chol = robust_cholesky(K);
-  if (!chol.ok) return std::numeric_limits<double>::quiet_NaN();
-  const Vec alpha = chol.llt.solve(r);
-  const Mat Kinv = inverse_from_cholesky(chol.llt);
-  double sum = 0;
-  for (Index i = 0; i < n; ++i) {
-    const double c = Kinv(i, i);  // 1/σ_i²
-    if (!(c > 0)) return std::numeric_limits<double>::quiet_NaN();
-    sum += 0.5 * std::log(c) - 0.5 * alpha(i) * alpha(i) / c - 0.5 * std::log(2.0 * M_PI);
-  }
-  return sum;
-}
-
 LogMarginal log_marginal_likelihood(const Kernel& form, const Vec& log_params, const Mat& X, const Vec& r,
                                     bool with_gradient) {
   const Index n = X.rows(), m = form.num_params();

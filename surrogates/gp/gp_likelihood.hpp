@@ -26,10 +26,6 @@ Mat inverse_from_cholesky(const Eigen::LLT<Mat>& llt);
 LogMarginal log_marginal_likelihood(const Kernel& kernel, const Vec& log_params, const Mat& X, const Vec& r,
                                     bool with_gradient);
 
-/// Leave-one-out log predictive probability Σ_i log p(r_i | r_−i, p) in closed form (Rasmussen & Williams eqs.
-/// (5.10)–(5.12): μ_i = r_i − α_i/[K⁻¹]_ii, σ_i² = 1/[K⁻¹]_ii); NaN when the Cholesky fails.
-double loo_log_predictive(const Kernel& kernel, const Vec& log_params, const Mat& X, const Vec& r);
-
 /// Independent log-normal priors on ℓ_d, σ_f, σ_n (Kuindersma 2013, eq. (13)), in standardized units. The
 /// lengthscale and signal_std priors reach the kernel as its role defaults (Kernel::set_role_defaults), which
 /// then owns the prior of its parameters.

@@ -1,6 +1,5 @@
 #include "gp_surrogate.hpp"
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -18,24 +17,6 @@ constexpr double kLog2Pi = 1.8378770664093454836;
 
 Vec clamp_to(const Box& box, const Vec& p) { return p.cwiseMax(box.lower).cwiseMin(box.upper); }
 }  // namespace
-
-bool prefer_second_fit(const Kernel& kernel, const Mat& X, const Vec& r, const LogPosterior& objective, const Vec& p,
-                       const Vec& q, GpSettings::NoisePriorChoice choice) {
-  if (choice == GpSettings::NoisePriorChoice::Posterior) {
-    const double vp = objective.value(p, nullptr), vq = objective.value(q, nullptr);
-    return std::isfinite(vq) && (!std::isfinite(vp) || vq > vp);
-  }
-  if (choice == GpSettings::NoisePriorChoice::LeaveOneOut) {
-    const double lp = loo_log_predictive(kernel, p, X, r), lq = loo_log_predictive(kernel, q, X, r);
-    return std::isfinite(lq) && (!std::isfinite(lp) || lq > lp);
-  }
-  if (choice == GpSettings::NoisePriorChoice::Likelihood) {
-    const LogMarginal lp = log_marginal_likelihood(kernel, p, X, r, false);
-    const LogMarginal lq = log_marginal_likelihood(kernel, q, X, r, false);
-    return lq.ok && std::isfinite(lq.value) && (!lp.ok || !std::isfinite(lp.value) || lq.value > lp.value);
-  }
-  return false;
-}
 
 GpSurrogate::GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const Optimizer> fit_optimizer)
     : dim_(dim), settings_(settings), optimizer_(std::move(fit_optimizer)) {
@@ -240,8 +221,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
 
   // Each start on its own stream (advanced above by the draw of its start), reduced in index order.
-  const auto run_fits = [&](const LogPosterior& objective) {
-    return run_restarts<OptimizeResult>(
+  const Restarts<OptimizeResult> run = run_restarts<OptimizeResult>(
       restarts, [&](Index k) { return streams[static_cast<std::size_t>(k)]; },
       [&](Index k, Rng& stream) {
         OptimizeResult res;
@@ -262,34 +242,15 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
         return res;
       },
       [](const OptimizeResult& res) { return res.success ? std::optional<double>(res.value) : std::nullopt; });
-  };
-  const Restarts<OptimizeResult> run = run_fits(objective);
   const Index best = run.best, failed = run.failed;
 
   FitReport rep;
   std::optional<Posterior> post;
   Vec p;
-  if (best >= 0) p = run.results[static_cast<std::size_t>(best)].x;
-  if (settings_.noise_prior_choice != GpSettings::NoisePriorChoice::None && settings_.priors.enabled) {
-    // A second fit under the deterministic noise prior, from the same starts and streams; its optimum replaces the
-    // first one's when it scores higher (docs/defaults.md, "Session se14").
-    HyperPriors tight = settings_.priors;
-    tight.noise_std = settings_.deterministic_noise_std;
-    const LogPosterior tight_objective(*kernel_, data.X, r, tight, box);
-    // Its random starts draw the noise from its own prior (the same normal draws, rescaled): started from the
-    // general prior, the fit under the tight prior found the noise mode too (docs/defaults.md, "Session se14").
-    if (settings_.priors.enabled)
-      for (Index k = 1; k < restarts; ++k) {
-        const double z = (starts(k, m) - settings_.priors.noise_std.mean) / settings_.priors.noise_std.sd;
-        starts(k, m) = std::clamp(tight.noise_std.mean + tight.noise_std.sd * z, box.lower(m), box.upper(m));
-      }
-    const Restarts<OptimizeResult> alt = run_fits(tight_objective);
-    if (alt.best >= 0) {
-      const Vec q = alt.results[static_cast<std::size_t>(alt.best)].x;
-      if (best < 0 || prefer_second_fit(*kernel_, data.X, r, objective, p, q, settings_.noise_prior_choice)) p = q;
-    }
+  if (best >= 0) {
+    p = run.results[static_cast<std::size_t>(best)].x;
+    post = build(data, s, p);
   }
-  if (p.size() > 0) post = build(data, s, p);
   if (!post && !full) {
     // The warm start alone failed: a full fit before giving up.
     last_full_fit_n_ = 0;

@@ -2,7 +2,6 @@
 // Homoscedastic GP surrogate: constant mean, standardized costs, any Kernel (default Matérn-5/2 ARD), Gaussian noise;
 // hyperparameters by maximum a posteriori (log marginal likelihood + log-normal hyperpriors,
 // Kuindersma 2013 eq. (13)) with parallel random restarts of a pluggable Optimizer.
-#include <cmath>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -42,19 +41,7 @@ struct GpSettings {
   // ~2e-5 (README); robust_cholesky's jitter keeps duplicated points factorizable.
   // The `gp` component lowers the floor to kSeArdMinNoiseStd for `kernel: se_ard` when min_noise_std is not given.
   double min_noise_std = 1e-6, max_noise_std = 2.0;
-  /// A second fit per refit under `deterministic_noise_std` instead of priors.noise_std (a prior that rules out
-  /// explaining structure as noise), from the same starts; its optimum is kept when it scores higher: by the log
-  /// marginal likelihood without the priors (Likelihood), by the first fit's objective (Posterior) or by the leave-one-out
-  /// log predictive probability (LeaveOneOut). The second fit's random starts draw their noise from its own prior. None: one fit.
-  enum class NoisePriorChoice { None, Likelihood, Posterior, LeaveOneOut };
-  NoisePriorChoice noise_prior_choice = NoisePriorChoice::None;
-  LogNormalPrior deterministic_noise_std{std::log(1e-6), 1.5};
 };
-
-/// Whether the second fit's optimum q replaces the first's p (GpSettings::NoisePriorChoice): Posterior compares
-/// `objective` (the first fit's) at both, Likelihood the log marginal likelihood of the centred targets r at X.
-bool prefer_second_fit(const Kernel& kernel, const Mat& X, const Vec& r, const LogPosterior& objective, const Vec& p,
-                       const Vec& q, GpSettings::NoisePriorChoice choice);
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
 inline constexpr double kSeArdMinNoiseStd = 1e-7;
