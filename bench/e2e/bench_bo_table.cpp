@@ -4,11 +4,13 @@
 //
 //   build/bin/bench_bo_table [--seeds 10] [--first-seed 1] [--threads 2] [--algorithm '{type: bo, ...}']
 //                            [--problems Branin,Ackley-5,...] [--wide] [--per-seed] [--skip-timing | --timing-only]
+//                            [--noise S]
 //
 // --problems keeps the problems whose name starts with one of the given prefixes; --wide adds the issue-13
 // problems (Ackley-10, Levy-10, Rosenbrock-4, Styblinski-Tang-8, Ackley-20); --per-seed prints each seed's
 // recommended regret and, in brackets, the best observed one (to count runs stuck in a local minimum, and to see
-// whether the search or the recommendation limits a run).
+// whether the search or the recommendation limits a run); --noise S gives every task noise_std S (the best observed
+// columns are then noisy costs, the recommended one stays the noise-free regret).
 //
 // Prints Markdown tables (the README's benchmark section is produced by this program).
 #include <unistd.h>
@@ -65,6 +67,7 @@ int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1, threads = 0;
   bool timing = true, regret = true, wide = false, per_seed = false;
   std::vector<std::string> only;
+  std::string noise;  // --noise S: every task with noise_std S (the recommended regret stays noise-free)
   std::string algorithm = bench::kTableAlgorithm;
   // Timing uses EI at every iteration (the full acquisition optimization), unless --algorithm is given.
   std::string timing_algorithm =
@@ -76,6 +79,7 @@ int main(int argc, char** argv) {
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--algorithm" && i + 1 < argc) algorithm = timing_algorithm = argv[++i];
     else if (a == "--first-seed" && i + 1 < argc) first_seed = std::atoi(argv[++i]);
+    else if (a == "--noise" && i + 1 < argc) noise = argv[++i];
     else if (a == "--problems" && i + 1 < argc) {
       std::stringstream list(argv[++i]);
       for (std::string name; std::getline(list, name, ',');) only.push_back(name);
@@ -85,7 +89,7 @@ int main(int argc, char** argv) {
     else if (a == "--timing-only") regret = false;
     else {
       std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed K] [--threads N] [--algorithm YAML] [--problems P1,P2] "
-                           "[--wide] [--per-seed] [--skip-timing | --timing-only]\n", argv[0]);
+                           "[--wide] [--per-seed] [--skip-timing | --timing-only] [--noise S]\n", argv[0]);
       return 2;
     }
   }
@@ -111,6 +115,11 @@ int main(int argc, char** argv) {
                                     });
                                   }),
                    problems.end());
+  if (!noise.empty())
+    for (Problem& p : problems) {
+      p.task.insert(p.task.size() - 1, ", noise_std: " + noise);
+      p.name += " (noise " + noise + ")";
+    }
   const std::vector<int> checkpoints = {30, 60, 100};
   std::printf("algorithm: %s\nseeds: %d-%d, threads: %d\n\n", algorithm.c_str(), first_seed, first_seed + seeds - 1,
               threads);
