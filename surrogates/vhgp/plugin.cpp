@@ -101,7 +101,8 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
                   "the constant-noise member of noise_model auto / homoscedastic: vhgp: fitted with this vhgp's f "
                   "priors; gp: the `gp` surrogate with its defaults and kernel_f (its priors, noise floor, "
                   "restarts, fit schedule and fit_optimizer), which then also predicts when it is selected; the "
-                  "noise process keeps this vhgp's priors and the selection is unchanged"),
+                  "noise process keeps this vhgp's priors and the selection is unchanged (default gp: where no noise "
+                  "process is found the vhgp is the gp; docs/noisy.md, branch vh14)"),
       opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
       opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
                    "add independent log-normal hyperpriors to the bound (eq. 13)"),

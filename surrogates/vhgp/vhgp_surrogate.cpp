@@ -28,7 +28,9 @@ VhgpSurrogate::VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const
   f_form_ = config_.prior.configured(*config_.kernels.f.build(dim_), Process::F);
   g_form_ = config_.prior.configured(*config_.kernels.g.build(dim_), Process::G);
   f_scaling_ = output_scaling(*f_form_);
-  if (config_.homoscedastic_member == HomoscedasticMember::Gp && config_.noise_model != NoiseModel::Heteroscedastic) {
+  // (Without any fit optimizer the model only conditions on given parameters, and the member is never fitted.)
+  if (config_.homoscedastic_member == HomoscedasticMember::Gp && config_.noise_model != NoiseModel::Heteroscedastic &&
+      (gp_optimizer || optimizer_)) {
     // The `gp` component's defaults (GpSettings{} is its declared defaults) with kernel_f: its priors, boxes and
     // noise floor reach the kernel as role defaults, so θ has the layout of f_form_ (same kernel, other priors).
     gp::GpSettings settings;

@@ -87,6 +87,7 @@ VhgpConfig se_config() {
   c.full_fit_growth = 1.0;
   c.select_every_fit = true;   // (defaults since issue 10's speed work: false, true)
   c.warm_lambda_only = false;
+  c.homoscedastic_member = HomoscedasticMember::Vhgp;  // (default since branch vh14: gp)
   return c;
 }
 
@@ -809,9 +810,13 @@ TEST_CASE("homoscedastic_member gp: the noise process is still found where the n
     CHECK(hi.log_noise_mean - lo.log_noise_mean > 3.0);
     CHECK(hi.log_noise_var > 0);
   }
-  // The default is the vhgp's own member; a wrong value is an error.
+  // The default is the gp member (declared and struct default); a wrong value is an error.
   BuildContext ctx;
   ctx.dim = 1;
-  CHECK(VhgpConfig{}.homoscedastic_member == HomoscedasticMember::Vhgp);
+  CHECK(VhgpConfig{}.homoscedastic_member == HomoscedasticMember::Gp);
+  std::string declared;
+  for (const auto& o : test::registry().find(Kind::Surrogate, "vhgp").options)
+    if (o.name == "homoscedastic_member") declared = o.default_yaml;
+  CHECK(declared == "gp");
   CHECK_THROWS_AS(test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gpp}", ctx), ConfigError);
 }
