@@ -14,6 +14,9 @@
 
 namespace {
 
+/// The `gp` component's declared fit_optimizer (gp_component.cpp), for homoscedastic_member: gp.
+constexpr const char* kGpFitOptimizer = "{type: ceres_lbfgs, max_iterations: 100}";
+
 using varbo::BoundOption;
 using varbo::ConfigNode;
 using varbo::LogNormalPrior;
@@ -41,6 +44,7 @@ BoundOption<VhgpConfig> prior_option(std::string name, LogNormalPrior VhgpHyperp
 
 const varbo::OptionSet<VhgpConfig>& vhgp_options() {
   using varbo::Kind;
+  using varbo::vhgp::HomoscedasticMember;
   using varbo::vhgp::NoiseModel;
   using varbo::vhgp::VhgpKernels;
   using C = VhgpConfig;
@@ -92,6 +96,13 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
       opt::boolean("warm_lambda_only", &C::warm_lambda_only,
                    "a fit between full fits optimizes only log Lambda at the previous hyperparameters; false: all "
                    "parameters from the warm start (then warm_evaluations applies)"),
+      opt::choice("homoscedastic_member", &C::homoscedastic_member,
+                  {{"vhgp", HomoscedasticMember::Vhgp}, {"gp", HomoscedasticMember::Gp}},
+                  "the constant-noise member of noise_model auto / homoscedastic: vhgp: fitted with this vhgp's f "
+                  "priors; gp: the `gp` surrogate with its defaults and kernel_f (its priors, noise floor, "
+                  "restarts, fit schedule and fit_optimizer), which then also predicts when it is selected; the "
+                  "noise process keeps this vhgp's priors and the selection is unchanged (default gp: where no noise "
+                  "process is found the vhgp is the gp; docs/noisy.md, branch vh14)"),
       opt::component("fit_optimizer", Kind::Optimizer, "ceres_lbfgs", "optimizer maximizing the bound"),
       opt::boolean("hyperpriors", opt::nested(&C::prior, &VhgpHyperprior::enabled),
                    "add independent log-normal hyperpriors to the bound (eq. 13)"),
@@ -147,7 +158,14 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
   c.kernels.g = kernel_spec(o, "kernel_g", ctx);
   std::shared_ptr<const varbo::Optimizer> optimizer =
       ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);
-  auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer));
+  std::shared_ptr<const varbo::Optimizer> gp_optimizer;
+  if (c.homoscedastic_member == HomoscedasticMember::Gp) {
+    // As the `gp` component (gp_component.cpp): its declared fit_optimizer, and its noise floor 1e-7 for se_ard.
+    gp_optimizer = ctx.registry->create<varbo::Optimizer>(std::string(kGpFitOptimizer), ctx);
+    const varbo::ResolvedComponent kf = o.component("kernel_f");
+    if (kf.info && kf.info->name == "se_ard") c.gp_member_min_noise_std = varbo::gp::kSeArdMinNoiseStd;
+  }
+  auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer), std::move(gp_optimizer));
   // Every hyperparameter counts as missing until the YAML gives it (GivenParameters: conditioning without a fit
   // needs them all).
   std::vector<std::string> names;

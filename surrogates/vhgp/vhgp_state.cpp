@@ -46,6 +46,11 @@ std::string VhgpSurrogate::save_state() const {
     m.put("posterior_X", posterior_data_->X);
     m.put("posterior_y", posterior_data_->y);
   }
+  // homoscedastic_member gp: the gp member's own exact snapshot (gp_state.cpp) and whether it is the model.
+  if (gp_member_) {
+    m.put("gp_selected", gp_selected_);
+    if (gp_member_->ready()) m.put("gp_member", gp_member_->save_state());
+  }
   return m.text();
 }
 
@@ -77,6 +82,11 @@ void VhgpSurrogate::restore_state(const std::string& text) {
   bound_gradient_ = get_vec(m, "bound_gradient");
   scaling_.mean = m.real("scaling_mean");
   scaling_.scale = m.real("scaling_scale");
+  gp_selected_ = false;
+  if (gp_member_ && m.has("gp_member")) {
+    gp_member_->restore_state(m.str("gp_member"));
+    gp_selected_ = m.has("gp_selected") && m.boolean("gp_selected");
+  }
   if (!m.has("posterior_params")) return;
   Dataset data;
   data.X = m.mat("posterior_X");

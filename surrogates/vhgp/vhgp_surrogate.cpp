@@ -20,13 +20,27 @@ const double kLogHalf = std::log(0.5);
 
 }  // namespace
 
-VhgpSurrogate::VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const Optimizer> fit_optimizer)
+VhgpSurrogate::VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const Optimizer> fit_optimizer,
+                             std::shared_ptr<const Optimizer> gp_optimizer)
     : dim_(dim), config_(std::move(config)), optimizer_(std::move(fit_optimizer)) {
   if (dim_ < 1) throw ConfigError("vhgp: the problem dimension must be at least 1");
   if (config_.restarts < 1) config_.restarts = 1;
   f_form_ = config_.prior.configured(*config_.kernels.f.build(dim_), Process::F);
   g_form_ = config_.prior.configured(*config_.kernels.g.build(dim_), Process::G);
   f_scaling_ = output_scaling(*f_form_);
+  // (Without any fit optimizer the model only conditions on given parameters, and the member is never fitted.)
+  if (config_.homoscedastic_member == HomoscedasticMember::Gp && config_.noise_model != NoiseModel::Heteroscedastic &&
+      (gp_optimizer || optimizer_)) {
+    // The `gp` component's defaults (GpSettings{} is its declared defaults) with kernel_f: its priors, boxes and
+    // noise floor reach the kernel as role defaults, so θ has the layout of f_form_ (same kernel, other priors).
+    gp::GpSettings settings;
+    const KernelSpec f = config_.kernels.f;
+    settings.kernel = [f](Index d) { return f.build(d); };
+    settings.min_noise_std = std::min(config_.gp_member_min_noise_std, settings.max_noise_std);
+    gp_member_ = std::make_unique<gp::GpSurrogate>(dim_, settings, gp_optimizer ? gp_optimizer : optimizer_);
+    if (gp_member_->kernel().num_params() != f_form_->num_params())
+      throw ConfigError("vhgp: homoscedastic_member gp: the gp's kernel has another parameter count than kernel_f");
+  }
 }
 
 VhgpSurrogate::Scaling VhgpSurrogate::scaling_for(const Vec& y) const {
@@ -149,6 +163,8 @@ FitReport VhgpSurrogate::condition(const Dataset& data) {
              c.log_lambda.size(), data.size());
   const VhgpParams model_params = to_model(c, data.size(), s);
   report = condition_at(data, model_params, s, report);
+  // The gp member keeps following the data (as a gp would be conditioned); its hyperparameters are its own.
+  if (gp_member_ && gp_member_->ready()) gp_member_->condition(data);
   // For inspection (`varbo fit --no-optimize`): ∂F at the given parameters, packed as
   // [∂F/∂log Λ ; ∂F/∂θ_f ; ∂F/∂θ_g ; ∂F/∂μ0], in model (standardized) units, without the hyperprior.
   bound_gradient_ = Vec();
@@ -178,6 +194,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   const VhgpObjective objective(bound, config_.prior);
   const BoxRegion region(objective.box());
 
+  const Rng rng_before = rng;  // the caller's stream before this fit (the gp member's draws)
   // One seed drawn from the caller's stream per fit; restart k then uses stream k of it, whatever the thread.
   const Rng base(rng.next());
 
@@ -189,6 +206,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     fixed.log_lambda = maximize_log_lambda(objective, fixed, region.bounds(), *optimizer_, r);
     report.restarts = 1;
     report = condition_at(data, fixed, s, report);
+    if (report.ok) gp_selected_ = false;
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return report;
   }
@@ -210,8 +228,17 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
                                (config_.noise_model == NoiseModel::Auto && !(keep_choice && homoscedastic_selected_));
   // The homoscedastic fit: the GP start of a full fit (vhgp.md §8) and, when the noise model is selected, the
   // nested model the heteroscedastic fit has to beat (then at every fit, warm-started: it is cheap).
+  // homoscedastic_member gp: the gp surrogate fitted as the `gp` component would be, on a copy of the caller's
+  // stream (so it draws what a gp given this stream draws, and this fit's own draws are unchanged).
+  std::optional<Vec> gp_x;  // its [θ_f ; log σ_n] in this fit's model units
+  if (gp_member_) {
+    Rng gp_rng = rng_before;
+    const FitReport gp_report = gp_member_->fit(data, gp_rng);
+    if (gp_report.ok && gp_member_->ready()) gp_x = gp_member_->log_params(s.scale);
+  }
   HomoscedasticFit homo;
-  if (full || !heteroscedastic || select) {
+  const bool homo_needed = gp_member_ ? (full && heteroscedastic) : (full || !heteroscedastic || select);
+  if (homo_needed) {
     Rng init_rng = base.stream(0);
     Vec warm_homo;
     const Index m = f_form_->num_params();
@@ -252,14 +279,16 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   if (best >= 0) chosen = bound.unpack(results[static_cast<std::size_t>(best)].x);
   const std::optional<VhgpParams> heteroscedastic_fit = chosen;
   bool homoscedastic_chosen = false;
-  if ((select || !heteroscedastic) && homo.ok) {
+  const std::optional<Vec> member_x =
+      gp_member_ ? gp_x : (homo.ok ? std::optional<Vec>(homoscedastic_coordinates(homo)) : std::nullopt);
+  if ((select || !heteroscedastic) && member_x) {
     // Model selection between nested models on the bound (a lower bound of the log evidence; the
     // constant-noise member's bound is its exact log marginal likelihood): the heteroscedastic fit must beat it
     // by the BIC penalty ½ p log N of g's p extra hyperparameters (p = D + 1 for an ARD kernel). Without it,
     // noise-free and homoscedastic data got a noise process that fitted the noise to a few points and floored
     // the posterior (docs/noisy.md).
     const VhgpParams member =
-        homoscedastic_member(homoscedastic_coordinates(homo), chosen ? *chosen : to_model(defaults(s), n, s), n);
+        homoscedastic_member(*member_x, chosen ? *chosen : to_model(defaults(s), n, s), n);
     const BoundValue fh = bound.evaluate(member, false);
     const double fv = chosen ? bound.evaluate(*chosen, false).F : -std::numeric_limits<double>::infinity();
     const double penalty = 0.5 * static_cast<double>(g_form_->num_params()) * std::log(static_cast<double>(n));
@@ -286,6 +315,7 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     if (report.ok) {
       if (full) last_full_fit_n_ = n;
       homoscedastic_selected_ = homoscedastic_chosen;
+      gp_selected_ = homoscedastic_chosen && gp_member_ != nullptr;
       if (heteroscedastic_fit) heteroscedastic_ = to_cost(*heteroscedastic_fit, s);
       if (homo.ok) {
         homoscedastic_ = homoscedastic_coordinates(homo);
@@ -364,6 +394,7 @@ LatentPrediction VhgpSurrogate::predict_latent(const Vec& x, bool with_gradient)
 }
 
 Prediction VhgpSurrogate::predict(const Vec& x, bool with_gradient) const {
+  if (gp_selected_ && gp_member_ && gp_member_->ready()) return gp_member_->predict(x, with_gradient);
   const LatentPrediction l = predict_latent(x, with_gradient);
   const double s = scaling_.scale, s2 = s * s, log_s2 = 2.0 * std::log(s);
   Prediction p;
@@ -388,6 +419,7 @@ Prediction VhgpSurrogate::predict(const Vec& x, bool with_gradient) const {
 
 double VhgpSurrogate::signal_variance() const {
   // k_f(c, c) at the centre c of the cube in cost units (σ_f² for a stationary kernel), as the gp.
+  if (gp_selected_ && gp_member_ && gp_member_->ready()) return gp_member_->signal_variance();
   const CostParams c = params_ ? *params_ : defaults(scaling_);
   const std::unique_ptr<Kernel> k = f_form_->clone();
   k->set_log_params(c.theta_f);
@@ -441,6 +473,7 @@ void VhgpSurrogate::set_hyperparameters(const Hyperparameters& values) {
     for (const Index i : at) (i < nf ? c.theta_f(i) : c.theta_g(i - nf)) = std::log(h.value);
   }
   params_ = c;
+  gp_selected_ = false;  // given hyperparameters: the vhgp's own posterior from the next condition()
 }
 
 std::vector<std::pair<std::string, Vec>> VhgpSurrogate::state() const {

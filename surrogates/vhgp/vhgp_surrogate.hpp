@@ -6,6 +6,7 @@
 #include "varbo/optimizer.hpp"
 #include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
+#include "gp_surrogate.hpp"
 #include "homoscedastic_init.hpp"
 #include "vhgp_objective.hpp"
 
@@ -18,6 +19,13 @@ enum class NoiseModel {
                    ///< BIC penalty ½ p log N of g's p extra hyperparameters (D + 1 for an ARD kernel)
   Heteroscedastic, ///< always the heteroscedastic fit (the paper's model)
   Homoscedastic,   ///< always the constant-noise member (a GP with the VHGP's f kernel and priors)
+};
+
+/// How the constant-noise member is fitted (`noise_model` auto or homoscedastic).
+enum class HomoscedasticMember {
+  Vhgp,  ///< the vhgp's own homoscedastic fit (its f priors and boxes, its noise prior, 3 lengthscale starts)
+  Gp,    ///< a `gp` surrogate (gp::GpSurrogate with its defaults and kernel_f) fitted on the same data with the
+         ///< caller's stream; when selected, the vhgp predicts with it (docs/noisy.md, branch vh14)
 };
 
 /// The settings of the `vhgp` component. Every default here is the declared default of its option (plugin.cpp binds
@@ -50,12 +58,21 @@ struct VhgpConfig {
   /// A fit between full fits optimizes only log Λ (the variational parameters) at the previous hyperparameters,
   /// as the gp only re-conditions between refits; false: the warm start's joint optimization (docs/noisy.md).
   bool warm_lambda_only = true;
+  /// The constant-noise member: the vhgp's own fit or the `gp` surrogate's (HomoscedasticMember).
+  /// Default gp since branch vh14 (docs/noisy.md, "the constant-noise member as the gp"): where `auto` finds no
+  /// noise process the vhgp is the gp (homoscedastic medians within 2x of the gp's on 6 of 6 problems, not 4).
+  HomoscedasticMember homoscedastic_member = HomoscedasticMember::Gp;
+  /// The gp member's noise floor relative to std(y) (plugin.cpp: as the `gp` component, 1e-7 for kernel_f se_ard).
+  double gp_member_min_noise_std = gp::GpSettings{}.min_noise_std;
   VhgpHyperprior prior;
 };
 
 class VhgpSurrogate final : public Surrogate, public ComponentState {
  public:
-  VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const Optimizer> fit_optimizer);
+  /// `gp_optimizer`: the gp member's fit optimizer (homoscedastic_member: gp; the `gp` component's default
+  /// fit_optimizer in the plugin); null: `fit_optimizer`.
+  VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const Optimizer> fit_optimizer,
+                std::shared_ptr<const Optimizer> gp_optimizer = nullptr);
 
   FitReport fit(const Dataset& data, Rng& rng) override;
   FitReport condition(const Dataset& data) override;
@@ -81,6 +98,10 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   const Kernel& g_form() const { return *g_form_; }
   /// The last fit ended in the constant-noise member (noise_model auto or homoscedastic).
   bool homoscedastic_selected() const { return homoscedastic_selected_; }
+  /// The selected constant-noise member is the gp member (homoscedastic_member: gp): predict() is its predict().
+  bool gp_member_selected() const { return gp_selected_; }
+  /// The gp member (null unless homoscedastic_member: gp), for tests.
+  const gp::GpSurrogate* gp_member() const { return gp_member_.get(); }
 
  private:
   /// Parameters in cost units (the canonical state): θ_f with log σ_f of costs, μ0 the log noise variance of
@@ -128,6 +149,10 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   /// The last homoscedastic fit [θ_f (log σ_f of costs) ; log σ_n of costs]: its warm start.
   Vec homoscedastic_;
   bool homoscedastic_selected_ = false;
+  /// homoscedastic_member: gp — the `gp` surrogate fitted at every fit (its own warm starts and schedule), and
+  /// whether the last fit selected it (then predictions and signal_variance are its).
+  std::unique_ptr<gp::GpSurrogate> gp_member_;
+  bool gp_selected_ = false;
 };
 
 }  // namespace varbo::vhgp

@@ -87,6 +87,7 @@ VhgpConfig se_config() {
   c.full_fit_growth = 1.0;
   c.select_every_fit = true;   // (defaults since issue 10's speed work: false, true)
   c.warm_lambda_only = false;
+  c.homoscedastic_member = HomoscedasticMember::Vhgp;  // (default since branch vh14: gp)
   return c;
 }
 
@@ -739,4 +740,83 @@ TEST_CASE("warm_lambda_only: a fit between full fits keeps the hyperparameters a
   start_probe.set_state("log_lambda", ll);
   REQUIRE(start_probe.condition(all).ok);
   CHECK(grad_of(probe).cwiseAbs().maxCoeff() < 0.05 * grad_of(start_probe).cwiseAbs().maxCoeff());
+}
+
+TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp predicts exactly as the gp surrogate") {
+  // Both built through the registry as a study builds them: `{type: vhgp, homoscedastic_member: gp}` and the plain
+  // `gp` (its defaults). Each gets its own stream from the same seed, and a fit of either draws one number from it,
+  // so they stay in step over a sequence of fits N = 12 … 40 (the gp's full fits up to N = 20 and by growth 1.25,
+  // warm-only fits in between). Reference: the gp surrogate itself; tolerance 1e-12 relative (the same arithmetic
+  // on the same inputs: expected bit for bit).
+  BuildContext ctx;
+  ctx.dim = 2;
+  auto v = test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gp}", ctx);
+  auto g = test::registry().create<Surrogate>("gp", ctx);
+  Rng rv(7), rg(7);
+  Rng data_rng(11);
+  Dataset d = Dataset::empty(2);
+  int selected = 0, fits = 0;
+  const std::vector<Vec> probes = {Vec::Constant(2, 0.5), (Vec(2) << 0.1, 0.9).finished(),
+                                   (Vec(2) << 0.73, 0.21).finished()};
+  const auto close = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b)); };
+  for (Index n = 1; n <= 40; ++n) {
+    const Vec x = data_rng.uniform_vec(2);
+    d.add(x, std::sin(3.0 * x.sum()) + 0.2 * data_rng.normal());  // constant noise sd 0.2
+    if (n < 12) continue;
+    const FitReport a = v->fit(d, rv);
+    const FitReport b = g->fit(d, rg);
+    REQUIRE(a.ok);
+    REQUIRE(b.ok);
+    ++fits;
+    if (a.message.find("homoscedastic noise selected") == std::string::npos) continue;
+    ++selected;
+    for (const Vec& p : probes) {
+      const Prediction pv = v->predict(p, true), pg = g->predict(p, true);
+      CAPTURE(n);
+      CHECK(close(pv.mean, pg.mean));
+      CHECK(close(pv.latent_var, pg.latent_var));
+      CHECK(close(pv.log_noise_mean, pg.log_noise_mean));
+      CHECK(pv.log_noise_var == 0);
+      CHECK((pv.d_mean - pg.d_mean).norm() <= 1e-12 * std::max(1.0, pg.d_mean.norm()));
+      CHECK((pv.d_latent_var - pg.d_latent_var).norm() <= 1e-12 * std::max(1.0, pg.d_latent_var.norm()));
+    }
+    CHECK(close(v->signal_variance(), g->signal_variance()));
+  }
+  MESSAGE("constant noise selected in ", selected, " of ", fits, " fits");
+  CHECK(selected >= fits - 2);  // homoscedastic data: the noise process is (almost) never worth its BIC penalty
+  // An exact snapshot carries the gp member: a restored model predicts bit for bit as before.
+  auto w = test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gp}", ctx);
+  state_of(w.get())->restore_state(state_of(v.get())->save_state());
+  for (const Vec& p : probes) CHECK(w->predict(p, false).mean == v->predict(p, false).mean);
+  // Conditioning on one more point without a fit follows the gp's condition().
+  const Vec x = data_rng.uniform_vec(2);
+  d.add(x, std::sin(3.0 * x.sum()) + 0.2 * data_rng.normal());
+  REQUIRE(v->condition(d).ok);
+  REQUIRE(g->condition(d).ok);
+  for (const Vec& p : probes) CHECK(close(v->predict(p, false).mean, g->predict(p, false).mean));
+}
+
+TEST_CASE("homoscedastic_member gp: the noise process is still found where the noise grows, with the vhgp's priors") {
+  for (std::uint64_t seed : {1u, 2u}) {
+    CAPTURE(seed);
+    BuildContext ctx;
+    ctx.dim = 1;
+    auto v = test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gp}", ctx);
+    Rng rng(seed);
+    const FitReport r = v->fit(sine_data(60, seed, 0.01, 1.0), rng);  // noise sd from 0.01 to 1 along x
+    REQUIRE(r.ok);
+    CHECK(r.message.find("heteroscedastic noise selected") != std::string::npos);
+    const Prediction lo = v->predict(Vec::Constant(1, 0.05), false), hi = v->predict(Vec::Constant(1, 0.95), false);
+    CHECK(hi.log_noise_mean - lo.log_noise_mean > 3.0);
+    CHECK(hi.log_noise_var > 0);
+  }
+  // The default is the gp member (declared and struct default); a wrong value is an error.
+  BuildContext ctx;
+  ctx.dim = 1;
+  CHECK(VhgpConfig{}.homoscedastic_member == HomoscedasticMember::Gp);
+  std::string declared;
+  for (const auto& o : test::registry().find(Kind::Surrogate, "vhgp").options)
+    if (o.name == "homoscedastic_member") declared = o.default_yaml;
+  CHECK(declared == "gp");
+  CHECK_THROWS_AS(test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gpp}", ctx), ConfigError);
 }
