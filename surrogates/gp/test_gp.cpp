@@ -286,9 +286,10 @@ TEST_CASE("predictive mean and latent variance gradients w.r.t. x match finite d
   }
 }
 
-TEST_CASE("fit recovers the lengthscales of data drawn from the prior") {
-  // y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, 0.05²) at 150 uniform points, shifted by 10.
-  Rng rng(7);
+namespace {
+
+/// y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, noise_sd²) at 150 uniform points of the unit square, shifted by 10.
+Dataset se_prior_sample(Rng& rng, double noise_sd) {
   const Index n = 150;
   const Mat X = random_points(n, 2, rng);
   kernels::ArdKernel k(KernelType::SquaredExponential, 2);
@@ -296,7 +297,15 @@ TEST_CASE("fit recovers the lengthscales of data drawn from the prior") {
   Mat K = k.matrix(X);
   K.diagonal().array() += 1e-10;
   const Vec f = K.llt().matrixL() * rng.normal_vec(n);
-  const Dataset data{X, (f + 0.05 * rng.normal_vec(n)).array() + 10.0};
+  return Dataset{X, (f + noise_sd * rng.normal_vec(n)).array() + 10.0};
+}
+
+}  // namespace
+
+TEST_CASE("fit recovers the lengthscales of data drawn from the prior") {
+  // y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, 0.05²) at 150 uniform points, shifted by 10.
+  Rng rng(7);
+  const Dataset data = se_prior_sample(rng, 0.05);
   GpSurrogate gp(2, settings_for(KernelType::SquaredExponential), lbfgs());
   Rng fit_rng(8);
   const FitReport rep = gp.fit(data, fit_rng);
@@ -440,14 +449,7 @@ TEST_CASE("se_ard's default fit finds real noise (a tight noise prior with start
   // very prior was −110 against +9 for the noise mode (its restarts start near 1e-6 and stay in that mode); started
   // from the general prior instead it found σ_n = 0.097 but lost Ackley-5 (docs/defaults.md, "Session se14").
   Rng rng(7);
-  const Index n = 150;
-  const Mat X = random_points(n, 2, rng);
-  kernels::ArdKernel k(KernelType::SquaredExponential, 2);
-  k.set_log_params((Vec(3) << std::log(0.15), std::log(0.6), std::log(2.0)).finished());
-  Mat K = k.matrix(X);
-  K.diagonal().array() += 1e-10;
-  const Vec f = K.llt().matrixL() * rng.normal_vec(n);
-  const Dataset data{X, (f + 0.1 * rng.normal_vec(n)).array() + 10.0};
+  const Dataset data = se_prior_sample(rng, 0.1);
   BuildContext ctx;
   ctx.dim = 2;
   for (const char* yaml : {"{type: gp, kernel: se_ard}"}) {
