@@ -78,12 +78,12 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       length_ = std::min(2.0 * length_, options_.length_max);
       successes_ = 0;
     } else if (failures_ >= failure_tolerance_) {
-      length_ /= 2.0;
-      failures_ = forced ? failures_ - failure_tolerance_ : 0;
-      while (failures_ >= failure_tolerance_) {  // several forced failures at once
+      // One halving per τ_fail failures: several at once only when failures were forced (bo's feasible_region).
+      while (failures_ >= failure_tolerance_) {
         length_ /= 2.0;
         failures_ -= failure_tolerance_;
       }
+      if (!forced) failures_ = 0;
     }
     for (int i = 0; i < forced_halvings; ++i) length_ /= 2.0;
     const int stall_tolerance = options_.stall_tolerance == 0 ? failure_tolerance_ : options_.stall_tolerance;
