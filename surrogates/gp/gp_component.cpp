@@ -54,7 +54,7 @@ const OptionSet<GpSettings>& gp_options() {
                 "all restarts once N has grown by this factor since the last such fit (and always up to N = 20); "
                 "in between only the warm start (1: all restarts at every fit)")
           .at_least(1),
-      opt::component("fit_optimizer", Kind::Optimizer, "{type: ceres_lbfgs, max_iterations: 100}",
+      opt::component("fit_optimizer", Kind::Optimizer, kDefaultFitOptimizer,
                      "optimizer of the log posterior over log-hyperparameters"),
       opt::choice("prior_mean", &S::prior_mean, {{"data_mean", S::PriorMean::DataMean}, {"max", S::PriorMean::Max}},
                   "constant prior mean: the mean of the costs, or the largest cost (pessimistic: unexplored "
@@ -88,6 +88,10 @@ const OptionSet<GpSettings>& gp_options() {
   return set;
 }
 
+double default_min_noise_std(const std::string& kernel, double configured, double max_noise_std) {
+  return kernel == "se_ard" ? std::min(kSeArdMinNoiseStd, max_noise_std) : configured;
+}
+
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
       "gp",
@@ -109,8 +113,8 @@ ComponentInfo gp_component() {
         // Matérn's, then explains misfits of up to half the floor as noise (Hartmann-3: residuals 5e-7·std(y)
         // against Matérn's 9e-8), which caps the precision of its refinement; docs/defaults.md, "Why SE-ARD is
         // weaker".
-        if (!o.given("min_noise_std") && kernel.info && kernel.info->name == "se_ard")
-          s.min_noise_std = std::min(kSeArdMinNoiseStd, s.max_noise_std);
+        if (!o.given("min_noise_std") && kernel.info)
+          s.min_noise_std = default_min_noise_std(kernel.info->name, s.min_noise_std, s.max_noise_std);
         const std::uint64_t seed = ctx.seed;
         s.kernel = [registry, kernel, seed](Index dim) {
           BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)

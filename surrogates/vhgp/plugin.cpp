@@ -5,6 +5,7 @@
 #include <string>
 
 #include "given_parameters.hpp"
+#include "gp_component.hpp"
 #include "hyperparameter_map.hpp"
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
@@ -13,9 +14,6 @@
 #include "vhgp_surrogate.hpp"
 
 namespace {
-
-/// The `gp` component's declared fit_optimizer (gp_component.cpp), for homoscedastic_member: gp.
-constexpr const char* kGpFitOptimizer = "{type: ceres_lbfgs, max_iterations: 100}";
 
 using varbo::BoundOption;
 using varbo::ConfigNode;
@@ -160,10 +158,13 @@ std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::Build
       ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);
   std::shared_ptr<const varbo::Optimizer> gp_optimizer;
   if (c.homoscedastic_member == HomoscedasticMember::Gp) {
-    // As the `gp` component (gp_component.cpp): its declared fit_optimizer, and its noise floor 1e-7 for se_ard.
-    gp_optimizer = ctx.registry->create<varbo::Optimizer>(std::string(kGpFitOptimizer), ctx);
+    // As the `gp` component (gp_component.hpp): its declared fit_optimizer and its noise floor for kernel_f.
+    gp_optimizer = ctx.registry->create<varbo::Optimizer>(std::string(varbo::gp::kDefaultFitOptimizer), ctx);
     const varbo::ResolvedComponent kf = o.component("kernel_f");
-    if (kf.info && kf.info->name == "se_ard") c.gp_member_min_noise_std = varbo::gp::kSeArdMinNoiseStd;
+    const varbo::gp::GpSettings defaults;
+    if (kf.info)
+      c.gp_member_min_noise_std =
+          varbo::gp::default_min_noise_std(kf.info->name, defaults.min_noise_std, defaults.max_noise_std);
   }
   auto model = std::make_unique<VhgpSurrogate>(ctx.dim, c, std::move(optimizer), std::move(gp_optimizer));
   // Every hyperparameter counts as missing until the YAML gives it (GivenParameters: conditioning without a fit
