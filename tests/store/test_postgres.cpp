@@ -345,3 +345,92 @@ TEST_CASE("postgresql: creating a study does not wait on runs writing other stud
   CHECK(writer_code == 0);
   std::filesystem::remove_all(dir);
 }
+
+namespace {
+
+/// The server sessions of `application_name`, by backend pid.
+std::vector<std::string> sessions_of(pqxx::connection& c, const std::string& application_name) {
+  pqxx::nontransaction n(c);
+  std::vector<std::string> pids;
+  for (const auto& row : n.exec_params("SELECT pid FROM pg_stat_activity WHERE application_name = $1 ORDER BY pid",
+                                       application_name))
+    pids.push_back(row[0].c_str());
+  return pids;
+}
+
+/// Until `application_name` has `count` sessions (the server ends a terminated one asynchronously).
+std::vector<std::string> wait_for_sessions(pqxx::connection& c, const std::string& application_name,
+                                           std::size_t count) {
+  auto pids = sessions_of(c, application_name);
+  for (int i = 0; i < 400 && pids.size() != count; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+    pids = sessions_of(c, application_name);
+  }
+  return pids;
+}
+
+}  // namespace
+
+TEST_CASE("postgresql: a closed study's connection serves the next open of its address; a dead one is replaced") {
+  const std::string app = "varbo_kept_" + std::to_string(getpid());
+  const std::string url = test::pg_study_url("kept") + "&application_name=" + app;
+  pqxx::connection observer(test::pg_base_url());
+  unsetenv("VARBO_PG_KEEP_SECONDS");
+  std::int64_t told = 0;
+  {
+    Study study = Study::create_from_yaml(url, "task: {type: branin}\nbudget: 20\nseed: 2\nalgorithm: {type: random}\n");
+    for (const auto& t : study.ask(2)) study.tell(t.id, 1.0 + static_cast<double>(told++));
+  }
+  // Closed: its session stays, idle, for the next open in this process.
+  const auto kept = sessions_of(observer, app);
+  REQUIRE(kept.size() == 1);
+  for (int round = 0; round < 3; ++round) {  // open + ask + tell per trial, as a script calling varbo per trial does
+    Study study = Study::open(url);
+    for (const auto& t : study.ask(1)) study.tell(t.id, 1.0 + static_cast<double>(told++));
+    CHECK(sessions_of(observer, app) == kept);  // the same server session, no new connection
+  }
+  CHECK(sessions_of(observer, app) == kept);
+
+  // The server ends the idle session (a restart, an administrator, an idle timeout): the next open connects anew
+  // without an error, and sees everything written.
+  {
+    pqxx::nontransaction k(observer);
+    k.exec_params("SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE application_name = $1", app);
+  }
+  REQUIRE(wait_for_sessions(observer, app, 0).empty());
+  {
+    Study study = Study::open(url);
+    CHECK(study.store().trials().size() == static_cast<std::size_t>(told));
+    for (const auto& t : study.ask(1)) study.tell(t.id, 1.0 + static_cast<double>(told++));
+  }
+  const auto fresh = sessions_of(observer, app);
+  REQUIRE(fresh.size() == 1);
+  CHECK(fresh != kept);
+
+  // A forked child's exit must not close the parent's kept session (its socket is the parent's): the child
+  // forgets the kept connections at the fork. std::exit runs the child's static destructors (the pool's too).
+  std::fflush(nullptr);  // the child must not print what the parent buffered
+  const pid_t child = fork();
+  REQUIRE(child >= 0);
+  if (child == 0) std::exit(0);
+  int status = 0;
+  for (int i = 0; i < 400 && waitpid(child, &status, WNOHANG) == 0; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  if (waitpid(child, &status, WNOHANG) == 0) {  // a child stuck in some library's exit: not what is tested here
+    kill(child, SIGKILL);
+    waitpid(child, &status, 0);
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // a Terminate sent by the child would have landed
+  CHECK(sessions_of(observer, app) == fresh);
+  {
+    Study study = Study::open(url);
+    CHECK(study.store().trials().size() == static_cast<std::size_t>(told));
+  }
+  CHECK(sessions_of(observer, app) == fresh);
+
+  // VARBO_PG_KEEP_SECONDS=0 keeps none: the session ends with the store.
+  setenv("VARBO_PG_KEEP_SECONDS", "0", 1);
+  { Study study = Study::open(url); }
+  CHECK(wait_for_sessions(observer, app, 0).empty());
+  unsetenv("VARBO_PG_KEEP_SECONDS");
+}
