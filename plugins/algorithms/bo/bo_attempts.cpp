@@ -26,6 +26,7 @@ void BayesianOptimization::begin_fresh_attempt(Index k, int fresh_starts, const 
   fresh_trial_ = k;
   fresh_from_ = data.size();
   attempt_starts_.push_back(fresh_from_);
+  follow_anchor_ = -1;  // an attempt with a design (follow_probe sets its anchor after this)
 }
 
 Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
@@ -140,6 +141,22 @@ Dataset BayesianOptimization::model_data_of(const Dataset& data) const {
   if (refining_ && refine_attempt_model_) {
     Dataset refined = refinement_data(data);
     if (refined.size() >= 2) return refined;
+  }
+  if (fresh_starts_ > 0 && !refining_ && follow_anchor_ >= 0 && follow_anchor_ < data.size()) {
+    // failure_model.follow_probe (session fail15): an attempt begun at a probe has no design of its own; its model
+    // sees every point but those next to an earlier attempt's best (the basin it leaves), and the probe.
+    const double memory = failure_settings_.follow_memory;
+    const std::vector<Vec> minima = earlier_minima();
+    Dataset local = Dataset::empty(dim_);
+    for (Index i = 0; i < data.size(); ++i) {
+      bool keep = i == follow_anchor_ || i >= fresh_from_ || !(memory > 0);
+      if (!keep) {
+        keep = true;
+        for (const Vec& m : minima) keep = keep && (data.X.row(i).transpose() - m).lpNorm<Eigen::Infinity>() > memory;
+      }
+      if (keep) local.add(data.X.row(i).transpose(), data.y(i));
+    }
+    if (local.size() >= 2) return local;
   }
   if (fresh_starts_ > 0 && !refining_ && data.size() >= fresh_from_ + 2) {
     Dataset local;

@@ -99,6 +99,20 @@ struct FailureModelSettings {
   /// "off" (the default), "far", or "edge": as far, and where the ray leaves the box with P(success) rising again
   /// past the zone, the last point in the box.
   std::string boundary_jump = "off";
+  /// > 0 (session fail15): once a trial has failed, a successful trial of the current attempt that lies farther than
+  /// follow_distance (∞-norm, unit cube) from the attempt's best point and from every earlier attempt's best, and
+  /// costs at most the incumbent's cost + follow_probe × the range of the costs, becomes the centre of a new attempt
+  /// (a fresh start of the trust region without a new design) — while the current attempt sits in a known basin (it
+  /// holds the incumbent or its best lies within follow_distance of an earlier attempt's best) and at least
+  /// 2 × refine_last trials remain. 0 = off (the default).
+  double follow_probe = 0;
+  double follow_distance = 0.25;
+  /// > 0: only while a failed trial lies within this distance (∞-norm) of the attempt's best point (the attempt is
+  /// held at a failure boundary); 0 = whether or not.
+  double follow_block = 0.05;
+  /// The cost model of an attempt begun at a probe: every successful point except those within this distance
+  /// (∞-norm) of an earlier attempt's best point (the blocked basin), the probe always; 0 = every point.
+  double follow_memory = 0.1;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);
