@@ -295,7 +295,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     return s;
   }
   if (fresh_region && !refining_ && !final_stretch && refit)
-    if (const std::optional<Index> probe = probe_to_follow(k, data)) {
+    if (const std::optional<Index> probe = probe_to_follow(k, data, refit)) {
       Rng follow_rng = rng_.stream(kOptimize, uk * 2 + 1);
       follow_probe(k, *probe, data, follow_rng);
     }

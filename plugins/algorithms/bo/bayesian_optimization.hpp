@@ -77,7 +77,10 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::optional<std::pair<Vec, double>> blocked_direction(Index k, const Vec& x, const Dataset& data,
                                                           double level) const;
   /// failure_model.follow_probe (bo_follow.cpp): the successful point to begin a new attempt at, if any.
-  std::optional<Index> probe_to_follow(Index k, const Dataset& data) const;
+  std::optional<Index> probe_to_follow(Index k, const Dataset& data, bool refit);
+  /// Whether P(success) falls below the exclusion threshold somewhere on the segment from a to b (the fitted
+  /// classifier; 64 equal steps).
+  bool separated_by_failure(const Vec& a, const Vec& b) const;
   /// Ends the attempt and begins one anchored at data point `probe` (the trust region's anchor), without a design;
   /// false (nothing changed but, possibly, the region) if the region would not restart.
   bool follow_probe(Index k, Index probe, const Dataset& data, Rng& region_rng);

@@ -26,7 +26,15 @@ Index BayesianOptimization::attempt_model_from(const Dataset& data) const {
   return std::min(fresh_from_ + design_successes, data.size());
 }
 
-std::optional<Index> BayesianOptimization::probe_to_follow(Index k, const Dataset& data) const {
+bool BayesianOptimization::separated_by_failure(const Vec& a, const Vec& b) const {
+  for (int i = 1; i < 64; ++i) {
+    const double t = i / 64.0;
+    if (feasibility_->probability((1 - t) * a + t * b) < exclusion_threshold_) return true;
+  }
+  return false;
+}
+
+std::optional<Index> BayesianOptimization::probe_to_follow(Index k, const Dataset& data, bool refit) {
   // Hartmann-3 with a ball across the global valley (docs/failures.md, sessions fail13 and fail14): the first attempt
   // creeps along the ball's edge on the blocked side; in seed 20 a later attempt sampled the other side (trial 35:
   // −3.06 at x1 = 0.27, the blocked incumbent −3.67) but its trust region centred on its own best, the blocked
@@ -61,12 +69,22 @@ std::optional<Index> BayesianOptimization::probe_to_follow(Index k, const Datase
   // follow_probe × the range of the costs (a scale the costs' offset does not change).
   const double ceiling = lo + fs.follow_probe * (hi - lo);
   const Index from = fresh_starts_ > 0 ? std::min(fresh_from_, data.size()) : attempt_model_from(data);
+  // follow_separated: the classifier of this trial (fitted here, as the acquisition fits it below: a restored run
+  // has no fitted classifier yet at this point). Without the test, a farther point of the same valley counted as
+  // another basin (Hartmann-3 seed 17: x1 = 1.0 against the best at 0.736, both on the ball's blocked side).
+  const bool separate = fs.follow_separated;
+  bool classifier = false;
   std::optional<Index> chosen;
   for (Index i = from; i < data.size(); ++i) {
     if (i == b || data.y(i) > ceiling || (chosen && data.y(i) >= data.y(*chosen))) continue;
     const Vec x = data.X.row(i).transpose();
     bool far = distance(x, xb) > fs.follow_distance;
     for (const Vec& m : minima) far = far && distance(x, m) > fs.follow_distance;
+    if (far && separate && !classifier) {
+      classifier = true;
+      if (!update_feasibility(k, refit)) return std::nullopt;
+    }
+    if (far && separate) far = separated_by_failure(x, xb);
     if (far) chosen = i;
   }
   if (chosen)

@@ -138,6 +138,9 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "attempt's best (the attempt is held at a failure boundary); 0 = whether or not")
           .at_least(0)
           .at_most(1),
+      opt::boolean("follow_separated", &FailureModelSettings::follow_separated,
+                   "follow_probe: only a probe separated from the attempt's best by likely failure (P(success) below "
+                   "the exclusion threshold somewhere on the segment between them); false = distance alone"),
       opt::real("follow_memory", &FailureModelSettings::follow_memory,
                 "follow_probe: an attempt begun at a probe models every successful point except those within this "
                 "(max-norm, unit cube) of an earlier attempt's best; 0 = every point")
@@ -160,7 +163,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
-              "follow_distance: r, follow_block: r, follow_memory: r}");
+              "follow_distance: r, follow_block: r, follow_separated: bool, follow_memory: r}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

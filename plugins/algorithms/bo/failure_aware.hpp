@@ -110,6 +110,10 @@ struct FailureModelSettings {
   /// > 0: only while a failed trial lies within this distance (∞-norm) of the attempt's best point (the attempt is
   /// held at a failure boundary); 0 = whether or not.
   double follow_block = 0.05;
+  /// Only a probe separated from the attempt's best by likely failure: on the segment between them the classifier's
+  /// P(success) falls below the exclusion threshold somewhere (the other side of the failure region, not a farther
+  /// stretch of the same valley); false = distance alone.
+  bool follow_separated = true;
   /// The cost model of an attempt begun at a probe: every successful point except those within this distance
   /// (∞-norm) of an earlier attempt's best point (the blocked basin), the probe always; 0 = every point.
   double follow_memory = 0.1;

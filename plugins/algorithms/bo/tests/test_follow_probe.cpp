@@ -31,9 +31,10 @@ std::unique_ptr<Algorithm> make(const std::string& algorithm) {
 Observation ok(double x1, double x2, double y) { return Observation{Vec{{x1, x2}}, y, true, {}}; }
 Observation failed(double x1, double x2) { return Observation{Vec{{x1, x2}}, 0.0, false, {}}; }
 
-/// The history: a design of 6 (one failed; its best −0.2), then model-based trials descending into the basin at
-/// A = (0.8, 0.8) (best −1 at trial 11, the incumbent; a failed trial 0.03 from it at trial 8), the probe at
-/// trial 12 and one more trial next to A. Costs range over [−1, 1],
+/// The history: a design of 6 (its best −0.2; a failure at (0.5, 0.5)), then model-based trials descending into the
+/// basin at A = (0.8, 0.8) (best −1 at trial 11, the incumbent; a failed trial 0.03 from it at trial 8, another at
+/// (0.4, 0.4) at trial 10: the failure zone across the diagonal), the probe at trial 12 and one more trial next to
+/// A. Without `design_failure` no trial fails. Costs range over [−1, 1],
 /// so follow_probe: 0.3 admits probes costing at most −1 + 0.3 · 2 = −0.4.
 struct History {
   std::vector<Observation> obs;
@@ -42,15 +43,15 @@ struct History {
 
 History history(const Vec& probe, double probe_cost, bool design_failure = true, bool best_in_design = false) {
   History h;
-  h.obs = {ok(0.1, 0.9, 1.0), ok(0.9, 0.1, 0.5), ok(0.5, 0.5, 0.3), ok(0.3, 0.7, best_in_design ? -1.1 : -0.2),
+  h.obs = {ok(0.1, 0.9, 1.0), ok(0.9, 0.1, 0.5), ok(0.45, 0.05, 0.3), ok(0.3, 0.7, best_in_design ? -1.1 : -0.2),
            ok(0.7, 0.3, 0.4)};
-  h.obs.push_back(design_failure ? failed(0.45, 0.05) : ok(0.45, 0.05, 0.6));
+  h.obs.push_back(design_failure ? failed(0.5, 0.5) : ok(0.5, 0.5, 0.6));
   // The first attempt's model-based trials: into A's basin.
   h.obs.push_back(ok(0.7, 0.7, -0.5));
   h.obs.push_back(ok(0.75, 0.8, -0.8));
   h.obs.push_back(failed(0.83, 0.83));  // beside the best point to come: the attempt is held at a failure
   h.obs.push_back(ok(0.8, 0.75, -0.9));
-  h.obs.push_back(ok(0.85, 0.85, -0.7));
+  h.obs.push_back(design_failure ? failed(0.4, 0.4) : ok(0.4, 0.4, 0.2));  // the failure zone between A and B
   h.obs.push_back(ok(0.8, 0.8, -1.0));
   h.obs.push_back(Observation{probe, probe_cost, true, {}});
   h.obs.push_back(ok(0.82, 0.79, -0.95));
@@ -117,9 +118,11 @@ TEST_CASE("follow_probe: no new attempt when one condition fails") {
       {"the probe lies within follow_distance (0.25) of the attempt's best", kFollow, history(Vec{{0.6, 0.56}}, -0.85)},
       {"no trial has failed", kFollow, [&] {
          History g = history(probe, -0.85, false);
-         g.obs[8] = ok(0.6, 0.9, 0.0);
+         g.obs[8] = ok(0.83, 0.83, 0.0);
          return g;
        }()},
+      {"the probe is not separated from the attempt's best by likely failure (the same side of the zone)", kFollow,
+       history(Vec{{0.95, 0.4}}, -0.85)},
       {"no failed trial within follow_block (0.05) of the attempt's best", kFollow, [&] {
          History g = history(probe, -0.85);
          g.obs[8] = failed(0.6, 0.95);
@@ -136,6 +139,11 @@ TEST_CASE("follow_probe: no new attempt when one condition fails") {
     CHECK(o.region.integer("restarts") == 0);
     CHECK_FALSE(o.region.has("anchor"));
   }
+  // The same-side probe is followed by distance alone (follow_separated: false): the separation test is what held
+  // it back above.
+  CHECK(ask_after("{type: bo, initial_points: 6, failure_model: {follow_probe: 0.3, follow_separated: false}}",
+                  history(Vec{{0.95, 0.4}}, -0.85))
+            .state.has("follow_anchor"));
   // The incumbent found by the design (not by the attempt's own search) and no earlier attempt: the attempt has not
   // settled in a basin, so it is not left for the probe.
   const Outcome design = ask_after(kFollow, history(probe, -0.85, true, true));
