@@ -78,8 +78,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
                                                           double level) const;
   /// failure_model.follow_probe (bo_follow.cpp): the successful point to begin a new attempt at, if any.
   std::optional<Index> probe_to_follow(Index k, const Dataset& data, bool refit);
-  /// Whether P(success) falls below the exclusion threshold somewhere on the segment from a to b (the fitted
-  /// classifier; 64 equal steps).
+  /// Whether a failed trial lies beside the segment from a to b (within follow_block of a point strictly between the
+  /// ends) or P(success) falls below the exclusion threshold somewhere on it (the fitted classifier; 64 steps).
   bool separated_by_failure(const Vec& a, const Vec& b) const;
   /// Ends the attempt and begins one anchored at data point `probe` (the trust region's anchor), without a design;
   /// false (nothing changed but, possibly, the region) if the region would not restart.

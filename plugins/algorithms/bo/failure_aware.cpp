@@ -139,11 +139,17 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
           .at_least(0)
           .at_most(1),
       opt::boolean("follow_separated", &FailureModelSettings::follow_separated,
-                   "follow_probe: only a probe separated from the attempt's best by likely failure (P(success) below "
-                   "the exclusion threshold somewhere on the segment between them); false = distance alone"),
+                   "follow_probe: only a probe separated from the attempt's best by failure (a failed trial within "
+                   "follow_block of the segment between them, or P(success) below the exclusion threshold somewhere "
+                   "on it); false = distance alone"),
+      opt::integer("follow_points", &FailureModelSettings::follow_points,
+                   "follow_probe: an attempt begun at a probe models its own points and the probe's this many nearest "
+                   "successful points (the probe included; -1 = restart_points); 0 = every point but those within "
+                   "follow_memory of an earlier attempt's best")
+          .at_least(-1),
       opt::real("follow_memory", &FailureModelSettings::follow_memory,
-                "follow_probe: an attempt begun at a probe models every successful point except those within this "
-                "(max-norm, unit cube) of an earlier attempt's best; 0 = every point")
+                "follow_probe with follow_points: 0: an attempt begun at a probe models every successful point except "
+                "those within this (max-norm, unit cube) of an earlier attempt's best; 0 = every point")
           .at_least(0)
           .at_most(1),
   };
@@ -163,7 +169,8 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
-              "follow_distance: r, follow_block: r, follow_separated: bool, follow_memory: r}");
+              "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
+              "follow_memory: r}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

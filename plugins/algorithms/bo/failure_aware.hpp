@@ -110,12 +110,17 @@ struct FailureModelSettings {
   /// > 0: only while a failed trial lies within this distance (∞-norm) of the attempt's best point (the attempt is
   /// held at a failure boundary); 0 = whether or not.
   double follow_block = 0.05;
-  /// Only a probe separated from the attempt's best by likely failure: on the segment between them the classifier's
-  /// P(success) falls below the exclusion threshold somewhere (the other side of the failure region, not a farther
-  /// stretch of the same valley); false = distance alone.
+  /// Only a probe separated from the attempt's best by failure: a failed trial lies within follow_block of the segment
+  /// between them (strictly between the ends), or the classifier's P(success) falls below the exclusion threshold
+  /// somewhere on it (the other side of the failure region, not a farther stretch of the same valley); false =
+  /// distance alone.
   bool follow_separated = true;
-  /// The cost model of an attempt begun at a probe: every successful point except those within this distance
-  /// (∞-norm) of an earlier attempt's best point (the blocked basin), the probe always; 0 = every point.
+  /// The cost model of an attempt begun at a probe: its own points and the probe's follow_points nearest successful
+  /// points (∞-norm, the probe included; -1 = a fresh start's design size), a model of the probe's surroundings as
+  /// a design would give. follow_points: 0 = instead every successful point except those within follow_memory
+  /// (∞-norm) of an earlier attempt's best point (the basin left), the probe always (0 = every point): with it the
+  /// blocked side's costs set EI's reference and the acquisition around the probe was flat (Hartmann-3 seed 1).
+  int follow_points = -1;
   double follow_memory = 0.1;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
