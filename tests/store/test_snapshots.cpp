@@ -50,6 +50,12 @@ const Case kCases[] = {
      "{type: bo, initial_points: 4, failure_model: {feasible_region: both, feasible_shrink: halve, feasible_margin: 1, "
      "boundary_jump: edge}}",
      16},
+    // fail15: a new attempt anchored at a probe (bo's follow_anchor, the trust region's anchor; the rule acts at
+    // trial 9 here) is state too.
+    {"bo_follow_probe",
+     "{type: bo, initial_points: 4, failure_model: {follow_probe: 1, follow_distance: 0.1, follow_block: 0, "
+     "follow_separated: false}}",
+     16},
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
     {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},

@@ -294,6 +294,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "restart";
     return s;
   }
+  if (fresh_region && !refining_ && !final_stretch && refit)
+    if (const std::optional<Index> probe = probe_to_follow(k, data, refit)) {
+      Rng follow_rng = rng_.stream(kOptimize, uk * 2 + 1);
+      follow_probe(k, *probe, data, follow_rng);
+    }
   const Dataset chosen = model_data_of(data);
   const Dataset* model_data = &chosen;
   const auto t_fit = std::chrono::steady_clock::now();

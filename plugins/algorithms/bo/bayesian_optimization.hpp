@@ -76,6 +76,18 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// and the distance along it to the blocking failed trial.
   std::optional<std::pair<Vec, double>> blocked_direction(Index k, const Vec& x, const Dataset& data,
                                                           double level) const;
+  /// failure_model.follow_probe (bo_follow.cpp): the successful point to begin a new attempt at, if any.
+  std::optional<Index> probe_to_follow(Index k, const Dataset& data, bool refit);
+  /// Whether a failed trial lies beside the segment from a to b (within follow_block of a point strictly between the
+  /// ends) or P(success) falls below the exclusion threshold somewhere on it (the fitted classifier; 64 steps).
+  bool separated_by_failure(const Vec& a, const Vec& b) const;
+  /// Ends the attempt and begins one anchored at data point `probe` (the trust region's anchor), without a design;
+  /// false (nothing changed but, possibly, the region) if the region would not restart.
+  bool follow_probe(Index k, Index probe, const Dataset& data, Rng& region_rng);
+  /// The data index of the current attempt's first model-based point (after its design's successes).
+  Index attempt_model_from(const Dataset& data) const;
+  /// The data point the current attempt began at (follow_probe), -1 for an attempt with a design.
+  Index follow_anchor_ = -1;
   /// failure_model.boundary_jump: the attempt best points from which the far side was probed.
   std::vector<Vec> jumped_;
   /// The best successful point of the current attempt (since the last fresh start).

@@ -11,6 +11,7 @@
 #include <limits>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "bo_streams.hpp"
 #include "varbo/errors.hpp"
@@ -26,6 +27,7 @@ void BayesianOptimization::begin_fresh_attempt(Index k, int fresh_starts, const 
   fresh_trial_ = k;
   fresh_from_ = data.size();
   attempt_starts_.push_back(fresh_from_);
+  follow_anchor_ = -1;  // an attempt with a design (follow_probe sets its anchor after this)
 }
 
 Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
@@ -140,6 +142,40 @@ Dataset BayesianOptimization::model_data_of(const Dataset& data) const {
   if (refining_ && refine_attempt_model_) {
     Dataset refined = refinement_data(data);
     if (refined.size() >= 2) return refined;
+  }
+  if (fresh_starts_ > 0 && !refining_ && follow_anchor_ >= 0 && follow_anchor_ < data.size()) {
+    // failure_model.follow_probe (session fail15): an attempt begun at a probe has no design of its own; its model
+    // sees every point but those next to an earlier attempt's best (the basin it leaves), and the probe.
+    const int n = failure_settings_.follow_points < 0 ? static_cast<int>(restart_points_) : failure_settings_.follow_points;
+    Dataset local = Dataset::empty(dim_);
+    if (n > 0) {
+      // The probe's n nearest successful points (ties by index) and the attempt's own: what a design around the
+      // probe would have told the model, without spending trials on it.
+      const Vec probe = data.X.row(follow_anchor_).transpose();
+      std::vector<std::pair<double, Index>> by_distance;
+      for (Index i = 0; i < std::min(fresh_from_, data.size()); ++i)
+        by_distance.emplace_back((data.X.row(i).transpose() - probe).lpNorm<Eigen::Infinity>(), i);
+      const auto count = std::min<std::size_t>(static_cast<std::size_t>(n), by_distance.size());
+      std::partial_sort(by_distance.begin(), by_distance.begin() + static_cast<std::ptrdiff_t>(count), by_distance.end());
+      std::vector<Index> rows;
+      for (std::size_t j = 0; j < count; ++j) rows.push_back(by_distance[j].second);
+      std::sort(rows.begin(), rows.end());  // in the data's order
+      for (const Index i : rows) local.add(data.X.row(i).transpose(), data.y(i));
+      for (Index i = fresh_from_; i < data.size(); ++i) local.add(data.X.row(i).transpose(), data.y(i));
+      if (local.size() >= 2) return local;
+    }
+    const double memory = failure_settings_.follow_memory;
+    const std::vector<Vec> minima = earlier_minima();
+    local = Dataset::empty(dim_);
+    for (Index i = 0; i < data.size(); ++i) {
+      bool keep = i == follow_anchor_ || i >= fresh_from_ || !(memory > 0);
+      if (!keep) {
+        keep = true;
+        for (const Vec& m : minima) keep = keep && (data.X.row(i).transpose() - m).lpNorm<Eigen::Infinity>() > memory;
+      }
+      if (keep) local.add(data.X.row(i).transpose(), data.y(i));
+    }
+    if (local.size() >= 2) return local;
   }
   if (fresh_starts_ > 0 && !refining_ && data.size() >= fresh_from_ + 2) {
     Dataset local;

@@ -110,7 +110,9 @@ const OptionSet<BoSettings>& bo_options() {
                 "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
                 "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
                 "boundary_reach: 0.05, boundary_tabu: 0.05, feasible_region: off, feasible_shrink: count, feasible_margin: "
-                "0.02, feasible_after: 1, attempt_memory: 0, boundary_jump: off}; the "
+                "0.02, feasible_after: 1, attempt_memory: 0, boundary_jump: off, follow_probe: 0, follow_distance: "
+                "0.25, follow_block: 0.05, follow_separated: true, follow_points: "
+                "-1, follow_memory: 0.1}; the "
                 "acquisition is weighted by P(success | θ) from a "
                 "GP classifier of successes and failures and θ with P < min_probability are never suggested "
                 "(docs/failures.md)"),

@@ -185,6 +185,9 @@ Index BayesianOptimization::attempt_best(const Dataset& data) const {
   Index best = from;
   for (Index i = from; i < data.size(); ++i)
     if (data.y(i) < data.y(best)) best = i;
+  // An attempt begun at a probe (follow_probe): the probe is one of its points.
+  if (follow_anchor_ >= 0 && follow_anchor_ < from && (best >= data.size() || data.y(follow_anchor_) <= data.y(best)))
+    best = follow_anchor_;
   return best;
 }
 

@@ -65,6 +65,7 @@ std::optional<std::string> BayesianOptimization::save_state() const {
       limited(static_cast<Index>(i)) = static_cast<double>(limited_trials_[i]);
     m.put("limited_trials", limited);
   }
+  if (follow_anchor_ >= 0) m.put_int("follow_anchor", follow_anchor_);  // follow_probe (absent without it)
   if (failure_settings_.feasible_region != "off") m.put_int("region_counted_to", region_counted_to_);
   m.put("surrogate", surrogate->save_state());
   save_if_stateful(m, "region", region_.get());
@@ -112,6 +113,9 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
   limited_trials_.clear();
   if (m.has("limited_trials"))
     for (const double v : m.vec("limited_trials")) limited_trials_.push_back(static_cast<Index>(v));
+  follow_anchor_ = m.has("follow_anchor") ? static_cast<Index>(m.integer("follow_anchor")) : -1;
+  if (follow_anchor_ < -1 || follow_anchor_ >= data_.size())
+    throw InputError("bo state: 'follow_anchor' is not a successful observation");
   region_counted_to_ = m.has("region_counted_to") ? static_cast<Index>(m.integer("region_counted_to")) : 0;
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");

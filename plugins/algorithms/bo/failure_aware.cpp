@@ -122,6 +122,36 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                   "the cost model's descent (boundary_restart's test) probes once the far side of the failure zone "
                   "along that descent (far: the first point past it with P(success) above the exclusion threshold; "
                   "edge: also the box's face where the ray leaves the box with P(success) rising again); off = never"),
+      opt::real("follow_probe", &FailureModelSettings::follow_probe,
+                "> 0: once a trial has failed, a successful trial farther than follow_distance from the current "
+                "attempt's best and every earlier attempt's best, costing at most the incumbent's cost + this × the "
+                "range of the costs, becomes the centre of a new attempt (no new design) while the current attempt "
+                "sits in a known basin; 0 = off")
+          .at_least(0),
+      opt::real("follow_distance", &FailureModelSettings::follow_distance,
+                "follow_probe: how far (max-norm, unit cube) a probe must lie from the attempt's best and every earlier "
+                "attempt's best to count as another basin")
+          .above(0)
+          .at_most(1),
+      opt::real("follow_block", &FailureModelSettings::follow_block,
+                "follow_probe: > 0: only while a failed trial lies within this (max-norm, unit cube) of the current "
+                "attempt's best (the attempt is held at a failure boundary); 0 = whether or not")
+          .at_least(0)
+          .at_most(1),
+      opt::boolean("follow_separated", &FailureModelSettings::follow_separated,
+                   "follow_probe: only a probe separated from the attempt's best by failure (a failed trial within "
+                   "follow_block of the segment between them, or P(success) below the exclusion threshold somewhere "
+                   "on it); false = distance alone"),
+      opt::integer("follow_points", &FailureModelSettings::follow_points,
+                   "follow_probe: an attempt begun at a probe models its own points and the probe's this many nearest "
+                   "successful points (the probe included; -1 = restart_points); 0 = every point but those within "
+                   "follow_memory of an earlier attempt's best")
+          .at_least(-1),
+      opt::real("follow_memory", &FailureModelSettings::follow_memory,
+                "follow_probe with follow_points: 0: an attempt begun at a probe models every successful point except "
+                "those within this (max-norm, unit cube) of an earlier attempt's best; 0 = every point")
+          .at_least(0)
+          .at_most(1),
   };
   return set;
 }
@@ -138,7 +168,9 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
-              "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge}");
+              "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
+              "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
+              "follow_memory: r}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

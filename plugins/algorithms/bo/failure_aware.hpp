@@ -99,6 +99,29 @@ struct FailureModelSettings {
   /// "off" (the default), "far", or "edge": as far, and where the ray leaves the box with P(success) rising again
   /// past the zone, the last point in the box.
   std::string boundary_jump = "off";
+  /// > 0 (session fail15): once a trial has failed, a successful trial of the current attempt that lies farther than
+  /// follow_distance (∞-norm, unit cube) from the attempt's best point and from every earlier attempt's best, and
+  /// costs at most the incumbent's cost + follow_probe × the range of the costs, becomes the centre of a new attempt
+  /// (a fresh start of the trust region without a new design) — while the current attempt sits in a known basin (it
+  /// holds the incumbent or its best lies within follow_distance of an earlier attempt's best) and at least
+  /// 2 × refine_last trials remain. 0 = off (the default).
+  double follow_probe = 0;
+  double follow_distance = 0.25;
+  /// > 0: only while a failed trial lies within this distance (∞-norm) of the attempt's best point (the attempt is
+  /// held at a failure boundary); 0 = whether or not.
+  double follow_block = 0.05;
+  /// Only a probe separated from the attempt's best by failure: a failed trial lies within follow_block of the segment
+  /// between them (strictly between the ends), or the classifier's P(success) falls below the exclusion threshold
+  /// somewhere on it (the other side of the failure region, not a farther stretch of the same valley); false =
+  /// distance alone.
+  bool follow_separated = true;
+  /// The cost model of an attempt begun at a probe: its own points and the probe's follow_points nearest successful
+  /// points (∞-norm, the probe included; -1 = a fresh start's design size), a model of the probe's surroundings as
+  /// a design would give. follow_points: 0 = instead every successful point except those within follow_memory
+  /// (∞-norm) of an earlier attempt's best point (the basin left), the probe always (0 = every point): with it the
+  /// blocked side's costs set EI's reference and the acquisition around the probe was flat (Hartmann-3 seed 1).
+  int follow_points = -1;
+  double follow_memory = 0.1;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -394,3 +394,46 @@ TEST_CASE("trust_region: forced halvings halve L each; a collapse restarts afres
   CHECK(tr.failures() == 0);
   CHECK(tr.length() == doctest::Approx(0.8));
 }
+
+TEST_CASE("trust_region: an anchor (session fail15) is a point of the fresh attempt: its centre while the best") {
+  // bo's follow_probe restarts the region and anchors the new attempt at a probe observed before the restart.
+  TrustRegionOptions o;
+  o.restart_center = "new_points";
+  o.failure_tolerance = 1;
+  TrustRegion tr(2, o);
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.9, 0.95).finished(), 1.0);  // the incumbent of all the data
+  observe(tr, data, (Vec(2) << 0.1, 0.2).finished(), 2.0);   // the probe (data index 1)
+  for (int k = 0; k < 7 && tr.restarts() == 0; ++k) observe(tr, data, (Vec(2) << 0.5, 0.1 * k).finished(), 5.0);
+  REQUIRE(tr.restarts() == 1);
+  CHECK(tr.anchor() == -1);
+  StateMap m = StateMap::parse(tr.save_state(), "test");
+  CHECK_FALSE(m.has("anchor"));  // absent without one: older states unchanged
+  m.put_int("anchor", 1);
+  tr.restore_state(m.text());
+  CHECK(tr.anchor() == 1);
+  // No point since the restart: the box is around the anchor, not the incumbent (0.9, 0.95).
+  Rng rng(0);
+  tr.update(nullptr, data, rng);
+  CHECK(tr.center() == (Vec(2) << 0.1, 0.2).finished());
+  // A worse new point: the anchor stays the centre, and the reference is the anchor's cost (2.0), so 1.9 later is a
+  // success although the incumbent of all the data is 1.0.
+  observe(tr, data, (Vec(2) << 0.15, 0.2).finished(), 3.0);
+  CHECK(tr.center() == (Vec(2) << 0.1, 0.2).finished());
+  CHECK(tr.successes() == 0);
+  observe(tr, data, (Vec(2) << 0.12, 0.22).finished(), 1.9);
+  CHECK(tr.successes() == 1);
+  CHECK(tr.center() == (Vec(2) << 0.12, 0.22).finished());
+  // The state carries the anchor; a restored region continues identically.
+  TrustRegion copy(2, o);
+  copy.restore_state(tr.save_state());
+  CHECK(copy.anchor() == 1);
+  // The next restart drops it.
+  for (int k = 0; k < 7 && tr.restarts() == 1; ++k) observe(tr, data, (Vec(2) << 0.7, 0.1 * k).finished(), 5.0);
+  REQUIRE(tr.restarts() == 2);
+  CHECK(tr.anchor() == -1);
+  CHECK_FALSE(StateMap::parse(tr.save_state(), "test").has("anchor"));
+  StateMap bad = StateMap::parse(tr.save_state(), "test");
+  bad.put_int("anchor", -3);
+  CHECK_THROWS_AS(copy.restore_state(bad.text()), InputError);
+}

@@ -41,15 +41,23 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   const int forced_failures = forced_failures_, forced_halvings = forced_halvings_;
   forced_failures_ = forced_halvings_ = 0;
   const bool forced = forced_failures > 0 || forced_halvings > 0;
+  // An anchor (bo's follow_probe) is a point of the current fresh attempt although it was observed before it.
+  const bool anchored = fresh && anchor_ >= 0 && anchor_ < from;
   if (from == data.size()) {
-    data.y.minCoeff(&arg);  // no point since the restart yet: the box is the restart box around the incumbent
+    // No point since the restart yet: the box is the restart box around the anchor, else the incumbent.
+    if (anchored) arg = anchor_;
+    else data.y.minCoeff(&arg);
     seen_ = data.size();
     center_ = data.X.row(arg).transpose();
     set_box();
     return;
   }
-  const double best = data.y.tail(data.size() - from).minCoeff(&arg);
+  double best = data.y.tail(data.size() - from).minCoeff(&arg);
   arg += from;
+  if (anchored && data.y(anchor_) <= best) {
+    best = data.y(anchor_);
+    arg = anchor_;
+  }
   if (seen_ == 0 || (fresh && restarts_ > 0 && seen_ == restart_at_)) {
     best_ = best;  // the first update (initial design, or the first point after a restart) sets the reference
   } else if (data.size() > seen_ || forced) {
@@ -100,6 +108,7 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
                restarts_, fresh ? "a fresh start: new design, model of the new points" : "L reset, data kept");
       length_ = fresh ? options_.length_init : options_.restart_length;
       successes_ = failures_ = stalls_ = 0;
+      anchor_ = -1;
       if (fresh) {
         restart_at_ = data.size();
         data.y.minCoeff(&arg);
@@ -133,6 +142,7 @@ bool TrustRegion::value_stall(const ValueStall& rule, double y, double best, con
 void TrustRegion::return_to_incumbent() {
   if (returned_) return;
   returned_ = true;
+  anchor_ = -1;
   if (restarts_ == 0) return;  // never left the incumbent
   // Refine the incumbent's basin in a small box; the next update re-centres it on the best of all the data and
   // sets the reference (seen_ = 0), as after the initial design.

@@ -90,6 +90,11 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   int forced_failures() const { return forced_failures_; }
   int forced_halvings() const { return forced_halvings_; }
   const Vec& center() const { return center_; }
+  /// An anchor (bo's failure_model.follow_probe, session fail15): the index of a data point from before the latest
+  /// fresh start that counts as a point of the new attempt (its centre while it is the attempt's best), so an
+  /// attempt can begin at a successful far probe without a new design. Set through the state (key `anchor`, absent
+  /// when there is none); the next restart or return_to_incumbent() drops it. -1 = none.
+  Index anchor() const { return anchor_; }
 
  private:
   void set_box();
@@ -107,6 +112,7 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   ValueStall value_stall_;
   int stalls_ = 0;  ///< consecutive stalls (see TrustRegionOptions::stall_distance)
   int forced_failures_ = 0, forced_halvings_ = 0;  ///< see forced_failures()
+  Index anchor_ = -1;  ///< see anchor()
 };
 
 }  // namespace varbo

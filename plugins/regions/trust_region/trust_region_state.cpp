@@ -18,6 +18,7 @@ std::string TrustRegion::save_state() const {
   m.put_int("stalls", stalls_);
   if (forced_failures_ > 0) m.put_int("forced_failures", forced_failures_);  // absent when 0: older states unchanged
   if (forced_halvings_ > 0) m.put_int("forced_halvings", forced_halvings_);
+  if (anchor_ >= 0) m.put_int("anchor", anchor_);  // absent without one: older states unchanged
   return m.text();
 }
 
@@ -37,6 +38,8 @@ void TrustRegion::restore_state(const std::string& text) {
   stalls_ = m.has("stalls") ? static_cast<int>(m.integer("stalls")) : 0;
   forced_failures_ = m.has("forced_failures") ? static_cast<int>(m.integer("forced_failures")) : 0;
   forced_halvings_ = m.has("forced_halvings") ? static_cast<int>(m.integer("forced_halvings")) : 0;
+  anchor_ = m.has("anchor") ? static_cast<Index>(m.integer("anchor")) : -1;
+  if (anchor_ < -1) throw InputError("trust_region state: negative anchor");
   if (forced_failures_ < 0 || forced_halvings_ < 0) throw InputError("trust_region state: negative forced failures");
   set_box();
 }

@@ -282,7 +282,11 @@ TEST_CASE("failure_model options are validated") {
                        "{type: bo, failure_model: {feasible_margin: -0.1}}",
                        "{type: bo, failure_model: {feasible_after: 0}}",
                        "{type: bo, failure_model: {attempt_memory: 1.5}}",
-                       "{type: bo, failure_model: {boundary_jump: true}}"};
+                       "{type: bo, failure_model: {boundary_jump: true}}",
+                       "{type: bo, failure_model: {follow_probe: -0.1}}",
+                       "{type: bo, failure_model: {follow_distance: 0}}",
+                       "{type: bo, failure_model: {follow_memory: 1.5}}",
+                       "{type: bo, failure_model: {follow_block: -0.1}}"};
   BuildContext ctx;
   ctx.registry = &test::registry();
   ctx.dim = 2;
@@ -319,7 +323,8 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       "{type: bo, failure_model: {incumbent_level: fixed}}",
       "{type: bo, failure_model: {feasible_region: both}}",
       "{type: bo, failure_model: {feasible_region: both, feasible_shrink: halve, feasible_margin: 1}}",
-      "{type: bo, failure_model: {attempt_memory: 0.1}}", "{type: bo, failure_model: {boundary_jump: edge}}"};
+      "{type: bo, failure_model: {attempt_memory: 0.1}}", "{type: bo, failure_model: {boundary_jump: edge}}",
+      "{type: bo, failure_model: {follow_probe: 1, follow_distance: 0.01, follow_block: 0}}"};
   const std::vector<Trial> plain = run("sv_plain", "{type: branin}", kBraninBox, "{type: bo}", 16, 1);
   for (const std::string& v : variants) {
     CAPTURE(v);
