@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "gp_surrogate.hpp"
 #include "hyperparameter_map.hpp"
@@ -38,6 +39,36 @@ BoundOption<GpSettings> prior_sd(std::string name, LogNormalPrior HyperPriors::*
           [key, prior](const Options& o, GpSettings& s) { (s.priors.*prior).sd = o.real(key); }};
 }
 
+/// `kernel_candidates`: ≥ 2 kernel components whose hyperparameters have the same names (the choice is then
+/// between equally many parameters, and the values of one warm-start the other), each with its noise floor.
+std::vector<KernelCandidate> read_candidates(const Options& o, const std::function<KernelMaker(const ResolvedComponent&)>& maker,
+                                             const GpSettings& s, const Registry& registry, Index dim) {
+  const ConfigNode list = o.node("kernel_candidates");
+  if (o.given("kernel")) list.fail("gp: give either kernel or kernel_candidates, not both");
+  if (!list.is_sequence() || list.size() < 2)
+    list.fail("gp: expected a list of at least two kernels, e.g. [matern52_ard, se_ard]");
+  std::vector<KernelCandidate> out;
+  std::vector<std::string> first_names;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const ConfigNode item = list.item(i);
+    const ResolvedComponent k = registry.resolve(Kind::Kernel, item);
+    KernelCandidate c;
+    c.name = k.info ? k.info->name : "kernel " + std::to_string(i);
+    c.make = maker(k);
+    c.min_noise_std = o.given("min_noise_std") ? s.min_noise_std
+                                               : default_min_noise_std(c.name, s.min_noise_std, s.max_noise_std);
+    std::vector<std::string> names;
+    const std::unique_ptr<Kernel> built = c.make(std::max<Index>(dim, 1));
+    for (const KernelParameter& p : built->parameters()) names.push_back(p.name);
+    if (i == 0) first_names = names;
+    if (names != first_names)
+      item.fail("gp: kernel_candidates must have the same hyperparameters; " + c.name + " has [" + join(names) +
+                "], " + out.front().name + " has [" + join(first_names) + "]");
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
 }  // namespace
 
 const OptionSet<GpSettings>& gp_options() {
@@ -47,6 +78,13 @@ const OptionSet<GpSettings>& gp_options() {
                      "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
                      "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
                      "lengthscales and amplitudes take the priors and bounds below"),
+      opt::node("kernel_candidates", "",
+                "instead of `kernel`: a list of ≥ 2 kernels with the same hyperparameter names, e.g. [matern52_ard, "
+                "se_ard]; each fit with all restarts fits every candidate (same restarts and random streams) and keeps "
+                "the one with the highest fit objective (log marginal likelihood + log hyperprior: with the same "
+                "hyperparameters no complexity penalty is needed); warm-only refits keep it. Each candidate has its "
+                "own default noise floor (min_noise_std). The choice is saved with the model's state and shown in "
+                "model.yaml's note and the log (docs/defaults.md, \"Kernel chosen by the data\")"),
       opt::integer("restarts", &S::restarts, "optimizer runs per fit (the first warm-started from the previous fit)")
           .at_least(1)
           .at_most(1000),
@@ -116,13 +154,17 @@ ComponentInfo gp_component() {
         if (!o.given("min_noise_std") && kernel.info)
           s.min_noise_std = default_min_noise_std(kernel.info->name, s.min_noise_std, s.max_noise_std);
         const std::uint64_t seed = ctx.seed;
-        s.kernel = [registry, kernel, seed](Index dim) {
-          BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)
-          c.registry = registry;
-          c.dim = dim;
-          c.seed = seed;
-          return registry->create<Kernel>(kernel, c);
+        const auto maker = [registry, seed](const ResolvedComponent& k) -> KernelMaker {
+          return [registry, k, seed](Index dim) {
+            BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)
+            c.registry = registry;
+            c.dim = dim;
+            c.seed = seed;
+            return registry->create<Kernel>(k, c);
+          };
         };
+        s.kernel = maker(kernel);
+        if (o.is_set("kernel_candidates")) s.kernel_candidates = read_candidates(o, maker, s, *registry, ctx.dim);
         if (ctx.dim > 0) s.kernel(ctx.dim);
         std::shared_ptr<const Optimizer> optimizer = ctx.registry->create<Optimizer>(o.component("fit_optimizer"), ctx);
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));
