@@ -5,6 +5,7 @@
 
 #include "gp_surrogate.hpp"
 #include "kernel_library.hpp"
+#include "varbo/config.hpp"
 #include "varbo/errors.hpp"
 #include "varbo_test.hpp"
 
@@ -195,4 +196,26 @@ TEST_CASE("kernel_candidates: bad lists are refused with their position") {
   fails_with("{type: gp, kernel_candidates: se_ard}", "at least two kernels");
   fails_with("{type: gp, kernel_candidates: [matern52_ard, linear]}", "the same hyperparameters");
   fails_with("{type: gp, kernel_candidates: [matern52_ard, rbf]}", "rbf");
+}
+
+TEST_CASE("the resolved configuration gives the same noise floors (min_noise_std is left out unless given)") {
+  // A study reopened from its stored configuration builds the gp from the resolved YAML, every default filled in;
+  // a declared min_noise_std default would come back as a given 1e-6 and replace se_ard's floor of 1e-7.
+  const auto floor_of = [](const Surrogate& s) {
+    const Box b = as_gp(s).log_box(2);
+    return std::exp(b.lower(b.dim() - 1));
+  };
+  BuildContext ctx;
+  ctx.dim = 2;
+  for (const std::string yaml : {"{type: gp, kernel: se_ard}", "{type: gp}", "{type: gp, min_noise_std: 1.0e-5}"}) {
+    CAPTURE(yaml);
+    const ResolvedComponent c = test::registry().resolve(Kind::Surrogate, ConfigNode::parse(yaml, "<test>"));
+    YAML::Emitter em;
+    em << c.resolved();
+    const std::string resolved = em.c_str();
+    CAPTURE(resolved);
+    CHECK((resolved.find("min_noise_std") != std::string::npos) == (yaml.find("min_noise_std") != std::string::npos));
+    CHECK(floor_of(*make(resolved, 2)) == floor_of(*test::registry().create<Surrogate>(c, ctx)));
+  }
+  CHECK(floor_of(*make("{type: gp, kernel: se_ard}", 2)) == doctest::Approx(kSeArdMinNoiseStd).epsilon(1e-12));
 }
