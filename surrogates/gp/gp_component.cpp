@@ -99,6 +99,10 @@ const OptionSet<GpSettings>& gp_options() {
                 "hyperparameters no complexity penalty is needed); warm-only refits keep it. Each candidate has its "
                 "own default noise floor (min_noise_std). The choice is saved with the model's state and shown in "
                 "model.yaml's note and the log (docs/defaults.md, \"Kernel chosen by the data\")"),
+      opt::real("kernel_choice_margin", &S::kernel_choice_margin,
+                "with kernel_candidates: the first candidate whose fit objective is within this margin (in nats) "
+                "of the best one is kept, so that the list is an order of preference (0: the best)")
+          .at_least(0),
       opt::integer("restarts", &S::restarts, "optimizer runs per fit (the first warm-started from the previous fit)")
           .at_least(1)
           .at_most(1000),

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -288,34 +289,42 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   Vec p;
   Index failed = 0;
   std::size_t chosen = previous;
-  double best_value = -std::numeric_limits<double>::infinity();
   std::string scores;  // "matern52_ard -12.3, se_ard -10.1": the fit objective of each candidate
+  // Per candidate the best restart's log-parameters and objective (−∞: every restart or the posterior failed).
+  std::vector<Vec> params;
+  std::vector<double> values;
   for (std::size_t c = choose ? 0 : previous; c < (choose ? n_cand : previous + 1); ++c) {
     if (choose) select_kernel(c);
     const Restarts<OptimizeResult> run = run_restarts_for(data, s, restarts, rng, base);
     failed += run.failed;
-    std::optional<Posterior> cand;
     double value = -std::numeric_limits<double>::infinity();
+    Vec x;
     if (run.best >= 0) {
       const OptimizeResult& r = run.results[static_cast<std::size_t>(run.best)];
-      cand = build(data, s, r.x);
-      value = r.value;
+      x = r.x;
+      if (build(data, s, x)) value = r.value;
     }
     if (choose)
       scores += fmt::format("{}{} {}", c == 0 ? "" : ", ", settings_.kernel_candidates[c].name,
-                            cand ? fmt::format("{:.6g}", value - static_cast<double>(n) * std::log(s.scale))
-                                 : std::string("failed"));  // in cost units, as FitReport::objective
-    // Strictly greater: a tie keeps the earlier candidate.
-    if (cand && (!post || value > best_value)) {
-      post = std::move(cand);
-      p = run.results[static_cast<std::size_t>(run.best)].x;
-      best_value = value;
-      chosen = c;
-    }
+                            std::isfinite(value) ? fmt::format("{:.6g}", value - static_cast<double>(n) * std::log(s.scale))
+                                                 : std::string("failed"));  // in cost units, as FitReport::objective
+    params.push_back(std::move(x));
+    values.push_back(value);
   }
+  // The first candidate within kernel_choice_margin of the best objective (margin 0: the best; a tie keeps the
+  // earlier one): a margin makes the list an order of preference.
+  const double best_value = *std::max_element(values.begin(), values.end());
+  std::optional<std::size_t> pick;
+  for (std::size_t i = 0; i < values.size() && !pick; ++i)
+    if (std::isfinite(values[i]) && values[i] >= best_value - settings_.kernel_choice_margin) pick = i;
+  if (pick) chosen = choose ? *pick : previous;
   // The fits of the candidates left the last one in place: back to the chosen one (or the previous one when
-  // all failed), with the current values as its warm start.
-  if (choose) select_kernel(post ? chosen : previous);
+  // all failed), with the current values as its warm start; its posterior rebuilt (build is deterministic).
+  if (choose) select_kernel(chosen);
+  if (pick) {
+    p = params[*pick];
+    post = build(data, s, p);
+  }
 
   FitReport rep;
   if (!post && !full) {

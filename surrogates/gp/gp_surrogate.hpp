@@ -56,6 +56,8 @@ struct GpSettings {
   /// fits every candidate and keeps the one with the highest fit objective (gp_kernel_choice.cpp); warm-only
   /// refits keep the chosen one. `kernel` and `min_noise_std` then follow the chosen candidate.
   std::vector<KernelCandidate> kernel_candidates;
+  /// The first candidate whose fit objective is within this of the best is chosen (0: the best).
+  double kernel_choice_margin = 0.0;
 };
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
