@@ -219,3 +219,26 @@ TEST_CASE("the resolved configuration gives the same noise floors (min_noise_std
   }
   CHECK(floor_of(*make("{type: gp, kernel: se_ard}", 2)) == doctest::Approx(kSeArdMinNoiseStd).epsilon(1e-12));
 }
+
+TEST_CASE("kernel_choice_margin: the first candidate within the margin of the best objective") {
+  // On the SE sample se_ard wins by ~30 nats (first test case): a margin below that still takes se_ard, one above it
+  // keeps the first listed candidate, with exactly the single matern52_ard fit's objective.
+  const Dataset data = smooth_se_sample(5);
+  Fits f = fit_all(data);
+  const double gap = f.se - f.matern;
+  REQUIRE(gap > 2.0);
+  for (const double margin : {0.5 * gap, 2.0 * gap}) {
+    CAPTURE(margin);
+    auto gp = make("{type: gp, kernel_candidates: [matern52_ard, se_ard], kernel_choice_margin: " +
+                       std::to_string(margin) + "}",
+                   2);
+    Rng rng(21);
+    const FitReport rep = gp->fit(data, rng);
+    REQUIRE(rep.ok);
+    const bool keeps_first = margin > gap;
+    CHECK(as_gp(*gp).kernel_choice() == (keeps_first ? 0u : 1u));
+    CHECK(rep.objective == doctest::Approx(keeps_first ? f.matern : f.se).epsilon(1e-12));
+  }
+  CHECK_THROWS_AS(make("{type: gp, kernel_candidates: [matern52_ard, se_ard], kernel_choice_margin: -1}", 2),
+                  ConfigError);
+}
