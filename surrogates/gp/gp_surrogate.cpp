@@ -302,7 +302,8 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     if (run.best >= 0) {
       const OptimizeResult& r = run.results[static_cast<std::size_t>(run.best)];
       x = r.x;
-      if (build(data, s, x)) value = r.value;
+      // Candidates whose posterior fails are out of the choice; a single kernel builds it once, below.
+      if (!choose || build(data, s, x)) value = r.value;
     }
     if (choose)
       scores += fmt::format("{}{} {}", c == 0 ? "" : ", ", settings_.kernel_candidates[c].name,
