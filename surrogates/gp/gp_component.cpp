@@ -6,6 +6,7 @@
 #include <cmath>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "gp_surrogate.hpp"
 #include "hyperparameter_map.hpp"
@@ -38,6 +39,50 @@ BoundOption<GpSettings> prior_sd(std::string name, LogNormalPrior HyperPriors::*
           [key, prior](const Options& o, GpSettings& s) { (s.priors.*prior).sd = o.real(key); }};
 }
 
+/// `kernel_candidates`: ≥ 2 kernel components whose hyperparameters have the same names (the choice is then
+/// between equally many parameters, and the values of one warm-start the other), each with its noise floor.
+std::vector<KernelCandidate> read_candidates(const Options& o, const std::function<KernelMaker(const ResolvedComponent&)>& maker,
+                                             const GpSettings& s, const Registry& registry, Index dim) {
+  const ConfigNode list = o.node("kernel_candidates");
+  // `kernel` is not refused beside the list: a stored study's resolved configuration lists it with its default.
+  if (!list.is_sequence() || list.size() < 2)
+    list.fail("gp: expected a list of at least two kernels, e.g. [matern52_ard, se_ard]");
+  std::vector<KernelCandidate> out;
+  std::vector<std::string> first_names;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const ConfigNode item = list.item(i);
+    const ResolvedComponent k = registry.resolve(Kind::Kernel, item);
+    KernelCandidate c;
+    c.name = k.info ? k.info->name : "kernel " + std::to_string(i);
+    c.make = maker(k);
+    c.min_noise_std = o.is_set("min_noise_std") ? s.min_noise_std
+                                                : default_min_noise_std(c.name, s.min_noise_std, s.max_noise_std);
+    std::vector<std::string> names;
+    const std::unique_ptr<Kernel> built = c.make(std::max<Index>(dim, 1));
+    for (const KernelParameter& p : built->parameters()) names.push_back(p.name);
+    if (i == 0) first_names = names;
+    if (names != first_names)
+      item.fail("gp: kernel_candidates must have the same hyperparameters; " + c.name + " has [" + join(names) +
+                "], " + out.front().name + " has [" + join(first_names) + "]");
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+/// min_noise_std has no declared default: the floor then depends on the kernel (default_min_noise_std), and
+/// an unset option stays out of the resolved configuration, so that a study reopened from its stored (resolved)
+/// configuration gets the floor of the original run, not the general 1e-6 as a given value.
+BoundOption<GpSettings> min_noise_std_option() {
+  OptionSpec spec = opt::real("min_noise_std", GpSettings{}.min_noise_std,
+                              "lower bound of the noise std, relative to std(y); when not given, by kernel: 1e-7 "
+                              "with se_ard (also as a kernel_candidates entry), 1e-6 otherwise")
+                        .above(0);
+  spec.default_yaml.clear();
+  return {std::move(spec), [](const Options& o, GpSettings& s) {
+            if (o.is_set("min_noise_std")) s.min_noise_std = o.real("min_noise_std");
+          }};
+}
+
 }  // namespace
 
 const OptionSet<GpSettings>& gp_options() {
@@ -47,6 +92,17 @@ const OptionSet<GpSettings>& gp_options() {
                      "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
                      "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
                      "lengthscales and amplitudes take the priors and bounds below"),
+      opt::node("kernel_candidates", "",
+                "instead of `kernel` (then ignored): a list of ≥ 2 kernels with the same hyperparameter names, e.g. [matern52_ard, "
+                "se_ard]; each fit with all restarts fits every candidate (same restarts and random streams) and keeps "
+                "the one with the highest fit objective (log marginal likelihood + log hyperprior: with the same "
+                "hyperparameters no complexity penalty is needed); warm-only refits keep it. Each candidate has its "
+                "own default noise floor (min_noise_std). The choice is saved with the model's state and shown in "
+                "model.yaml's note and the log (docs/defaults.md, \"Kernel chosen by the data\")"),
+      opt::real("kernel_choice_margin", &S::kernel_choice_margin,
+                "with kernel_candidates: the first candidate whose fit objective is within this margin (in nats) "
+                "of the best one is kept, so that the list is an order of preference (0: the best)")
+          .at_least(0),
       opt::integer("restarts", &S::restarts, "optimizer runs per fit (the first warm-started from the previous fit)")
           .at_least(1)
           .at_most(1000),
@@ -73,9 +129,7 @@ const OptionSet<GpSettings>& gp_options() {
       opt::real("max_lengthscale", &S::max_lengthscale, "upper bound of each lengthscale (unit cube)").above(0),
       opt::real("min_signal_std", &S::min_signal_std, "lower bound of the signal std, relative to std(y)").above(0),
       opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
-      opt::real("min_noise_std", &S::min_noise_std,
-                "lower bound of the noise std, relative to std(y) (when not given: 1e-7 with kernel: se_ard)")
-          .above(0),
+      min_noise_std_option(),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
       opt::choice("output_transform", "none", transforms::output_transform_names(),
                   transforms::output_transform_description()),
@@ -102,7 +156,7 @@ ComponentInfo gp_component() {
       Factory<Surrogate>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Surrogate> {
         check_range(o, "min_lengthscale", "max_lengthscale");
         check_range(o, "min_signal_std", "max_signal_std");
-        check_range(o, "min_noise_std", "max_noise_std");
+        if (o.is_set("min_noise_std")) check_range(o, "min_noise_std", "max_noise_std");
         GpSettings s = gp_options().read(o);
         if (ctx.registry == nullptr) throw std::logic_error("gp: BuildContext without registry");
         // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
@@ -113,16 +167,24 @@ ComponentInfo gp_component() {
         // Matérn's, then explains misfits of up to half the floor as noise (Hartmann-3: residuals 5e-7·std(y)
         // against Matérn's 9e-8), which caps the precision of its refinement; docs/defaults.md, "Why SE-ARD is
         // weaker".
-        if (!o.given("min_noise_std") && kernel.info)
+        if (!o.is_set("min_noise_std") && kernel.info)
           s.min_noise_std = default_min_noise_std(kernel.info->name, s.min_noise_std, s.max_noise_std);
+        // Without a given floor the general one (1e-6) may exceed a small max_noise_std.
+        if (!(s.min_noise_std < s.max_noise_std))
+          o.node("max_noise_std").fail("gp: expected max_noise_std > the noise floor " + std::to_string(s.min_noise_std) +
+                                       " (min_noise_std when not given)");
         const std::uint64_t seed = ctx.seed;
-        s.kernel = [registry, kernel, seed](Index dim) {
-          BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)
-          c.registry = registry;
-          c.dim = dim;
-          c.seed = seed;
-          return registry->create<Kernel>(kernel, c);
+        const auto maker = [registry, seed](const ResolvedComponent& k) -> KernelMaker {
+          return [registry, k, seed](Index dim) {
+            BuildContext c;  // a kernel needs its dimension (and the registry, for composites' terms)
+            c.registry = registry;
+            c.dim = dim;
+            c.seed = seed;
+            return registry->create<Kernel>(k, c);
+          };
         };
+        s.kernel = maker(kernel);
+        if (o.is_set("kernel_candidates")) s.kernel_candidates = read_candidates(o, maker, s, *registry, ctx.dim);
         if (ctx.dim > 0) s.kernel(ctx.dim);
         std::shared_ptr<const Optimizer> optimizer = ctx.registry->create<Optimizer>(o.component("fit_optimizer"), ctx);
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));

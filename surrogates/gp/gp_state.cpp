@@ -1,5 +1,5 @@
 // Exact snapshot of a GP (varbo/state.hpp): what the next fit warm-starts from (the kernel's log-values with their
-// given/fitted flags, the noise and mean), the full-fit counter, and the posterior as (data, log-parameters) —
+// given/fitted flags, the noise and mean), the full-fit counter, the chosen kernel_candidates entry, and the posterior as (data, log-parameters) —
 // rebuilt by the same deterministic build(), so predictions after a restore are bit-for-bit those before.
 #include "gp_surrogate.hpp"
 #include "varbo/errors.hpp"
@@ -18,6 +18,11 @@ std::string GpSurrogate::save_state() const {
   m.put("noise_known", noise_known_);
   m.put("mean_fixed", mean_fixed_);
   m.put_int("last_full_fit_n", last_full_fit_n_);
+  if (!settings_.kernel_candidates.empty()) {
+    // By index, with the name to refuse a snapshot of another candidate list.
+    m.put_int("kernel_choice", static_cast<long long>(choice_));
+    m.put("kernel_choice_name", settings_.kernel_candidates[choice_].name);
+  }
   if (posterior_ && data_) {
     m.put("posterior_params", posterior_->log_params);
     m.put("posterior_X", data_->X);
@@ -31,6 +36,19 @@ void GpSurrogate::restore_state(const std::string& text) {
   const auto d = static_cast<Index>(m.integer("dim"));
   posterior_.reset();
   data_.reset();
+  // The chosen kernel first: its form (and noise floor) is what the values below belong to.
+  const std::vector<KernelCandidate>& cands = settings_.kernel_candidates;
+  if (m.has("kernel_choice") != !cands.empty())
+    throw InputError(cands.empty() ? "gp state: saved by a gp with kernel_candidates; this gp has a single kernel"
+                                   : "gp state: saved by a gp with a single kernel; this gp has kernel_candidates");
+  if (!cands.empty()) {
+    const long long c = m.integer("kernel_choice");
+    const std::string name = m.str("kernel_choice_name");
+    if (c < 0 || static_cast<std::size_t>(c) >= cands.size() || cands[static_cast<std::size_t>(c)].name != name)
+      throw InputError("gp state: the saved kernel choice '" + name + "' is not entry " + std::to_string(c) +
+                       " of this gp's kernel_candidates");
+    select_kernel(static_cast<std::size_t>(c));
+  }
   ensure_dim(d);  // the kernel's form for this dimension; its values come next
   const Vec log = m.vec("kernel_log"), known = m.vec("kernel_known");
   if (log.size() != kernel_log_.size() || known.size() != kernel_log_.size())

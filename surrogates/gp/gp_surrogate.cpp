@@ -1,8 +1,12 @@
 #include "gp_surrogate.hpp"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "kernel_library.hpp"
 #include "varbo/config.hpp"
@@ -21,6 +25,10 @@ Vec clamp_to(const Box& box, const Vec& p) { return p.cwiseMax(box.lower).cwiseM
 GpSurrogate::GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const Optimizer> fit_optimizer)
     : dim_(dim), settings_(settings), optimizer_(std::move(fit_optimizer)) {
   if (!optimizer_) throw std::invalid_argument("GpSurrogate: a fit optimizer is required");
+  if (!settings_.kernel_candidates.empty()) {  // the first candidate until a fit chooses
+    settings_.kernel = settings_.kernel_candidates.front().make;
+    settings_.min_noise_std = settings_.kernel_candidates.front().min_noise_std;
+  }
   ensure_dim(dim);
 }
 
@@ -49,6 +57,28 @@ void GpSurrogate::ensure_dim(Index d) {
     const KernelParameter& p = kernel_->parameters()[static_cast<std::size_t>(j)];
     kernel_log_(j) = p.prior.mean;
     kernel_known_[static_cast<std::size_t>(j)] = !p.scales_with_output;
+  }
+}
+
+void GpSurrogate::select_kernel(std::size_t c) {
+  const std::vector<KernelCandidate>& cands = settings_.kernel_candidates;
+  if (c >= cands.size()) {
+    if (c == 0) return;  // no candidates: `kernel` alone
+    throw std::out_of_range("gp: kernel candidate out of range");
+  }
+  if (c == choice_ && kernel_) return;
+  settings_.kernel = cands[c].make;
+  settings_.min_noise_std = cands[c].min_noise_std;
+  choice_ = c;
+  // The candidates share their hyperparameter names (gp_component.cpp checks it), so the current values carry
+  // over as the new kernel's warm start.
+  const Vec values = kernel_log_;
+  const std::vector<char> known = kernel_known_;
+  kernel_.reset();
+  ensure_dim(dim_);
+  if (values.size() == kernel_log_.size()) {
+    kernel_log_ = values;
+    kernel_known_ = known;
   }
 }
 
@@ -176,12 +206,9 @@ FitReport GpSurrogate::condition(const Dataset& data) {
   return rep;
 }
 
-FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
-  const auto t0 = std::chrono::steady_clock::now();
-  ensure_dim(data.dim());
-  if (data.size() == 0) return condition(data);
+Restarts<OptimizeResult> GpSurrogate::run_restarts_for(const Dataset& data, const Standardization& s, Index restarts,
+                                                       const Rng& rng, std::uint64_t base) const {
   const Index d = data.dim(), n = data.size();
-  const Standardization s = standardization(data.y);
   const Box box = log_box(d);
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, mean_standardized(s));
   const LogPosterior objective(*kernel_, data.X, r, settings_.priors, box);
@@ -189,17 +216,6 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
 
   // Start 0: warm start from the current hyperparameters; the others drawn from the hyperpriors (or
   // uniformly in the log box when the priors are off), each from its own stream: thread-count independent.
-  // Between full fits only the warm start runs (issue 13: most restarts of a refit on one more point end in
-  // the optimum the warm start reaches); below kAlwaysFullFit points the hyperparameters still move a lot.
-  constexpr Index kAlwaysFullFit = 20;
-  bool kernel_known = true;
-  for (const char k : kernel_known_) kernel_known = kernel_known && k;
-  const bool warm_known = kernel_known && noise_known_ && posterior_.has_value();
-  const bool full = !warm_known || n <= kAlwaysFullFit || settings_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
-                    n < last_full_fit_n_ ||
-                    static_cast<double>(n) >= settings_.full_fit_growth * static_cast<double>(last_full_fit_n_);
-  const Index restarts = full ? std::max(1, settings_.restarts) : 1;
-  const std::uint64_t base = rng.next();
   std::vector<Rng> streams;
   const Index m = kernel_->num_params(), np = m + 1;
   Mat starts(restarts, np);
@@ -221,7 +237,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
 
   // Each start on its own stream (advanced above by the draw of its start), reduced in index order.
-  const Restarts<OptimizeResult> run = run_restarts<OptimizeResult>(
+  return run_restarts<OptimizeResult>(
       restarts, [&](Index k) { return streams[static_cast<std::size_t>(k)]; },
       [&](Index k, Rng& stream) {
         OptimizeResult res;
@@ -242,15 +258,76 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
         return res;
       },
       [](const OptimizeResult& res) { return res.success ? std::optional<double>(res.value) : std::nullopt; });
-  const Index best = run.best, failed = run.failed;
+}
 
-  FitReport rep;
+FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ensure_dim(data.dim());
+  if (data.size() == 0) return condition(data);
+  const Index n = data.size();
+  const Standardization s = standardization(data.y);
+
+  // Between full fits only the warm start runs (issue 13: most restarts of a refit on one more point end in
+  // the optimum the warm start reaches); below kAlwaysFullFit points the hyperparameters still move a lot.
+  constexpr Index kAlwaysFullFit = 20;
+  bool kernel_known = true;
+  for (const char k : kernel_known_) kernel_known = kernel_known && k;
+  const bool warm_known = kernel_known && noise_known_ && posterior_.has_value();
+  const bool full = !warm_known || n <= kAlwaysFullFit || settings_.full_fit_growth <= 1.0 || last_full_fit_n_ == 0 ||
+                    n < last_full_fit_n_ ||
+                    static_cast<double>(n) >= settings_.full_fit_growth * static_cast<double>(last_full_fit_n_);
+  const Index restarts = full ? std::max(1, settings_.restarts) : 1;
+  const std::uint64_t base = rng.next();
+
+  // With kernel_candidates a full fit fits each candidate (in order, from the same warm start and streams) and
+  // keeps the highest objective; a warm-only refit keeps the chosen kernel.
+  const std::size_t n_cand = settings_.kernel_candidates.size();
+  const bool choose = full && n_cand >= 2;
+  const std::size_t previous = choice_;
+  const bool first_choice = last_full_fit_n_ == 0;
   std::optional<Posterior> post;
   Vec p;
-  if (best >= 0) {
-    p = run.results[static_cast<std::size_t>(best)].x;
+  Index failed = 0;
+  std::size_t chosen = previous;
+  std::string scores;  // "matern52_ard -12.3, se_ard -10.1": the fit objective of each candidate
+  // Per candidate the best restart's log-parameters and objective (−∞: every restart or the posterior failed).
+  std::vector<Vec> params;
+  std::vector<double> values;
+  for (std::size_t c = choose ? 0 : previous; c < (choose ? n_cand : previous + 1); ++c) {
+    if (choose) select_kernel(c);
+    const Restarts<OptimizeResult> run = run_restarts_for(data, s, restarts, rng, base);
+    failed += run.failed;
+    double value = -std::numeric_limits<double>::infinity();
+    Vec x;
+    if (run.best >= 0) {
+      const OptimizeResult& r = run.results[static_cast<std::size_t>(run.best)];
+      x = r.x;
+      // Candidates whose posterior fails are out of the choice; a single kernel builds it once, below.
+      if (!choose || build(data, s, x)) value = r.value;
+    }
+    if (choose)
+      scores += fmt::format("{}{} {}", c == 0 ? "" : ", ", settings_.kernel_candidates[c].name,
+                            std::isfinite(value) ? fmt::format("{:.6g}", value - static_cast<double>(n) * std::log(s.scale))
+                                                 : std::string("failed"));  // in cost units, as FitReport::objective
+    params.push_back(std::move(x));
+    values.push_back(value);
+  }
+  // The first candidate within kernel_choice_margin of the best objective (margin 0: the best; a tie keeps the
+  // earlier one): a margin makes the list an order of preference.
+  const double best_value = *std::max_element(values.begin(), values.end());
+  std::optional<std::size_t> pick;
+  for (std::size_t i = 0; i < values.size() && !pick; ++i)
+    if (std::isfinite(values[i]) && values[i] >= best_value - settings_.kernel_choice_margin) pick = i;
+  if (pick) chosen = choose ? *pick : previous;
+  // The fits of the candidates left the last one in place: back to the chosen one (or the previous one when
+  // all failed), with the current values as its warm start; its posterior rebuilt (build is deterministic).
+  if (choose) select_kernel(chosen);
+  if (pick) {
+    p = params[*pick];
     post = build(data, s, p);
   }
+
+  FitReport rep;
   if (!post && !full) {
     // The warm start alone failed: a full fit before giving up.
     last_full_fit_n_ = 0;
@@ -263,6 +340,13 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     posterior_ = std::move(post);
     data_ = data;
     if (full) last_full_fit_n_ = n;
+    if (choose) {
+      const std::string& name = settings_.kernel_candidates[chosen].name;
+      const std::string note = "kernel " + name + " (fit objective: " + scores + ")";
+      rep.message = rep.message.empty() ? note : note + "; " + rep.message;
+      // To the log when the choice changes (and the first time); model.yaml's note has it at every full fit.
+      if (chosen != previous || first_choice) log_info("gp: N = {}: {}", n, note);
+    }
   } else {
     // Keep the last good hyperparameters; condition them on the new data when that still works.
     rep = condition(data);
@@ -271,7 +355,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
                   (rep.message.empty() ? std::string() : " (" + rep.message + ")");
     log_warn("gp: {}", rep.message);
   }
-  rep.restarts = static_cast<int>(restarts);
+  rep.restarts = static_cast<int>(restarts * (choose ? static_cast<Index>(n_cand) : 1));
   rep.restarts_failed = static_cast<int>(failed);
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return rep;

@@ -5,10 +5,13 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include "gp_likelihood.hpp"
 #include "varbo/kernel.hpp"
 #include "varbo/optimizer.hpp"
+#include "varbo/restarts.hpp"
 #include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
 
@@ -16,6 +19,14 @@ namespace varbo::gp {
 
 /// Builds the kernel for a dimension (the `kernel:` component; the surrogate learns its dimension from the data).
 using KernelMaker = std::function<std::unique_ptr<Kernel>(Index dim)>;
+
+/// One kernel of `kernel_candidates`: its maker, its name (for the report and the saved state) and the noise
+/// floor it is fitted with (each kernel keeps its own default floor, default_min_noise_std).
+struct KernelCandidate {
+  std::string name;
+  KernelMaker make;
+  double min_noise_std = 1e-6;
+};
 
 struct GpSettings {
   KernelMaker kernel;          ///< null: matern52_ard
@@ -41,6 +52,12 @@ struct GpSettings {
   // ~2e-5 (README); robust_cholesky's jitter keeps duplicated points factorizable.
   // The `gp` component lowers the floor to kSeArdMinNoiseStd for `kernel: se_ard` when min_noise_std is not given.
   double min_noise_std = 1e-6, max_noise_std = 2.0;
+  /// Empty: `kernel` alone. Otherwise (≥ 2 kernels with the same hyperparameter names) each fit with all restarts
+  /// fits every candidate and keeps the one with the highest fit objective (gp_kernel_choice.cpp); warm-only
+  /// refits keep the chosen one. `kernel` and `min_noise_std` then follow the chosen candidate.
+  std::vector<KernelCandidate> kernel_candidates;
+  /// The first candidate whose fit objective is within this of the best is chosen (0: the best).
+  double kernel_choice_margin = 0.0;
 };
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
@@ -65,6 +82,8 @@ class GpSurrogate final : public Surrogate, public ComponentState {
   /// Fit box in standardized log space: [kernel θ (log ℓ_1..D, log σ_f for ARD kernels), log σ_n].
   Box log_box(Index dim) const;
   const Kernel& kernel() const { return *kernel_; }
+  /// The chosen entry of settings().kernel_candidates (0 without candidates).
+  std::size_t kernel_choice() const { return choice_; }
   /// Current log-parameters in standardized units for data with standard deviation `y_scale`.
   Vec log_params(double y_scale) const;
 
@@ -95,6 +114,13 @@ class GpSurrogate final : public Surrogate, public ComponentState {
   void store_natural(const Vec& p, const Standardization& s);
   FitReport report_for(const Posterior& post, const Vec& p) const;
   void ensure_dim(Index d);
+  /// Makes candidate c the kernel (and its noise floor the fit's), keeping the current values as the warm start.
+  void select_kernel(std::size_t c);
+  /// The restarts of one fit of the current kernel: start 0 warm, the others from the hyperpriors, start k on
+  /// rng.stream(base, k) — the same streams for every candidate (common random numbers), so a candidate's fit
+  /// is exactly the fit a gp with that kernel alone makes from the same rng.
+  Restarts<OptimizeResult> run_restarts_for(const Dataset& data, const Standardization& s, Index restarts,
+                                            const Rng& rng, std::uint64_t base) const;
 
   Index dim_;
   GpSettings settings_;
@@ -113,6 +139,7 @@ class GpSurrogate final : public Surrogate, public ComponentState {
   std::optional<Posterior> posterior_;
   std::optional<Dataset> data_;
   Index last_full_fit_n_ = 0;  ///< N at the last fit with all restarts (0: none yet)
+  std::size_t choice_ = 0;     ///< index into settings_.kernel_candidates
 };
 
 }  // namespace varbo::gp

@@ -33,6 +33,9 @@ const Case kCases[] = {
     {"bo", "{type: bo, initial_points: 4}", 12},  // the defaults: trust_region, gp with full_fit_growth
     {"bo_box", "{type: bo, initial_points: 4, region: box}", 11},
     {"bo_vhgp", "{type: bo, initial_points: 4, surrogate: vhgp}", 10},  // vhgp_state.cpp
+    // kern15: the gp's kernel chosen among candidates at each full fit is state too (gp_state.cpp).
+    {"bo_kernel_candidates",
+     "{type: bo, initial_points: 4, surrogate: {type: gp, kernel_candidates: [matern52_ard, se_ard]}}", 12},
     // A trust region that collapses after two failures and restarts afresh (a new design, a model of the new
     // points): the fresh-start counters are part of the state.
     {"bo_fresh_start",

@@ -213,7 +213,8 @@ void BayesianOptimization::fit_model(Index k, const Dataset& data) {
   snapshot_.iteration = k;
   snapshot_.hyperparameters = surrogate_->hyperparameters();
   snapshot_.objective = rep.objective;
-  snapshot_.note = rep.ok ? "" : rep.message;
+  // A failed fit's reason, or what an ok fit reports (the gp's kernel choice with kernel_candidates, a jitter).
+  snapshot_.note = rep.message;
 }
 double BayesianOptimization::lie(const Vec& x) const {
   // Ginsbourger, Le Riche & Carraro 2010, "Kriging is well-suited to parallelize optimization", section 3:
