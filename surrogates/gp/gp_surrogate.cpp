@@ -195,6 +195,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     if (settings_.noise_test_tight && cap <= kNoNoiseBound) {
       priors.noise_std = {std::log(kTightNoiseMedian), kTightNoiseSd};
     } else if (std::isfinite(cap)) {
+      // A bound of 0 (exact replicates) puts the upper end on the floor: log(0) is kept out by the max.
       box.upper(last) = std::clamp(std::log(std::max(cap, 1e-300)), box.lower(last), box.upper(last));
     }
   }

@@ -21,7 +21,8 @@ struct NearPairNoiseBound {
 /// squared cost differences and q_m the (alpha/M)-quantile of χ²_m. With independent Gaussian noise σ each
 /// difference is N(δ_k, 2σ²), δ_k the cost's own change, so S_m / (2σ²) is a (noncentral) χ²_m and
 /// P(U_m < σ) ≤ alpha/M whatever the δ_k; the minimum over m is below σ with probability at most alpha
-/// (Bonferroni). Exact replicates of a deterministic cost give 0.
+/// (Bonferroni). Exact replicates of a deterministic cost give 0. Cost O(N² log N) for N points (every pair sorted),
+/// small beside a fit's O(N³) likelihood evaluations.
 NearPairNoiseBound near_pair_noise_bound(const Mat& X, const Vec& y, double alpha);
 
 }  // namespace varbo::gp
