@@ -131,6 +131,15 @@ const OptionSet<GpSettings>& gp_options() {
       opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
       min_noise_std_option(),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
+      opt::real("noise_test_level", &S::noise_test_level,
+                "> 0: before each fit the noise std is bounded by a one-sided test at this level on the cost "
+                "differences of the nearest pairs of points (a deterministic cost's near pairs rule out noise "
+                "that its structure would otherwise be fitted as); 0: off")
+          .at_least(0)
+          .below(1),
+      opt::boolean("noise_test_tight", &S::noise_test_tight,
+                   "with noise_test_level: when the data show no noise at all (bound ≤ 1e-5·std(y), e.g. exact "
+                   "replicates), fit under the tight noise prior LogNormal(1e-6, 1.5) instead of the cap"),
       opt::choice("output_transform", "none", transforms::output_transform_names(),
                   transforms::output_transform_description()),
       opt::node("hyperparameters", "",

@@ -9,6 +9,7 @@
 #include <string>
 
 #include "kernel_library.hpp"
+#include "noise_bound.hpp"
 #include "varbo/config.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -209,9 +210,22 @@ FitReport GpSurrogate::condition(const Dataset& data) {
 Restarts<OptimizeResult> GpSurrogate::run_restarts_for(const Dataset& data, const Standardization& s, Index restarts,
                                                        const Rng& rng, std::uint64_t base) const {
   const Index d = data.dim(), n = data.size();
-  const Box box = log_box(d);
+  Box box = log_box(d);
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, mean_standardized(s));
-  const LogPosterior objective(*kernel_, data.X, r, settings_.priors, box);
+  HyperPriors priors = settings_.priors;
+  if (settings_.noise_test_level > 0) {
+    // The data's own bound on the noise (standardized units, as the box): the noise mode cannot take what near
+    // pairs show to be structure (GpSettings::noise_test_level).
+    const double cap = near_pair_noise_bound(data.X, r, settings_.noise_test_level).bound;
+    const Index last = box.dim() - 1;
+    if (settings_.noise_test_tight && cap <= kNoNoiseBound) {
+      priors.noise_std = {std::log(kTightNoiseMedian), kTightNoiseSd};
+    } else if (std::isfinite(cap)) {
+      // A bound of 0 (exact replicates) puts the upper end on the floor: log(0) is kept out by the max.
+      box.upper(last) = std::clamp(std::log(std::max(cap, 1e-300)), box.lower(last), box.upper(last));
+    }
+  }
+  const LogPosterior objective(*kernel_, data.X, r, priors, box);
   const BoxRegion region(box);
 
   // Start 0: warm start from the current hyperparameters; the others drawn from the hyperpriors (or
@@ -226,7 +240,7 @@ Restarts<OptimizeResult> GpSurrogate::run_restarts_for(const Dataset& data, cons
       p = log_params(s.scale);
     } else {
       Rng& g = streams.back();
-      const HyperPriors& pr = settings_.priors;
+      const HyperPriors& pr = priors;
       for (Index j = 0; j < np; ++j) {
         const LogNormalPrior& prior =
             j < m ? kernel_->parameters()[static_cast<std::size_t>(j)].prior : pr.noise_std;

@@ -58,7 +58,22 @@ struct GpSettings {
   std::vector<KernelCandidate> kernel_candidates;
   /// The first candidate whose fit objective is within this of the best is chosen (0: the best).
   double kernel_choice_margin = 0.0;
+  /// > 0: before each fit, the noise std's upper bound is lowered to near_pair_noise_bound(X, y, this) (a
+  /// one-sided test at this level on the costs of the nearest pairs of points, noise_bound.hpp), so that a fit
+  /// cannot explain as noise what near pairs show is not noise (Ackley's ripples); real noise is capped below its
+  /// size with probability at most this level. 0: off.
+  double noise_test_level = 0.0;
+  /// With noise_test_level: when the bound shows no noise at all (≤ kNoNoiseBound·std(y), e.g. exact replicates of
+  /// a deterministic cost), fit under the tight noise prior kTightNoisePrior (session se13's, starts drawn from it)
+  /// instead of capping the noise at the bound; otherwise the cap as without it.
+  bool noise_test_tight = false;
 };
+
+/// noise_test_tight: the bound (relative to std(y)) below which the data show no noise; the threshold at which
+/// `bo` treats a model as deterministic (recommender.cpp).
+inline constexpr double kNoNoiseBound = 1e-5;
+/// noise_test_tight: LogNormal(log 1e-6, 1.5) on the noise std relative to std(y) (session se13's prior).
+inline constexpr double kTightNoiseMedian = 1e-6, kTightNoiseSd = 1.5;
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
 inline constexpr double kSeArdMinNoiseStd = 1e-7;

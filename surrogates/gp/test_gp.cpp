@@ -452,7 +452,9 @@ TEST_CASE("se_ard's default fit finds real noise (a tight noise prior with start
   const Dataset data = se_prior_sample(rng, 0.1);
   BuildContext ctx;
   ctx.dim = 2;
-  for (const char* yaml : {"{type: gp, kernel: se_ard}"}) {
+  // The near-pair noise test (session se15) must leave real noise to the fit.
+  for (const char* yaml : {"{type: gp, kernel: se_ard}", "{type: gp, kernel: se_ard, noise_test_level: 1.0e-3}",
+                           "{type: gp, kernel: se_ard, noise_test_level: 1.0e-3, noise_test_tight: true}"}) {
     CAPTURE(yaml);
     const auto gp = test::registry().create<Surrogate>(yaml, ctx);
     Rng fit_rng(8);

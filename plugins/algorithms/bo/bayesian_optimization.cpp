@@ -56,6 +56,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   restart_points_ =
       settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
   restart_away_ = settings.restart_design == "away";
+  replicate_design_ = settings.replicate_design;
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);
   feasibility_->set_ard(failure_settings_.lengthscales == "ard");
@@ -91,6 +92,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   design_ = initial_points_ > 0 ? design_sampler_->sample(BoxRegion(Box::unit(dim_)), initial_points_, drng)
                                 : Mat(0, dim_);
   if (ctx.initial_point && design_.rows() > 0) design_.row(0) = ctx.initial_point->transpose();
+  if (replicate_design_ && design_.rows() >= 2) design_.row(design_.rows() - 1) = design_.row(0);
   data_ = Dataset::empty(dim_);
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));

@@ -134,6 +134,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Index initial_points_ = 0;
   Index restart_points_ = 0;  ///< see BoSettings::restart_points
   bool restart_away_ = false;  ///< restart_design: away
+  bool replicate_design_ = false;  ///< the designs' last point repeats their first
   Index refit_every_ = 1;
   Mat design_;
   Dataset data_;             ///< successful observations

@@ -34,8 +34,8 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(fresh_starts_));
   const Mat design = restart_away_ ? design_away_from_minima(drng)
                                    : design_sampler_->sample(BoxRegion(Box::unit(dim_)), restart_points_, drng);
-  const Index row = k - fresh_trial_;
-  const Vec x = design.row(row).transpose();
+  const Index last = design.rows() - 1, row = k - fresh_trial_;
+  const Vec x = design.row(replicate_design_ && last >= 1 && row == last ? 0 : row).transpose();
   // A design point where failure is likely (the failure model of every trial so far) is replaced by a point where
   // success is likely: a new design must not repeat known failures (issue 11). The replacement is the likely
   // success farthest from the design's other likely successes and (restart_design: away) from the earlier

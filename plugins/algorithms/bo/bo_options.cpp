@@ -56,6 +56,9 @@ const OptionSet<BoSettings>& bo_options() {
       opt::boolean("refine_early", &BoSettings::refine_early,
                    "when fewer trials remain than a fresh start's design and the current attempt holds the incumbent "
                    "of all the data, the final refinement begins at once (else in the last refine_last trials)"),
+      opt::boolean("replicate_design", &BoSettings::replicate_design,
+                   "the last point of the initial design and of each fresh start's design repeats its first (an "
+                   "exact replicate: shows the surrogate whether the cost is noisy)"),
       opt::integer("restart_points", &BoSettings::restart_points,
                    "design size of each fresh start of the region (-1 = initial_points)")
           .at_least(-1),

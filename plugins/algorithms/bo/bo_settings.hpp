@@ -28,6 +28,10 @@ struct BoSettings {
   /// Begin the final refinement as soon as no later attempt could fit in the budget, when the current attempt holds
   /// the incumbent (session h6med): Hartmann-6's median 1.7e-06 → 6.4e-07, Branin, Hartmann-3, Ackley-5 unchanged.
   bool refine_early = true;
+  /// The last point of the initial design and of each fresh start's design repeats its first: an exact replicate,
+  /// so that a surrogate's test for noise on the data (gp's noise_test_level) sees from the start whether the cost
+  /// is deterministic (docs/defaults.md, "Session se15").
+  bool replicate_design = false;
   std::string refine_feasibility = "exclude";  ///< with failures, the refinement excludes (or weights by) P(fail)
   double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice
   BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;

@@ -277,3 +277,29 @@ TEST_CASE("bo: refine_early begins the refinement once no attempt could follow, 
   }
   CHECK(early > 0);  // the rule was exercised
 }
+
+TEST_CASE("bo: replicate_design repeats the first point of the initial design and of every fresh design, last") {
+  set_log_level(LogLevel::Error);
+  const Index budget = 30;
+  const std::vector<Trial> plain = run(kCollapsing, budget);
+  const std::vector<Trial> t =
+      run("{type: bo, replicate_design: true, initial_points: 3, refine_last: 4, region: {type: trust_region, "
+          "restart_center: new_points, failure_tolerance: 1, length_min: 0.3}}",
+          budget);
+  // The initial design: its first two points as without the option, the third a copy of the first.
+  CHECK(t[0].x == plain[0].x);
+  CHECK(t[1].x == plain[1].x);
+  CHECK(t[2].x == t[0].x);
+  CHECK((plain[2].x - plain[0].x).norm() > 1e-9);
+  // Every fresh design (3 "restart" trials in a row): the third is the first again, the second differs from both.
+  Index designs = 0;
+  for (Index k = 3; k + 2 < budget; ++k) {
+    // (A design cut short by the final refinement has no third point.)
+    if (t[k].phase != "restart" || t[k - 1].phase == "restart" || t[k + 2].phase != "restart") continue;
+    ++designs;
+    CAPTURE(k);
+    CHECK(t[k + 2].x == t[k].x);
+    CHECK((t[k + 1].x - t[k].x).norm() > 1e-9);
+  }
+  CHECK(designs >= 1);
+}
