@@ -20,10 +20,12 @@ void check_domain(const StudyConfig& config, const Domain& domain) {
   const Box& b = domain.box;
   for (Index i = 0; i < b.dim(); ++i) {
     const double lo = b.lower(i), hi = b.upper(i);
-    if (std::isfinite(lo) && std::isfinite(hi) && lo < hi && std::isfinite(hi - lo)) continue;
+    // lo == hi is a task's own business (a typed space's `fixed` parameter is such a dimension until the space
+    // replaces the box below); what no task may hand over is a bound or a width that is not finite.
+    if (std::isfinite(lo) && std::isfinite(hi) && lo <= hi && std::isfinite(hi - lo)) continue;
     const std::string name = i < static_cast<Index>(domain.names.size()) ? domain.names[i] : fmt::format("x{}", i + 1);
     config.task.source.fail(fmt::format(
-        "task '{}': the domain of {} is [{}, {}]; expected finite bounds lo < hi whose width hi - lo is finite "
+        "task '{}': the domain of {} is [{}, {}]; expected finite bounds lo <= hi whose width hi - lo is finite "
         "(at most about 1.8e308)",
         config.task.info->name, name, lo, hi));
   }
