@@ -196,11 +196,6 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     }
     case OptionType::String: {
       if (!n.is_scalar()) bad();
-      // Strings become paths, commands and file contents, where a NUL ends them: `output: "out\0x"` made the
-      // folder `out`. No setting holds one.
-      if (const auto at = n.scalar().find('\0'); at != std::string::npos)
-        n.fail(fmt::format("expected {} without NUL bytes, got a NUL (\\0) at offset {} of {}", s.expected(), at,
-                           shown(n)));
       return YAML::Node(n.scalar());
     }
     case OptionType::Choice: {
