@@ -19,8 +19,11 @@ namespace varbo::gp {
 namespace {
 
 void check_range(const Options& o, const std::string& lo, const std::string& hi) {
-  if (!(o.real(lo) < o.real(hi)))
-    o.node(hi).fail("gp: expected " + hi + " > " + lo + " (" + std::to_string(o.real(lo)) + ")");
+  if (o.real(lo) < o.real(hi)) return;
+  // Report at the key the user wrote: with only min_signal_std: 30 given, the culprit is not max's default 20.
+  const std::string& at = o.given(hi) || !o.given(lo) ? hi : lo;
+  o.node(at).fail(fmt::format("gp: expected {} < {}, got {} = {}{} and {} = {}{}", lo, hi, lo, o.real(lo),
+                              o.given(lo) ? "" : " (the default)", hi, o.real(hi), o.given(hi) ? "" : " (the default)"));
 }
 
 // The hyperpriors are stored as log-normal priors (log-median, sd of the log) in GpSettings::priors, two

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <memory>
+#include <vector>
 #include <cmath>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
@@ -26,6 +29,24 @@ bool parse_number(const std::string& text, double& out) {
   const std::optional<double> v = varbo::parse_decimal(text);  // decimal only: "0x10" is not 16
   if (v) out = *v;
   return v.has_value();
+}
+
+/// nlohmann::json keeps the last of two equal keys: {"cost": 1, "cost": 2} was recorded as 2, silently (a
+/// configuration with a key given twice is refused for the same reason). Notes the first repeated key, at any depth.
+nlohmann::json::parser_callback_t duplicate_key_finder(std::string& duplicate) {
+  auto seen = std::make_shared<std::vector<std::vector<std::string>>>();
+  return [seen, &duplicate](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+    using E = nlohmann::json::parse_event_t;
+    if (event == E::object_start) seen->emplace_back();
+    if (event == E::object_end && !seen->empty()) seen->pop_back();
+    if (event == E::key && !seen->empty() && parsed.is_string()) {
+      const std::string key = parsed.get<std::string>();
+      auto& keys = seen->back();
+      if (duplicate.empty() && std::find(keys.begin(), keys.end(), key) != keys.end()) duplicate = key;
+      keys.push_back(key);
+    }
+    return true;
+  };
 }
 
 std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
@@ -111,8 +132,16 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
       const std::size_t line_start = nl == std::string::npos ? 0 : nl + 1;
       const std::string before = trim(stdout_text.substr(line_start, brace - line_start));
       if (!before.empty()) continue;  // not at the start of a line: an inner object
-      const auto j = nlohmann::json::parse(stdout_text.substr(brace), nullptr, /*allow_exceptions=*/false);
-      if (!j.is_discarded()) return from_json(j, why);
+      std::string duplicate;
+      const auto j = nlohmann::json::parse(stdout_text.substr(brace), duplicate_key_finder(duplicate),
+                                           /*allow_exceptions=*/false);
+      if (j.is_discarded()) continue;
+      if (!duplicate.empty()) {
+        why = fmt::format("the JSON answer gives the key \"{}\" twice; which one is meant is unknown",
+                          abbreviate(duplicate, 512));
+        return std::nullopt;
+      }
+      return from_json(j, why);
     }
     why = fmt::format("the answer '{}' is neither a number nor a valid JSON object", abbreviate(last, 512));
     return std::nullopt;

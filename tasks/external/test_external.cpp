@@ -99,6 +99,18 @@ TEST_CASE("parse_answer") {
     CHECK(!parse_answer("{\"error\": \"solver diverged\"}\n", why));
     CHECK(contains(why, "solver diverged"));
   }
+  SUBCASE("a key given twice in one object is refused (nlohmann::json kept the last one)") {
+    CHECK(!parse_answer("{\"cost\": 1, \"cost\": 2}\n", why));
+    CHECK(contains(why, "\"cost\" twice"));
+    CHECK(!parse_answer("{\"cost\": 1, \"components\": {\"a\": 1, \"a\": 5}}\n", why));
+    CHECK(contains(why, "\"a\" twice"));
+    // The same name in two different objects is two keys, not a repetition.
+    auto a = parse_answer("{\"cost\": 1, \"components\": {\"cost\": 3}}\n", why);
+    REQUIRE(a);
+    CHECK(a->cost == 1);
+    REQUIRE(a->components.size() == 1);
+    CHECK(a->components[0].second == 3);
+  }
 }
 
 TEST_CASE("run_shell: stdin, stdout, stderr, status") {

@@ -186,6 +186,29 @@ TEST_CASE("an integer that does not fit its field is refused at its position") {
   CHECK(error_of("count: -1\n").find("c.yaml:1:8: key 'count': expected an integer in [0, inf)") == 0);
 }
 
+TEST_CASE("a check that fails on a default option points at the user's map; no value holds a NUL") {
+  const std::vector<OptionSpec> specs = {opt::real("lo", 1.0, "low"), opt::real("hi", 2.0, "high"),
+                                         opt::string("path", "", "a path")};
+  const ConfigNode file = ConfigNode::parse("owner:\n  lo: 5\n", "c.yaml");
+  const Options o = validate_options(file.child("owner"), specs, "x", nullptr);
+  CHECK(!o.given("hi"));
+  try {
+    o.node("hi").fail("expected hi > lo");
+    FAIL("no error");
+  } catch (const ConfigError& e) {
+    // The map that left `hi` out starts at line 2, column 3; before, "<default of x>:1:1".
+    CHECK(std::string(e.what()) == "c.yaml:2:3: key 'owner.hi': expected hi > lo");
+  }
+  CHECK(o.real("hi") == 2.0);  // the value is still the default's
+  std::string what;
+  try {
+    ConfigNode::parse("path: \"out\\0x\"\n", "c.yaml");
+  } catch (const ConfigError& e) {
+    what = e.what();
+  }
+  CHECK(what == "c.yaml:1:7: a NUL byte (\\0) at offset 3 of this value; no setting holds one");
+}
+
 TEST_CASE("a required bound option shows no default and must be given") {
   struct Cmd {
     std::string command = "true";

@@ -47,6 +47,16 @@ class ConfigNode {
   std::vector<std::string> keys() const;
   std::string scalar() const;  ///< the raw text of a scalar
 
+  /// The same value and key path, reported at `place`'s file:line:col: an option's default has no position of its
+  /// own ("<default of gp>:1:1" said nothing), so a check that fails on it points at the map that left it out.
+  ConfigNode reported_at(const ConfigNode& place) const {
+    ConfigNode out = *this;
+    out.file_ = place.file_;
+    out.mark_ = place.mark_;
+    out.has_mark_ = place.has_mark_;
+    return out;
+  }
+
   /// Throws ConfigError "file:line:col: key 'a.b.c': message".
   [[noreturn]] void fail(const std::string& message) const;
 

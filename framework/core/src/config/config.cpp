@@ -65,6 +65,11 @@ std::size_t invalid_utf8_at(const std::string& s) {
 /// stray byte. yaml-cpp passes such bytes through, so every key and value is checked (after yaml-cpp has decoded a
 /// UTF-16 file, which is fine).
 void check_utf8(const YAML::Node& n, const std::string& name) {
+  // A NUL is valid UTF-8 but ends a C string: `output: "out\0x"` made the folder `out`, `command: "echo 1\0…"` ran
+  // `echo 1`, a name or label came back cut from trials.csv. No setting holds one ("\0" or "\u0000" in quotes).
+  if (const std::size_t nul = n.Scalar().find('\0'); nul != std::string::npos)
+    throw ConfigError(fmt::format("{}: a NUL byte (\\0) at offset {} of this value; no setting holds one",
+                                  at(name, n.Mark()), nul));
   const std::size_t at_byte = invalid_utf8_at(n.Scalar());
   if (at_byte == std::string::npos) return;
   throw ConfigError(fmt::format("{}: byte 0x{:02X} (at offset {} of this value) is not UTF-8; save the file as UTF-8",

@@ -272,6 +272,9 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
       use = ConfigNode(YAML::Load(s.default_yaml),
                        std::make_shared<const std::string>("<default of " + owner + ">"),
                        node.path().empty() ? s.name : node.path() + "." + s.name);
+      // A check of two options (min_signal_std < max_signal_std) may fail on the default one: point at the
+      // user's map that left it out, not at "<default of gp>:1:1".
+      if (node.defined()) use = use.reported_at(node);
     } else if (s.required) {
       (node.is_map() ? node.child(s.name) : node)
           .fail(fmt::format("missing required key for {}: expected {}", owner, s.expected()));

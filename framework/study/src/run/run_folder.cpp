@@ -15,6 +15,7 @@
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace fs = std::filesystem;
 
@@ -76,7 +77,12 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   auto column = [&](const std::string& name) {
     for (std::size_t i = 0; i < header.size(); ++i)
       if (header[i] == name) return i;
-    throw InputError(fmt::format("{}: no column '{}' (header: {})", csv, name, join(header)));
+    // The header holds a name's control characters escaped (csv_text: a newline as the two characters "\n"), as
+    // it does a choice label's (SearchSpace::parse_value): names: ["a\nb"] ran, then `select`/`plot` said "no
+    // column 'a<newline>b'".
+    for (std::size_t i = 0; i < header.size(); ++i)
+      if (header[i] == printable(name)) return i;
+    throw InputError(fmt::format("{}: no column '{}' (header: {})", csv, printable(name), join(header)));
   };
   std::vector<std::size_t> xcols;
   for (const auto& n : run.names) xcols.push_back(column(n));

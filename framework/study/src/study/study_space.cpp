@@ -2,12 +2,36 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "varbo/errors.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo {
+
+namespace {
+
+/// Every model and sampler works in the unit cube, θ = lower + u·(upper − lower): a bound that is not finite or a
+/// width that overflows (`bounds: [-1e308, 1e308]` has width inf) made every θ inf or nan, and the first trial
+/// then could not be stored ("corrupt vector [null,null]", a half-made run folder). Any task's domain, a plugin's
+/// too, is checked here once, before anything is created.
+void check_domain(const StudyConfig& config, const Domain& domain) {
+  const Box& b = domain.box;
+  for (Index i = 0; i < b.dim(); ++i) {
+    const double lo = b.lower(i), hi = b.upper(i);
+    // lo == hi is a task's own business (a typed space's `fixed` parameter is such a dimension until the space
+    // replaces the box below); what no task may hand over is a bound or a width that is not finite.
+    if (std::isfinite(lo) && std::isfinite(hi) && lo <= hi && std::isfinite(hi - lo)) continue;
+    const std::string name = i < static_cast<Index>(domain.names.size()) ? domain.names[i] : fmt::format("x{}", i + 1);
+    config.task.source.fail(fmt::format(
+        "task '{}': the domain of {} is [{}, {}]; expected finite bounds lo <= hi whose width hi - lo is finite "
+        "(at most about 1.8e308)",
+        config.task.info->name, name, lo, hi));
+  }
+}
+
+}  // namespace
 
 /// The study's search space (docs/search_space.md): the declared `parameters:` (the task must take them), or
 /// the task's own typed space, or — with `constraints:` only — the task's box as real parameters; null for a
@@ -22,6 +46,7 @@ SharedSpace resolve_study_space(const StudyConfig& config, Task& task, Domain& d
     aware->set_search_space(config.parameters);
   }
   domain = task.domain();
+  check_domain(config, domain);
   SharedSpace space = aware ? aware->search_space() : nullptr;
   if (config.constraints.defined()) {
     SearchSpace s = space ? *space : SearchSpace::from_box(domain.box, domain.names);
