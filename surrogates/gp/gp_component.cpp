@@ -44,10 +44,11 @@ BoundOption<GpSettings> prior_sd(std::string name, LogNormalPrior HyperPriors::*
 
 /// `kernel_candidates`: ≥ 2 kernel components whose hyperparameters have the same names (the choice is then
 /// between equally many parameters, and the values of one warm-start the other), each with its noise floor.
-std::vector<KernelCandidate> read_candidates(const Options& o, const std::function<KernelMaker(const ResolvedComponent&)>& maker,
+std::vector<KernelCandidate> read_candidates(const ConfigNode& list, const Options& o,
+                                             const std::function<KernelMaker(const ResolvedComponent&)>& maker,
                                              const GpSettings& s, const Registry& registry, Index dim) {
-  const ConfigNode list = o.node("kernel_candidates");
-  // `kernel` is not refused beside the list: a stored study's resolved configuration lists it with its default.
+  // `kernel` is not refused beside the list: a study stored before `kernel: auto` lists `kernel: matern52_ard`
+  // (the default then) in its resolved configuration beside a given list.
   if (!list.is_sequence() || list.size() < 2)
     list.fail("gp: expected a list of at least two kernels, e.g. [matern52_ard, se_ard]");
   std::vector<KernelCandidate> out;
@@ -91,20 +92,25 @@ BoundOption<GpSettings> min_noise_std_option() {
 const OptionSet<GpSettings>& gp_options() {
   using S = GpSettings;
   static const OptionSet<GpSettings> set{
-      opt::component("kernel", Kind::Kernel, "matern52_ard",
-                     "covariance function (a kernel component: se_ard, matern12_ard, matern32_ard, matern52_ard, "
-                     "rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); its "
-                     "lengthscales and amplitudes take the priors and bounds below"),
+      opt::component("kernel", Kind::Kernel, kAutoKernel,
+                     "covariance function: `auto` (the kernel chosen by the data among kernel_candidates, by default "
+                     "[matern52_ard, se_ard]: Matérn-5/2 ARD unless SE-ARD fits kernel_choice_margin nats better) or a "
+                     "kernel component (se_ard, matern12_ard, matern32_ard, matern52_ard, rational_quadratic, linear, "
+                     "constant, white, {type: sum|product, terms: [...]}); its lengthscales and amplitudes take the "
+                     "priors and bounds below"),
       opt::node("kernel_candidates", "",
-                "instead of `kernel` (then ignored): a list of ≥ 2 kernels with the same hyperparameter names, e.g. [matern52_ard, "
-                "se_ard]; each fit with all restarts fits every candidate (same restarts and random streams) and keeps "
-                "the one with the highest fit objective (log marginal likelihood + log hyperprior: with the same "
-                "hyperparameters no complexity penalty is needed); warm-only refits keep it. Each candidate has its "
-                "own default noise floor (min_noise_std). The choice is saved with the model's state and shown in "
-                "model.yaml's note and the log (docs/defaults.md, \"Kernel chosen by the data\")"),
+                "the kernels `kernel: auto` chooses among (when given, also with any other `kernel`, which is then "
+                "ignored; when not given: [matern52_ard, se_ard]): ≥ 2 kernels with the same hyperparameter names; "
+                "each fit with all restarts fits every candidate (same restarts and random streams) and keeps "
+                "the first one whose fit objective (log marginal likelihood + log hyperprior: with the same "
+                "hyperparameters no complexity penalty is needed) is within kernel_choice_margin of the best; "
+                "warm-only refits keep it. Each candidate has its own default noise floor (min_noise_std). The "
+                "choice is saved with the model's state and shown in model.yaml's note and the log "
+                "(docs/defaults.md, \"Kernel chosen by the data\")"),
       opt::real("kernel_choice_margin", &S::kernel_choice_margin,
-                "with kernel_candidates: the first candidate whose fit objective is within this margin (in nats) "
-                "of the best one is kept, so that the list is an order of preference (0: the best)")
+                "with kernel auto or kernel_candidates: the first candidate whose fit objective is within this margin "
+                "(in nats) of the best one is kept, so that the list is an order of preference (0: the best; 3, a "
+                "Bayes factor of e^3 ≈ 20: a later candidate must fit clearly better)")
           .at_least(0),
       opt::integer("restarts", &S::restarts, "optimizer runs per fit (the first warm-started from the previous fit)")
           .at_least(1)
@@ -154,6 +160,23 @@ const OptionSet<GpSettings>& gp_options() {
   return set;
 }
 
+bool is_auto_kernel(const ResolvedComponent& kernel) { return kernel.info && kernel.info->name == kAutoKernel; }
+
+ComponentInfo auto_kernel_component() {
+  return make_component<Kernel>(
+      kAutoKernel,
+      "gp only: the kernel chosen by the data at each fit with all restarts, among the gp's kernel_candidates "
+      "(default [matern52_ard, se_ard]; Matérn-5/2 ARD unless SE-ARD's fit objective is kernel_choice_margin, "
+      "default 3, nats higher). The gp's default kernel",
+      {},
+      Factory<Kernel>([](const Options&, const BuildContext&) -> std::unique_ptr<Kernel> {
+        throw std::invalid_argument(
+            "'auto' is the gp's choice between kernels, not a kernel itself; give a kernel such as matern52_ard or "
+            "se_ard here");
+      }),
+      {"kernel"});
+}
+
 double default_min_noise_std(const std::string& kernel, double configured, double max_noise_std) {
   return kernel == "se_ard" ? std::min(kSeArdMinNoiseStd, max_noise_std) : configured;
 }
@@ -161,7 +184,7 @@ double default_min_noise_std(const std::string& kernel, double configured, doubl
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
       "gp",
-      "Gaussian process with constant mean, standardized costs, any `kernel` (default Matern-5/2 ARD) and "
+      "Gaussian process with constant mean, standardized costs, any `kernel` (default `auto`: Matern-5/2 ARD or SE-ARD, chosen by the data) and "
       "Gaussian noise. Hyperparameters maximize the log marginal likelihood plus independent log-normal "
       "hyperpriors (Kuindersma 2013, eq. 13), with parallel random restarts of `fit_optimizer`.",
       gp_options().specs(),
@@ -174,12 +197,13 @@ ComponentInfo gp_component() {
         // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
         const Registry* registry = ctx.registry;
         const ResolvedComponent kernel = o.component("kernel");
+        const bool choose_kernel = o.is_set("kernel_candidates") || is_auto_kernel(kernel);
         // The noise floor by kernel when not given: 1e-7·std(y) for se_ard, 1e-6 for the others. On noise-free
         // costs the fitted noise sits on the floor, and SE-ARD, whose prior cannot follow the data as closely as
         // Matérn's, then explains misfits of up to half the floor as noise (Hartmann-3: residuals 5e-7·std(y)
         // against Matérn's 9e-8), which caps the precision of its refinement; docs/defaults.md, "Why SE-ARD is
         // weaker".
-        if (!o.is_set("min_noise_std") && kernel.info)
+        if (!o.is_set("min_noise_std") && kernel.info && !choose_kernel)
           s.min_noise_std = default_min_noise_std(kernel.info->name, s.min_noise_std, s.max_noise_std);
         // Without a given floor the general one (1e-6) may exceed a small max_noise_std.
         if (!(s.min_noise_std < s.max_noise_std))
@@ -195,8 +219,15 @@ ComponentInfo gp_component() {
             return registry->create<Kernel>(k, c);
           };
         };
-        s.kernel = maker(kernel);
-        if (o.is_set("kernel_candidates")) s.kernel_candidates = read_candidates(o, maker, s, *registry, ctx.dim);
+        if (choose_kernel) {  // the first candidate until a fit chooses
+          const ConfigNode list = o.is_set("kernel_candidates")
+                                      ? o.node("kernel_candidates")
+                                      : ConfigNode::parse(kAutoCandidates, "<gp: kernel auto's candidates>");
+          s.kernel_candidates = read_candidates(list, o, maker, s, *registry, ctx.dim);
+          s.kernel = s.kernel_candidates.front().make;
+        } else {
+          s.kernel = maker(kernel);
+        }
         if (ctx.dim > 0) s.kernel(ctx.dim);
         std::shared_ptr<const Optimizer> optimizer = ctx.registry->create<Optimizer>(o.component("fit_optimizer"), ctx);
         auto gp = std::make_unique<GpSurrogate>(ctx.dim, s, std::move(optimizer));

@@ -8,6 +8,16 @@
 
 namespace varbo::gp {
 ComponentInfo gp_component();
+/// `auto`: the gp's default `kernel`, a name in the registry's kernels so that it validates, shows in
+/// `varbo plugins` and is written to config.resolved.yaml like any kernel; it builds no kernel itself (a gp with
+/// it chooses among kAutoCandidates at each full fit; any other user of a kernel gets a ConfigError).
+ComponentInfo auto_kernel_component();
+inline constexpr const char* kAutoKernel = "auto";
+/// What `kernel: auto` chooses among when kernel_candidates is not given: Matérn-5/2 first (with
+/// kernel_choice_margin 3 it is kept unless SE-ARD fits clearly better; docs/defaults.md, "Kernel chosen by the
+/// data").
+inline constexpr const char* kAutoCandidates = "[matern52_ard, se_ard]";
+bool is_auto_kernel(const ResolvedComponent& kernel);
 /// The options of `gp`; those with a GpSettings field are bound to it (the kernel and optimizer components,
 /// output_transform and hyperparameters are read by the factory).
 const OptionSet<GpSettings>& gp_options();

@@ -56,8 +56,9 @@ struct GpSettings {
   /// fits every candidate and keeps the one with the highest fit objective (gp_kernel_choice.cpp); warm-only
   /// refits keep the chosen one. `kernel` and `min_noise_std` then follow the chosen candidate.
   std::vector<KernelCandidate> kernel_candidates;
-  /// The first candidate whose fit objective is within this of the best is chosen (0: the best).
-  double kernel_choice_margin = 0.0;
+  /// The first candidate whose fit objective is within this of the best is chosen (0: the best; 3: `kernel: auto`
+  /// keeps Matérn-5/2 unless SE-ARD is e^3 ≈ 20 times more probable, docs/defaults.md).
+  double kernel_choice_margin = 3.0;
   /// > 0: before each fit, the noise std's upper bound is lowered to near_pair_noise_bound(X, y, this) (a
   /// one-sided test at this level on the costs of the nearest pairs of points, noise_bound.hpp), so that a fit
   /// cannot explain as noise what near pairs show is not noise (Ackley's ripples); real noise is capped below its

@@ -242,3 +242,48 @@ TEST_CASE("kernel_choice_margin: the first candidate within the margin of the be
   CHECK_THROWS_AS(make("{type: gp, kernel_candidates: [matern52_ard, se_ard], kernel_choice_margin: -1}", 2),
                   ConfigError);
 }
+
+TEST_CASE("kernel: auto, the default, is the candidates [matern52_ard, se_ard] with margin 3; a given kernel is one kernel") {
+  // Compared fit by fit with the explicit list (same rng): the SE sample, where SE-ARD wins by far more than 3 nats,
+  // and the kinked function, where Matérn-5/2 is kept.
+  for (const bool se_data : {true, false}) {
+    CAPTURE(se_data);
+    const Dataset data = se_data ? smooth_se_sample(5) : kinked(3);
+    const auto fit = [&](const std::string& yaml) {
+      auto gp = make(yaml, 2);
+      Rng rng(21);
+      const FitReport rep = gp->fit(data, rng);
+      REQUIRE(rep.ok);
+      return std::make_tuple(as_gp(*gp).kernel_choice(), rep.objective, gp->hyperparameters());
+    };
+    const auto [auto_choice, auto_objective, auto_h] = fit("{type: gp}");
+    const auto [list_choice, list_objective, list_h] =
+        fit("{type: gp, kernel_candidates: [matern52_ard, se_ard], kernel_choice_margin: 3}");
+    CHECK(auto_choice == (se_data ? 1u : 0u));
+    CHECK(auto_choice == list_choice);
+    CHECK(auto_objective == list_objective);
+    check_same(auto_h, list_h);
+    // kernel: matern52_ard given: a single kernel, never switched, the plain Matérn fit.
+    const auto [m_choice, m_objective, m_h] = fit("{type: gp, kernel: matern52_ard}");
+    CHECK(m_choice == 0u);
+    CHECK(m_objective == doctest::Approx(fit_all(data).matern).epsilon(1e-12));
+    CHECK(as_gp(*make("{type: gp, kernel: matern52_ard}", 2)).settings().kernel_candidates.empty());
+  }
+  // The resolved configuration names the choice, so a study reopened from it chooses again.
+  const ResolvedComponent c = test::registry().resolve(Kind::Surrogate, ConfigNode::parse("{type: gp}", "<test>"));
+  YAML::Emitter em;
+  em << c.resolved();
+  CHECK(YAML::Load(em.c_str())["kernel"]["type"].as<std::string>() == "auto");
+  CHECK(as_gp(*make(em.c_str(), 2)).settings().kernel_candidates.size() == 2u);
+  // `auto` is the gp's, not a kernel: anywhere else it is refused, naming it.
+  for (const std::string yaml :
+       {"{type: vhgp, kernel_f: auto}", "{type: gp, kernel: {type: sum, terms: [auto, white]}}"}) {
+    CAPTURE(yaml);
+    try {
+      make(yaml, 2);
+      FAIL("expected a ConfigError");
+    } catch (const ConfigError& e) {
+      CHECK(std::string(e.what()).find("'auto' is the gp's choice between kernels") != std::string::npos);
+    }
+  }
+}
