@@ -358,8 +358,12 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
       const std::string& name = settings_.kernel_candidates[chosen].name;
       const std::string note = "kernel " + name + " (fit objective: " + scores + ")";
       rep.message = rep.message.empty() ? note : note + "; " + rep.message;
-      // To the log when the choice changes (and the first time); model.yaml's note has it at every full fit.
-      if (chosen != previous || first_choice) log_info("gp: N = {}: {}", n, note);
+      // To the log when the choice changes (the first choice only with -v: `kernel: auto` is the default, and
+      // `varbo select` prints JSON); model.yaml's note has it at every full fit.
+      if (first_choice)
+        log_debug("gp: N = {}: {}", n, note);
+      else if (chosen != previous)
+        log_info("gp: N = {}: {}", n, note);
     }
   } else {
     // Keep the last good hyperparameters; condition them on the new data when that still works.

@@ -225,8 +225,10 @@ Dataset BayesianOptimization::refinement_data(const Dataset& data) const {
     // Hartmann-3 10× and 200× more precise, but Hartmann-6's late-found basins refined worse, so not the default
     // (docs/defaults.md). With fewer points (a basin found late) the basin's model below: a model of the
     // 2·(d + 1) nearest points refined those worse still.
+    // The refinement's own trials stay in it wherever they landed (the region may grow past 0.1 on successes): a
+    // model without them proposed the same θ again and again (session 16).
     for (Index i = 0; i < data.size(); ++i)
-      if ((data.X.row(i) - data.X.row(best)).lpNorm<Eigen::Infinity>() <= 0.1) rows.push_back(i);
+      if ((data.X.row(i) - data.X.row(best)).lpNorm<Eigen::Infinity>() <= 0.1 || i >= from) rows.push_back(i);
     if (static_cast<Index>(rows.size()) < 2 * (dim_ + 1)) rows.clear();
   }
   const bool local = !rows.empty();

@@ -19,6 +19,13 @@ using namespace varbo;
 
 namespace {
 
+/// The scenarios of sessions fail12–fail14 (Hartmann-3 runs creeping along the failure ball) were found with the
+/// Matérn-5/2 kernel, the gp's default until session 16; `kernel: auto` fits some of those runs with SE-ARD and
+/// changes their paths, so the tests of those options pin the kernel they were built on.
+std::string matern_bo(const std::string& options = "") {
+  return "{type: bo, surrogate: {type: gp, kernel: matern52_ard}" + (options.empty() ? "" : ", " + options) + "}";
+}
+
 // Styblinski–Tang on [−5, 5]² failing where x1 is in the lowest quarter of its range (x1 < −2.5): the global
 // minimizer (−2.90, −2.90) lies inside, so a model that ignores failures keeps being drawn there.
 const char* kFailingTask = "{type: styblinski_tang, failure_region: {shape: box, lower: [0, 0], upper: [0.25, 1]}}";
@@ -388,8 +395,8 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
       if (t[i].phase == "restart") return i;
     return t.size();
   };
-  const std::vector<Trial> plain = trials("rd_plain", "{type: bo}", task);
-  const std::vector<Trial> rule = trials("rd_rule", "{type: bo, failure_model: {repeat_distance: 1e-9}}", task);
+  const std::vector<Trial> plain = trials("rd_plain", matern_bo(), task);
+  const std::vector<Trial> rule = trials("rd_rule", matern_bo("failure_model: {repeat_distance: 1e-9}"), task);
   REQUIRE(plain.size() == 50);
   REQUIRE(rule.size() == 50);
   CHECK(repeats(plain) >= 2);  // the behaviour the rule is for (trials 38, 40, 41 in session fail12)
@@ -399,8 +406,8 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
   for (std::size_t i = 0; i < first_restart(rule); ++i) CHECK((rule[i].u - plain[i].u).norm() == 0.0);
   // Under noise (σ = 0.01 on costs of std ~1: the fitted noise is far above the floor) a repeat is a measurement:
   // the rule stays off and the run is the plain one, although that run repeats points too.
-  const std::vector<Trial> noisy_plain = trials("rd_noisy_plain", "{type: bo}", noisy);
-  const std::vector<Trial> noisy_rule = trials("rd_noisy_rule", "{type: bo, failure_model: {repeat_distance: 1e-9}}", noisy);
+  const std::vector<Trial> noisy_plain = trials("rd_noisy_plain", matern_bo(), noisy);
+  const std::vector<Trial> noisy_rule = trials("rd_noisy_rule", matern_bo("failure_model: {repeat_distance: 1e-9}"), noisy);
   REQUIRE(noisy_plain.size() == noisy_rule.size());
   CHECK(repeats(noisy_plain) >= 1);
   for (std::size_t i = 0; i < noisy_plain.size(); ++i) CHECK((noisy_rule[i].u - noisy_plain[i].u).norm() == 0.0);
@@ -413,7 +420,7 @@ TEST_CASE("boundary_restart: an attempt blocked by the failure boundary restarts
   // a failed trial within boundary_reach ahead along the cost model's descent.
   const std::string task =
       "{type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}";
-  const std::string on = "{type: bo, failure_model: {boundary_restart: true}}";
+  const std::string on = matern_bo("failure_model: {boundary_restart: true}");
   std::vector<double> costs;  // of the latest run (NaN where it failed)
   const auto trials = [&](const std::string& name, const std::string& algorithm, int threads = 1) {
     RunOverrides ov;
@@ -436,7 +443,7 @@ TEST_CASE("boundary_restart: an attempt blocked by the failure boundary restarts
     }
     return out;
   };
-  const std::vector<Trial> plain = trials("br_plain", "{type: bo}");
+  const std::vector<Trial> plain = trials("br_plain", matern_bo());
   const std::vector<Trial> rule = trials("br_rule", on);
   const std::vector<double> rule_costs = costs;
   REQUIRE(plain.size() == 50);
@@ -534,9 +541,9 @@ TEST_CASE("boundary_jump: edge probes the box's face past the failure zone once,
   const auto trials = [&](const std::string& name, const std::string& algorithm) {
     return hartmann3_trials(name, algorithm, task);
   };
-  const std::vector<Trial> plain = trials("bj_plain", "{type: bo}");
-  const std::vector<Trial> edge = trials("bj_edge", "{type: bo, failure_model: {boundary_jump: edge}}");
-  const std::vector<Trial> far = trials("bj_far", "{type: bo, failure_model: {boundary_jump: far}}");
+  const std::vector<Trial> plain = trials("bj_plain", matern_bo());
+  const std::vector<Trial> edge = trials("bj_edge", matern_bo("failure_model: {boundary_jump: edge}"));
+  const std::vector<Trial> far = trials("bj_far", matern_bo("failure_model: {boundary_jump: far}"));
   REQUIRE(edge.size() == plain.size());
   REQUIRE(far.size() == plain.size());
   std::vector<std::size_t> jumps;
