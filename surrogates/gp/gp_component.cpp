@@ -184,9 +184,10 @@ double default_min_noise_std(const std::string& kernel, double configured, doubl
 ComponentInfo gp_component() {
   return make_component<Surrogate>(
       "gp",
-      "Gaussian process with constant mean, standardized costs, any `kernel` (default `auto`: Matern-5/2 ARD or SE-ARD, chosen by the data) and "
-      "Gaussian noise. Hyperparameters maximize the log marginal likelihood plus independent log-normal "
-      "hyperpriors (Kuindersma 2013, eq. 13), with parallel random restarts of `fit_optimizer`.",
+      "Gaussian process with constant mean, standardized costs, any `kernel` (default `auto`: Matern-5/2 ARD or "
+      "SE-ARD, chosen by the data) and Gaussian noise. Hyperparameters maximize the log marginal likelihood plus "
+      "independent log-normal hyperpriors (Kuindersma 2013, eq. 13), with parallel random restarts of "
+      "`fit_optimizer`.",
       gp_options().specs(),
       Factory<Surrogate>([](const Options& o, const BuildContext& ctx) -> std::unique_ptr<Surrogate> {
         check_range(o, "min_lengthscale", "max_lengthscale");
