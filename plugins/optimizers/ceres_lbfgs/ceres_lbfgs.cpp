@@ -2,6 +2,7 @@
 
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
+#include <glog/logging.h>
 
 #include <algorithm>
 #include <cmath>
@@ -62,9 +63,22 @@ class NegatedFunction final : public ceres::FirstOrderFunction {
   mutable Index evaluations_ = 0;
 };
 
+/// Ceres logs through glog even with logging_type SILENT: its line search warns on a degenerate (flat) step
+/// ("Trying to extract roots from a constant polynomial", after "Logging before InitGoogleLogging()"), harmless and
+/// cryptic in a user's terminal — the step is handled, and a failed fit is reported by varbo itself. Unless the host
+/// program set glog up (then its settings stand), glog keeps to errors.
+void quiet_glog_once() {
+  static const bool done = [] {
+    if (!google::IsGoogleLoggingInitialized()) FLAGS_minloglevel = google::GLOG_ERROR;
+    return true;
+  }();
+  (void)done;
+}
+
 }  // namespace
 
 OptimizeResult CeresLbfgs::run_from(const DifferentiableFunction& f, const Vec& start) const {
+  quiet_glog_once();
   ceres::GradientProblemSolver::Options options;
   options.line_search_direction_type = ceres::LBFGS;
   options.function_tolerance = settings_.function_tolerance;

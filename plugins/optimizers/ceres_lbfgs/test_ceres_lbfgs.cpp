@@ -1,6 +1,11 @@
 // ceres_lbfgs on functions with known optima.
+#include <glog/logging.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <string>
 
 #include "ceres_lbfgs.hpp"
 #include "varbo_test.hpp"
@@ -151,4 +156,50 @@ TEST_CASE("ceres_lbfgs: a stop on the relative function rule counts only with a 
   REQUIRE(converged.success);
   CHECK(gradient_norm(converged.x) <= 1e-7 * std::abs(converged.value));
   CHECK((converged.x - Vec::Constant(2, 1.0)).norm() < 0.01);
+}
+
+namespace {
+/// Runs `body` with the process's stderr (fd 2) sent to a temporary file; returns what was written there.
+template <class F>
+std::string captured_stderr(F body) {
+  std::fflush(stderr);
+  FILE* tmp = std::tmpfile();
+  REQUIRE(tmp != nullptr);
+  const int saved = ::dup(2);
+  ::dup2(::fileno(tmp), 2);
+  body();
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::rewind(tmp);
+  std::string out;
+  for (int c; (c = std::fgetc(tmp)) != EOF;) out.push_back(static_cast<char>(c));
+  std::fclose(tmp);
+  return out;
+}
+
+/// A linear function: every line-search sample lies on a line, so Ceres' Wolfe search interpolates a polynomial of
+/// degree 1, whose derivative is constant, and warns through glog ("Trying to extract roots from a constant
+/// polynomial") — the warning users saw on flat stretches of noisy fits.
+double flat_with_slope(const Vec& x, Vec* g) {
+  if (g) *g = Vec::Ones(x.size());
+  return x.sum();
+}
+}  // namespace
+
+TEST_CASE("ceres_lbfgs: Ceres' glog warnings stay out of the user's terminal unless the host set glog up") {
+  FunctionRef f(2, flat_with_slope);
+  BoxRegion box(Box::unit(2));
+  Rng rng(1);
+  Mat start = Mat::Constant(1, 2, 0.5);
+  const std::string quiet = captured_stderr([&] { (void)CeresLbfgs().maximize(f, box, start, rng); });
+  CHECK_MESSAGE(quiet.find("polynomial") == std::string::npos, quiet);
+  CHECK(quiet.find("InitGoogleLogging") == std::string::npos);
+  // The same run with glog's threshold back at its default: the warning the first run kept quiet is there (so the
+  // check above is not vacuous).
+  const int level = FLAGS_minloglevel;
+  FLAGS_minloglevel = 0;
+  const std::string loud = captured_stderr([&] { (void)CeresLbfgs().maximize(f, box, start, rng); });
+  FLAGS_minloglevel = level;
+  CHECK_MESSAGE(loud.find("constant polynomial") != std::string::npos, loud);
 }
