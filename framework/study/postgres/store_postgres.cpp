@@ -153,7 +153,7 @@ class PostgresStore final : public StudyStore {
           if (create)
             create_study(meta);
           else
-            check_study();
+            check_study(!kept);
           return;
         } catch (const pqxx::broken_connection&) {
           if (!kept) throw;
@@ -191,19 +191,20 @@ class PostgresStore final : public StudyStore {
     }
     prefetched_.clear();
     for (int attempt = 1;; ++attempt) {
-      forget_reads();
+      tx_next_finish_seq_.reset();
       try {
         reconnect_if_needed();
         pqxx::work w(*conn_, "varbo");
         Current current(tx_, w);
-        lock_study(w);
+        // The study's row lock: one writer per study at a time (the same guarantee as SQLite's BEGIN IMMEDIATE).
+        // NO KEY UPDATE, not UPDATE: the foreign-key checks of a heartbeat's upsert (KEY SHARE) do not wait for it.
+        if (w.exec_params("SELECT 1 FROM varbo_studies WHERE name = $1 FOR NO KEY UPDATE", address_.study).empty())
+          throw InputError(fmt::format("{}: the study was deleted from the database", location()));
         body();
         current.release();
-        forget_reads();
         w.commit();
         return;
       } catch (const pqxx::transaction_rollback& e) {  // serialization failure, deadlock: the server asks to retry
-        forget_reads();
         if (attempt >= kRetryAttempts)
           throw InputError(fmt::format("{}: the transaction failed {} times ({}); nothing of it was written", location(),
                                        attempt, cause(e)));
@@ -249,7 +250,6 @@ class PostgresStore final : public StudyStore {
   }
   void set_meta(const std::string& key, const std::string& value) override {
     prefetched_.clear();
-    forget_reads();
     write([&](pqxx::transaction_base& t) {
       t.exec_params("INSERT INTO varbo_meta (study, key, value) VALUES ($1, $2, $3) "
                     "ON CONFLICT (study, key) DO UPDATE SET value = excluded.value",
@@ -259,30 +259,31 @@ class PostgresStore final : public StudyStore {
 
   std::vector<TrialRecord> trials() const override { return select_trials("ORDER BY id", std::nullopt); }
   std::optional<TrialRecord> trial(std::int64_t id) const override {
-    if (tx_ && tx_pending_) {  // read with the lock: the study's trials are unchanged since (lock_study)
-      prefetched_.clear();
-      for (const auto& t : *tx_pending_)
-        if (t.id == id) return t;
-    }
     auto v = select_trials("AND id = $2", id);
     if (v.empty()) return std::nullopt;
     return v.front();
   }
   std::vector<TrialRecord> finished_since(std::int64_t seq) const override {
-    if (tx_ && seq == 0) return finished_with_states();
     return select_trials("AND finish_seq >= $2 AND state IN ('complete', 'failed') ORDER BY finish_seq", seq);
   }
   std::vector<TrialRecord> pending_trials() const override {
     if (!tx_) return select_trials("AND state = 'pending' ORDER BY id", std::nullopt);
-    if (tx_pending_) {  // read with the lock (lock_study); the study's trials are unchanged since
-      prefetched_.clear();
-      return *tx_pending_;
-    }
-    return read("read trials", [&](pqxx::transaction_base& t) { return pending_of(t.exec(pending_sql(t))); });
+    // In a transaction (which holds the study's lock: no other process writes its trials until it ends) the next
+    // finish_seq comes along, for next_finish_seq() until this transaction writes a trial: one round trip less
+    // for a suggestion. The one-row side keeps that value when nothing is pending.
+    return read("read trials", [&](pqxx::transaction_base& t) {
+      const pqxx::result r = t.exec_params(std::string("SELECT ") + kColumns +
+                                               ", n.next FROM (SELECT COALESCE(MAX(finish_seq) + 1, 0) AS next FROM "
+                                               "varbo_trials WHERE study = $1) n LEFT JOIN varbo_trials ON study = $1 "
+                                               "AND state = 'pending' ORDER BY id",
+                                           address_.study);
+      tx_next_finish_seq_ = std::max<std::int64_t>(0, to_int(r[0][20]));
+      return trials_of(r);
+    });
   }
 
   std::int64_t add_trial(const TrialRecord& t) override {
-    forget_reads();
+    tx_next_finish_seq_.reset();
     std::int64_t id = 0;
     write([&](pqxx::transaction_base& w) {
       // The next id and the insert in one statement (one round trip); the transaction holds the study's lock, so
@@ -302,7 +303,7 @@ class PostgresStore final : public StudyStore {
   }
 
   void update_trial(const TrialRecord& t) override {
-    forget_reads();
+    tx_next_finish_seq_.reset();
     write([&](pqxx::transaction_base& w) {
       const auto r = exec_trial(w,
                                 std::string("UPDATE varbo_trials SET (") + kColumns +
@@ -325,7 +326,6 @@ class PostgresStore final : public StudyStore {
   void add_snapshot(const StoredSnapshot& snap) override {
     nlohmann::json h = nlohmann::json::array();
     for (const auto& p : snap.snapshot.hyperparameters) h.push_back({p.name, p.value});
-    forget_reads();
     write([&](pqxx::transaction_base& t) {
       t.exec_params("INSERT INTO varbo_snapshots (study, after_trials, iteration, objective, note, hyperparameters, "
                     "region_state) VALUES ($1, $2, $3, NULLIF($4, '')::float8, $5, $6, $7)",
@@ -358,7 +358,6 @@ class PostgresStore final : public StudyStore {
   }
 
   void add_algorithm_state(const AlgorithmSnapshot& snap) override {
-    forget_reads();
     write([&](pqxx::transaction_base& t) {
       // One statement (one round trip): the DELETE does not see the row its WITH inserts (one snapshot), and
       // that row is not older than the kept window anyway.
@@ -371,13 +370,20 @@ class PostgresStore final : public StudyStore {
   }
 
   std::vector<AlgorithmSnapshot> algorithm_states() const override {
-    if (tx_ && tx_states_) {  // read by finished_since(0) in this transaction, handed out once
-      prefetched_.clear();
-      std::vector<AlgorithmSnapshot> out = std::move(*tx_states_);
-      tx_states_.reset();
+    return read("read algorithm states", [&](pqxx::transaction_base& t) {
+      std::vector<AlgorithmSnapshot> out;
+      for (const auto& row : t.exec_params("SELECT finished, outstanding, state, created_at FROM varbo_algorithm_states "
+                                           "WHERE study = $1 ORDER BY id DESC",
+                                           address_.study)) {
+        AlgorithmSnapshot a;
+        a.finished = to_int(row[0]);
+        a.outstanding = to_int(row[1]);
+        a.state = to_text(row[2]);
+        a.created_at = to_double(row[3]);
+        out.push_back(std::move(a));
+      }
       return out;
-    }
-    return read("read algorithm states", [&](pqxx::transaction_base& t) { return states_of(t.exec(states_sql(t))); });
+    });
   }
 
   /// One upsert, atomic by itself: outside a transaction it takes no study lock, so a heartbeat is never held
@@ -391,7 +397,6 @@ class PostgresStore final : public StudyStore {
                     "excluded.state",
                     address_.study, wr.id, wr.host, static_cast<std::int64_t>(wr.pid), wr.state);
     };
-    forget_reads();
     if (tx_)
       upsert(*tx_);
     else
@@ -404,13 +409,25 @@ class PostgresStore final : public StudyStore {
   /// Times in this machine's clock: the server's, shifted by (this clock − the server's clock) now, so that
   /// `unix_time() − heartbeat_at` is the silence measured by the server alone.
   std::vector<WorkerRecord> workers() const override {
-    if (tx_ && tx_workers_) {  // read with the lock (lock_study), handed out once: heartbeats take no study lock
-      prefetched_.clear();
-      std::vector<WorkerRecord> out = std::move(*tx_workers_);
-      tx_workers_.reset();
+    return read("read workers", [&](pqxx::transaction_base& t) {
+      std::vector<WorkerRecord> out;
+      const pqxx::result r = t.exec_params(
+          "SELECT id, host, pid, started_at, heartbeat_at, state, EXTRACT(EPOCH FROM clock_timestamp()) FROM "
+          "varbo_workers WHERE study = $1 ORDER BY started_at",
+          address_.study);
+      const double shift = r.empty() ? 0.0 : unix_time() - to_double(r[0][6]);
+      for (const auto& row : r) {
+        WorkerRecord w;
+        w.id = to_text(row[0]);
+        w.host = to_text(row[1]);
+        w.pid = static_cast<long>(to_int(row[2]));
+        w.started_at = to_double(row[3]) + shift;
+        w.heartbeat_at = to_double(row[4]) + shift;
+        w.state = to_text(row[5]);
+        out.push_back(std::move(w));
+      }
       return out;
-    }
-    return read("read workers", [&](pqxx::transaction_base& t) { return workers_of(t.exec(workers_sql(t))); });
+    });
   }
 
  private:
@@ -430,118 +447,7 @@ class PostgresStore final : public StudyStore {
     return ms / 2 + static_cast<int>(rng() % static_cast<unsigned>(ms / 2 + 1));
   }
 
-  // The reads below are sent as text (no parameters: a pipeline sends several statements in one message, which
-  // only the simple query protocol allows), the study's name quoted by libpq (PQescapeStringConn).
-
-  /// The study's name as an SQL literal (not pqxx's quote(), whose inlined string concatenation trips GCC 12's
-  /// -Wrestrict false positive).
-  std::string quoted_name(pqxx::transaction_base& t) const {
-    std::string q(1, '\'');
-    q += t.esc(address_.study);
-    q += '\'';
-    return q;
-  }
-
-  /// The study's workers; the server's clock in the last column (workers() translates to this machine's).
-  std::string workers_sql(pqxx::transaction_base& t) const {
-    return "SELECT id, host, pid, started_at, heartbeat_at, state, EXTRACT(EPOCH FROM clock_timestamp()) FROM "
-           "varbo_workers WHERE study = " + quoted_name(t) + " ORDER BY started_at";
-  }
-  std::vector<WorkerRecord> workers_of(const pqxx::result& r) const {
-    std::vector<WorkerRecord> out;
-    const double shift = r.empty() ? 0.0 : unix_time() - to_double(r[0][6]);
-    for (const auto& row : r) {
-      WorkerRecord w;
-      w.id = to_text(row[0]);
-      w.host = to_text(row[1]);
-      w.pid = static_cast<long>(to_int(row[2]));
-      w.started_at = to_double(row[3]) + shift;
-      w.heartbeat_at = to_double(row[4]) + shift;
-      w.state = to_text(row[5]);
-      out.push_back(std::move(w));
-    }
-    return out;
-  }
-
-  /// The pending trials with the next finish_seq (for next_finish_seq() until this transaction writes a trial);
-  /// the one-row side keeps that value when nothing is pending.
-  std::string pending_sql(pqxx::transaction_base& t) const {
-    const std::string q = quoted_name(t);
-    return std::string("SELECT ") + kColumns + ", n.next FROM (SELECT COALESCE(MAX(finish_seq) + 1, 0) AS next FROM " +
-           "varbo_trials WHERE study = " + q + ") n LEFT JOIN varbo_trials ON study = " + q +
-           " AND state = 'pending' ORDER BY id";
-  }
-  std::vector<TrialRecord> pending_of(const pqxx::result& r) const {
-    tx_next_finish_seq_ = std::max<std::int64_t>(0, to_int(r[0][20]));
-    return trials_of(r);
-  }
-
-  std::string states_sql(pqxx::transaction_base& t) const {
-    return "SELECT finished, outstanding, state, created_at FROM varbo_algorithm_states WHERE study = " +
-           quoted_name(t) + " ORDER BY id DESC";
-  }
-  static std::vector<AlgorithmSnapshot> states_of(const pqxx::result& r) {
-    std::vector<AlgorithmSnapshot> out;
-    for (const auto& row : r) {
-      AlgorithmSnapshot a;
-      a.finished = to_int(row[0]);
-      a.outstanding = to_int(row[1]);
-      a.state = to_text(row[2]);
-      a.created_at = to_double(row[3]);
-      out.push_back(std::move(a));
-    }
-    return out;
-  }
-
-  /// The study's row lock: one writer per study at a time (the same guarantee as SQLite's BEGIN IMMEDIATE).
-  /// NO KEY UPDATE, not UPDATE: the foreign-key checks of a heartbeat's upsert (KEY SHARE) do not wait for it.
-  /// The workers and the pending trials (what a suggestion reads first, and a result the trial it finishes) come
-  /// in the same round trip: one message of three statements, run one after the other, each with its own snapshot
-  /// (READ COMMITTED), so both reads see the database as it is once the lock is granted — the same as reading
-  /// them in round trips of their own afterwards. The study's trials are written only under this lock, so the
-  /// pending ones stay as read until this transaction writes (forget_reads); the workers (heartbeats take no study
-  /// lock) are handed out once, as one read made right after the lock.
-  void lock_study(pqxx::transaction_base& w) {
-    pqxx::pipeline p(w);
-    p.retain(3);
-    const auto lock = p.insert("SELECT 1 FROM varbo_studies WHERE name = " + quoted_name(w) +
-                               " FOR NO KEY UPDATE");
-    const auto workers = p.insert(workers_sql(w));
-    const auto pending = p.insert(pending_sql(w));
-    p.resume();
-    if (p.retrieve(lock).empty())
-      throw InputError(fmt::format("{}: the study was deleted from the database", location()));
-    tx_workers_ = workers_of(p.retrieve(workers));
-    tx_pending_ = pending_of(p.retrieve(pending));
-  }
-
-  /// finished_since(0) in a transaction is how the algorithm's rebuild starts, and its next read is the saved
-  /// states (Study::Impl::rebuild, saved_state_is_further): both in one round trip, the states kept for
-  /// algorithm_states() until this transaction writes. Both tables are written only under the study's lock.
-  std::vector<TrialRecord> finished_with_states() const {
-    return read("read trials", [&](pqxx::transaction_base& t) {
-      pqxx::pipeline p(t);
-      p.retain(2);
-      const auto finished = p.insert(std::string("SELECT ") + kColumns + " FROM varbo_trials WHERE study = " +
-                                     quoted_name(t) +
-                                     " AND finish_seq >= 0 AND state IN ('complete', 'failed') ORDER BY finish_seq");
-      const auto states = p.insert(states_sql(t));
-      p.resume();
-      std::vector<TrialRecord> out = trials_of(p.retrieve(finished));
-      tx_states_ = states_of(p.retrieve(states));
-      return out;
-    });
-  }
-
-  /// Forgets what a transaction read ahead (lock_study, finished_with_states): called by every write.
-  void forget_reads() const {
-    tx_next_finish_seq_.reset();
-    tx_workers_.reset();
-    tx_pending_.reset();
-    tx_states_.reset();
-  }
-
-  /// `set_messages` false: the caller sends kQuietNotices with its first query (check_study: one round trip less).
+  /// `set_messages` false: the caller sends kQuietNotices itself (check_study).
   void connect(bool set_messages = true) const {
     try {
       conn_ = std::make_unique<pqxx::connection>(address_.conninfo);
@@ -696,19 +602,19 @@ class PostgresStore final : public StudyStore {
     return r[0][0].as<std::size_t>() == names.size();
   }
 
-  /// Opening costs one round trip: the session setting (sent again on a kept connection: it rides along) and the
-  /// study's row with the meta entries that the open and Study::open read (kept in prefetched_ and handed out once
-  /// by meta()), one message of two statements (the simple query protocol: the name quoted by libpq). A database
-  /// without varbo's tables answers "undefined table"; check_study_row then says so (the tables' existence was a
-  /// round trip of its own before each open).
-  void check_study() {
+  /// Opening costs one round trip on a kept connection (the study's row with the meta entries that the open and
+  /// Study::open read, kept in prefetched_ and handed out once by meta()), two on a new one (the session setting
+  /// first: `fresh`). The tables' existence is not asked first (it was a round trip of its own before every open):
+  /// a database without them answers "undefined table", and check_study_row then says so.
+  void check_study(bool fresh) {
     {
       pqxx::nontransaction n(*conn_);
+      if (fresh) n.exec(kQuietNotices);  // a kept connection has it already: its session is this store's kind
       const auto study_and_meta = [&] {
-        return n.exec(std::string(kQuietNotices) +
-                      "; SELECT m.key, m.value FROM varbo_studies s LEFT JOIN varbo_meta m ON m.study = s.name AND "
-                      "m.key IN ('format', 'schema_version', 'config', 'plugin_paths', 'identity') WHERE s.name = " +
-                      quoted_name(n));
+        return n.exec_params(
+            "SELECT m.key, m.value FROM varbo_studies s LEFT JOIN varbo_meta m ON m.study = s.name AND m.key IN "
+            "('format', 'schema_version', 'config', 'plugin_paths', 'identity') WHERE s.name = $1",
+            address_.study);
       };
       pqxx::result r;
       try {
@@ -774,12 +680,8 @@ class PostgresStore final : public StudyStore {
   /// Meta entries read with the open, each handed out once by meta() outside a transaction: as if those reads had
   /// been made at the open. Any other use of the store (a transaction, another read) forgets them.
   mutable std::map<std::string, std::optional<std::string>> prefetched_;
-  /// next_finish_seq() of the current transaction, read by pending_trials(); forgotten when it writes.
+  /// next_finish_seq() of the current transaction, read by pending_trials(); forgotten when it writes a trial.
   mutable std::optional<std::int64_t> tx_next_finish_seq_;
-  /// Read ahead in the current transaction (lock_study, finished_with_states); forgotten when it writes.
-  mutable std::optional<std::vector<WorkerRecord>> tx_workers_;
-  mutable std::optional<std::vector<TrialRecord>> tx_pending_;
-  mutable std::optional<std::vector<AlgorithmSnapshot>> tx_states_;
   pqxx::transaction_base* tx_ = nullptr;
 };
 
