@@ -6,6 +6,8 @@
 # The server refuses to run as root: as root, initdb/pg_ctl run as `nobody` on a folder chowned to it.
 # Authentication: trust for role varbo (the superuser), scram-sha-256 for role varbo_pw (password 'right'), so
 # that tests can check wrong-credential errors.
+# VARBO_PG_FSYNC=on starts a server that flushes its WAL at each commit as a real one does (the tests and the
+# default skip the flush: fsync=off); for measuring what a commit costs (docs/studies.md, "Where the time goes").
 set -euo pipefail
 action=${1:?usage: pg_server.sh start|stop STATE_DIR}
 state=${2:?usage: pg_server.sh start|stop STATE_DIR}
@@ -40,7 +42,7 @@ case "$action" in
       echo "local all all trust"
     } > "$dir/data/pg_hba.conf"
     as_server "$bindir/pg_ctl" -D "$dir/data" -l "$dir/server.log" -w -t 60 \
-      -o "-c listen_addresses='' -c unix_socket_directories='$dir' -c fsync=off -c max_connections=100" start >/dev/null ||
+      -o "-c listen_addresses='' -c unix_socket_directories='$dir' -c fsync=${VARBO_PG_FSYNC:-off} -c max_connections=100" start >/dev/null ||
       { cat "$dir/server.log" >&2; exit 1; }
     chmod 711 "$dir"  # clients (root or not) reach the socket
     as_server "$bindir/psql" -h "$dir" -U varbo -d postgres -qAt -v ON_ERROR_STOP=1 \

@@ -434,3 +434,26 @@ TEST_CASE("postgresql: a closed study's connection serves the next open of its a
   CHECK(wait_for_sessions(observer, app, 0).empty());
   unsetenv("VARBO_PG_KEEP_SECONDS");
 }
+
+TEST_CASE("postgresql: a serial result is one transaction; nothing locks the study after it") {
+  // After a serial ask the state saved with it covers the result, so telling it writes no state: no transaction
+  // (BEGIN, the study's row lock, COMMIT — a WAL flush on a durable server) may follow the result's. The last
+  // transaction that locked the study's row (the row's xmax) must be the one that wrote the result (the trial
+  // row's xmin): both are that transaction's id, whatever other sessions of the server do meanwhile.
+  const std::string url = test::pg_study_url("one_tx");
+  const std::string name = url.substr(url.find("&study=") + 7);
+  pqxx::connection observer(test::pg_base_url());
+  Study study = Study::create_from_yaml(url, "task: {type: branin}\nbudget: 10\nseed: 2\nalgorithm: {type: random}\n");
+  for (int i = 0; i < 3; ++i) {
+    const TrialRecord t = study.ask(1).at(0);
+    study.tell(t.id, 1.0 + i);
+    pqxx::nontransaction n(observer);
+    const pqxx::result r = n.exec_params(
+        "SELECT s.xmax::text, t.xmin::text, (SELECT count(*) FROM varbo_algorithm_states a WHERE a.study = s.name) "
+        "FROM varbo_studies s JOIN varbo_trials t ON t.study = s.name WHERE s.name = $1 AND t.id = $2",
+        name, t.id);
+    REQUIRE(r.size() == 1);
+    CHECK(r[0][0].as<std::string>() == r[0][1].as<std::string>());
+    CHECK(r[0][2].as<int>() > 0);  // the algorithm saves states: the case the shortcut is about
+  }
+}

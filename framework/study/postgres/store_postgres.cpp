@@ -153,7 +153,7 @@ class PostgresStore final : public StudyStore {
           if (create)
             create_study(meta);
           else
-            check_study();
+            check_study(!kept);
           return;
         } catch (const pqxx::broken_connection&) {
           if (!kept) throw;
@@ -447,7 +447,7 @@ class PostgresStore final : public StudyStore {
     return ms / 2 + static_cast<int>(rng() % static_cast<unsigned>(ms / 2 + 1));
   }
 
-  /// `set_messages` false: the caller sends kQuietNotices with its first query (check_study: one round trip less).
+  /// `set_messages` false: the caller sends kQuietNotices itself (check_study).
   void connect(bool set_messages = true) const {
     try {
       conn_ = std::make_unique<pqxx::connection>(address_.conninfo);
@@ -602,22 +602,27 @@ class PostgresStore final : public StudyStore {
     return r[0][0].as<std::size_t>() == names.size();
   }
 
-  /// Opening costs two round trips: the session setting with the tables' existence, then the study's row with the
-  /// meta entries that the open and Study::open read (kept in prefetched_ and handed out once by meta()).
-  void check_study() {
+  /// Opening costs one round trip on a kept connection (the study's row with the meta entries that the open and
+  /// Study::open read, kept in prefetched_ and handed out once by meta()), two on a new one (the session setting
+  /// first: `fresh`). The tables' existence is not asked first (it was a round trip of its own before every open):
+  /// a database without them answers "undefined table", and check_study_row then says so.
+  void check_study(bool fresh) {
     {
       pqxx::nontransaction n(*conn_);
-      if (to_text(n.exec(std::string(kQuietNotices) + "; SELECT to_regclass('varbo_studies')::text")[0][0]).empty())
-        throw InputError(fmt::format("{}: no study named '{}': the database holds no varbo studies (create one with "
-                                     "`varbo study create '{}' CONFIG.yaml`)",
-                                     location(), address_.study, location()));
+      if (fresh) n.exec(kQuietNotices);  // a kept connection has it already: its session is this store's kind
       const auto study_and_meta = [&] {
         return n.exec_params(
             "SELECT m.key, m.value FROM varbo_studies s LEFT JOIN varbo_meta m ON m.study = s.name AND m.key IN "
             "('format', 'schema_version', 'config', 'plugin_paths', 'identity') WHERE s.name = $1",
             address_.study);
       };
-      pqxx::result r = study_and_meta();
+      pqxx::result r;
+      try {
+        r = study_and_meta();
+      } catch (const pqxx::undefined_table&) {
+        check_study_row(n);  // no tables at all: "the database holds no varbo studies"
+        throw;               // some of them: the database error as it is
+      }
       if (r.empty()) {  // no such study: the message lists the studies there (unless it was created just now)
         check_study_row(n);
         r = study_and_meta();

@@ -118,6 +118,8 @@ struct Study::Impl {
   /// The caller makes sure the live algorithm is in a canonical state: told every finished result in finish
   /// order, nothing pending, and at most one serial ask(1) since (the trial `asked_for`).
   void save_state(std::optional<std::int64_t> asked_for = std::nullopt);
+  /// Whether save_state(asked_for) would write a state: a transaction is opened for it only then.
+  bool state_to_save(std::optional<std::int64_t> asked_for = std::nullopt) const;
 
   /// ask(1) then tell(t): the step of an uninterrupted serial run that produced t.
   void replay_one(const TrialRecord& t);

@@ -88,12 +88,16 @@ bool Study::Impl::saved_state_is_further() const {
   return reach > static_cast<std::int64_t>(told_ids.size()) + 1;
 }
 
+bool Study::Impl::state_to_save(std::optional<std::int64_t> asked_for) const {
+  if (!alg || !dynamic_cast<const AlgorithmState*>(alg.get())) return false;
+  return static_cast<std::int64_t>(told_ids.size()) + (asked_for ? 1 : 0) > saved_reach;
+}
+
 void Study::Impl::save_state(std::optional<std::int64_t> asked_for) {
+  if (!state_to_save(asked_for)) return;
   auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
-  if (!resumable || !alg) return;
   const auto told = static_cast<std::int64_t>(told_ids.size());
   const std::int64_t reach = told + (asked_for ? 1 : 0);
-  if (reach <= saved_reach) return;
   // A state that cannot be saved costs the next process a replay, never this suggestion or result.
   try {
     const std::optional<std::string> text = resumable->save_state();
