@@ -4,6 +4,7 @@
 // integer or categorical parameters. Also counts inadmissible trials (type, bounds, constraints): must be 0.
 //
 //   nice -n 15 build/bin/bench_mixed [--seeds 10] [--first-seed 1] [--budget 100] [--threads 1] [--only NAME]
+//                                    [--surrogate YAML]   (given to both bo methods, e.g. '{type: gp, kernel: matern52_ard}')
 //
 // Prints a Markdown table: median [q1, q3] over the seeds.
 #include <fmt/format.h>
@@ -49,7 +50,7 @@ std::string cell(const std::vector<double>& v) {
 
 int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1, budget = 100, threads = 1;
-  std::string only;
+  std::string only, surrogate;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--seeds" && i + 1 < argc) seeds = std::atoi(argv[++i]);
@@ -57,8 +58,9 @@ int main(int argc, char** argv) {
     else if (a == "--budget" && i + 1 < argc) budget = std::atoi(argv[++i]);
     else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
     else if (a == "--only" && i + 1 < argc) only = argv[++i];
+    else if (a == "--surrogate" && i + 1 < argc) surrogate = argv[++i];
     else {
-      std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed S] [--budget B] [--threads N] [--only TASK]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--seeds N] [--first-seed S] [--budget B] [--threads N] [--only TASK] [--surrogate YAML]\n", argv[0]);
       return 2;
     }
   }
@@ -79,8 +81,11 @@ int main(int argc, char** argv) {
         ov.progress = false;
         ov.threads = threads;
         ov.output = fmt::format("{}/{}_{}_{}", root, p.task, m.only_discrete ? "relax" : m.name, s);
+        std::string algorithm = m.yaml;
+        if (!surrogate.empty() && algorithm.rfind("{type: bo", 0) == 0)
+          algorithm = algorithm.substr(0, algorithm.size() - 1) + ", surrogate: " + surrogate + "}";
         const std::string yaml =
-            fmt::format("task: {}\nbudget: {}\nseed: {}\nalgorithm: {}\n", p.task, budget, s, m.yaml);
+            fmt::format("task: {}\nbudget: {}\nseed: {}\nalgorithm: {}\n", p.task, budget, s, algorithm);
         const StudyConfig cfg = parse_study(ConfigNode::parse(yaml, "<bench_mixed>"), registry);
         const RunSummary sum = run_study(cfg, registry, ov);
         regret.push_back(sum.regret_recommended.value_or(NAN));
