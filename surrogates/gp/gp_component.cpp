@@ -160,8 +160,6 @@ const OptionSet<GpSettings>& gp_options() {
   return set;
 }
 
-bool is_auto_kernel(const ResolvedComponent& kernel) { return kernel.info && kernel.info->name == kAutoKernel; }
-
 ComponentInfo auto_kernel_component() {
   return make_component<Kernel>(
       kAutoKernel,
@@ -198,7 +196,8 @@ ComponentInfo gp_component() {
         // Built once here so that a bad kernel is reported at construction; later dimensions build their own.
         const Registry* registry = ctx.registry;
         const ResolvedComponent kernel = o.component("kernel");
-        const bool choose_kernel = o.is_set("kernel_candidates") || is_auto_kernel(kernel);
+        const bool choose_kernel =
+            o.is_set("kernel_candidates") || (kernel.info && kernel.info->name == kAutoKernel);
         // The noise floor by kernel when not given: 1e-7·std(y) for se_ard, 1e-6 for the others. On noise-free
         // costs the fitted noise sits on the floor, and SE-ARD, whose prior cannot follow the data as closely as
         // Matérn's, then explains misfits of up to half the floor as noise (Hartmann-3: residuals 5e-7·std(y)

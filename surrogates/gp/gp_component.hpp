@@ -17,7 +17,6 @@ inline constexpr const char* kAutoKernel = "auto";
 /// kernel_choice_margin 3 it is kept unless SE-ARD fits clearly better; docs/defaults.md, "Kernel chosen by the
 /// data").
 inline constexpr const char* kAutoCandidates = "[matern52_ard, se_ard]";
-bool is_auto_kernel(const ResolvedComponent& kernel);
 /// The options of `gp`; those with a GpSettings field are bound to it (the kernel and optimizer components,
 /// output_transform and hyperparameters are read by the factory).
 const OptionSet<GpSettings>& gp_options();

@@ -263,10 +263,12 @@ TEST_CASE("kernel: auto, the default, is the candidates [matern52_ard, se_ard] w
     CHECK(auto_choice == list_choice);
     CHECK(auto_objective == list_objective);
     check_same(auto_h, list_h);
-    // kernel: matern52_ard given: a single kernel, never switched, the plain Matérn fit.
+    // kernel: matern52_ard given: a single kernel, never switched — on the SE sample it keeps Matérn's lower
+    // objective where auto took SE-ARD's.
     const auto [m_choice, m_objective, m_h] = fit("{type: gp, kernel: matern52_ard}");
     CHECK(m_choice == 0u);
-    CHECK(m_objective == doctest::Approx(fit_all(data).matern).epsilon(1e-12));
+    if (se_data) CHECK(m_objective < auto_objective - 3.0);
+    else CHECK(m_objective == auto_objective);
     CHECK(as_gp(*make("{type: gp, kernel: matern52_ard}", 2)).settings().kernel_candidates.empty());
   }
   // The resolved configuration names the choice, so a study reopened from it chooses again.
