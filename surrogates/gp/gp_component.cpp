@@ -87,6 +87,25 @@ BoundOption<GpSettings> min_noise_std_option() {
           }};
 }
 
+/// noise_test_level, like min_noise_std, has no declared default: by kernel when not given (1e-3 with se_ard,
+/// off otherwise), and an unset option stays out of the resolved configuration, so a stored study reopens with
+/// the test of the run that made it (a study stored before session 17 lists `noise_test_level: 0`).
+BoundOption<GpSettings> noise_test_level_option() {
+  OptionSpec spec = opt::real("noise_test_level", GpSettings{}.noise_test_level,
+                              "> 0: before each fit the noise std is bounded by a one-sided test at this level on "
+                              "the cost differences of the nearest pairs of points (a deterministic cost's near "
+                              "pairs, above all an exact replicate, rule out noise that its structure would "
+                              "otherwise be fitted as; `bo` then repeats a design point unless its "
+                              "replicate_design is false); 0: off. When not given, by kernel: 1e-3 with se_ard, "
+                              "off otherwise (auto, Matérn, composites)")
+                        .at_least(0)
+                        .below(1);
+  spec.default_yaml.clear();
+  return {std::move(spec), [](const Options& o, GpSettings& s) {
+            if (o.is_set("noise_test_level")) s.noise_test_level = o.real("noise_test_level");
+          }};
+}
+
 }  // namespace
 
 const OptionSet<GpSettings>& gp_options() {
@@ -140,12 +159,7 @@ const OptionSet<GpSettings>& gp_options() {
       opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
       min_noise_std_option(),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
-      opt::real("noise_test_level", &S::noise_test_level,
-                "> 0: before each fit the noise std is bounded by a one-sided test at this level on the cost "
-                "differences of the nearest pairs of points (a deterministic cost's near pairs rule out noise "
-                "that its structure would otherwise be fitted as); 0: off")
-          .at_least(0)
-          .below(1),
+      noise_test_level_option(),
       opt::boolean("noise_test_tight", &S::noise_test_tight,
                    "with noise_test_level: when the data show no noise at all (bound ≤ 1e-5·std(y), e.g. exact "
                    "replicates), fit under the tight noise prior LogNormal(1e-6, 1.5) instead of the cap"),
@@ -205,6 +219,11 @@ ComponentInfo gp_component() {
         // weaker".
         if (!o.is_set("min_noise_std") && kernel.info && !choose_kernel)
           s.min_noise_std = default_min_noise_std(kernel.info->name, s.min_noise_std, s.max_noise_std);
+        // SE-ARD tests its data for noise unless told otherwise: with an exact replicate in each design (bo's
+        // replicate_design follows tests_noise_on_replicates) a deterministic cost is fitted as one, which is what
+        // keeps SE-ARD out of Ackley's ripples (docs/defaults.md, "Session se15", "Session 17").
+        if (!o.is_set("noise_test_level") && kernel.info && !choose_kernel && kernel.info->name == "se_ard")
+          s.noise_test_level = kSeArdNoiseTestLevel;
         // Without a given floor the general one (1e-6) may exceed a small max_noise_std.
         if (!(s.min_noise_std < s.max_noise_std))
           o.node("max_noise_std").fail("gp: expected max_noise_std > the noise floor " + std::to_string(s.min_noise_std) +

@@ -78,6 +78,10 @@ inline constexpr double kTightNoiseMedian = 1e-6, kTightNoiseSd = 1.5;
 
 /// The default noise floor (relative to std(y)) of the `gp` component with `kernel: se_ard` (gp_component.cpp).
 inline constexpr double kSeArdMinNoiseStd = 1e-7;
+/// The default noise_test_level of the `gp` component with `kernel: se_ard` (gp_component.cpp): SE-ARD's smooth
+/// prior explains a deterministic cost's fine structure (Ackley's ripples) as noise unless the data rule noise out
+/// (docs/defaults.md, "Session se15" and "Session 17").
+inline constexpr double kSeArdNoiseTestLevel = 1e-3;
 
 class GpSurrogate final : public Surrogate, public ComponentState {
  public:
@@ -90,6 +94,7 @@ class GpSurrogate final : public Surrogate, public ComponentState {
   Hyperparameters hyperparameters() const override;
   void set_hyperparameters(const Hyperparameters& values) override;
   bool ready() const override { return posterior_.has_value(); }
+  bool tests_noise_on_replicates() const override { return settings_.noise_test_level > 0; }
   /// Exact snapshot (gp_state.cpp): log-parameters, flags, and the data and parameters of the posterior.
   std::string save_state() const override;
   void restore_state(const std::string& state) override;

@@ -441,6 +441,45 @@ TEST_CASE("gp component: the noise floor by kernel (1e-7 for se_ard unless min_n
   CHECK(floor_of("{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}") == doctest::Approx(1e-6).epsilon(1e-12));
 }
 
+TEST_CASE("gp component: the noise test by kernel (1e-3 for se_ard unless noise_test_level is given, off otherwise)") {
+  // SE-ARD tests its data for noise by default (session 17, docs/defaults.md): its gp then asks `bo` for a
+  // replicated design point (tests_noise_on_replicates). Any other kernel, `auto` included, does not.
+  auto& reg = test::registry();
+  BuildContext ctx;
+  ctx.dim = 2;
+  const auto tests = [&](const std::string& yaml) { return reg.create<Surrogate>(yaml, ctx)->tests_noise_on_replicates(); };
+  CHECK(tests("{type: gp, kernel: se_ard}"));
+  CHECK(tests("{type: gp, kernel: se_ard, output_transform: yeo_johnson}"));  // the wrapper forwards the question
+  CHECK_FALSE(tests("{type: gp, kernel: se_ard, noise_test_level: 0}"));
+  CHECK_FALSE(tests("{type: gp}"));
+  CHECK_FALSE(tests("{type: gp, kernel: matern52_ard}"));
+  CHECK_FALSE(tests("{type: gp, kernel_candidates: [matern52_ard, se_ard]}"));
+  CHECK_FALSE(tests("{type: gp, kernel: {type: sum, terms: [se_ard, constant]}}"));
+  CHECK(tests("{type: gp, kernel: matern52_ard, noise_test_level: 0.01}"));
+  // The default is the level of session se15: the same bound as the given value, fit for fit. Two exact
+  // replicates of a deterministic cost among scattered points: the bound is 0, and both fits hold the noise at
+  // SE's floor (1e-7·std(y)).
+  Dataset data = Dataset::empty(2);
+  Rng pts(5);
+  for (int i = 0; i < 12; ++i) {
+    const Vec x = pts.uniform_vec(2);
+    data.add(x, std::sin(6 * x(0)) + 0.3 * std::cos(9 * x(1)) + 0.05 * std::sin(40 * x(0)));
+  }
+  data.add(data.X.row(0).transpose(), data.y(0));
+  const auto noise_of = [&](const std::string& yaml) {
+    const auto gp = reg.create<Surrogate>(yaml, ctx);
+    Rng r(3);
+    REQUIRE(gp->fit(data, r).ok);
+    return hp(*gp, "noise_std");
+  };
+  const double by_default = noise_of("{type: gp, kernel: se_ard}");
+  CHECK(by_default == noise_of("{type: gp, kernel: se_ard, noise_test_level: 1.0e-3}"));
+  double sd = 0;
+  for (Index i = 0; i < data.y.size(); ++i) sd += (data.y(i) - data.y.mean()) * (data.y(i) - data.y.mean());
+  sd = std::sqrt(sd / static_cast<double>(data.y.size() - 1));
+  CHECK(by_default <= 1.01 * kSeArdMinNoiseStd * sd);
+}
+
 TEST_CASE("se_ard's default fit finds real noise (a tight noise prior with starts near it does not)") {
   // SE-ARD's default fit must not interpolate noisy data: y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, 0.1²)
   // at 150 uniform points; the fitted noise must be the true one within 50 % and ℓ_1 within 30 % (no collapse

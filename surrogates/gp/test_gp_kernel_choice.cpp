@@ -198,7 +198,7 @@ TEST_CASE("kernel_candidates: bad lists are refused with their position") {
   fails_with("{type: gp, kernel_candidates: [matern52_ard, rbf]}", "rbf");
 }
 
-TEST_CASE("the resolved configuration gives the same noise floors (min_noise_std is left out unless given)") {
+TEST_CASE("the resolved configuration gives the same noise floors and tests (min_noise_std, noise_test_level left out unless given)") {
   // A study reopened from its stored configuration builds the gp from the resolved YAML, every default filled in;
   // a declared min_noise_std default would come back as a given 1e-6 and replace se_ard's floor of 1e-7.
   const auto floor_of = [](const Surrogate& s) {
@@ -216,6 +216,9 @@ TEST_CASE("the resolved configuration gives the same noise floors (min_noise_std
     CAPTURE(resolved);
     CHECK((resolved.find("min_noise_std") != std::string::npos) == (yaml.find("min_noise_std") != std::string::npos));
     CHECK(floor_of(*make(resolved, 2)) == floor_of(*test::registry().create<Surrogate>(c, ctx)));
+    // Likewise the noise test (on by default for se_ard only, session 17): left out, and the same when rebuilt.
+    CHECK(resolved.find("noise_test_level") == std::string::npos);
+    CHECK(make(resolved, 2)->tests_noise_on_replicates() == (yaml == "{type: gp, kernel: se_ard}"));
   }
   CHECK(floor_of(*make("{type: gp, kernel: se_ard}", 2)) == doctest::Approx(kSeArdMinNoiseStd).epsilon(1e-12));
 }

@@ -33,6 +33,8 @@ class TransformedSurrogate final : public Surrogate {
   void set_state(const std::string& name, const Vec& value) override;
   bool ready() const override { return inner_->ready(); }
   const Surrogate& acquisition_model() const override { return inner_->acquisition_model(); }
+  /// A monotone warping keeps an exact replicate exact, so the inner model's noise test still applies.
+  bool tests_noise_on_replicates() const override { return inner_->tests_noise_on_replicates(); }
 
   const OutputTransform& transform() const { return transform_; }
   const Surrogate& inner() const { return *inner_; }

@@ -56,7 +56,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   restart_points_ =
       settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
   restart_away_ = settings.restart_design == "away";
-  replicate_design_ = settings.replicate_design;
+  replicate_design_ = settings.replicate_design.value_or(surrogate_->tests_noise_on_replicates());
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);
   feasibility_->set_ard(failure_settings_.lengthscales == "ard");

@@ -26,6 +26,21 @@ const OptionSet<Phase>& phase_options() {
 
 
 namespace {
+/// replicate_design has no declared default: when not given it follows the surrogate (its
+/// tests_noise_on_replicates), and an unset option stays out of the resolved configuration, so a stored study
+/// reopens with the design it ran (one stored before session 17 lists `replicate_design: false`).
+BoundOption<BoSettings> replicate_design_option() {
+  OptionSpec spec = opt::boolean("replicate_design", false,
+                                 "the last point of the initial design and of each fresh start's design repeats its "
+                                 "first (an exact replicate: shows the surrogate whether the cost is noisy). When not "
+                                 "given: true if the surrogate tests its data for noise (a gp with noise_test_level, "
+                                 "by default the gp with kernel se_ard), false otherwise");
+  spec.default_yaml.clear();
+  return {std::move(spec), [](const Options& o, BoSettings& s) {
+            if (o.is_set("replicate_design")) s.replicate_design = o.boolean("replicate_design");
+          }};
+}
+
 std::vector<std::pair<std::string, RecommendationRule>> recommendation_mapping() {
   std::vector<std::pair<std::string, RecommendationRule>> out;
   for (const std::string& name : recommendation_rule_names()) out.emplace_back(name, recommendation_rule(name));
@@ -56,9 +71,7 @@ const OptionSet<BoSettings>& bo_options() {
       opt::boolean("refine_early", &BoSettings::refine_early,
                    "when fewer trials remain than a fresh start's design and the current attempt holds the incumbent "
                    "of all the data, the final refinement begins at once (else in the last refine_last trials)"),
-      opt::boolean("replicate_design", &BoSettings::replicate_design,
-                   "the last point of the initial design and of each fresh start's design repeats its first (an "
-                   "exact replicate: shows the surrogate whether the cost is noisy)"),
+      replicate_design_option(),
       opt::integer("restart_points", &BoSettings::restart_points,
                    "design size of each fresh start of the region (-1 = initial_points)")
           .at_least(-1),

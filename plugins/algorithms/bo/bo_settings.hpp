@@ -2,6 +2,7 @@
 // bo's own settings: the member initializers below are the defaults of its top-level options (one source,
 // option_set.hpp). Component options (surrogate, acquisition, region, ...) and the `phases` / `failure_model`
 // maps are declared beside them in bo_options() but parsed by hand.
+#include <optional>
 #include <string>
 
 #include "recommender.hpp"
@@ -30,8 +31,9 @@ struct BoSettings {
   bool refine_early = true;
   /// The last point of the initial design and of each fresh start's design repeats its first: an exact replicate,
   /// so that a surrogate's test for noise on the data (gp's noise_test_level) sees from the start whether the cost
-  /// is deterministic (docs/defaults.md, "Session se15").
-  bool replicate_design = false;
+  /// is deterministic (docs/defaults.md, "Session se15"). Not given: as the surrogate asks
+  /// (Surrogate::tests_noise_on_replicates: a gp with a noise test, by default the one with kernel se_ard).
+  std::optional<bool> replicate_design;
   std::string refine_feasibility = "exclude";  ///< with failures, the refinement excludes (or weights by) P(fail)
   double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice
   BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;

@@ -33,6 +33,7 @@ class RoundedSurrogate final : public Surrogate, public ComponentState {
   void set_state(const std::string& name, const Vec& value) override;
   bool ready() const override { return target().ready(); }
   const Surrogate& acquisition_model() const override;
+  bool tests_noise_on_replicates() const override { return target().tests_noise_on_replicates(); }
 
   /// The inner surrogate's ComponentState (std::runtime_error when it offers none: the caller then replays).
   std::string save_state() const override;

@@ -54,6 +54,10 @@ class Surrogate {
   /// that warps its costs (output_transform), the inner Gaussian model in warped units, where those formulas are
   /// exact; a monotone warping keeps the order of means and quantiles (docs/output_transform.md).
   virtual const Surrogate& acquisition_model() const { return *this; }
+  /// True when the model tests its data for noise and an exact replicate (the same θ twice) makes that test
+  /// decisive: a deterministic cost then shows no difference at all. `bo` repeats a design point for such a
+  /// model unless its `replicate_design` says otherwise (a gp with a noise test; docs/defaults.md, "Session se15").
+  virtual bool tests_noise_on_replicates() const { return false; }
 };
 
 }  // namespace varbo

@@ -321,3 +321,27 @@ TEST_CASE("bo: replicate_design repeats the first point of the initial design an
   }
   CHECK(designs >= 1);
 }
+
+TEST_CASE("bo: replicate_design, when not given, follows the surrogate's noise test (on with a se_ard gp)") {
+  // The gp with kernel se_ard tests its data for noise by default and asks for the replicate; the default gp
+  // (kernel auto) does not. A given replicate_design wins either way (session 17, docs/defaults.md).
+  set_log_level(LogLevel::Error);
+  const Index budget = 8;
+  const auto design_repeats = [&](const std::string& extra) {
+    const std::vector<Trial> t = run("{type: bo, initial_points: 4" + extra + "}", budget);
+    return t[3].x == t[0].x;
+  };
+  CHECK(design_repeats(", surrogate: {type: gp, kernel: se_ard}"));
+  CHECK_FALSE(design_repeats(""));
+  CHECK_FALSE(design_repeats(", surrogate: {type: gp, kernel: matern52_ard}"));
+  CHECK_FALSE(design_repeats(", replicate_design: false, surrogate: {type: gp, kernel: se_ard}"));
+  CHECK_FALSE(design_repeats(", surrogate: {type: gp, kernel: se_ard, noise_test_level: 0}"));
+  CHECK(design_repeats(", replicate_design: true"));
+  CHECK(design_repeats(", surrogate: {type: gp, noise_test_level: 1.0e-3}"));
+  // The same trials as the options written out (se15's setting B1): the default is that setting, not another.
+  const std::vector<Trial> by_default = run("{type: bo, surrogate: {type: gp, kernel: se_ard}}", budget);
+  const std::vector<Trial> written =
+      run("{type: bo, replicate_design: true, surrogate: {type: gp, kernel: se_ard, noise_test_level: 1.0e-3}}",
+          budget);
+  for (Index k = 0; k < budget; ++k) CHECK(by_default[k].x == written[k].x);
+}
