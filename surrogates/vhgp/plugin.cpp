@@ -51,15 +51,17 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
   namespace opt = varbo::opt;
   static const varbo::OptionSet<VhgpConfig> set{
       // The kernels are components (read in make_vhgp); their declared defaults are VhgpKernels{}'s.
-      opt::component("kernel_f", Kind::Kernel, varbo::gp::kAutoKernel,
-                     "covariance of the cost GP f: `auto` (the gp's `kernel: auto`: the constant-noise gp member "
-                     "chooses between Matern-5/2 ARD and SE-ARD at its fits with all restarts, Matern unless SE-ARD's "
-                     "fit objective is 3 nats higher, and the noise process's f takes its choice, so where no noise "
-                     "process is selected the vhgp is the default gp; without a gp member (noise_model "
-                     "heteroscedastic, homoscedastic_member vhgp) Matern-5/2) or any kernel component (se_ard, "
-                     "matern12_ard, matern32_ard, matern52_ard, rational_quadratic, linear, constant, white, "
-                     "{type: sum|product, terms: [...]}); the paper's se_ard; the authors' code SE + constant: "
-                     "{type: sum, terms: [se_ard, constant]}"),
+      opt::component("kernel_f", Kind::Kernel, "matern52_ard",
+                     "covariance of the cost GP f: any kernel component (se_ard, matern12_ard, matern32_ard, "
+                     "matern52_ard, rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); "
+                     "Matern-5/2 as the gp's before its `kernel: auto`; the paper's se_ard; the authors' code SE + "
+                     "constant: {type: sum, terms: [se_ard, constant]}; or `auto`, the gp's `kernel: auto`: the "
+                     "constant-noise gp member chooses between Matern-5/2 ARD and SE-ARD at its fits with all "
+                     "restarts (Matern unless SE-ARD's fit objective is 3 nats higher) and the noise process's f takes "
+                     "its choice, so where no noise process is selected the vhgp is the default gp (not the default: "
+                     "it loses on severe-noise Rosenbrock at d = 5 as the gp's auto does; docs/noisy.md, branch "
+                     "vauto17); without a gp member (noise_model heteroscedastic, homoscedastic_member vhgp) auto is "
+                     "Matern-5/2"),
       opt::component("kernel_g", Kind::Kernel, "se_ard",
                      "covariance of the log-noise GP g: any kernel component; the authors' code SE + white noise: "
                      "{type: sum, terms: [se_ard, white]}"),

@@ -31,9 +31,8 @@ enum class HomoscedasticMember {
 
 /// The settings of the `vhgp` component. Every default here is the declared default of its option (plugin.cpp binds
 /// them with OptionSet, so `--describe`, the YAML and a default-constructed VhgpConfig agree; the kernels, which are
-/// components, are declared as auto and se_ard. The exception is kernel_f's `auto`: its candidates are built by the
-/// registry (plugin.cpp fills kernel_f_candidates), so a VhgpConfig{} has f = Matérn-5/2 alone, auto's first
-/// candidate and the declared default before branch vauto17).
+/// components, are declared as matern52_ard and se_ard, the VhgpKernels defaults; kernel_f: auto's candidates are
+/// built by the registry, plugin.cpp fills kernel_f_candidates).
 struct VhgpConfig {
   VhgpKernels kernels;
   NoiseModel noise_model = NoiseModel::Auto;

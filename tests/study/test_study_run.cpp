@@ -192,7 +192,7 @@ TEST_CASE("a VHGP study (examples/vbo_synthetic.yaml, shortened) is the same wit
   CHECK(rc == rd);
 }
 
-TEST_CASE("the default vhgp (kernel_f: auto) runs a short bo study exactly as the default gp where it selects no noise process") {
+TEST_CASE("a vhgp with kernel_f: auto runs a short bo study exactly as the default gp where it selects no noise process") {
   // The vhgp's constant-noise member is the `gp` with kernel: auto, fitted on the caller's stream, and the vhgp draws
   // from that stream as the gp does: when no fit of the study selects a noise process, every trial, the
   // recommendation and its regret are the gp study's. Homoscedastic noise (additive, sd 0.05 on Branin's range ~300),
@@ -203,7 +203,7 @@ TEST_CASE("the default vhgp (kernel_f: auto) runs a short bo study exactly as th
   RunOverrides ov;
   ov.threads = 1;
   ov.output = a;
-  const RunSummary sv = test::run_yaml(base + "vhgp}\n", test::registry(), ov);
+  const RunSummary sv = test::run_yaml(base + "{type: vhgp, kernel_f: auto}}\n", test::registry(), ov);
   ov.output = b;
   const RunSummary sg = test::run_yaml(base + "gp}\n", test::registry(), ov);
   // The vhgp's fit notes (model.yaml): no noise process selected, each kernel chosen at some fit.

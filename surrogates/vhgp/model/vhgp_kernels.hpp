@@ -33,8 +33,8 @@ class KernelSpec {
   KernelMaker make_;
 };
 
-/// The kernel pair and the relative jitter. The defaults are those of the plugin's declarations (kernel_g se_ard,
-/// jitter 1e-11; plugin.cpp) but for kernel_f, declared `auto`, of which Matérn-5/2 is the first candidate.
+/// The kernel pair and the relative jitter. The defaults are those of the plugin's declarations (kernel_f
+/// matern52_ard, kernel_g se_ard, jitter 1e-11; plugin.cpp).
 struct VhgpKernels {
   KernelSpec f = KernelType::Matern52;
   KernelSpec g = KernelType::SquaredExponential;

@@ -744,7 +744,7 @@ TEST_CASE("warm_lambda_only: a fit between full fits keeps the hyperparameters a
 
 TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp predicts exactly as the gp surrogate") {
   // Both built through the registry as a study builds them, with one kernel given (kernel_f / kernel: matern52_ard,
-  // the vhgp's default before `kernel_f: auto`, which tests/test_vhgp_kernel_auto.cpp checks the same way): the
+  // the vhgp's default; `kernel_f: auto` is checked the same way in tests/test_vhgp_kernel_auto.cpp): the
   // vhgp with its default gp member, and the `gp` with its other defaults. Each gets its own stream from the same seed, and a fit of either draws one number from it,
   // so they stay in step over a sequence of fits N = 12 … 40 (the gp's full fits up to N = 20 and by growth 1.25,
   // warm-only fits in between). Reference: the gp surrogate itself; tolerance 1e-12 relative (the same arithmetic

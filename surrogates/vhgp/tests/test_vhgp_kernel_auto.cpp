@@ -1,4 +1,4 @@
-// `kernel_f: auto` (the vhgp's default since branch vauto17): the gp member chooses f's kernel as the `gp` with
+// `kernel_f: auto` (an option since branch vauto17): the gp member chooses f's kernel as the `gp` with
 // `kernel: auto` does, and the heteroscedastic side takes its choice. References: the `gp` surrogate itself (fit by
 // fit, the same stream), the closed form of the SE kernel, and the member's own log marginal likelihood.
 #include <cmath>
@@ -37,14 +37,14 @@ std::string kernel_in(const std::string& message) {
 
 }  // namespace
 
-TEST_CASE("kernel_f auto (the default): the gp member chooses as the default gp, and where constant noise is selected "
+TEST_CASE("kernel_f auto: the gp member chooses as the default gp, and where constant noise is selected "
           "the vhgp is that gp") {
-  // `{type: vhgp}` and `{type: gp}` through the registry as a study builds them, each on its own stream from the
+  // `{type: vhgp, kernel_f: auto}` and `{type: gp}` (kernel: auto) through the registry as a study builds them, each on its own stream from the
   // same seed (a fit of either draws one number from it), over fits N = 12 … 45 (full fits up to N = 20 and by
   // growth 1.25, warm-only ones in between). Noise sd 0.03 on a smooth function: SE-ARD wins the choice at some
   // full fits, Matérn at others (sd 0.01: SE-ARD at all 34 fits; 0.05–0.2: Matérn at all). Reference: the gp itself; tolerance 1e-12 relative (the same arithmetic on the same
   // inputs: expected bit for bit).
-  auto v = make("vhgp", 2);
+  auto v = make("{type: vhgp, kernel_f: auto}", 2);
   auto g = make("gp", 2);
   const auto* gp = dynamic_cast<const gp::GpSurrogate*>(g.get());
   REQUIRE(gp != nullptr);
@@ -86,7 +86,7 @@ TEST_CASE("kernel_f auto (the default): the gp member chooses as the default gp,
   CHECK(se_fits > 0);                   // the test sees the switch to SE-ARD …
   CHECK(se_fits < fits);                // … and Matérn
   // An exact snapshot carries f's kernel with the gp member: a restored model predicts bit for bit as before.
-  auto w = make("vhgp", 2);
+  auto w = make("{type: vhgp, kernel_f: auto}", 2);
   const std::string text = state_of(v.get())->save_state();
   state_of(w.get())->restore_state(text);
   for (const Vec& p : probes) CHECK(w->predict(p, true).mean == v->predict(p, true).mean);
