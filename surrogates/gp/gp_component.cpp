@@ -177,9 +177,9 @@ const OptionSet<GpSettings>& gp_options() {
 ComponentInfo auto_kernel_component() {
   return make_component<Kernel>(
       kAutoKernel,
-      "gp only: the kernel chosen by the data at each fit with all restarts, among the gp's kernel_candidates "
-      "(default [matern52_ard, se_ard]; Matérn-5/2 ARD unless SE-ARD's fit objective is kernel_choice_margin, "
-      "default 3, nats higher). The gp's default kernel",
+      "gp's kernel and vhgp's kernel_f only: the kernel chosen by the data at each fit with all restarts, among the "
+      "gp's kernel_candidates (default [matern52_ard, se_ard]; Matérn-5/2 ARD unless SE-ARD's fit objective is "
+      "kernel_choice_margin, default 3, nats higher; the vhgp's gp member chooses for its f). The gp's default kernel",
       {},
       Factory<Kernel>([](const Options&, const BuildContext&) -> std::unique_ptr<Kernel> {
         throw std::invalid_argument(

@@ -2,7 +2,9 @@
 // Its options are bound to VhgpConfig (varbo/option_set.hpp): the struct's member initializers are the declared
 // defaults, so `--describe`, config.resolved.yaml and a default-constructed VhgpConfig agree.
 #include <cmath>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "given_parameters.hpp"
 #include "gp_component.hpp"
@@ -52,8 +54,14 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
       opt::component("kernel_f", Kind::Kernel, "matern52_ard",
                      "covariance of the cost GP f: any kernel component (se_ard, matern12_ard, matern32_ard, "
                      "matern52_ard, rational_quadratic, linear, constant, white, {type: sum|product, terms: [...]}); "
-                     "Matern-5/2 as the gp's; the paper's se_ard; the authors' code SE + constant: "
-                     "{type: sum, terms: [se_ard, constant]}"),
+                     "Matern-5/2 as the gp's before its `kernel: auto`; the paper's se_ard; the authors' code SE + "
+                     "constant: {type: sum, terms: [se_ard, constant]}; or `auto`, the gp's `kernel: auto`: the "
+                     "constant-noise gp member chooses between Matern-5/2 ARD and SE-ARD at its fits with all "
+                     "restarts (Matern unless SE-ARD's fit objective is 3 nats higher) and the noise process's f takes "
+                     "its choice, so where no noise process is selected the vhgp is the default gp (not the default: "
+                     "it loses on severe-noise Rosenbrock at d = 5 as the gp's auto does; docs/noisy.md, branch "
+                     "vauto17); without a gp member (noise_model heteroscedastic, homoscedastic_member vhgp) auto is "
+                     "Matern-5/2"),
       opt::component("kernel_g", Kind::Kernel, "se_ard",
                      "covariance of the log-noise GP g: any kernel component; the authors' code SE + white noise: "
                      "{type: sum, terms: [se_ard, white]}"),
@@ -148,11 +156,41 @@ varbo::vhgp::KernelSpec kernel_spec(const Options& o, const std::string& key, co
   });
 }
 
+/// `kernel_f: auto`: the candidates of the gp's `kernel: auto` (gp_component.hpp's kAutoCandidates), each with
+/// the noise floor the `gp` component gives it when min_noise_std is not set (1e-7 for se_ard), so that the gp
+/// member chooses exactly as a default `gp` does.
+std::vector<varbo::gp::KernelCandidate> auto_f_candidates(const varbo::BuildContext& ctx) {
+  const varbo::Registry* registry = ctx.registry;
+  const std::uint64_t seed = ctx.seed;
+  const varbo::gp::GpSettings defaults;
+  const ConfigNode list = ConfigNode::parse(varbo::gp::kAutoCandidates, "<vhgp: kernel_f auto's candidates>");
+  std::vector<varbo::gp::KernelCandidate> out;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const varbo::ResolvedComponent k = registry->resolve(varbo::Kind::Kernel, list.item(i));
+    varbo::gp::KernelCandidate c;
+    c.name = k.info ? k.info->name : "kernel " + std::to_string(i);
+    c.make = [registry, k, seed](varbo::Index dim) {
+      varbo::BuildContext b;
+      b.registry = registry;
+      b.dim = dim;
+      b.seed = seed;
+      return registry->create<varbo::Kernel>(k, b);
+    };
+    c.min_noise_std = varbo::gp::default_min_noise_std(c.name, defaults.min_noise_std, defaults.max_noise_std);
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
 std::unique_ptr<varbo::Surrogate> make_vhgp(const Options& o, const varbo::BuildContext& ctx) {
   using namespace varbo::vhgp;
   if (ctx.registry == nullptr) throw varbo::ConfigError("vhgp: no registry to create the kernels and the fit optimizer");
   VhgpConfig c = vhgp_options().read(o);
-  c.kernels.f = kernel_spec(o, "kernel_f", ctx);
+  const varbo::ResolvedComponent kernel_f = o.component("kernel_f");
+  if (kernel_f.info && kernel_f.info->name == varbo::gp::kAutoKernel)
+    c.kernel_f_candidates = auto_f_candidates(ctx);  // (`auto` inside a composite is refused when built)
+  else
+    c.kernels.f = kernel_spec(o, "kernel_f", ctx);
   c.kernels.g = kernel_spec(o, "kernel_g", ctx);
   std::shared_ptr<const varbo::Optimizer> optimizer =
       ctx.registry->create<varbo::Optimizer>(o.component("fit_optimizer"), ctx);

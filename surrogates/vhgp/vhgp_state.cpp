@@ -9,6 +9,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "varbo/errors.hpp"
 
@@ -25,6 +26,12 @@ Vec get_vec(const StateMap& m, const std::string& key) { return m.has(key) ? m.v
 std::string VhgpSurrogate::save_state() const {
   StateMap m;
   m.put_int("dim", dim_);
+  if (!config_.kernel_f_candidates.empty()) {
+    // kernel_f: auto — the kernel of f the values below belong to; by index, with the name to refuse a snapshot
+    // of another candidate list (as gp_state.cpp).
+    m.put_int("kernel_f_choice", static_cast<long long>(f_choice_));
+    m.put("kernel_f_choice_name", config_.kernel_f_candidates[f_choice_].name);
+  }
   const auto put_params = [&m](const std::string& prefix, const CostParams& c) {
     m.put(prefix, true);
     put_vec(m, prefix + "_theta_f", c.theta_f);
@@ -57,6 +64,19 @@ std::string VhgpSurrogate::save_state() const {
 void VhgpSurrogate::restore_state(const std::string& text) {
   const StateMap m = StateMap::parse(text, "vhgp state");
   if (m.integer("dim") != dim_) throw InputError("vhgp state: saved for dimension " + std::to_string(m.integer("dim")));
+  // f's kernel first: the parameters and the posterior below are laid out for it.
+  const std::vector<gp::KernelCandidate>& cands = config_.kernel_f_candidates;
+  if (m.has("kernel_f_choice") != !cands.empty())
+    throw InputError(cands.empty() ? "vhgp state: saved by a vhgp with kernel_f: auto; this vhgp has a single kernel_f"
+                                   : "vhgp state: saved by a vhgp with a single kernel_f; this vhgp has kernel_f: auto");
+  if (!cands.empty()) {
+    const long long c = m.integer("kernel_f_choice");
+    const std::string name = m.str("kernel_f_choice_name");
+    if (c < 0 || static_cast<std::size_t>(c) >= cands.size() || cands[static_cast<std::size_t>(c)].name != name)
+      throw InputError("vhgp state: the saved kernel_f choice '" + name + "' is not entry " + std::to_string(c) +
+                       " of this vhgp's kernel_f candidates");
+    use_f_kernel(static_cast<std::size_t>(c));
+  }
   const auto get_params = [&m, this](const std::string& prefix) -> std::optional<CostParams> {
     if (!m.has(prefix)) return std::nullopt;
     CostParams c;

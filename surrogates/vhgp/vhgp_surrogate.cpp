@@ -25,7 +25,15 @@ VhgpSurrogate::VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const
     : dim_(dim), config_(std::move(config)), optimizer_(std::move(fit_optimizer)) {
   if (dim_ < 1) throw ConfigError("vhgp: the problem dimension must be at least 1");
   if (config_.restarts < 1) config_.restarts = 1;
+  const std::vector<gp::KernelCandidate>& candidates = config_.kernel_f_candidates;
+  if (candidates.size() == 1) throw ConfigError("vhgp: kernel_f candidates: expected at least two kernels");
+  // kernel_f: auto — f is the first candidate until the gp member's first full fit chooses (as the member is).
+  if (!candidates.empty()) config_.kernels.f = KernelSpec(candidates.front().make);
   f_form_ = config_.prior.configured(*config_.kernels.f.build(dim_), Process::F);
+  for (const gp::KernelCandidate& c : candidates)
+    if (c.make(dim_)->num_params() != f_form_->num_params())
+      throw ConfigError("vhgp: kernel_f candidate " + c.name + " has another parameter count than " +
+                        candidates.front().name);
   g_form_ = config_.prior.configured(*config_.kernels.g.build(dim_), Process::G);
   f_scaling_ = output_scaling(*f_form_);
   // (Without any fit optimizer the model only conditions on given parameters, and the member is never fitted.)
@@ -34,13 +42,29 @@ VhgpSurrogate::VhgpSurrogate(Index dim, VhgpConfig config, std::shared_ptr<const
     // The `gp` component's defaults (GpSettings{} is its declared defaults) with kernel_f: its priors, boxes and
     // noise floor reach the kernel as role defaults, so θ has the layout of f_form_ (same kernel, other priors).
     gp::GpSettings settings;
-    const KernelSpec f = config_.kernels.f;
-    settings.kernel = [f](Index d) { return f.build(d); };
-    settings.min_noise_std = std::min(config_.gp_member_min_noise_std, settings.max_noise_std);
+    if (!candidates.empty()) {
+      // kernel_f: auto is the gp's `kernel: auto` (gp_component.cpp): the same candidates with their own noise
+      // floors and the gp's kernel_choice_margin, so the member's fits are a `gp`'s fits.
+      settings.kernel_candidates = candidates;
+    } else {
+      const KernelSpec f = config_.kernels.f;
+      settings.kernel = [f](Index d) { return f.build(d); };
+      settings.min_noise_std = std::min(config_.gp_member_min_noise_std, settings.max_noise_std);
+    }
     gp_member_ = std::make_unique<gp::GpSurrogate>(dim_, settings, gp_optimizer ? gp_optimizer : optimizer_);
     if (gp_member_->kernel().num_params() != f_form_->num_params())
       throw ConfigError("vhgp: homoscedastic_member gp: the gp's kernel has another parameter count than kernel_f");
   }
+}
+
+void VhgpSurrogate::use_f_kernel(std::size_t c) {
+  const std::vector<gp::KernelCandidate>& candidates = config_.kernel_f_candidates;
+  if (c == f_choice_) return;
+  if (c >= candidates.size()) throw std::out_of_range("vhgp: kernel_f candidate out of range");
+  config_.kernels.f = KernelSpec(candidates[c].make);
+  f_form_ = config_.prior.configured(*config_.kernels.f.build(dim_), Process::F);
+  f_scaling_ = output_scaling(*f_form_);
+  f_choice_ = c;
 }
 
 VhgpSurrogate::Scaling VhgpSurrogate::scaling_for(const Vec& y) const {
@@ -190,13 +214,26 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   }
   const Scaling s = scaling_for(data.y);
   const Vec ys = (data.y.array() - s.mean) / s.scale;
-  const VhgpBound bound(data.X, ys, config_.kernels);
-  const VhgpObjective objective(bound, config_.prior);
-  const BoxRegion region(objective.box());
-
   const Rng rng_before = rng;  // the caller's stream before this fit (the gp member's draws)
   // One seed drawn from the caller's stream per fit; restart k then uses stream k of it, whatever the thread.
   const Rng base(rng.next());
+
+  // homoscedastic_member gp: the gp surrogate fitted as the `gp` component would be, on a copy of the caller's
+  // stream (so it draws what a gp given this stream draws, and this fit's own draws are unchanged). First, since
+  // with kernel_f: auto its kernel choice (made at its full fits, kept by its warm-only ones) is f's kernel for
+  // the whole fit: the noise process and the constant-noise member it must beat then share f's kernel, and where
+  // no noise process is selected the vhgp is exactly the `gp` (docs/noisy.md, "kernel_f: auto").
+  const std::size_t f_before = f_choice_;
+  std::optional<Vec> gp_x;  // its [θ_f ; log σ_n] in this fit's model units
+  if (gp_member_ && !config_.fixed_hyperparameters) {
+    Rng gp_rng = rng_before;
+    const FitReport gp_report = gp_member_->fit(data, gp_rng);
+    if (gp_member_->ready() && !config_.kernel_f_candidates.empty()) use_f_kernel(gp_member_->kernel_choice());
+    if (gp_report.ok && gp_member_->ready()) gp_x = gp_member_->log_params(s.scale);
+  }
+  const VhgpBound bound(data.X, ys, config_.kernels);
+  const VhgpObjective objective(bound, config_.prior);
+  const BoxRegion region(objective.box());
 
   if (config_.fixed_hyperparameters) {
     // Hyperparameters as given (`hyperparameters:`) or the defaults; only the variational parameters log Λ
@@ -227,15 +264,8 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
   const bool heteroscedastic = config_.noise_model == NoiseModel::Heteroscedastic ||
                                (config_.noise_model == NoiseModel::Auto && !(keep_choice && homoscedastic_selected_));
   // The homoscedastic fit: the GP start of a full fit (vhgp.md §8) and, when the noise model is selected, the
-  // nested model the heteroscedastic fit has to beat (then at every fit, warm-started: it is cheap).
-  // homoscedastic_member gp: the gp surrogate fitted as the `gp` component would be, on a copy of the caller's
-  // stream (so it draws what a gp given this stream draws, and this fit's own draws are unchanged).
-  std::optional<Vec> gp_x;  // its [θ_f ; log σ_n] in this fit's model units
-  if (gp_member_) {
-    Rng gp_rng = rng_before;
-    const FitReport gp_report = gp_member_->fit(data, gp_rng);
-    if (gp_report.ok && gp_member_->ready()) gp_x = gp_member_->log_params(s.scale);
-  }
+  // nested model the heteroscedastic fit has to beat (then at every fit, warm-started: it is cheap); with the gp
+  // member (fitted above) only the former.
   HomoscedasticFit homo;
   const bool homo_needed = gp_member_ ? (full && heteroscedastic) : (full || !heteroscedastic || select);
   if (homo_needed) {
@@ -328,7 +358,13 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     if (report.ok && config_.noise_model == NoiseModel::Auto)
       report.message += std::string(report.message.empty() ? "" : "; ") +
                         (homoscedastic_chosen ? "homoscedastic noise selected" : "heteroscedastic noise selected");
+    if (report.ok && !config_.kernel_f_candidates.empty())
+      report.message += std::string(report.message.empty() ? "" : "; ") + "kernel_f " +
+                        config_.kernel_f_candidates[f_choice_].name;
   }
+  // A failed fit keeps the previous model: f's kernel back to the one it was fitted with (the gp member keeps
+  // its new choice, which the next fit follows).
+  if (!report.ok && f_choice_ != f_before) use_f_kernel(f_before);
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return report;
 }

@@ -3,6 +3,7 @@
 // 13). Costs are standardized inside (y_s = (y − m)/s); every reported quantity is in cost units.
 #include <memory>
 #include <optional>
+#include <vector>
 #include "varbo/optimizer.hpp"
 #include "varbo/state.hpp"
 #include "varbo/surrogate.hpp"
@@ -30,7 +31,8 @@ enum class HomoscedasticMember {
 
 /// The settings of the `vhgp` component. Every default here is the declared default of its option (plugin.cpp binds
 /// them with OptionSet, so `--describe`, the YAML and a default-constructed VhgpConfig agree; the kernels, which are
-/// components, are declared as matern52_ard and se_ard, the VhgpKernels defaults).
+/// components, are declared as matern52_ard and se_ard, the VhgpKernels defaults; kernel_f: auto's candidates are
+/// built by the registry, plugin.cpp fills kernel_f_candidates).
 struct VhgpConfig {
   VhgpKernels kernels;
   NoiseModel noise_model = NoiseModel::Auto;
@@ -64,6 +66,11 @@ struct VhgpConfig {
   HomoscedasticMember homoscedastic_member = HomoscedasticMember::Gp;
   /// The gp member's noise floor relative to std(y) (plugin.cpp: as the `gp` component, 1e-7 for kernel_f se_ard).
   double gp_member_min_noise_std = gp::GpSettings{}.min_noise_std;
+  /// `kernel_f: auto` (plugin.cpp): the kernels f may be, as the `gp` component's `kernel: auto` (its
+  /// kAutoCandidates, each with its noise floor). The gp member chooses among them at its full fits exactly as a
+  /// `gp` does, and the heteroscedastic side takes the member's choice; without a gp member (noise_model
+  /// heteroscedastic, homoscedastic_member vhgp) f is the first. Empty: kernels.f alone.
+  std::vector<gp::KernelCandidate> kernel_f_candidates;
   VhgpHyperprior prior;
 };
 
@@ -102,6 +109,9 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   bool gp_member_selected() const { return gp_selected_; }
   /// The gp member (null unless homoscedastic_member: gp), for tests.
   const gp::GpSurrogate* gp_member() const { return gp_member_.get(); }
+  /// The entry of config().kernel_f_candidates f uses (0 without candidates): the gp member's choice at its last
+  /// full fit.
+  std::size_t kernel_f_choice() const { return f_choice_; }
 
  private:
   /// Parameters in cost units (the canonical state): θ_f with log σ_f of costs, μ0 the log noise variance of
@@ -129,6 +139,10 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
                                          const Rng& base) const;
   /// A start of a restart: θ_f moved, θ_g and μ0 drawn around `gp_start` (model units).
   VhgpParams perturbed(const VhgpParams& gp_start, Rng& r) const;
+  /// Makes candidate `c` of kernel_f_candidates the kernel of f: config_.kernels.f, f_form_ and f_scaling_. The
+  /// candidates have the same hyperparameter names (the `gp` component's rule), so every θ_f kept (warm starts,
+  /// given values) is laid out for either.
+  void use_f_kernel(std::size_t c);
 
   Index dim_;
   VhgpConfig config_;
@@ -153,6 +167,7 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   /// whether the last fit selected it (then predictions and signal_variance are its).
   std::unique_ptr<gp::GpSurrogate> gp_member_;
   bool gp_selected_ = false;
+  std::size_t f_choice_ = 0;  ///< kernel_f_candidates entry of f_form_ (and of posterior_)
 };
 
 }  // namespace varbo::vhgp

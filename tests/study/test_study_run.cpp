@@ -192,6 +192,37 @@ TEST_CASE("a VHGP study (examples/vbo_synthetic.yaml, shortened) is the same wit
   CHECK(rc == rd);
 }
 
+TEST_CASE("a vhgp with kernel_f: auto runs a short bo study exactly as the default gp where it selects no noise process") {
+  // The vhgp's constant-noise member is the `gp` with kernel: auto, fitted on the caller's stream, and the vhgp draws
+  // from that stream as the gp does: when no fit of the study selects a noise process, every trial, the
+  // recommendation and its regret are the gp study's. Homoscedastic noise (additive, sd 0.05 on Branin's range ~300),
+  // where the gp chooses SE-ARD at some fits and Matérn at others (sd 0.5, seed 4: Matérn at every fit).
+  set_log_level(LogLevel::Error);
+  const std::string base = "task: {type: branin, noise_std: 0.05}\nbudget: 30\nseed: 4\nalgorithm: {type: bo, surrogate: ";
+  const std::string a = test::temp_folder("vhgp_as_gp_v"), b = test::temp_folder("vhgp_as_gp_g");
+  RunOverrides ov;
+  ov.threads = 1;
+  ov.output = a;
+  const RunSummary sv = test::run_yaml(base + "{type: vhgp, kernel_f: auto}}\n", test::registry(), ov);
+  ov.output = b;
+  const RunSummary sg = test::run_yaml(base + "gp}\n", test::registry(), ov);
+  // The vhgp's fit notes (model.yaml): no noise process selected, each kernel chosen at some fit.
+  const std::string notes = test::slurp(a + "/model.yaml");
+  CAPTURE(notes);
+  CHECK(notes.find("heteroscedastic noise selected") == std::string::npos);
+  CHECK(notes.find("kernel_f se_ard") != std::string::npos);
+  CHECK(notes.find("kernel_f matern52_ard") != std::string::npos);
+  const auto rv = without_timings(test::read_rows(a + "/trials.csv"));
+  const auto rg = without_timings(test::read_rows(b + "/trials.csv"));
+  REQUIRE(rv.size() == 31);
+  CHECK(rv == rg);
+  REQUIRE(sv.recommended_theta.has_value());
+  REQUIRE(sg.recommended_theta.has_value());
+  CHECK(*sv.recommended_theta == *sg.recommended_theta);
+  REQUIRE(sv.regret_recommended.has_value());
+  CHECK(*sv.regret_recommended == *sg.regret_recommended);
+}
+
 TEST_CASE("noise-free runs: the recommended theta is never worse than the best observed by more than the fitted noise") {
   // Issue 10's target: on noiseless problems the recommendation (lowest posterior mean among the evaluated
   // points of a model that saw every observation) costs at most the fitted noise level more than the best

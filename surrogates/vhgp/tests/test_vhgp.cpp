@@ -743,15 +743,16 @@ TEST_CASE("warm_lambda_only: a fit between full fits keeps the hyperparameters a
 }
 
 TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp predicts exactly as the gp surrogate") {
-  // Both built through the registry as a study builds them: `{type: vhgp, homoscedastic_member: gp}` and the plain
-  // `gp` (its defaults). Each gets its own stream from the same seed, and a fit of either draws one number from it,
+  // Both built through the registry as a study builds them, with one kernel given (kernel_f / kernel: matern52_ard,
+  // the vhgp's default; `kernel_f: auto` is checked the same way in tests/test_vhgp_kernel_auto.cpp): the
+  // vhgp with its default gp member, and the `gp` with its other defaults. Each gets its own stream from the same seed, and a fit of either draws one number from it,
   // so they stay in step over a sequence of fits N = 12 … 40 (the gp's full fits up to N = 20 and by growth 1.25,
   // warm-only fits in between). Reference: the gp surrogate itself; tolerance 1e-12 relative (the same arithmetic
   // on the same inputs: expected bit for bit).
   BuildContext ctx;
   ctx.dim = 2;
-  auto v = test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gp}", ctx);
-  auto g = test::registry().create<Surrogate>("gp", ctx);
+  auto v = test::registry().create<Surrogate>("{type: vhgp, kernel_f: matern52_ard}", ctx);
+  auto g = test::registry().create<Surrogate>("{type: gp, kernel: matern52_ard}", ctx);
   Rng rv(7), rg(7);
   Rng data_rng(11);
   Dataset d = Dataset::empty(2);
@@ -785,7 +786,7 @@ TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp p
   MESSAGE("constant noise selected in ", selected, " of ", fits, " fits");
   CHECK(selected >= fits - 2);  // homoscedastic data: the noise process is (almost) never worth its BIC penalty
   // An exact snapshot carries the gp member: a restored model predicts bit for bit as before.
-  auto w = test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gp}", ctx);
+  auto w = test::registry().create<Surrogate>("{type: vhgp, kernel_f: matern52_ard}", ctx);
   state_of(w.get())->restore_state(state_of(v.get())->save_state());
   for (const Vec& p : probes) CHECK(w->predict(p, false).mean == v->predict(p, false).mean);
   // Conditioning on one more point without a fit follows the gp's condition().

@@ -418,7 +418,7 @@ TEST_CASE("options: a default-built vhgp is VhgpConfig{} (declared defaults = st
   CHECK(c.warm_final_refit);
   CHECK_FALSE(c.select_every_fit);
   CHECK(c.warm_lambda_only);
-  CHECK(def["kernel_f"] == "matern52_ard");
+  CHECK(def["kernel_f"] == "matern52_ard");  // `auto` is an option (test_vhgp_kernel_auto.cpp), not the default
   const YAML::Node mu0 = YAML::Load(def["prior_mu0"]);
   CHECK(mu0[0].as<double>() == c.prior.mu0.mean);
   CHECK(mu0[1].as<double>() == c.prior.mu0.sd);
