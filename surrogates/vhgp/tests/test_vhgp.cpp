@@ -14,6 +14,7 @@
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 #include "predictive_gradient_check.hpp"
+#include "same_as_gp_check.hpp"
 #include "varbo_test.hpp"
 #include "vhgp_surrogate.hpp"
 
@@ -759,7 +760,6 @@ TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp p
   int selected = 0, fits = 0;
   const std::vector<Vec> probes = {Vec::Constant(2, 0.5), (Vec(2) << 0.1, 0.9).finished(),
                                    (Vec(2) << 0.73, 0.21).finished()};
-  const auto close = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b)); };
   for (Index n = 1; n <= 40; ++n) {
     const Vec x = data_rng.uniform_vec(2);
     d.add(x, std::sin(3.0 * x.sum()) + 0.2 * data_rng.normal());  // constant noise sd 0.2
@@ -771,17 +771,8 @@ TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp p
     ++fits;
     if (a.message.find("homoscedastic noise selected") == std::string::npos) continue;
     ++selected;
-    for (const Vec& p : probes) {
-      const Prediction pv = v->predict(p, true), pg = g->predict(p, true);
-      CAPTURE(n);
-      CHECK(close(pv.mean, pg.mean));
-      CHECK(close(pv.latent_var, pg.latent_var));
-      CHECK(close(pv.log_noise_mean, pg.log_noise_mean));
-      CHECK(pv.log_noise_var == 0);
-      CHECK((pv.d_mean - pg.d_mean).norm() <= 1e-12 * std::max(1.0, pg.d_mean.norm()));
-      CHECK((pv.d_latent_var - pg.d_latent_var).norm() <= 1e-12 * std::max(1.0, pg.d_latent_var.norm()));
-    }
-    CHECK(close(v->signal_variance(), g->signal_variance()));
+    CAPTURE(n);
+    check_same_predictions(*v, *g, probes);
   }
   MESSAGE("constant noise selected in ", selected, " of ", fits, " fits");
   CHECK(selected >= fits - 2);  // homoscedastic data: the noise process is (almost) never worth its BIC penalty
@@ -794,6 +785,7 @@ TEST_CASE("homoscedastic_member gp: where constant noise is selected, the vhgp p
   d.add(x, std::sin(3.0 * x.sum()) + 0.2 * data_rng.normal());
   REQUIRE(v->condition(d).ok);
   REQUIRE(g->condition(d).ok);
+  const auto close = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b)); };
   for (const Vec& p : probes) CHECK(close(v->predict(p, false).mean, g->predict(p, false).mean));
 }
 

@@ -8,6 +8,7 @@
 #include "gp_surrogate.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/state.hpp"
+#include "same_as_gp_check.hpp"
 #include "varbo_test.hpp"
 #include "vhgp_surrogate.hpp"
 
@@ -54,7 +55,6 @@ TEST_CASE("kernel_f auto: the gp member chooses as the default gp, and where con
   int selected = 0, fits = 0, se_fits = 0;
   const std::vector<Vec> probes = {Vec::Constant(2, 0.5), (Vec(2) << 0.1, 0.9).finished(),
                                    (Vec(2) << 0.73, 0.21).finished()};
-  const auto close = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::max(1.0, std::abs(b)); };
   for (Index n = 1; n <= 45; ++n) {
     add_point(d, data_rng, 0.03);
     if (n < 12) continue;
@@ -70,16 +70,7 @@ TEST_CASE("kernel_f auto: the gp member chooses as the default gp, and where con
     se_fits += chosen == "se_ard";
     if (a.message.find("homoscedastic noise selected") == std::string::npos) continue;
     ++selected;
-    for (const Vec& p : probes) {
-      const Prediction pv = v->predict(p, true), pg = g->predict(p, true);
-      CHECK(close(pv.mean, pg.mean));
-      CHECK(close(pv.latent_var, pg.latent_var));
-      CHECK(close(pv.log_noise_mean, pg.log_noise_mean));
-      CHECK(pv.log_noise_var == 0);
-      CHECK((pv.d_mean - pg.d_mean).norm() <= 1e-12 * std::max(1.0, pg.d_mean.norm()));
-      CHECK((pv.d_latent_var - pg.d_latent_var).norm() <= 1e-12 * std::max(1.0, pg.d_latent_var.norm()));
-    }
-    CHECK(close(v->signal_variance(), g->signal_variance()));
+    check_same_predictions(*v, *g, probes);
   }
   MESSAGE("constant noise selected in ", selected, " of ", fits, " fits; SE-ARD chosen in ", se_fits);
   CHECK(selected >= fits - 2);          // homoscedastic data: the noise process is (almost) never selected
