@@ -280,7 +280,7 @@ TEST_CASE("kernel: auto, the default, is the candidates [matern52_ard, se_ard] w
   em << c.resolved();
   CHECK(YAML::Load(em.c_str())["kernel"]["type"].as<std::string>() == "auto");
   CHECK(as_gp(*make(em.c_str(), 2)).settings().kernel_candidates.size() == 2u);
-  // `auto` is the gp's (and the vhgp's kernel_f, branch vauto17), not a kernel: anywhere else it is refused, naming it.
+  // `auto` is the gp's (and the vhgp's kernel_f, since session 17), not a kernel: anywhere else it is refused, naming it.
   for (const std::string yaml :
        {"{type: vhgp, kernel_g: auto}", "{type: gp, kernel: {type: sum, terms: [auto, white]}}"}) {
     CAPTURE(yaml);

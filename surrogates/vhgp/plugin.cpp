@@ -59,8 +59,8 @@ const varbo::OptionSet<VhgpConfig>& vhgp_options() {
                      "constant-noise gp member chooses between Matern-5/2 ARD and SE-ARD at its fits with all "
                      "restarts (Matern unless SE-ARD's fit objective is 3 nats higher) and the noise process's f takes "
                      "its choice, so where no noise process is selected the vhgp is the default gp (not the default: "
-                     "it loses on severe-noise Rosenbrock at d = 5 as the gp's auto does; docs/noisy.md, branch "
-                     "vauto17); without a gp member (noise_model heteroscedastic, homoscedastic_member vhgp) auto is "
+                     "it loses on severe-noise Rosenbrock at d = 5 as the gp's auto does; docs/noisy.md, session "
+                     "17); without a gp member (noise_model heteroscedastic, homoscedastic_member vhgp) auto is "
                      "Matern-5/2"),
       opt::component("kernel_g", Kind::Kernel, "se_ard",
                      "covariance of the log-noise GP g: any kernel component; the authors' code SE + white noise: "

@@ -1,4 +1,4 @@
-// `kernel_f: auto` (an option since branch vauto17): the gp member chooses f's kernel as the `gp` with
+// `kernel_f: auto` (an option since session 17): the gp member chooses f's kernel as the `gp` with
 // `kernel: auto` does, and the heteroscedastic side takes its choice. References: the `gp` surrogate itself (fit by
 // fit, the same stream), the closed form of the SE kernel, and the member's own log marginal likelihood.
 #include <cmath>
