@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -51,7 +52,19 @@ const std::vector<Problem> kProblems = {
 struct Result {
   double regret_recommended = NAN, regret_best = NAN;
   int failed_after_design = 0, after_design = 0, failed = 0;
+  std::vector<double> design_cost;  ///< the initial design's costs in trial order, NaN where the trial failed
 };
+
+/// Whether the failure region hides the failure-free run's best design point: the two runs share their initial
+/// design (the failure model begins at the first failure), so trial i of the design is the same θ in both, and the
+/// failing run has no cost where the failure-free one found its best start. On Hartmann-6 this decides which basin
+/// the first attempt reaches (docs/failures.md, session 18).
+bool best_design_point_hidden(const Result& with, const Result& without) {
+  const auto& c = without.design_cost;
+  if (c.empty() || c.size() != with.design_cost.size()) return false;
+  const std::size_t best = static_cast<std::size_t>(std::min_element(c.begin(), c.end()) - c.begin());
+  return std::isnan(with.design_cost[best]);
+}
 
 Result run(const Registry& reg, const std::string& task_yaml, const std::string& algorithm, int budget, int seed,
            int threads, const std::string& out) {
@@ -72,11 +85,15 @@ Result run(const Registry& reg, const std::string& task_yaml, const std::string&
   const auto col = [&](const std::string& n) {
     return static_cast<std::size_t>(std::find(rows[0].begin(), rows[0].end(), n) - rows[0].begin());
   };
-  for (std::size_t i = 1; i < rows.size(); ++i)
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    const bool ok = rows[i][col("ok")] == "1";
     if (rows[i][col("phase")] != "initial") {
       ++r.after_design;
-      r.failed_after_design += rows[i][col("ok")] != "1";
+      r.failed_after_design += !ok;
+    } else {
+      r.design_cost.push_back(ok ? std::stod(rows[i][col("cost")]) : NAN);
     }
+  }
   return r;
 }
 
@@ -128,6 +145,7 @@ int main(int argc, char** argv) {
       (std::filesystem::temp_directory_path() / fmt::format("varbo_bench_failures_{}", getpid())).string();
   std::printf("algorithm: %s; seeds %d-%d; threads %d\n\n", algorithm.c_str(), first_seed, first_seed + seeds - 1,
               threads);
+  std::vector<std::string> split;  // the second table: seeds split by whether the design's best point is hidden
   std::printf("| problem (budget) | failure region (measured volume) | failed after the design: median [q1, q3] (pooled) "
               "| regret of the recommended θ, with failures | without | ratio of medians | best-observed regret, with "
               "| without |\n|---|---|---|---|---|---|---|---|\n");
@@ -139,6 +157,7 @@ int main(int argc, char** argv) {
     if (!only.empty() && only != lower) continue;
     const std::string failing = p.task + ", failure_region: " + p.failure_region;
     std::vector<double> rate, rec_with, rec_without, best_with, best_without;
+    std::vector<double> hidden_with, hidden_without, shown_with, shown_without;
     int failed_pooled = 0, after_pooled = 0;
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
       const Result w = run(reg, failing, algorithm, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, lower, seed));
@@ -146,20 +165,38 @@ int main(int argc, char** argv) {
       rate.push_back(static_cast<double>(w.failed_after_design) / std::max(1, w.after_design));
       failed_pooled += w.failed_after_design;
       after_pooled += w.after_design;
+      const bool hidden = best_design_point_hidden(w, o);
+      (hidden ? hidden_with : shown_with).push_back(w.regret_recommended);
+      (hidden ? hidden_without : shown_without).push_back(o.regret_recommended);
       rec_with.push_back(w.regret_recommended);
       rec_without.push_back(o.regret_recommended);
       best_with.push_back(w.regret_best);
       best_without.push_back(o.regret_best);
-      std::fprintf(stderr, "%s seed %d: failed %d/%d after the design (%d in all); regret rec %.3g vs %.3g, best %.3g vs %.3g\n",
+      std::fprintf(stderr, "%s seed %d: failed %d/%d after the design (%d in all); regret rec %.3g vs %.3g, best %.3g vs %.3g%s\n",
                    p.name.c_str(), seed, w.failed_after_design, w.after_design, w.failed, w.regret_recommended,
-                   o.regret_recommended, w.regret_best, o.regret_best);
+                   o.regret_recommended, w.regret_best, o.regret_best, hidden ? "; best design point hidden" : "");
     }
     std::printf("| %s (%d) | %s (%.3f) | %.1f %% [%.1f, %.1f] (%.1f %%) | %s | %s | %.2g | %s | %s |\n", p.name.c_str(),
                 p.budget, p.failure_region.c_str(), measured_fraction(reg, failing), 100 * quantile(rate, 0.5),
                 100 * quantile(rate, 0.25), 100 * quantile(rate, 0.75), 100.0 * failed_pooled / std::max(1, after_pooled),
                 cell(rec_with).c_str(), cell(rec_without).c_str(), quantile(rec_with, 0.5) / quantile(rec_without, 0.5),
                 cell(best_with).c_str(), cell(best_without).c_str());
+    if (!with_only) {
+      const auto group = [](const std::vector<double>& a, const std::vector<double>& b) {
+        if (a.empty()) return std::string("–");
+        return fmt::format("{}: {} / {}", a.size(), cell(a), cell(b));
+      };
+      split.push_back(fmt::format("| {} ({}) | {} | {} |", p.name, p.budget, group(hidden_with, hidden_without),
+                                  group(shown_with, shown_without)));
+    }
     std::fflush(stdout);
+  }
+  if (!split.empty()) {
+    // Where the failure-free run's best design point lies inside the failure region, the failing run has lost the
+    // observation that would have led it to that basin: a gap there is information, not the handling of failures.
+    std::printf("\n| problem (budget) | seeds whose failure-free best design point the region hides: n: regret with / "
+                "without | the other seeds |\n|---|---|---|\n");
+    for (const std::string& row : split) std::printf("%s\n", row.c_str());
   }
   return 0;
 }

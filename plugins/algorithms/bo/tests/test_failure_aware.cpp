@@ -54,11 +54,12 @@ std::vector<Trial> read_trials(const std::string& folder, const Box& box) {
 }
 
 std::vector<Trial> run(const std::string& name, const std::string& task, const Box& box, const std::string& algorithm,
-                       int budget, int threads) {
+                       int budget, int threads, int seed = 3) {
   RunOverrides ov;
   ov.output = test::temp_folder("failure_aware_" + name);
   ov.threads = threads;
-  test::run_yaml("task: " + task + "\nbudget: " + std::to_string(budget) + "\nseed: 3\nalgorithm: " + algorithm + "\n",
+  test::run_yaml("task: " + task + "\nbudget: " + std::to_string(budget) + "\nseed: " + std::to_string(seed) +
+                     "\nalgorithm: " + algorithm + "\n",
                  test::registry(), ov);
   return read_trials(*ov.output, box);
 }
@@ -320,8 +321,11 @@ TEST_CASE("cost_lengthscales reads ARD and composite kernels of gp and vhgp, nev
 
 TEST_CASE("stall_value and its variants: no change without failures; they reach the trust region once trials fail") {
   // failh6d. Without failures the rule is never set (identical trials); test_trust_region.cpp tests the rule itself.
+  // Since session 18 the default is the attempt gate (stall_value 0.001, range, strict, stall_attempt); off is
+  // stall_value: 0.
+  const std::string off = "{type: bo, failure_model: {stall_value: 0}}";
   const std::vector<std::string> variants = {
-      "{type: bo, failure_model: {stall_value: 0.001}}",
+      off, "{type: bo, failure_model: {stall_value: 0.001}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: std, stall_incumbent: 0.01}}",
       "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
@@ -344,9 +348,11 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
   const std::string task =
       "{type: hartmann6, failure_region: {shape: box, lower: [0, 0, 0, 0, 0, 0.7], upper: [1, 1, 1, 1, 1, 1]}}";
   const Box unit{Vec::Zero(2), Vec::Ones(2)};
-  const std::vector<Trial> h = run("sv_h6", task, unit, "{type: bo}", 70, 1);
-  const std::vector<Trial> sv =
-      run("sv_h6_on", task, unit, "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range}}", 70, 1);
+  const std::vector<Trial> h = run("sv_h6", task, unit, off, 70, 1);
+  const std::vector<Trial> sv = run(
+      "sv_h6_on", task, unit,
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: false, stall_attempt: false}}",
+      70, 1);
   REQUIRE(h.size() == sv.size());
   std::size_t first_difference = h.size();
   for (std::size_t i = 0; i < h.size() && first_difference == h.size(); ++i)
@@ -357,7 +363,9 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
   // they never do, so the run is the plain one.
   const std::vector<Trial> never = run(
       "sv_h6_never", task, unit,
-      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_remaining: 70}}", 70, 1);
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: false, stall_attempt: false, "
+      "stall_remaining: 70}}",
+      70, 1);
   REQUIRE(never.size() == h.size());
   for (std::size_t i = 0; i < h.size(); ++i) CHECK((never[i].u - h[i].u).norm() == 0.0);
   // stall_attempt (fail12): value stalls count only while the trials left (70 − k) are at least those the attempt
@@ -365,9 +373,27 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
   // the ungated rule's.
   const std::vector<Trial> gated = run(
       "sv_h6_attempt", task, unit,
-      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_attempt: true}}", 70, 1);
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: false, stall_attempt: true}}",
+      70, 1);
   REQUIRE(gated.size() == h.size());
   for (std::size_t i = 0; i <= 35; ++i) CHECK((gated[i].u - sv[i].u).norm() == 0.0);
+  // The default is the written-out attempt gate, trial for trial, and it acts at the benchmark's budget of 100
+  // (bench_failures, seed 1: the first attempt, converged in Hartmann-6's local basin, hands over sooner).
+  const std::vector<Trial> off100 = run("sv_h6_off100", task, unit, off, 100, 1, 1);
+  const std::vector<Trial> plain_h6 = run("sv_h6_default", task, unit, "{type: bo}", 100, 1, 1);
+  const std::vector<Trial> written = run(
+      "sv_h6_written", task, unit,
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: range, stall_strict: true, stall_attempt: true}}",
+      100, 1, 1);
+  REQUIRE(plain_h6.size() == off100.size());
+  REQUIRE(written.size() == off100.size());
+  std::size_t default_difference = off100.size();
+  for (std::size_t i = 0; i < off100.size(); ++i) {
+    CHECK((plain_h6[i].u - written[i].u).norm() == 0.0);
+    if (default_difference == off100.size() && (plain_h6[i].u - off100[i].u).norm() > 0) default_difference = i;
+  }
+  CHECK(default_difference > 14);
+  CHECK(default_difference < off100.size());
 }
 
 TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afresh instead of repeating it") {
