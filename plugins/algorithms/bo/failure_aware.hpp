@@ -44,17 +44,16 @@ struct FailureModelSettings {
   /// cost lies within stall_value × stall_scale of the attempt's best as a stall (converged in value, e.g. along a
   /// flat direction), so an attempt hands over to a fresh start sooner: the failures have taken part of the budget
   /// and of the design's information (docs/failures.md). 0 = off. value_stall.hpp: the rule.
-  /// On by default since session 18 (with scale range, strict, the attempt gate): a failure region that hides the
-  /// best design points sends the first attempt to a worse basin more often (Hartmann-6: 38 of 80 first attempts
-  /// reach the global basin with failures, 50 without; equal where the best design point is not hidden), and a
-  /// converged attempt that hands over sooner gives a fresh start the trials to find another (80 seeds: 31 → 23
-  /// stuck; Branin and Hartmann-3 medians unchanged).
-  double stall_value = 1e-3;
+  /// Off by default: its best form (range, strict, stall_attempt) rescues Hartmann-6 runs whose best design point
+  /// the failure region hides (80 seeds: 28 → 23 stuck), but on Rosenbrock-4 with a failure slab it cuts attempts
+  /// that creep along the valley (median 0.35 → 38, session 18): the range of heavy-tailed costs makes every
+  /// non-improving trial a "stall".
+  double stall_value = 0;
   /// The scale of stall_value: "best" (|the attempt's best|), "range" (max − min of the attempt's costs) or "std"
   /// (their standard deviation).
-  std::string stall_scale = "range";
+  std::string stall_scale = "best";
   /// Only trials that do not improve the attempt's best at all count as value stalls.
-  bool stall_strict = true;
+  bool stall_strict = false;
   /// ≥ 0: value stalls count only while the attempt's best is more than stall_incumbent × stall_scale above the
   /// incumbent of all the data; < 0 = always.
   double stall_incumbent = -1;
@@ -64,7 +63,7 @@ struct FailureModelSettings {
   /// Value stalls count only while the trials left in the budget are at least as many as the current attempt has
   /// used (its design included): a fresh start then gets at least the trials the attempt it replaces had, on the
   /// problem's own scale (dimension, budget, how long an attempt takes to converge) instead of a fixed count.
-  bool stall_attempt = true;
+  bool stall_attempt = false;
   /// > 0: once a trial has failed, an attempt whose acquisition proposes a θ within this distance (∞-norm, unit
   /// cube) of a point already evaluated in the attempt has converged (its search collapsed onto its own data, e.g.
   /// creeping along a failure boundary): the region restarts afresh at once instead of spending the trial on a
