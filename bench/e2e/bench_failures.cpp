@@ -9,7 +9,9 @@
 // --with-failures-only skips the failure-free runs (their columns read nan): for comparing variants of the
 // failure handling, which cannot change a run in which no trial fails.
 //
-// Prints a Markdown table (README and docs/failures.md) and each region's measured volume fraction.
+// Prints a Markdown table (README and docs/failures.md) and each region's measured volume fraction, then (with the
+// failure-free runs) a second table that splits the seeds by whether the region hides the failure-free run's best
+// design point, where the failing run has lost the observation that led that run to its basin.
 #include <fmt/format.h>
 
 #include <algorithm>
