@@ -73,39 +73,6 @@ std::vector<KernelCandidate> read_candidates(const ConfigNode& list, const Optio
   return out;
 }
 
-/// min_noise_std has no declared default: the floor then depends on the kernel (default_min_noise_std), and
-/// an unset option stays out of the resolved configuration, so that a study reopened from its stored (resolved)
-/// configuration gets the floor of the original run, not the general 1e-6 as a given value.
-BoundOption<GpSettings> min_noise_std_option() {
-  OptionSpec spec = opt::real("min_noise_std", GpSettings{}.min_noise_std,
-                              "lower bound of the noise std, relative to std(y); when not given, by kernel: 1e-7 "
-                              "with se_ard (also as a kernel_candidates entry), 1e-6 otherwise")
-                        .above(0);
-  spec.default_yaml.clear();
-  return {std::move(spec), [](const Options& o, GpSettings& s) {
-            if (o.is_set("min_noise_std")) s.min_noise_std = o.real("min_noise_std");
-          }};
-}
-
-/// noise_test_level, like min_noise_std, has no declared default: by kernel when not given (1e-3 with se_ard,
-/// off otherwise), and an unset option stays out of the resolved configuration, so a stored study reopens with
-/// the test of the run that made it (a study stored before session 17 lists `noise_test_level: 0`).
-BoundOption<GpSettings> noise_test_level_option() {
-  OptionSpec spec = opt::real("noise_test_level", GpSettings{}.noise_test_level,
-                              "> 0: before each fit the noise std is bounded by a one-sided test at this level on "
-                              "the cost differences of the nearest pairs of points (a deterministic cost's near "
-                              "pairs, above all an exact replicate, rule out noise that its structure would "
-                              "otherwise be fitted as; `bo` then repeats a design point unless its "
-                              "replicate_design is false); 0: off. When not given, by kernel: 1e-3 with se_ard, "
-                              "off otherwise (auto, Matérn, composites)")
-                        .at_least(0)
-                        .below(1);
-  spec.default_yaml.clear();
-  return {std::move(spec), [](const Options& o, GpSettings& s) {
-            if (o.is_set("noise_test_level")) s.noise_test_level = o.real("noise_test_level");
-          }};
-}
-
 }  // namespace
 
 const OptionSet<GpSettings>& gp_options() {
@@ -157,9 +124,25 @@ const OptionSet<GpSettings>& gp_options() {
       opt::real("max_lengthscale", &S::max_lengthscale, "upper bound of each lengthscale (unit cube)").above(0),
       opt::real("min_signal_std", &S::min_signal_std, "lower bound of the signal std, relative to std(y)").above(0),
       opt::real("max_signal_std", &S::max_signal_std, "upper bound of the signal std, relative to std(y)").above(0),
-      min_noise_std_option(),
+      // min_noise_std and noise_test_level have no declared default: unset, they are decided by the kernel
+      // (default_min_noise_std; 1e-3 with se_ard, off otherwise) and stay out of the resolved configuration, so a
+      // study reopens with the floor and the test of the run that made it (one stored before session 17 lists
+      // `noise_test_level: 0`).
+      opt::real("min_noise_std", &S::min_noise_std,
+                "lower bound of the noise std, relative to std(y); when not given, by kernel: 1e-7 with se_ard (also "
+                "as a kernel_candidates entry), 1e-6 otherwise")
+          .above(0)
+          .when_given(),
       opt::real("max_noise_std", &S::max_noise_std, "upper bound of the noise std, relative to std(y)").above(0),
-      noise_test_level_option(),
+      opt::real("noise_test_level", &S::noise_test_level,
+                "> 0: before each fit the noise std is bounded by a one-sided test at this level on the cost "
+                "differences of the nearest pairs of points (a deterministic cost's near pairs, above all an exact "
+                "replicate, rule out noise that its structure would otherwise be fitted as; `bo` then repeats a "
+                "design point unless its replicate_design is false); 0: off. When not given, by kernel: 1e-3 with "
+                "se_ard, off otherwise (auto, Matérn, composites)")
+          .at_least(0)
+          .below(1)
+          .when_given(),
       opt::boolean("noise_test_tight", &S::noise_test_tight,
                    "with noise_test_level: when the data show no noise at all (bound ≤ 1e-5·std(y), e.g. exact "
                    "replicates), fit under the tight noise prior LogNormal(1e-6, 1.5) instead of the cap"),

@@ -221,6 +221,29 @@ TEST_CASE("a required bound option shows no default and must be given") {
             .command == "ls");
 }
 
+TEST_CASE("an option read only when given: no default shown or resolved, the field keeps the component's value") {
+  struct Floor {
+    double min_noise = 1e-6;  // the component's value when the key is absent (gp: decided by the kernel)
+  };
+  const OptionSet<Floor> set{opt::real("min_noise", &Floor::min_noise, "floor").above(0).when_given()};
+  CHECK(set.specs()[0].default_yaml.empty());
+  CHECK_FALSE(set.specs()[0].required);
+  const Options unset = validate_options(ConfigNode::parse("{}", "c.yaml"), set.specs(), "surrogate 'x'", nullptr);
+  CHECK_FALSE(unset.is_set("min_noise"));
+  CHECK_FALSE(unset.resolved()["min_noise"]);  // stays out of config.resolved.yaml
+  Floor decided{1e-7};                         // e.g. set by the component before reading
+  set.read_into(unset, decided);
+  CHECK(decided.min_noise == 1e-7);
+  const Options given =
+      validate_options(ConfigNode::parse("{min_noise: 1.0e-4}", "c.yaml"), set.specs(), "surrogate 'x'", nullptr);
+  set.read_into(given, decided);
+  CHECK(decided.min_noise == 1e-4);
+  CHECK(given.resolved()["min_noise"].as<double>() == 1e-4);
+  // Its bounds still hold when given.
+  CHECK_THROWS_AS(validate_options(ConfigNode::parse("{min_noise: 0}", "c.yaml"), set.specs(), "surrogate 'x'", nullptr),
+                  ConfigError);
+}
+
 TEST_CASE("programming errors in a binding are logic errors, not config errors") {
   struct Bad {
     std::string kernel = "rbf";

@@ -30,15 +30,14 @@ namespace {
 /// tests_noise_on_replicates), and an unset option stays out of the resolved configuration, so a stored study
 /// reopens with the design it ran (one stored before session 17 lists `replicate_design: false`).
 BoundOption<BoSettings> replicate_design_option() {
-  OptionSpec spec = opt::boolean("replicate_design", false,
-                                 "the last point of the initial design and of each fresh start's design repeats its "
-                                 "first (an exact replicate: shows the surrogate whether the cost is noisy). When not "
-                                 "given: true if the surrogate tests its data for noise (a gp with noise_test_level, "
-                                 "by default the gp with kernel se_ard), false otherwise");
-  spec.default_yaml.clear();
-  return {std::move(spec), [](const Options& o, BoSettings& s) {
-            if (o.is_set("replicate_design")) s.replicate_design = o.boolean("replicate_design");
-          }};
+  return BoundOption<BoSettings>(
+             opt::boolean("replicate_design", false,
+                          "the last point of the initial design and of each fresh start's design repeats its first "
+                          "(an exact replicate: shows the surrogate whether the cost is noisy). When not given: true "
+                          "if the surrogate tests its data for noise (a gp with noise_test_level, by default the gp "
+                          "with kernel se_ard), false otherwise"),
+             [](const Options& o, BoSettings& s) { s.replicate_design = o.boolean("replicate_design"); })
+      .when_given();
 }
 
 std::vector<std::pair<std::string, RecommendationRule>> recommendation_mapping() {

@@ -48,6 +48,10 @@ class BoundOption {
   BoundOption& below(double v) { spec_.below(v); return *this; }
   /// Required: the user must give it, so the field's value is not a default (none is shown or used).
   BoundOption& must() { spec_.must(); spec_.default_yaml.clear(); return *this; }
+  /// No declared default: unset, the option stays out of the resolved configuration and its field keeps the value
+  /// the component decides (e.g. by kernel), so a stored study reopens as it ran even after that rule changes;
+  /// given, it is read as usual (gp's min_noise_std and noise_test_level, bo's replicate_design).
+  BoundOption& when_given() { spec_.default_yaml.clear(); return *this; }
 
   const OptionSpec& spec() const { return spec_; }
   bool bound() const { return static_cast<bool>(reader_); }
