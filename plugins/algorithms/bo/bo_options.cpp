@@ -118,19 +118,11 @@ const OptionSet<BoSettings>& bo_options() {
                 "list of phases after the initial design, e.g. [{evaluations: 15, random: true}, "
                 "{evaluations: 15, acquisition: {type: ei, xi: 1}, epsilon: 0.2}, {acquisition: {type: cb, "
                 "randomize: true}}]; the last phase continues until the budget is spent"),
-      opt::node("failure_model", "",
-                "failed trials: {enabled: auto|on|off (default auto: on from the first failure), min_probability: "
-                "0.5, lengthscales: ard|shared, refine_min_probability: 0.8, "
-                "incumbent_level: always|refinement|fixed, "
-                "replace_design: false, stall_value: 0, stall_scale: best, stall_strict: false, stall_incumbent: "
-                "-1, stall_remaining: 0, stall_attempt: false, repeat_distance: 0, boundary_restart: false, "
-                "boundary_reach: 0.05, boundary_tabu: 0.05, feasible_region: off, feasible_shrink: count, feasible_margin: "
-                "0.02, feasible_after: 1, attempt_memory: 0, boundary_jump: off, follow_probe: 0, follow_distance: "
-                "0.25, follow_block: 0.05, follow_separated: true, follow_points: "
-                "-1, follow_memory: 0.1}; the "
-                "acquisition is weighted by P(success | θ) from a "
-                "GP classifier of successes and failures and θ with P < min_probability are never suggested "
-                "(docs/failures.md)"),
+      opt::node("failure_model", failure_model_default_yaml(),
+                "failed trials (a map; keys left out keep these defaults): enabled: auto = on from the first "
+                "failure; the acquisition is weighted by P(success | θ) from a GP classifier of successes and "
+                "failures and θ with P < min_probability are never suggested; the other keys are measured variants, "
+                "off by default (docs/failures.md)"),
   };
   return set;
 }

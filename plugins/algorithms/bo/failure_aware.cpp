@@ -159,6 +159,13 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
 
 std::vector<OptionSpec> failure_model_options() { return failure_model_set().specs(); }
 
+std::string failure_model_default_yaml() {
+  std::vector<std::string> items;
+  for (const auto& spec : failure_model_set().specs())
+    if (!spec.default_yaml.empty()) items.push_back(spec.name + ": " + spec.default_yaml);
+  return fmt::format("{{{}}}", fmt::join(items, ", "));
+}
+
 FailureModelSettings parse_failure_model(const Options& o, const Registry* registry) {
   if (!o.is_set("failure_model")) return FailureModelSettings{};
   const ConfigNode node = o.node("failure_model");

@@ -134,6 +134,10 @@ struct FailureModelSettings {
 
 /// The keys of `bo.failure_model` (one declaration: validation, defaults, --describe).
 std::vector<OptionSpec> failure_model_options();
+/// The defaults of `bo.failure_model` as one YAML flow map, `bo`'s declared default of the key: a study's
+/// resolved configuration names every failure-model setting, so a later change of a default does not silently
+/// change a resumed study.
+std::string failure_model_default_yaml();
 /// Reads `bo.failure_model` (a map, validated) or the defaults when absent.
 FailureModelSettings parse_failure_model(const Options& bo_options, const Registry* registry);
 

@@ -49,6 +49,8 @@ OptionSpec string(std::string name, std::string def, std::string description);
 OptionSpec choice(std::string name, std::string def, std::vector<std::string> choices, std::string description);
 OptionSpec reals(std::string name, std::string def_yaml, std::string description);
 OptionSpec component(std::string name, Kind kind, std::string def_yaml, std::string description);
+/// A YAML value the owner validates itself. With a map as default, a given map is resolved over it key by key
+/// (Options::resolved() names every key; the given node, for validation and messages, is Options::node()).
 OptionSpec node(std::string name, std::string def_yaml, std::string description);
 }  // namespace opt
 

@@ -226,6 +226,26 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
   return {};
 }
 
+/// A map option given in part (`failure_model: {min_probability: 0.3}`) resolves to its default map with the
+/// given keys replaced, in the default's order (keys the default lacks follow): the resolved configuration then
+/// names every setting, so a resumed study keeps the settings it was created with when a later version changes a
+/// default. The plugin still validates the given map itself (Options::node keeps the user's node and positions).
+static YAML::Node merged_over_default(const YAML::Node& def, const YAML::Node& given) {
+  if (!def.IsMap()) return given;
+  for (const auto& kv : given)  // a key that is not a name: left to the owner's validation, which reports it
+    if (!kv.first.IsScalar()) return given;
+  YAML::Node out(YAML::NodeType::Map);
+  for (const auto& kv : def) {
+    const std::string key = kv.first.as<std::string>();
+    out[key] = given[key] ? YAML::Clone(given[key]) : YAML::Clone(kv.second);
+  }
+  for (const auto& kv : given) {
+    const std::string key = kv.first.as<std::string>();
+    if (!def[key]) out[key] = YAML::Clone(kv.second);
+  }
+  return out;
+}
+
 Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& specs, const std::string& owner,
                          const Registry* registry, const std::vector<std::string>& ignored_keys) {
   Options o;
@@ -282,7 +302,11 @@ Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& 
       continue;
     }
     o.nodes_[s.name] = use;
-    o.values_[s.name] = check_value(s, use);
+    // One assignment to a fresh entry: assigning a YAML::Node to one that already refers to the user's node would
+    // overwrite that node in place (yaml-cpp's reference semantics), and with it the positions of its messages.
+    o.values_.emplace(s.name, s.type == OptionType::Node && use.is_map() && !s.default_yaml.empty()
+                                  ? merged_over_default(YAML::Load(s.default_yaml), use.yaml())
+                                  : check_value(s, use));
     if (s.type == OptionType::Component) {
       if (registry == nullptr) throw std::logic_error("validate_options: component option without registry");
       o.components_[s.name] = std::make_shared<ResolvedComponent>(registry->resolve(s.component_kind, use));

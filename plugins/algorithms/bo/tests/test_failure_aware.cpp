@@ -306,6 +306,32 @@ TEST_CASE("failure_model options are validated") {
   CHECK_NOTHROW(test::registry().create<Algorithm>("{type: bo, failure_model: {enabled: on, min_probability: 0.05}}", ctx));
 }
 
+TEST_CASE("the resolved configuration names every failure_model setting, given ones as given") {
+  // So a study resumed by a later version keeps the failure model it was created with, even if a default changes
+  // (before, failure_model was resolved only as far as the user wrote it, and left out entirely by default).
+  std::vector<std::string> names;
+  for (const auto& spec : bo::failure_model_options()) names.push_back(spec.name);
+  for (const char* algorithm : {"{type: bo}", "{type: bo, failure_model: {min_probability: 0.3, stall_strict: true}}"}) {
+    CAPTURE(algorithm);
+    const StudyConfig cfg = parse_study(
+        ConfigNode::parse(std::string("task: {type: branin}\nbudget: 10\nalgorithm: ") + algorithm + "\n", "<test>"),
+        test::registry());
+    const YAML::Node fm = cfg.resolved()["algorithm"]["failure_model"];
+    REQUIRE(fm.IsMap());
+    std::vector<std::string> keys;
+    for (const auto& kv : fm) keys.push_back(kv.first.as<std::string>());
+    CHECK(keys == names);
+    const bool given = std::string(algorithm).find("0.3") != std::string::npos;
+    CHECK(fm["min_probability"].as<double>() == (given ? 0.3 : 0.5));
+    CHECK(fm["stall_strict"].as<bool>() == given);
+    CHECK(fm["enabled"].as<std::string>() == "auto");
+    // The resolved text parses back to itself (the stored identity of a study is compared this way).
+    const std::string text = YAML::Dump(cfg.resolved());
+    const StudyConfig again = parse_study(ConfigNode::parse(text, "<resolved>"), test::registry());
+    CHECK(YAML::Dump(again.resolved()) == text);
+  }
+}
+
 TEST_CASE("cost_lengthscales reads ARD and composite kernels of gp and vhgp, never g's") {
   const Hyperparameters gp = {{"lengthscale[0]", 0.3}, {"lengthscale[1]", 0.4}, {"signal_std", 1.0}};
   const Hyperparameters composite = {{"terms[0].lengthscale[0]", 0.3}, {"terms[1].lengthscale[0]", 0.7},
