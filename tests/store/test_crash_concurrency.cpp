@@ -322,6 +322,16 @@ TEST_CASE("fault injection: SIGKILL of run, suggest, observe and worker loops at
     owned.clear();
   };
   new_study();
+  // How long a looping worker takes to use a fresh study's budget, uninterrupted: its kill instants are drawn
+  // within that (a fixed second had it finish first in ~3 of 4 draws on a fast machine: too few kills).
+  double worker_seconds = 0;
+  {
+    const std::string scratch = dir + "/scratch.db";
+    REQUIRE(test::run({V, "study", "create", scratch, study_cfg}, log).exit_code == 0);
+    const auto t1 = std::chrono::steady_clock::now();
+    REQUIRE(test::run({STORE_WORKER_EXE, scratch, "1000", "timing"}, log).exit_code != 0);  // ends: budget used
+    worker_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+  }
   auto count = [&](const std::string& what, const test::ProcessResult& r) {
     if (r.killed) {
       ++kills[what];
@@ -398,7 +408,7 @@ TEST_CASE("fault injection: SIGKILL of run, suggest, observe and worker loops at
       }
     } else {  // a worker looping open / ask / tell
       const auto r = test::run_and_kill({STORE_WORKER_EXE, db, "1000", "loop" + std::to_string(step)},
-                                        rng.uniform(0.0, 1.0), log);
+                                        rng.uniform(0.0, worker_seconds), log);
       count("worker", r);
       check_store(db, seen_study, true);
       if (!r.killed) {  // it ran out of budget: start over on a new study

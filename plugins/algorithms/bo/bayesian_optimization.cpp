@@ -334,6 +334,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     rule.fraction = late ? 0.0 : failure_settings_.stall_value;
     rule.scale = failure_settings_.stall_scale == "range" ? ValueStall::Scale::Range
                  : failure_settings_.stall_scale == "std" ? ValueStall::Scale::Std
+                 : failure_settings_.stall_scale == "recent" ? ValueStall::Scale::Recent
                                                           : ValueStall::Scale::Best;
     rule.strict = failure_settings_.stall_strict;
     rule.incumbent = failure_settings_.stall_incumbent;

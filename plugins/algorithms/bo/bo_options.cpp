@@ -121,8 +121,9 @@ const OptionSet<BoSettings>& bo_options() {
       opt::node("failure_model", failure_model_default_yaml(),
                 "failed trials (a map; keys left out keep these defaults): enabled: auto = on from the first "
                 "failure; the acquisition is weighted by P(success | θ) from a GP classifier of successes and "
-                "failures and θ with P < min_probability are never suggested; the other keys are measured variants, "
-                "off by default (docs/failures.md)"),
+                "failures and θ with P < min_probability are never suggested; once a trial has failed, an attempt "
+                "converged in value (stall_*) hands over to a fresh start sooner; the other keys are measured "
+                "variants, off by default (docs/failures.md)"),
   };
   return set;
 }

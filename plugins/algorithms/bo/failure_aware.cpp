@@ -53,9 +53,9 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "value), so an attempt hands over to a fresh start sooner; 0 = off")
           .at_least(0)
           .below(1),
-      opt::choice("stall_scale", &FailureModelSettings::stall_scale, {"best", "range", "std"},
+      opt::choice("stall_scale", &FailureModelSettings::stall_scale, {"best", "range", "std", "recent"},
                   "the scale of stall_value: |the attempt's best| (best), the range max − min of the attempt's "
-                  "costs (range) or their standard deviation (std)"),
+                  "costs (range) or their standard deviation (std), or the range of its last 2(d + 1) costs (recent)"),
       opt::boolean("stall_strict", &FailureModelSettings::stall_strict,
                    "only trials that do not improve the attempt's best at all are value stalls (the polishing of a "
                    "basin by tiny improvements is spared)"),
@@ -171,7 +171,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
   const ConfigNode node = o.node("failure_model");
   if (!node.is_map())
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
-              "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std, "
+              "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std|recent, "
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "

@@ -44,16 +44,18 @@ struct FailureModelSettings {
   /// cost lies within stall_value × stall_scale of the attempt's best as a stall (converged in value, e.g. along a
   /// flat direction), so an attempt hands over to a fresh start sooner: the failures have taken part of the budget
   /// and of the design's information (docs/failures.md). 0 = off. value_stall.hpp: the rule.
-  /// Off by default: its best form (range, strict, stall_attempt) rescues Hartmann-6 runs whose best design point
-  /// the failure region hides (80 seeds: 28 → 23 stuck), but on Rosenbrock-4 with a failure slab it cuts attempts
-  /// that creep along the valley (median 0.35 → 38, session 18): the range of heavy-tailed costs makes every
-  /// non-improving trial a "stall".
-  double stall_value = 0;
-  /// The scale of stall_value: "best" (|the attempt's best|), "range" (max − min of the attempt's costs) or "std"
-  /// (their standard deviation).
-  std::string stall_scale = "best";
+  /// The default since session 19, {1e-3, recent, strict, stall_attempt}: it rescues Hartmann-6 runs whose best
+  /// design point the failure region hides (80 seeds: 28 → 23 stuck, median regret 3.4e-4 → 6.6e-7, the
+  /// failure-free run's). Session 18's form with the range of all the attempt's costs was ruinous on Rosenbrock-4
+  /// with a failure slab (median 0.35 → 38): the far design costs of heavy-tailed problems made every
+  /// non-improving trial a "stall"; the range of the last 2(d + 1) costs (recent) is not set by them (0.35).
+  double stall_value = 1e-3;
+  /// The scale of stall_value: "best" (|the attempt's best|), "range" (max − min of the attempt's costs), "std"
+  /// (their standard deviation) or "recent" (the range of its last 2(d + 1) costs; offset-free, and not set by a
+  /// few far costs).
+  std::string stall_scale = "recent";
   /// Only trials that do not improve the attempt's best at all count as value stalls.
-  bool stall_strict = false;
+  bool stall_strict = true;
   /// ≥ 0: value stalls count only while the attempt's best is more than stall_incumbent × stall_scale above the
   /// incumbent of all the data; < 0 = always.
   double stall_incumbent = -1;
@@ -63,7 +65,7 @@ struct FailureModelSettings {
   /// Value stalls count only while the trials left in the budget are at least as many as the current attempt has
   /// used (its design included): a fresh start then gets at least the trials the attempt it replaces had, on the
   /// problem's own scale (dimension, budget, how long an attempt takes to converge) instead of a fixed count.
-  bool stall_attempt = false;
+  bool stall_attempt = true;
   /// > 0: once a trial has failed, an attempt whose acquisition proposes a θ within this distance (∞-norm, unit
   /// cube) of a point already evaluated in the attempt has converged (its search collapsed onto its own data, e.g.
   /// creeping along a failure boundary): the region restarts afresh at once instead of spending the trial on a

@@ -277,6 +277,18 @@ TEST_CASE("trust_region: value_stall's scales, strict and incumbent rules on a c
   sd.scale = ValueStall::Scale::Std;
   CHECK(TrustRegion::value_stall(sd, -2.0 + 1.28e-3, -2.0, attempt, -2.0));
   CHECK_FALSE(TrustRegion::value_stall(sd, -2.0 + 1.30e-3, -2.0, attempt, -2.0));
+  // recent (session 19): the range of the last `window` costs only: {−1, −2} spans 1 → tolerance 1e-3; the whole
+  // attempt (window 0 or larger than it) is the range rule's 3e-3. A heavy-tailed design cost far back does not
+  // widen it.
+  ValueStall recent = best_rule;
+  recent.scale = ValueStall::Scale::Recent;
+  CHECK(TrustRegion::value_stall(recent, -2.0 + 0.9e-3, -2.0, attempt, -2.0, 2));
+  CHECK_FALSE(TrustRegion::value_stall(recent, -2.0 + 1.1e-3, -2.0, attempt, -2.0, 2));
+  CHECK(TrustRegion::value_stall(recent, -2.0 + 2.9e-3, -2.0, attempt, -2.0, 0));
+  CHECK_FALSE(TrustRegion::value_stall(recent, -2.0 + 3.1e-3, -2.0, attempt, -2.0, 9));
+  const Vec heavy = (Vec(4) << 1e5, 0.0, -1.0, -2.0).finished();
+  CHECK_FALSE(TrustRegion::value_stall(recent, -2.0 + 1.1e-3, -2.0, heavy, -2.0, 2));
+  CHECK(TrustRegion::value_stall(range, -2.0 + 1.1e-3, -2.0, heavy, -2.0));  // range: 100 wide
   // (b) strict: a trial that improves the best at all is progress, not a stall; one at or above it is.
   ValueStall strict = range;
   strict.strict = true;

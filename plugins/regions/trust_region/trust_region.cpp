@@ -77,7 +77,8 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
       const double overall = data.y.minCoeff();
       for (Index i = std::max(seen_, from); i < data.size(); ++i) {
         const bool close = (data.X.row(i).transpose() - center_).lpNorm<Eigen::Infinity>() <= options_.stall_distance;
-        near = near && (close || value_stall(value_stall_, data.y(i), best_, attempt, overall));
+        near = near && (close || value_stall(value_stall_, data.y(i), best_, attempt, overall,
+                                                  2 * (center_.size() + 1)));
       }
       stalls_ = near ? stalls_ + 1 : (options_.stall_count == "consecutive" ? 0 : stalls_);
     }
@@ -120,11 +121,15 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   set_box();
 }
 
-bool TrustRegion::value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall) {
+bool TrustRegion::value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall,
+                              Index window) {
   if (!(rule.fraction > 0) || attempt.size() == 0) return false;
   double scale = std::abs(best);
   if (rule.scale == ValueStall::Scale::Range) {
     scale = attempt.maxCoeff() - attempt.minCoeff();
+  } else if (rule.scale == ValueStall::Scale::Recent) {
+    const Vec recent = attempt.tail(window > 0 ? std::min(window, attempt.size()) : attempt.size());
+    scale = recent.maxCoeff() - recent.minCoeff();
   } else if (rule.scale == ValueStall::Scale::Std) {
     const double mean = attempt.mean();
     const double n = static_cast<double>(attempt.size());

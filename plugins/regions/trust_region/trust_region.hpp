@@ -79,7 +79,9 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   void set_value_stall(const ValueStall& rule) override { value_stall_ = rule; }
   /// Whether a trial costing `y` is a value stall for an attempt whose best so far is `best` (before this update),
   /// whose costs are `attempt` and whose data's best overall is `overall` (the rule above; false when off).
-  static bool value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall);
+  /// `window`: how many of the attempt's last costs Scale::Recent spans (2(d + 1) in use).
+  static bool value_stall(const ValueStall& rule, double y, double best, const Vec& attempt, double overall,
+                          Index window = 0);
   bool returned() const { return returned_; }
   int failure_tolerance() const { return failure_tolerance_; }
   /// Failures forced on the next update (bo's failure_model.feasible_region, session fail14): that update counts

@@ -11,7 +11,9 @@ struct ValueStall {
   double fraction = 0;
   /// What `fraction` multiplies: |best| of the attempt (Best; depends on where the cost's zero lies), the range
   /// max − min of the attempt's costs (Range) or their standard deviation (Std), both on the costs' own scale.
-  enum class Scale { Best, Range, Std } scale = Scale::Best;
+  /// Recent: the range of the attempt's last 2(d + 1) costs (session 19: offset-free, and unlike Range not set by
+  /// the far costs of the attempt's design when costs are heavy-tailed).
+  enum class Scale { Best, Range, Std, Recent } scale = Scale::Best;
   /// Only trials that do not improve the attempt's best at all count (a basin polished by tiny improvements is
   /// spared; a trial at or above the best is a stall).
   bool strict = false;
