@@ -106,6 +106,72 @@ TEST_CASE("resuming a moved or copied run folder writes where the folder is now"
   fs::remove_all(dir);
 }
 
+namespace {
+/// summary.json without its wall time: what must be the same after a resume.
+std::string summary_without_time(const std::string& folder) {
+  std::ifstream in(folder + "/summary.json");
+  std::string out, line;
+  while (std::getline(in, line))
+    if (!contains(line, "\"seconds\"")) out += line + "\n";
+  return out;
+}
+}  // namespace
+
+TEST_CASE("a finished run resumed keeps its recommendation; one stored by an older varbo resumes as resolved now") {
+  const std::string dir = scratch("run_resume_finished");
+  const std::string cfg = dir + "/c.yaml", a = dir + "/a", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 12\nseed: 5\nalgorithm: {type: bo}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", a, "--no-progress"}).exit_code == 0);
+  const std::string before = summary_without_time(a);
+  REQUIRE(contains(before, "\"recommended_theta\""));
+  REQUIRE(contains(before, "\"regret_recommended\""));
+  // Nothing left to run: before, the algorithm was never rebuilt and summary.json lost both keys.
+  REQUIRE(test::run({V, "-q", "run", "--resume", a, "--no-progress"}).exit_code == 0);
+  CHECK(summary_without_time(a) == before);
+
+  // A study stored before `failure_model` was resolved key by key: its configuration and identity without the
+  // key (as an older varbo wrote them). --resume used to refuse it as "created from a different configuration".
+  const std::string db = a + "/study.db";
+  std::string stored_config, stored_identity;
+  {
+    auto store = open_sqlite_store(db);
+    const auto strip = [](const std::string& text) {
+      std::stringstream in(text);
+      std::string out, line;
+      bool inside = false;
+      while (std::getline(in, line)) {
+        if (line == "  failure_model:") { inside = true; continue; }
+        if (inside && line.rfind("    ", 0) == 0) continue;
+        inside = false;
+        out += line + "\n";
+      }
+      return out;
+    };
+    stored_config = *store->meta(store_key::kConfig);
+    stored_identity = *store->meta(store_key::kIdentity);
+    REQUIRE(contains(stored_identity, "failure_model:"));
+    store->set_meta(store_key::kConfig, strip(stored_config));
+    store->set_meta(store_key::kIdentity, strip(stored_identity));
+    REQUIRE_FALSE(contains(*store->meta(store_key::kIdentity), "failure_model"));
+  }
+  const auto r = test::run({V, "run", "--resume", a, "--budget", "14", "--no-progress"}, log);
+  CHECK(r.exit_code == 0);
+  std::stringstream text;
+  text << std::ifstream(log).rdbuf();
+  CHECK(contains(text.str(), "resolves differently with the plugins loaded now"));
+  CHECK(contains(text.str(), "first difference"));
+  CHECK(csv_rows(a + "/trials.csv") == 14);
+  // Recorded as resolved now: the failure model's settings are written down again, and a second resume is quiet.
+  CHECK(*open_sqlite_store(db)->meta(store_key::kIdentity) == stored_identity);
+  const auto again = test::run({V, "run", "--resume", a, "--budget", "15", "--no-progress"}, log + "2");
+  CHECK(again.exit_code == 0);
+  std::stringstream text2;
+  text2 << std::ifstream(log + "2").rdbuf();
+  CHECK_FALSE(contains(text2.str(), "resolves differently"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("rejected configurations leave no run folder; a missing file exits 2 with its path") {
   const std::string dir = scratch("run_rejected");
   const std::string V = VARBO_EXE, log = dir + "/log.txt";

@@ -101,6 +101,11 @@ class Study {
 
   /// The complete trial with the lowest observed cost.
   std::optional<TrialRecord> best() const;
+  /// The θ to deploy (user units): the algorithm's recommendation after every finished trial (bo: its
+  /// `recommendation` rule on a model of all of them). Brings the live algorithm up to date first, as ask() does
+  /// (a saved state restored, the results since told), so it also answers for a study just opened; nothing when
+  /// no trial has finished or the algorithm recommends nothing.
+  std::optional<Vec> recommendation();
   /// Among complete trials, the one minimizing E[y] + κ·sqrt(V[y]) under the study's surrogate (the
   /// algorithm's `surrogate:` option, else a default gp) refitted on every complete trial (Kuindersma 2013,
   /// section 3.4: κ > 0 is risk-averse). Evaluated points only: those are the θ that were actually tried.

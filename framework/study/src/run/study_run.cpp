@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "run_writer.hpp"
+#include "../study/study_impl.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
@@ -124,6 +125,9 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   } else if (!ov.resume && ov.overwrite) {
     remove_store_files(store_path);  // no study file, but maybe its leftover -wal, which creating would refuse
   }
+  // Resumed by a later varbo: the stored configuration is the one given; what this version resolves it to is
+  // recorded (a warning names the first difference) instead of refusing the study as another configuration's.
+  if (ov.resume) study_detail::adopt_current_resolution(store_path, study);
   Study st = Study::attach(store_path, study, registry);
   st.set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
@@ -158,12 +162,20 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   Index last_snapshot = -1;
 
   // The recommendation after the latest tell, and its noise-free regret where the task can tell it.
+  // A resumed run's algorithm is rebuilt from the store first (before, a finished run resumed had none, and its
+  // summary.json lost the recommended θ and its regret).
   auto recommend = [&]() {
     const Algorithm* a = st.algorithm();
-    if (!a) return;
-    const std::optional<Vec> r = a->recommendation();
-    if (!r) return;
-    summary.recommended_theta = st.space() ? st.space()->decode(st.space()->admissible(*r)) : from_unit(*r, domain.box);
+    if (!a) {
+      const std::optional<Vec> theta = st.recommendation();
+      if (!theta) return;
+      summary.recommended_theta = *theta;
+    } else {
+      const std::optional<Vec> r = a->recommendation();
+      if (!r) return;
+      summary.recommended_theta =
+          st.space() ? st.space()->decode(st.space()->admissible(*r)) : from_unit(*r, domain.box);
+    }
     if (!optimum) return;
     const std::optional<double> v = task.noiseless_cost(*summary.recommended_theta);
     if (v && std::isfinite(*v)) summary.regret_recommended = *v - optimum->cost;

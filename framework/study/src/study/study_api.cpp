@@ -51,6 +51,30 @@ std::string study_identity(const StudyConfig& c) {
   return emit(n);
 }
 
+namespace {
+/// The first line where two texts differ, as "stored 'a' vs now 'b'".
+std::string first_difference(const std::string& stored, const std::string& now) {
+  const auto a = lines_of(stored), b = lines_of(now);
+  std::size_t i = 0;
+  while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
+  return fmt::format("stored '{}' vs now '{}'", i < a.size() ? a[i] : "<end>", i < b.size() ? b[i] : "<end>");
+}
+}  // namespace
+
+bool study_detail::adopt_current_resolution(const std::string& store_path, const StudyConfig& config) {
+  std::unique_ptr<StudyStore> store = open_store(store_path);
+  const std::string identity = study_identity(config);
+  const auto stored = store->meta(store_key::kIdentity);
+  if (!stored || *stored == identity) return false;
+  log_warn("{}: the stored configuration resolves differently with the plugins loaded now (an option added or a "
+           "default changed since the study was created; first difference: {}); continuing with it as resolved "
+           "now, which the study records",
+           store_path, first_difference(*stored, identity));
+  store->set_meta(store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(config.resolved()));
+  store->set_meta(store_key::kIdentity, identity);
+  return true;
+}
+
 Study::Study(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Study::Study(Study&&) noexcept = default;
 Study& Study::operator=(Study&&) noexcept = default;
@@ -111,10 +135,11 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
   log_cpu("configuration parsed and validated, its plugins loaded, task built");
   const auto identity = store->meta(store_key::kIdentity);
   if (identity && !(shared && identity_checked(*registry, *text, *identity))) {
-    if (*identity != study_identity(impl->config))
-      log_warn("{}: the stored configuration resolves differently with the plugins loaded now (plugin defaults "
-               "changed?); continuing",
-               store_path);
+    const std::string now = study_identity(impl->config);
+    if (*identity != now)
+      log_warn("{}: the stored configuration resolves differently with the plugins loaded now (an option added or "
+               "a default changed since the study was created; first difference: {}); continuing",
+               store_path, first_difference(*identity, now));
     else if (shared)
       remember_identity(*registry, *text, *identity);
   }
@@ -133,16 +158,12 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
   }
   impl->store = open_store(store_path);
   const std::string stored = impl->store->meta(store_key::kIdentity).value_or("");
-  if (stored != identity) {
-    const auto a = lines_of(stored), b = lines_of(identity);
-    std::size_t i = 0;
-    while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
+  if (stored != identity)
     throw InputError(fmt::format(
         "{}: this study was created from a different configuration (task, algorithm, seed and initial point must "
-        "match to continue it); first difference: stored '{}' vs now '{}'. Use another study file, or "
+        "match to continue it); first difference: {}. Use another study file, or "
         "`varbo run --resume {}` to continue with the stored configuration",
-        store_path, i < a.size() ? a[i] : "<end>", i < b.size() ? b[i] : "<end>", store_path));
-  }
+        store_path, first_difference(stored, identity), store_path));
   return Study(std::move(impl));
 }
 
@@ -359,6 +380,22 @@ std::optional<TrialRecord> Study::best() const {
   for (const auto& t : impl_->store->trials())
     if (t.state == TrialState::Complete && (!b || t.cost < b->cost)) b = t;
   return b;
+}
+
+std::optional<Vec> Study::recommendation() {
+  Impl& m = *impl_;
+  if (m.store->next_finish_seq() == 0) return std::nullopt;
+  m.store->transaction([&] {
+    try {
+      m.sync();
+    } catch (...) {
+      m.dirty = true;
+      throw;
+    }
+  });
+  const std::optional<Vec> r = m.alg ? m.alg->recommendation() : std::nullopt;
+  if (!r) return std::nullopt;
+  return m.space ? m.space->decode(m.space->admissible(*r)) : from_unit(*r, m.domain.box);
 }
 
 std::optional<Selection> Study::select(double kappa) const {

@@ -35,6 +35,12 @@ void log_cpu(const char* step);
 /// A YAML node as text (the stored configuration, the study's identity).
 std::string emit(const YAML::Node& n);
 
+/// `varbo run --resume` with a later varbo: the stored configuration, re-resolved with the plugins loaded now
+/// (`config`), may name settings it did not (an option added since, whose default now applies). Then say so, with
+/// the first difference, and record the configuration as resolved now, so the study continues with these settings
+/// and they are written down from here on; trials and states are untouched. False when nothing differed.
+bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config);
+
 }  // namespace study_detail
 
 struct Study::Impl {
