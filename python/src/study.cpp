@@ -138,6 +138,15 @@ void bind_study(py::module_& m) {
              auto b = s.locked([](Study& st) { return st.best(); });
              return optional_trial(b, s);
            })
+      .def("recommendation",
+           [](PyStudy& s) -> py::object {
+             auto theta = s.locked([](Study& st) { return st.recommendation(); });
+             if (!theta) return py::none();
+             py::dict d;
+             d["x"] = to_array(*theta);
+             d["params"] = params_of(*theta, s.names(), s.space());
+             return d;
+           })
       .def("trials",
            [](PyStudy& s) {
              auto ts = s.locked([](Study& st) { return st.trials(); });

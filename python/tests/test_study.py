@@ -108,6 +108,20 @@ def test_fail_and_budget(tmp_path):
     assert t[0].state == "failed" and t[0].error == "robot fell" and t[0].cost is None
 
 
+def test_recommendation_matches_the_run_summary(tmp_path):
+    # What `varbo run` writes to summary.json, asked of the finished study opened afresh (the algorithm is rebuilt).
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(json.dumps(dict(CONFIG, budget=10)))
+    run_cli("-q", "run", str(cfg), "-o", str(tmp_path / "run"), "--no-progress")
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    study = varbo.Study.open(tmp_path / "run" / "study.db")
+    rec = study.recommendation()
+    assert rec is not None and list(rec) == ["x1", "x2"]
+    assert [rec["x1"], rec["x2"]] == summary["recommended_theta"]
+    empty = varbo.Study.create(tmp_path / "e.db", CONFIG)
+    assert empty.recommendation() is None
+
+
 def test_select_kappas(tmp_path):
     s = varbo.Study.create(tmp_path / "s.db", dict(CONFIG, algorithm={"type": "random"}, budget=12))
     rng = np.random.default_rng(0)

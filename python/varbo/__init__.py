@@ -20,7 +20,7 @@ import numpy as np
 from . import _varbo
 from . import _checks
 from ._config import has_parameters, has_task, is_path, to_yaml
-from ._types import OptimizeResult, Prediction, Selection, Trial, trial_from
+from ._types import OptimizeResult, ParamValue, Prediction, Selection, Trial, trial_from
 from ._varbo import (ConfigError, Error, InputError, NumericalError, PluginLoadError, UnknownComponentError,
                      skipped_plugins)
 
@@ -216,6 +216,13 @@ class Study:
         """The complete trial with the lowest observed cost (None before the first result)."""
         d = self._impl.best()
         return None if d is None else self._trial(d)
+
+    def recommendation(self) -> Optional[Dict[str, ParamValue]]:
+        """The parameters to deploy: the algorithm's recommendation after every finished trial (bo: its
+        ``recommendation`` rule on a model of all of them), as ``varbo run`` writes to summary.json; None before the
+        first result or when the algorithm recommends nothing."""
+        d = self._impl.recommendation()
+        return None if d is None else d["params"]
 
     def trials(self, as_frame: Optional[bool] = None):
         """Every trial by id: a ``pandas.DataFrame`` when pandas is importable (columns ``params_<name>`` and
