@@ -157,18 +157,14 @@ TEST_CASE("a finished run resumed keeps its recommendation; one stored by an old
   }
   const auto r = test::run({V, "run", "--resume", a, "--budget", "14", "--no-progress"}, log);
   CHECK(r.exit_code == 0);
-  std::stringstream text;
-  text << std::ifstream(log).rdbuf();
-  CHECK(contains(text.str(), "resolves differently with the plugins loaded now"));
-  CHECK(contains(text.str(), "first difference"));
+  CHECK(contains(test::slurp(log), "resolves differently with the plugins loaded now"));
+  CHECK(contains(test::slurp(log), "first difference"));
   CHECK(csv_rows(a + "/trials.csv") == 14);
   // Recorded as resolved now: the failure model's settings are written down again, and a second resume is quiet.
   CHECK(*open_sqlite_store(db)->meta(store_key::kIdentity) == stored_identity);
   const auto again = test::run({V, "run", "--resume", a, "--budget", "15", "--no-progress"}, log + "2");
   CHECK(again.exit_code == 0);
-  std::stringstream text2;
-  text2 << std::ifstream(log + "2").rdbuf();
-  CHECK_FALSE(contains(text2.str(), "resolves differently"));
+  CHECK_FALSE(contains(test::slurp(log + "2"), "resolves differently"));
   fs::remove_all(dir);
 }
 
