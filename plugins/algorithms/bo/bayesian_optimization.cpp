@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "bo_streams.hpp"
+#include "pending_exclusion.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
@@ -51,6 +52,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   refine_basin_ = settings.refine_model == "basin";
   refine_local_ = settings.refine_model == "local";
   batch_strategy_ = settings.batch_strategy;
+  pending_distance_ = settings.pending_distance;
   initial_points_ = settings.initial_points >= 0 ? settings.initial_points : 2 * (dim_ + 1);
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
   restart_points_ =
@@ -426,6 +428,27 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
              start ? "suggesting the best feasible start instead" : "no feasible start either");
     if (start) res.x = *start;
     else res.x = Vec();  // chosen at random below
+  }
+  if (res.x.size() == dim_ && res.x.allFinite() && pending_distance_ > 0 && data.size() > data_.size()) {
+    // The rows of `data` past the real observations are fantasies: points pending elsewhere and earlier points of
+    // this batch. Their θ is not handed out a second time (pending_exclusion.hpp).
+    std::vector<Vec> pending;
+    for (Index i = data_.size(); i < data.size(); ++i) pending.push_back(data.X.row(i).transpose());
+    const Index hit = nearest_within(Box::unit(dim_).clamp(res.x), pending, pending_distance_);
+    if (hit >= 0) {
+      const AwayFromPoints away(acquisition, pending, pending_distance_,
+                                AwayFromPoints::below_values(acquisition, data.X));
+      AcquisitionFunction g(away, dim_);
+      Rng prng = rng_.stream(kPendingAway, uk);
+      const OptimizeResult again = optimizer_->maximize(g, *region_, starts, prng);
+      const bool clear = again.success && again.x.size() == dim_ && again.x.allFinite() &&
+                         nearest_within(Box::unit(dim_).clamp(again.x), pending, pending_distance_) < 0;
+      log_info("bo: trial {}: the acquisition's best point is pending (the {} of {} pending); {}", k, hit + 1,
+               pending.size(), clear ? fmt::format("searched again at least {:g} away from them", pending_distance_)
+                                     : std::string("no other point found: choosing at random"));
+      if (clear) res = again;
+      else res.x = Vec();  // chosen at random below
+    }
   }
   s.acquisition_seconds = seconds_since(t_acq);
   if (res.x.size() != dim_ || !res.x.allFinite()) {

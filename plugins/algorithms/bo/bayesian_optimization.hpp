@@ -117,6 +117,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Vec feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const;
 
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
+  double pending_distance_ = 1e-3;  ///< bo's pending_distance (pending_exclusion.hpp)
   std::vector<Vec> pending_;
   bool prefitted_ = false;  ///< ask() already fitted on the real data (pending points present)
 

@@ -40,6 +40,21 @@ BoundOption<BoSettings> replicate_design_option() {
       .when_given();
 }
 
+/// pending_distance is also left out of the resolved configuration unless given, so studies stored before it
+/// existed reopen with the identity they were created with.
+BoundOption<BoSettings> pending_distance_option() {
+  return BoundOption<BoSettings>(
+             opt::real("pending_distance", BoSettings{}.pending_distance,
+                       "a model-based suggestion within this distance (∞-norm, unit cube) of a point pending "
+                       "elsewhere or earlier in the batch is searched again outside that neighbourhood, so two "
+                       "workers do not run the same θ (0 = a pending θ may be suggested again, e.g. as a replicate "
+                       "under noise)")
+                 .at_least(0)
+                 .at_most(0.5),
+             [](const Options& o, BoSettings& s) { s.pending_distance = o.real("pending_distance"); })
+      .when_given();
+}
+
 std::vector<std::pair<std::string, RecommendationRule>> recommendation_mapping() {
   std::vector<std::pair<std::string, RecommendationRule>> out;
   for (const std::string& name : recommendation_rule_names()) out.emplace_back(name, recommendation_rule(name));
@@ -101,6 +116,7 @@ const OptionSet<BoSettings>& bo_options() {
                    {"constant_liar_mean", BatchStrategy::ConstantLiarMean}},
                   "how points of a batch and points pending elsewhere enter the model before they are observed "
                   "(Ginsbourger 2010): at the posterior mean, or at the min / mean of the observed costs"),
+      pending_distance_option(),
       opt::choice("recommendation", &BoSettings::recommendation, recommendation_mapping(),
                   "the θ to deploy, chosen on a model conditioned on all observations (refitted once the budget "
                   "is spent): the evaluated θ with the lowest posterior mean; the posterior mean's minimum over "

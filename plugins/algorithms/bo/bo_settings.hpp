@@ -37,6 +37,9 @@ struct BoSettings {
   std::string refine_feasibility = "exclude";  ///< with failures, the refinement excludes (or weights by) P(fail)
   double epsilon = 0.0;       ///< probability of a random point instead of the acquisition's choice
   BatchStrategy batch_strategy = BatchStrategy::KrigingBeliever;
+  /// A model-based suggestion within this distance (∞-norm, unit cube) of a pending point (another worker's, or
+  /// earlier in the batch) is searched again away from it (pending_exclusion.hpp); 0 = allowed.
+  double pending_distance = 1e-3;
   RecommendationRule recommendation = RecommendationRule::LowestMeanEvaluated;
   double recommendation_kappa = 1.0;  ///< κ of lowest_bound_evaluated
 };
