@@ -104,11 +104,24 @@ py::dict trial_dict(const TrialRecord& t, const std::vector<std::string>& names,
 namespace {
 /// A user's value as the text `--param name=value` would carry: a label as is, an integer exactly, a real with 17
 /// significant digits (so the parsed double is the one given).
-std::string value_text(const py::handle& v, const std::string& what, const std::string& name) {
-  if (py::isinstance<py::str>(v)) return py::cast<std::string>(v);
-  if (!py::isinstance<py::bool_>(v) && !py::isinstance<py::float_>(v) && py::hasattr(v, "__index__"))
-    return py::cast<std::string>(py::str(py::int_(py::reinterpret_borrow<py::object>(v))));
-  if (!py::isinstance<py::bool_>(v)) {
+std::string value_text(const py::handle& given, const std::string& what, const std::string& name) {
+  if (py::isinstance<py::str>(given)) return py::cast<std::string>(given);
+  const py::module_ np = py::module_::import("numpy");
+  py::object v = py::reinterpret_borrow<py::object>(given);
+  if (py::isinstance(v, np.attr("ndarray"))) {
+    // A 0-d array is its element; any other array is not one value. (An array has __index__ when it holds one
+    // integer-like element, and was once read as an int: np.array(2.7) became 2.)
+    if (py::cast<int>(v.attr("ndim")) != 0)
+      throw InputError(fmt::format("{}: parameter '{}': expected a number or a label (str), got an array of shape {}; "
+                                   "nothing written",
+                                   what, name, py::cast<std::string>(py::str(v.attr("shape")))));
+    v = v.attr("item")();
+  }
+  const bool boolean = py::isinstance<py::bool_>(v) || py::isinstance(v, np.attr("bool_"));
+  // Integers exactly (Python's and NumPy's integer types); a bool is not a number here.
+  if (!boolean && (py::isinstance<py::int_>(v) || py::isinstance(v, np.attr("integer"))))
+    return py::cast<std::string>(py::str(py::int_(v)));
+  if (!boolean) {
     try {
       return exact(py::cast<double>(v));
     } catch (const py::cast_error&) {

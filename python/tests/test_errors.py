@@ -270,3 +270,42 @@ def test_redteam_study_file_deleted_or_replaced(tmp_path):
     os.remove(tmp_path / "s.db")
     with pytest.raises(varbo.InputError, match="deleted"):
         s.ask()
+
+
+def test_numpy_values_are_read_as_numbers_never_truncated(tmp_path):
+    # Session 20: a 0-d array went through __index__ and was truncated (np.array(2.7) recorded as 2.0), a 1-element
+    # array too, and np.bool_ became 1 for an int parameter while a Python bool is refused.
+    import numpy as np
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 5, "seed": 1})
+    for bad in (np.array([3.9]), np.array([[1.0]]), np.bool_(True), True):
+        with pytest.raises(varbo.InputError, match="parameter 'x2'"):
+            s.tell_point({"x1": 2.0, "x2": bad}, 1.0)
+    s.tell_point({"x1": np.array(2.7), "x2": np.float32(3.5)}, 1.0)
+    s.tell_point({"x1": np.int64(3), "x2": 4}, 2.0)
+    assert [t.params for t in s.trials(as_frame=False)] == [{"x1": 2.7, "x2": 3.5}, {"x1": 3.0, "x2": 4.0}]
+
+
+def test_a_trial_keeps_its_study_across_chdir(tmp_path, monkeypatch):
+    # Two studies both called s.db in two folders: a trial asked from one and told after os.chdir is refused by the
+    # other and accepted by its own (the origin was a relative path, resolved against the current folder).
+    cfg = {"task": {"type": "branin"}, "budget": 5}
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    monkeypatch.chdir(tmp_path / "a")
+    a = varbo.Study.create("s.db", cfg)
+    ta = a.ask()[0]
+    monkeypatch.chdir(tmp_path / "b")
+    b = varbo.Study.create("s.db", cfg)
+    b.ask()
+    with pytest.raises(varbo.InputError, match="belongs to the study"):
+        b.tell(ta, 1.0)
+    a.tell(ta, 1.0)
+    assert varbo.Study.open(tmp_path / "a" / "s.db").trials(as_frame=False)[0].cost == 1.0
+
+
+def test_parameter_names_of_a_box_are_distinct_strings():
+    with pytest.raises(varbo.ConfigError, match="non-empty str"):
+        varbo.minimize(lambda p: 0.0, space={1: (0, 1), "1": (5, 6)}, budget=3)
+    with pytest.raises(varbo.ConfigError, match="duplicate name 'a'"):
+        varbo.minimize(lambda p: 0.0, {"task": {"type": "python", "lower": [0, 5], "upper": [1, 6], "names": ["a", "a"]}},
+                       budget=3)

@@ -80,7 +80,7 @@ def _trial_id(trial_or_id: Union[Trial, int], study: Optional["Study"] = None) -
         # A Trial asked from another study has an id this study may hold too: telling it here would record the
         # result on the wrong trial, silently (red-team pass py11). Trials remember the store they came from.
         origin = getattr(trial_or_id, "_store", None)
-        if study is not None and origin is not None and not _same_store(origin, study._location):
+        if study is not None and origin is not None and not _same_store(origin, study._origin):
             raise InputError(f"trial {trial_or_id.id} belongs to the study {origin}, not to {study._location}; "
                              "tell each study its own trials")
         return trial_or_id.id
@@ -123,6 +123,9 @@ class Study:
             raise TypeError("varbo.Study is made by Study.create(path, config) or Study.open(path), not Study(...)")
         self._impl = impl
         self._location = impl.location
+        # Where this study's trials come from, independent of the working directory: a trial asked here and told
+        # after os.chdir must still be recognized as this study's (and another study's `s.db` as not).
+        self._origin = self._location if "://" in self._location else os.path.abspath(self._location)
         # The file this object writes to (None: a URL). SQLite keeps writing to a deleted or replaced file through
         # its open descriptor, so results told after `rm study.db` would vanish silently (red-team pass py11):
         # every writing call first checks that the path still names that file (one stat, ~µs).
@@ -150,7 +153,7 @@ class Study:
 
     def _trial(self, d: Dict[str, Any]) -> Trial:
         t = trial_from(d)
-        t._store = self._location  # not a dataclass field: equality and repr stay as they were
+        t._store = self._origin  # not a dataclass field: equality and repr stay as they were
         return t
 
     def __copy__(self) -> "Study":
@@ -329,7 +332,10 @@ def _is_bounds(v: Any) -> bool:
 def _space_task(space: Any) -> Dict[str, Any]:
     """{name: (low, high)} or [(low, high), ...] as the task `python`."""
     if isinstance(space, Mapping):
-        names = [str(k) for k in space]
+        for k in space:
+            if not isinstance(k, str) or not k:
+                raise ConfigError(f"space: every parameter name must be a non-empty str, got {k!r}")
+        names = list(space)
         bounds = list(space.values())
     else:
         bounds = [tuple(b) if isinstance(b, (list, tuple, np.ndarray)) else b for b in space]

@@ -4,6 +4,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <set>
+#include <string>
 
 #include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
@@ -62,7 +64,15 @@ std::unique_ptr<Task> make_host_task(const Options& o, HostEvaluator evaluate) {
     const ConfigNode n = o.node("names");
     if (!n.is_sequence() || static_cast<Index>(n.size()) != d)
       n.fail(fmt::format("expected a list of {} parameter names (one per bound)", d));
-    for (std::size_t i = 0; i < n.size(); ++i) dom.names.push_back(n.item(i).scalar());
+    // Distinct, non-empty names: the objective receives a dict by name, so a repeated name would hide a
+    // dimension from it (`names: [a, a]` passed only the last value), as the external task refuses too.
+    std::set<std::string> seen;
+    for (std::size_t i = 0; i < n.size(); ++i) {
+      const ConfigNode item = n.item(i);
+      if (!item.is_scalar() || item.scalar().empty()) item.fail("expected a non-empty parameter name");
+      if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
+      dom.names.push_back(item.scalar());
+    }
   }
   for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
   return std::make_unique<HostTask>(std::move(dom), std::move(keys), std::move(evaluate));
