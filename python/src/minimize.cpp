@@ -162,6 +162,9 @@ void bind_minimize(py::module_& m) {
         ov.resume = resume;
         ov.overwrite = overwrite;
         ov.progress = progress;
+        // The CLI cannot run a Python objective (task `python`): messages name minimize's own arguments.
+        ov.resume_hint = "varbo.minimize(..., output='{}', resume=True)";
+        ov.overwrite_hint = "pass overwrite=True";
         ov.stop_signal = [&objective] {
           py::gil_scoped_acquire gil;
           objective.check_signals();

@@ -309,3 +309,22 @@ def test_parameter_names_of_a_box_are_distinct_strings():
     with pytest.raises(varbo.ConfigError, match="duplicate name 'a'"):
         varbo.minimize(lambda p: 0.0, {"task": {"type": "python", "lower": [0, 5], "upper": [1, 6], "names": ["a", "a"]}},
                        budget=3)
+
+
+def test_minimize_resume_refuses_another_configuration_and_names_its_own_arguments(tmp_path):
+    f = lambda p: (p["x"] - .2) ** 2
+    out = tmp_path / "run"
+    varbo.minimize(f, {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=4, seed=1, output=out)
+    # Another seed is another study: refused, not continued under the new seed (session 20; session 19's
+    # adoption of a new resolution had let it through, blaming the plugins).
+    with pytest.raises(varbo.InputError, match="different configuration.*seed: 1"):
+        varbo.minimize(f, {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=6, seed=2, output=out,
+                       resume=True)
+    assert len(varbo.Study.open(out / "study.db").trials(as_frame=False)) == 4
+    with pytest.raises(varbo.InputError, match="give one"):
+        varbo.minimize(f, space={"x": (0, 1)}, budget=6, output=out, resume=True, overwrite=True)
+    with pytest.raises(varbo.InputError, match="output="):
+        varbo.minimize(f, space={"x": (0, 1)}, budget=6, resume=True)
+    # A folder with trials: the hint is minimize's own, not the CLI's (which cannot run a Python objective).
+    with pytest.raises(varbo.InputError, match=r"resume=True\).*overwrite=True"):
+        varbo.minimize(f, {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=4, seed=1, output=out)

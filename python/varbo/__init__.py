@@ -453,6 +453,10 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
             raise ConfigError(f"{name}: no search space: pass space={{name: (low, high), ...}} or give the config "
                               "task: {type: python, lower: [...], upper: [...]}")
         given_output = _has_output(text)
+    if resume and overwrite:
+        raise InputError("minimize: resume=True continues the run in output, overwrite=True replaces it: give one")
+    if resume and output is None and not given_output:
+        raise InputError("minimize: resume=True needs the run folder to continue: output=...")
     if output is None and not given_output:
         output = tempfile.mkdtemp(prefix="varbo-minimize-")
         overwrite = True

@@ -66,6 +66,10 @@ struct RunOverrides {
   /// Called with each trial once it is recorded; false ends the run after it (as a spent budget would). An
   /// exception propagates out of run_study with every recorded trial kept.
   std::function<bool(const TrialRecord&)> on_trial;
+  /// How the host continues and replaces a run, for its messages ({} = the run folder): the CLI's by default; the
+  /// Python module names minimize's arguments.
+  std::string resume_hint = "`varbo run --resume {}`";
+  std::string overwrite_hint = "pass --overwrite";
 };
 
 struct RunSummary {

@@ -67,19 +67,20 @@ bool same_file(const std::string& a, const std::string& b) {
 }
 
 /// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
-void refuse_to_replace(const std::string& folder, const std::string& store_path) {
+void refuse_to_replace(const std::string& folder, const std::string& store_path, const RunOverrides& ov) {
   std::size_t n = 0;
   try {
     n = open_sqlite_store(store_path)->trials().size();
   } catch (const Error& e) {
     throw InputError(fmt::format("{}: the run folder holds a study file that cannot be read ({}); move it away, or "
-                                 "pass --overwrite to replace it",
-                                 folder, e.what()));
+                                 "{} to replace it",
+                                 folder, e.what(), ov.overwrite_hint));
   }
   if (n == 0) return;
-  throw InputError(fmt::format("{}: this run folder holds a study with {} trial(s) ({}); continue it with "
-                               "`varbo run --resume {}`, or pass --overwrite to replace it (its trials are lost)",
-                               folder, n, store_path, folder));
+  throw InputError(fmt::format("{}: this run folder holds a study with {} trial(s) ({}); continue it with {}, or "
+                               "{} to replace it (its trials are lost)",
+                               folder, n, store_path, fmt::format(fmt::runtime(ov.resume_hint), folder),
+                               ov.overwrite_hint));
 }
 
 }  // namespace
@@ -120,14 +121,14 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   if (!own_store && !same_file(folder_store, store_path))
     locks.push_back(RunLock::acquire(folder_store + ".lock", fmt::format("the run folder {}", study.output)));
   if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
-    if (!ov.overwrite) refuse_to_replace(study.output, store_path);
+    if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov);
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
   } else if (!ov.resume && ov.overwrite) {
     remove_store_files(store_path);  // no study file, but maybe its leftover -wal, which creating would refuse
   }
   // Resumed by a later varbo: the stored configuration is the one given; what this version resolves it to is
   // recorded (a warning names the first difference) instead of refusing the study as another configuration's.
-  if (ov.resume) study_detail::adopt_current_resolution(store_path, study);
+  if (ov.resume) study_detail::adopt_current_resolution(store_path, study, registry);
   Study st = Study::attach(store_path, study, registry);
   st.set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
@@ -331,8 +332,8 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   summary.seconds = seconds_since(t_start);
   writer.summary(summary, shown, optimum);
   if (stop_signal) {
-    log_warn("run {} stopped by {} after {} evaluations; continue it with: varbo run --resume {}", study.output,
-             signal_name(stop_signal), summary.evaluations, study.output);
+    log_warn("run {} stopped by {} after {} evaluations; continue it with: {}", study.output,
+             signal_name(stop_signal), summary.evaluations, fmt::format(fmt::runtime(ov.resume_hint), study.output));
     set_log_file("");
     throw Interrupted(stop_signal);
   }

@@ -61,11 +61,25 @@ std::string first_difference(const std::string& stored, const std::string& now) 
 }
 }  // namespace
 
-bool study_detail::adopt_current_resolution(const std::string& store_path, const StudyConfig& config) {
+bool study_detail::adopt_current_resolution(const std::string& store_path, const StudyConfig& config,
+                                            const Registry& registry) {
   std::unique_ptr<StudyStore> store = open_store(store_path);
   const std::string identity = study_identity(config);
   const auto stored = store->meta(store_key::kIdentity);
   if (!stored || *stored == identity) return false;
+  // Only a difference of resolution is adopted: the stored configuration, resolved by this version, must be the
+  // configuration given. One the user changed (another seed, budget aside, another algorithm) is still refused by
+  // Study::attach as another study's; adopting it would continue the trials of one configuration with another's.
+  const auto text = store->meta(store_key::kConfig);
+  if (!text) return false;
+  try {
+    const StudyConfig resolved_now =
+        parse_study(ConfigNode::parse(*text, store_path + " (stored configuration)"), registry);
+    if (study_identity(resolved_now) != identity) return false;
+  } catch (const std::exception& e) {  // stored by a version whose options this one no longer takes
+    log_debug("{}: the stored configuration does not parse with the plugins loaded now: {}", store_path, e.what());
+    return false;
+  }
   log_warn("{}: the stored configuration resolves differently with the plugins loaded now (an option added or a "
            "default changed since the study was created; first difference: {}); continuing with it as resolved "
            "now, which the study records",
@@ -161,8 +175,8 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
   if (stored != identity)
     throw InputError(fmt::format(
         "{}: this study was created from a different configuration (task, algorithm, seed and initial point must "
-        "match to continue it); first difference: {}. Use another study file, or "
-        "`varbo run --resume {}` to continue with the stored configuration",
+        "match to continue it); first difference: {}. Use another study file, or continue it with the configuration "
+        "it was created with (`varbo run --resume {}`, without options that change it such as --seed)",
         store_path, first_difference(stored, identity), store_path));
   return Study(std::move(impl));
 }

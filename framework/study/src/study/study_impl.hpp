@@ -39,7 +39,7 @@ std::string emit(const YAML::Node& n);
 /// (`config`), may name settings it did not (an option added since, whose default now applies). Then say so, with
 /// the first difference, and record the configuration as resolved now, so the study continues with these settings
 /// and they are written down from here on; trials and states are untouched. False when nothing differed.
-bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config);
+bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config, const Registry& registry);
 
 }  // namespace study_detail
 
