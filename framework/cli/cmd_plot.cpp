@@ -8,6 +8,7 @@
 
 #include "cli_parse.hpp"
 #include "commands.hpp"
+#include "output_guard.hpp"
 #include "component_arg.hpp"
 #include "slice_values.hpp"
 #include "varbo/errors.hpp"
@@ -267,6 +268,7 @@ Runner add_plot(CLI::App& app) {
                                      a->run, join(run.names)));
       const svg::Figure fig = plot_slice(run, registry, *a);
       const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
+      refuse_to_write_over_a_study(out, "-o");
       fig.save(out);
       std::printf("%s\n", out.c_str());
       return 0;
@@ -278,6 +280,7 @@ Runner add_plot(CLI::App& app) {
     const svg::Figure fig = d == 1 ? plot_1d(run, registry, *a, gp_opt->count() > 0, vh_opt->count() > 0)
                                    : plot_2d(run, registry, *a);
     const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
+    refuse_to_write_over_a_study(out, "-o");
     fig.save(out);
     std::printf("%s\n", out.c_str());
     return 0;

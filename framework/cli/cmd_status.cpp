@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/host_task.hpp"
@@ -84,7 +85,7 @@ Runner add_status(CLI::App& app) {
     for (std::size_t i = first; i < trials.size(); ++i) {
       const auto& t = trials[i];
       std::printf("    %-6lld %-10s %-10s %14.8g  %s%s\n", static_cast<long long>(t.id), state_name(t.state).c_str(),
-                  t.phase.c_str(), t.cost, theta_text(t.theta, names, s.space()).c_str(),
+                  t.phase.c_str(), t.state == TrialState::Complete ? t.cost : std::nan(""), theta_text(t.theta, names, s.space()).c_str(),
                   // A failure reason is anyone's text (a worker, a task): an escape sequence in it must not reach the
                   // terminal (`varbo fail --reason $'\e[2J'` cleared the screen of whoever ran `varbo status`).
                   t.error.empty() ? "" : ("  (" + printable(t.error) + ")").c_str());
@@ -120,7 +121,8 @@ Runner add_export(CLI::App& app) {
       for (Index i = 0; i < t.theta.size(); ++i)  // labels for categories when the study declares parameters
         out.append(",").append(s.space() ? csv_cell(s.space()->format_value(static_cast<std::size_t>(i), t.theta[i]))
                                          : exact(t.theta[i]));
-      out.append(",").append(std::isnan(t.cost) ? std::string("nan") : exact(t.cost));
+      // Only a complete trial has a cost (a failed one recorded by a worker before session 20 stored 0).
+      out.append(",").append(t.state != TrialState::Complete || std::isnan(t.cost) ? std::string("nan") : exact(t.cost));
       for (const auto& c : comps) {
         std::string v = "nan";
         for (const auto& [name, value] : t.components)
@@ -133,6 +135,7 @@ Runner add_export(CLI::App& app) {
     if (a->output.empty()) {
       std::fwrite(out.data(), 1, out.size(), stdout);
     } else {
+      refuse_to_write_over_a_study(a->output, "-o");
       std::ofstream f(a->output, std::ios::trunc);
       if (!f) throw InputError(fmt::format("{}: cannot write", a->output));
       f << out;

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "external_task.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
 
@@ -79,7 +80,14 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
     o.node("command").fail(fmt::format("the command is {} bytes; a command line holds at most 131071 (the "
                                        "kernel's limit for one argument): put it in a script",
                                        s.command.size()));
-  if (o.is_set("components")) s.components = unique_names(o.node("components"), "cost component");
+  if (o.is_set("components")) {
+    s.components = unique_names(o.node("components"), "cost component");
+    for (std::size_t i = 0; i < s.components.size(); ++i)
+      if (is_trials_table_column(s.components[i]))
+        o.node("components").item(i).fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, "
+                                                       "error, the timings); name the component otherwise",
+                                                       s.components[i]));
+  }
   // A missing working directory fails every trial ("cannot change to the working directory"). Only a warning:
   // the task is also built to read a study (status, export, suggest on another machine), which must still open.
   if (!s.process.working_directory.empty()) {

@@ -126,6 +126,25 @@ TEST_CASE("load_run_folder: missing files and bad rows name the file") {
   CHECK_THROWS_AS(load_run_folder(dir + "/nope", test::registry()), InputError);
 }
 
+TEST_CASE("load_run_folder: parameters named like fixed columns (index, cost) are read by position") {
+  // Session 20: the first column of a name was taken, so a parameter `index` read the trial number as θ and a
+  // parameter `cost` was read as the cost (`select` answered with θ = [1, ...]).
+  const std::string out = test::temp_folder("vbo_named_columns");
+  const std::string yaml = "task: {type: external, command: \"cat > /dev/null; echo 1.5\"}\nparameters:\n"
+                           "  - {name: index, type: real, low: 10, high: 100}\n"
+                           "  - {name: cost, type: real, low: 0, high: 1}\n"
+                           "budget: 4\nseed: 1\nalgorithm: {type: random}\noutput: " + out + "\n";
+  test::run_yaml(yaml, test::registry());
+  const RunFolder run = load_run_folder(out, test::registry());
+  CHECK(run.names == std::vector<std::string>{"index", "cost"});
+  REQUIRE(run.theta.rows() == 4);
+  for (Index i = 0; i < 4; ++i) {
+    CHECK(run.theta(i, 0) >= 10.0);
+    CHECK(run.theta(i, 1) <= 1.0);
+    CHECK(run.cost(i) == 1.5);
+  }
+}
+
 TEST_CASE("select_among: the candidate minimizing E + kappa s, by brute force on the same model") {
   const test::FakeTwoWells model;
   const Domain domain{Box{Vec::Constant(1, 0.0), Vec::Constant(1, 10.0)}, {"theta"}};

@@ -33,4 +33,8 @@ std::string csv_text(const std::string& text);
 /// A double printed so that it reads back exactly.
 std::string exact(double v);
 
+/// A fixed column of trials.csv or of `varbo export` (index, id, state, phase, cost, ok, error, worker, the times and
+/// regrets): a cost component of that name would make a second column of it, read by csv tools as the first.
+bool is_trials_table_column(const std::string& name);
+
 }  // namespace varbo

@@ -143,4 +143,11 @@ std::string csv_text(const std::string& text) {
 
 std::string exact(double v) { return fmt::format("{}", v); }  // fmt prints the shortest round-trip form
 
+bool is_trials_table_column(const std::string& name) {
+  static const std::vector<std::string> fixed = {
+      "index", "id", "state", "phase", "cost", "ok", "error", "worker", "created_at", "finished_at", "finish_seq",
+      "fit_seconds", "acquisition_seconds", "evaluation_seconds", "regret_best_observed", "regret_recommended"};
+  return std::find(fixed.begin(), fixed.end(), name) != fixed.end();
+}
+
 }  // namespace varbo

@@ -84,9 +84,20 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
       if (header[i] == printable(name)) return i;
     throw InputError(fmt::format("{}: no column '{}' (header: {})", csv, printable(name), join(header)));
   };
+  // The writer's layout (run_writer.cpp): index, phase, the parameters in order, cost, ok, the components, the
+  // timings. Read by position when the header has it: a parameter may be named like a fixed column (`index`,
+  // `cost`, `phase`), and the first column of that name was then read as it (`select` took the trial number for θ).
+  const std::size_t d_names = run.names.size();
+  const auto named = [&](std::size_t i, const std::string& name) {
+    return i < header.size() && (header[i] == name || header[i] == printable(name));
+  };
+  bool positional = named(0, "index") && named(1, "phase") && named(2 + d_names, "cost") && named(3 + d_names, "ok");
+  for (std::size_t j = 0; positional && j < d_names; ++j) positional = named(2 + j, run.names[j]);
   std::vector<std::size_t> xcols;
-  for (const auto& n : run.names) xcols.push_back(column(n));
-  const std::size_t cost_col = column("cost"), ok_col = column("ok"), phase_col = column("phase");
+  for (std::size_t j = 0; j < d_names; ++j) xcols.push_back(positional ? 2 + j : column(run.names[j]));
+  const std::size_t cost_col = positional ? 2 + d_names : column("cost");
+  const std::size_t ok_col = positional ? 3 + d_names : column("ok");
+  const std::size_t phase_col = positional ? 1 : column("phase");
 
   // Cost components sit between `ok` and the timings (fit_seconds), in the task's order.
   std::size_t comp_end = header.size();

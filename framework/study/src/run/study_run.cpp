@@ -372,6 +372,13 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
       if (!l.empty()) paths.push_back(l);
   }
   RunOverrides ov = overrides;
+  if (!url && ov.output && std::filesystem::is_directory(target) && !same_file(*ov.output, target))
+    // The run folder holds the study and its outputs together: writing the outputs elsewhere split the run (the
+    // trials went to TARGET/study.db, trials.csv and summary.json to the other folder, which then had nothing to
+    // resume).
+    throw InputError(fmt::format("--resume {}: continues the run in its own folder; -o {} would split it (the study "
+                                 "stays in {}). Leave -o out, or copy the run folder first and resume the copy",
+                                 target, *ov.output, target));
   if (!ov.output) {
     // Where the run folder is now: a moved or copied folder is continued in place, never at the path stored
     // when it was created (that may be the original, still in use, or gone).

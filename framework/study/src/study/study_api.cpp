@@ -265,7 +265,20 @@ std::vector<TrialRecord> Study::ask(Index q) {
 }
 
 namespace {
-void check_result(const std::string& where, double cost, const Components& components) {
+/// A component named like a fixed column (or a parameter) made a second column of that name, which csv readers
+/// take for the first (`--component cost=99` was read as the cost).
+bool names_a_column(const std::string& name, const std::vector<std::string>& parameters) {
+  return is_trials_table_column(name) || std::find(parameters.begin(), parameters.end(), name) != parameters.end();
+}
+
+void check_result(const std::string& where, double cost, const Components& components,
+                  const std::vector<std::string>& parameters) {
+  for (const auto& [name, v] : components)
+    if (names_a_column(name, parameters))
+      throw InputError(fmt::format("{}: a cost component may not be named '{}', which names a parameter or a column of "
+                                   "the trials table (index, id, state, phase, cost, ok, error, worker, the timings); "
+                                   "nothing written",
+                                   where, name));
   if (!std::isfinite(cost))
     throw InputError(fmt::format("{}: the cost must be a finite number, got {}; nothing written (report a trial that "
                                  "could not be measured with `varbo fail` / Study::fail)",
@@ -280,7 +293,7 @@ void check_result(const std::string& where, double cost, const Components& compo
 }  // namespace
 
 void Study::tell(std::int64_t id, double cost, const Components& components) {
-  check_result(fmt::format("{}: trial {}", impl_->store->location(), id), cost, components);
+  check_result(fmt::format("{}: trial {}", impl_->store->location(), id), cost, components, impl_->domain.names);
   Evaluation e;
   e.cost = cost;
   e.components = components;
@@ -291,7 +304,7 @@ void Study::tell(std::int64_t id, double cost, const Components& components) {
 std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& components) {
   Impl& m = *impl_;
   const std::string where = m.store->location();
-  check_result(where + ": new trial", cost, components);
+  check_result(where + ": new trial", cost, components, m.domain.names);
   const Box& box = m.domain.box;
   std::string why;
   if (m.space && !m.space->contains(theta, &why))
@@ -328,7 +341,7 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
   m.store->transaction([&] {
     t = m.pending_trial(id, ev.ok ? "observe" : "fail");
     t.state = ev.ok ? TrialState::Complete : TrialState::Failed;
-    t.cost = ev.cost;
+    t.cost = ev.ok ? ev.cost : std::nan("");  // a failed trial has no cost (as Study::fail records it), not 0
     t.components = ev.components;
     t.noiseless_cost = ev.noiseless_cost;
     t.error = ev.error;
