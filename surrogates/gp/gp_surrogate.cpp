@@ -114,9 +114,20 @@ GpSurrogate::Standardization GpSurrogate::standardization(const Vec& y) {
   if (n == 0) return s;
   s.shift = y.mean();
   const double var = n > 1 ? (y.array() - s.shift).square().sum() / static_cast<double>(n - 1) : 0.0;
-  const double sd = std::sqrt(var);
-  // Constant (or single) costs carry no scale: keep 1 so the model stays well defined.
-  s.scale = (std::isfinite(sd) && sd > 1e-12 * std::max(1.0, std::abs(s.shift))) ? sd : 1.0;
+  double sd = std::sqrt(var);
+  if (!std::isfinite(sd)) {
+    // Costs near the double range (1e200): the squares overflowed, the scale fell back to 1, and every fit failed
+    // as a "Cholesky failure" while bo went on at random (session 20). The moments of y / max|y|, scaled back.
+    const double a = y.cwiseAbs().maxCoeff();
+    if (std::isfinite(a) && a > 0) {
+      const Vec z = y / a;
+      s.shift = a * z.mean();
+      sd = a * std::sqrt((z.array() - z.mean()).square().sum() / static_cast<double>(n - 1));
+    }
+  }
+  // Constant (or single) costs carry no scale: keep 1 so the model stays well defined. "Constant" is relative to
+  // the costs' magnitude only: costs of order 1e-13 that vary were modelled as constant under an absolute floor.
+  s.scale = (std::isfinite(sd) && sd > 1e-12 * std::abs(s.shift) && sd > 1e-290) ? sd : 1.0;
   s.top = (y.maxCoeff() - s.shift) / s.scale;
   return s;
 }

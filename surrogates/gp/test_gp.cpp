@@ -373,6 +373,30 @@ TEST_CASE("degenerate data: duplicated points and constant costs survive") {
   }
 }
 
+TEST_CASE("the fit does not depend on the costs' units: 1e-13 and 1e200 times the costs give the same model") {
+  // Session 20: costs of order 1e-13 fell under an absolute floor and were modelled as constant; costs of 1e200
+  // overflowed the variance, and every fit failed. Standardized, the fits are the same up to rounding.
+  const Dataset base = branin_like(20, 4);
+  GpSurrogate reference(2, settings_for(KernelType::Matern52, 4), lbfgs());
+  Rng r0(21);
+  REQUIRE(reference.fit(base, r0).ok);
+  const Vec at = (Vec(2) << 0.37, 0.61).finished();
+  const Prediction p0 = reference.predict(at, false);
+  for (const double unit : {1e-13, 1e200}) {
+    CAPTURE(unit);
+    Dataset scaled = base;
+    scaled.y *= unit;
+    GpSurrogate gp(2, settings_for(KernelType::Matern52, 4), lbfgs());
+    Rng rng(21);
+    const FitReport rep = gp.fit(scaled, rng);
+    CHECK(rep.ok);
+    const Prediction p = gp.predict(at, false);
+    CHECK(p.mean / unit == doctest::Approx(p0.mean).epsilon(1e-6));
+    // The variance is in squared cost units: 1e400 is beyond a double (the run warns above 1e150, study_api.cpp).
+    if (unit < 1e150) CHECK(std::sqrt(p.latent_var) / unit == doctest::Approx(std::sqrt(p0.latent_var)).epsilon(1e-5));
+  }
+}
+
 TEST_CASE("all restarts failing keeps the previous hyperparameters and reports ok = false") {
   const Dataset data = branin_like(20, 13);
   GpSurrogate gp(2, settings_for(KernelType::Matern52, 3), std::make_shared<FailingOptimizer>());

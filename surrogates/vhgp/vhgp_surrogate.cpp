@@ -72,7 +72,18 @@ VhgpSurrogate::Scaling VhgpSurrogate::scaling_for(const Vec& y) const {
   if (!config_.standardize || y.size() == 0) return s;
   s.mean = y.mean();
   const double var = y.size() > 1 ? (y.array() - s.mean).square().sum() / static_cast<double>(y.size() - 1) : 0.0;
-  s.scale = (var > 1e-24 && std::isfinite(var)) ? std::sqrt(var) : 1.0;
+  double sd = std::sqrt(var);
+  if (!std::isfinite(sd)) {  // as the gp's standardization: moments of y / max|y| where the squares overflow
+    const double a = y.cwiseAbs().maxCoeff();
+    if (std::isfinite(a) && a > 0) {
+      const Vec z = y / a;
+      s.mean = a * z.mean();
+      sd = a * std::sqrt((z.array() - z.mean()).square().sum() / static_cast<double>(y.size() - 1));
+    }
+  }
+  // Constant only relative to the costs' magnitude (an absolute 1e-24 on the variance made costs of order 1e-13
+  // that vary look constant).
+  s.scale = (std::isfinite(sd) && sd > 1e-12 * std::abs(s.mean) && sd > 1e-290) ? sd : 1.0;
   return s;
 }
 

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <mutex>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
@@ -342,6 +343,14 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
     t = m.pending_trial(id, ev.ok ? "observe" : "fail");
     t.state = ev.ok ? TrialState::Complete : TrialState::Failed;
     t.cost = ev.ok ? ev.cost : std::nan("");  // a failed trial has no cost (as Study::fail records it), not 0
+    if (ev.ok && std::abs(ev.cost) > 1e150) {
+      static std::once_flag once;
+      std::call_once(once, [&] {
+        log_warn("{}: trial {} has cost {}: the models work with squared costs (variances), which overflow beyond "
+                 "about 1e154; rescale the cost (e.g. divide by a constant or take its log)",
+                 m.store->location(), id, exact(ev.cost));
+      });
+    }
     t.components = ev.components;
     t.noiseless_cost = ev.noiseless_cost;
     t.error = ev.error;
