@@ -181,6 +181,7 @@ Runner add_worker(CLI::App& app) {
     std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
     long long done = 0;
     int exit_code = 0;
+    std::vector<std::string> waiting_for;  // the pending trials last reported
     while (a->max_trials == 0 || done < a->max_trials) {
       if (const int sig = g_stop.load()) {
         exit_code = 128 + sig;
@@ -190,9 +191,20 @@ Runner add_worker(CLI::App& app) {
       if (asked.empty()) {
         // The budget is used, or held by trials pending elsewhere: wait while those may still finish or be
         // abandoned (their worker silent), then ask again.
-        bool pending = false;
-        for (const auto& t : study.store().pending_trials()) pending = pending || t.worker != id;
-        if (!pending) break;
+        std::vector<std::string> others;
+        for (const auto& t : study.store().pending_trials())
+          if (t.worker != id) others.push_back(fmt::format("{} ({})", t.id, t.worker.empty() ? "no worker" : t.worker));
+        if (others.empty()) break;
+        if (others != waiting_for) {
+          // Said once per change: a worker that only sleeps looked hung (trials left pending by `varbo suggest`
+          // wait for an observe, or for `varbo abandon`).
+          std::fprintf(stderr,
+                       "varbo worker: the budget is held by %zu trial(s) pending elsewhere: %s; waiting for them to "
+                       "be observed, failed or abandoned (`varbo abandon %s ID`, or automatically once their worker "
+                       "is silent for the heartbeat timeout)\n",
+                       others.size(), join(others).c_str(), a->store.c_str());
+          waiting_for = others;
+        }
         std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 0.25)));
         continue;
       }

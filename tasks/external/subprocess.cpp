@@ -296,12 +296,21 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   plan.cgroup_path = cgroup.active() ? cgroup.path().c_str() : nullptr;
   plan.cgroup_required = options.containment == Containment::Cgroup;
 
+  // The supervisor must start with every signal blocked (it takes them synchronously): a SIGTERM for a short
+  // timeout, or a second Ctrl-C, that arrived between fork() and its own sigprocmask ran varbo's inherited handler
+  // in the child and was lost, so only the SIGKILL fallback (grace + 4 s) ended the trial (session 20). The
+  // forking thread's mask is what the child inherits; this thread's signals wait the few µs until it is restored.
+  sigset_t block_all, previous;
+  sigfillset(&block_all);
+  ::pthread_sigmask(SIG_SETMASK, &block_all, &previous);
   const pid_t supervisor = ::fork();
+  const int fork_errno = errno;
+  if (supervisor == 0) run_supervisor(plan);
+  ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
   if (supervisor < 0) {
-    r.error = fmt::format("fork: {}", std::strerror(errno));
+    r.error = fmt::format("fork: {}", std::strerror(fork_errno));
     return r;
   }
-  if (supervisor == 0) run_supervisor(plan);
   r.started = true;
   in_r.close();
   out_w.close();
