@@ -130,3 +130,25 @@ def test_parallel_jobs_and_pickle():
     study.sampler = copy
     study.optimize(objective, n_trials=2)
     assert len(study.trials) == 18
+
+
+def test_an_enqueued_trial_outside_the_space_is_left_out_of_the_model():
+    # Session 20: Optuna runs an enqueued trial with out-of-range values (with a warning); the sampler then failed
+    # every later sample with "p1 = 1.5 is not in [0, 1]". It leaves such a trial out of its model instead.
+    import warnings
+    for suggest in (lambda t: t.suggest_float("x", 0, 1) + t.suggest_int("n", 0, 5),
+                    lambda t: t.suggest_float("x", 0, 1, step=0.1)):  # typed space, and the ordinal fallback
+        study = optuna.create_study(sampler=varbo.optuna.VarboSampler(seed=1))
+        study.enqueue_trial({"x": 1.5, "n": 7})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            study.optimize(suggest, n_trials=5)
+        assert len(study.trials) == 5 and all(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+        assert all(0 <= t.params["x"] <= 1 for t in study.trials[1:])
+
+
+def test_integers_beyond_2_53_use_the_ordinal_fallback():
+    study = optuna.create_study(sampler=varbo.optuna.VarboSampler(seed=1))
+    study.optimize(lambda t: float(t.suggest_int("rng_seed", 0, 2 ** 62) % 7) + t.suggest_float("x", 0, 1), n_trials=6)
+    assert len(study.trials) == 6
+    assert all(0 <= t.params["rng_seed"] <= 2 ** 62 for t in study.trials)

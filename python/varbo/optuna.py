@@ -89,6 +89,8 @@ def _typed_parameter(i: int, dist: BaseDistribution) -> Optional[Dict[str, Any]]
         # Labels of our own: Optuna's choices may be None, numbers or booleans; the index maps back.
         return {"name": name, "type": "categorical", "choices": [f"c{j}" for j in range(len(dist.choices))]}
     if isinstance(dist, IntDistribution):
+        if max(abs(int(dist.low)), abs(int(dist.high))) > 2 ** 53:
+            return None  # beyond varbo's exact integers (doubles): the ordinal fallback, as for any other gap
         if dist.step == 1:
             return {"name": name, "type": "int", "low": int(dist.low), "high": int(dist.high), "log": bool(dist.log)}
         if not dist.log:
@@ -212,6 +214,19 @@ class VarboSampler(BaseSampler):
 
             def decode(n: str, t: float) -> Any:
                 return _decode(search_space[n], t)
+        def admissible(t: FrozenTrial) -> bool:
+            # A trial enqueued by hand may hold values outside the distributions (Optuna warns and runs it); the
+            # model leaves it out instead of refusing the whole study ("p1 = 1.5 is not in [0, 1]").
+            for n in names:
+                if n not in t.params:
+                    return False
+                try:
+                    if not search_space[n]._contains(search_space[n].to_internal_repr(t.params[n])):
+                        return False
+                except (ValueError, TypeError):
+                    return False
+            return True
+
         trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.RUNNING))
         done: List[FrozenTrial] = []
         pending: List[List[float]] = []
@@ -223,9 +238,9 @@ class VarboSampler(BaseSampler):
                 # relative sample's params only when the objective suggests them).
                 if t.number in self._handed_out and self._handed_out[t.number][0] == key:
                     pending.append(self._handed_out[t.number][1])
-                elif all(n in t.params for n in names):
+                elif admissible(t):
                     pending.append([encode(n, t.params[n]) for n in names])
-            elif all(n in t.params for n in names):
+            elif admissible(t):
                 done.append(t)
         running = {t.number for t in trials if t.state == TrialState.RUNNING}
         self._handed_out = {k: v for k, v in self._handed_out.items() if k in running}
