@@ -89,6 +89,11 @@ void read_result(const py::object& r, Evaluation& ev) {
     if (!d.contains("cost")) throw InputError("the objective returned a dict without 'cost'");
     ev.cost = number(d["cost"]);
     if (d.contains("components")) ev.components = components_of(d["components"]);
+    // As tell() refuses them: a component that is not a finite number fails the trial, saying which (a NaN was
+    // stored in a complete trial).
+    for (const auto& [name, v] : ev.components)
+      if (!std::isfinite(v))
+        throw InputError(fmt::format("the objective returned component '{}' = {}; expected a finite number", name, v));
     return;
   }
   ev.cost = number(r);

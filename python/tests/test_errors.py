@@ -328,3 +328,20 @@ def test_minimize_resume_refuses_another_configuration_and_names_its_own_argumen
     # A folder with trials: the hint is minimize's own, not the CLI's (which cannot run a Python objective).
     with pytest.raises(varbo.InputError, match=r"resume=True\).*overwrite=True"):
         varbo.minimize(f, {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=4, seed=1, output=out)
+
+
+def test_minimize_components_are_declared_on_the_task_and_must_be_finite(tmp_path):
+    import math
+    f = lambda p: {"cost": p["a"] ** 2, "components": {"energy": p["a"], "bad": math.nan if p["a"] > 0.5 else 1.0}}
+    cfg = {"task": {"type": "python", "lower": [0], "upper": [1], "names": ["a"], "components": ["energy", "bad"]},
+           "algorithm": {"type": "random"}}
+    r = varbo.minimize(f, cfg, budget=6, seed=1, output=tmp_path / "run")
+    header = (tmp_path / "run" / "trials.csv").read_text().splitlines()[0]
+    assert header.startswith("index,phase,a,cost,ok,energy,bad,")
+    for t in r.trials:  # a NaN component fails the trial, saying which, as tell() refuses it
+        assert (t.state == "failed") == (t.params["a"] > 0.5)
+        if t.state == "failed":
+            assert "component 'bad'" in t.error
+    bad = dict(cfg, task=dict(cfg["task"], components=["energy", "cost"]))
+    with pytest.raises(varbo.ConfigError, match="names a column of the trials table"):
+        varbo.minimize(f, bad, budget=3, output=tmp_path / "other")

@@ -68,8 +68,8 @@ void RunWriter::trial(const TrialRow& r) {
       if (!known && unknown++ == 0) first = kv.first;
     }
     if (unknown > 0) {
-      log_warn("task reported an undeclared cost component '{}'{}; it is not recorded in trials.csv (an external "
-               "task declares its components with `components: [...]`)",
+      log_warn("task reported an undeclared cost component '{}'{}; it is not recorded in trials.csv (declare the "
+               "components with the task's `components: [...]`: external and python tasks take it)",
                safe_text(first, 100), unknown > 1 ? fmt::format(" and {} more", unknown - 1) : std::string());
       warned_extra_ = true;
     }

@@ -7,6 +7,7 @@
 #include <set>
 #include <string>
 
+#include "varbo/csv.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
 
@@ -16,9 +17,14 @@ namespace {
 
 class HostTask : public Task, public SpaceAware {
  public:
-  HostTask(Domain domain, std::vector<ConfigNode> domain_keys, HostEvaluator evaluate)
-      : domain_(std::move(domain)), domain_keys_(std::move(domain_keys)), evaluate_(std::move(evaluate)) {}
+  HostTask(Domain domain, std::vector<ConfigNode> domain_keys, HostEvaluator evaluate,
+           std::vector<std::string> components)
+      : domain_(std::move(domain)),
+        domain_keys_(std::move(domain_keys)),
+        evaluate_(std::move(evaluate)),
+        components_(std::move(components)) {}
   Domain domain() const override { return domain_; }
+  std::vector<std::string> component_names() const override { return components_; }
   SharedSpace search_space() const override { return space_; }
   void set_search_space(SharedSpace space) override {
     // A second definition of the domain could only disagree with the parameters (as the external task).
@@ -41,14 +47,36 @@ class HostTask : public Task, public SpaceAware {
   std::vector<ConfigNode> domain_keys_;
   SharedSpace space_;
   HostEvaluator evaluate_;
+  std::vector<std::string> components_;
 };
+
+/// `components: [...]`: the cost components the function's dict answers carry (columns of trials.csv).
+std::vector<std::string> declared_components(const Options& o) {
+  std::vector<std::string> out;
+  if (!o.given("components")) return out;
+  const ConfigNode n = o.node("components");
+  if (!n.is_sequence() || n.size() == 0) n.fail("expected a non-empty list of cost component names");
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    const ConfigNode item = n.item(i);
+    if (!item.is_scalar() || item.scalar().empty()) item.fail("expected a cost component name");
+    if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
+    if (is_trials_table_column(item.scalar()))
+      item.fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); "
+                            "name the component otherwise",
+                            item.scalar()));
+    out.push_back(item.scalar());
+  }
+  return out;
+}
 
 std::unique_ptr<Task> make_host_task(const Options& o, HostEvaluator evaluate) {
   std::vector<ConfigNode> keys;
   for (const char* key : {"lower", "upper", "names"})
     if (o.given(key)) keys.push_back(o.node(key));
   if (keys.empty())  // the study's `parameters:` give the domain (set_search_space), or the study refuses it
-    return std::make_unique<HostTask>(Domain{Box{Vec(0), Vec(0)}, {}}, std::move(keys), std::move(evaluate));
+    return std::make_unique<HostTask>(Domain{Box{Vec(0), Vec(0)}, {}}, std::move(keys), std::move(evaluate),
+                                      declared_components(o));
   if (!o.given("lower") || !o.given("upper"))
     o.source().fail("expected lower and upper (one bound per parameter), or no box at all and the study's `parameters:`");
   const auto lower = o.reals("lower"), upper = o.reals("upper");
@@ -75,7 +103,7 @@ std::unique_ptr<Task> make_host_task(const Options& o, HostEvaluator evaluate) {
     }
   }
   for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
-  return std::make_unique<HostTask>(std::move(dom), std::move(keys), std::move(evaluate));
+  return std::make_unique<HostTask>(std::move(dom), std::move(keys), std::move(evaluate), declared_components(o));
 }
 
 }  // namespace
@@ -87,7 +115,10 @@ void add_host_python_task(Registry& registry, std::function<HostEvaluator()> eva
       "`parameters:`",
       {opt::reals("lower", "", "lower bound per parameter (leave the box out when the study declares `parameters:`)"),
        opt::reals("upper", "", "upper bound per parameter"),
-       opt::node("names", "", "parameter names (default x1, x2, ...)")},
+       opt::node("names", "", "parameter names (default x1, x2, ...)"),
+       opt::node("components", "",
+                 "names of the cost components the function returns in {cost: c, components: {name: value}} "
+                 "(columns of trials.csv; for `varbo rescore` and the dashboard)")},
       Factory<Task>([evaluator_at_build](const Options& o, const BuildContext&) {
         return make_host_task(o, evaluator_at_build ? evaluator_at_build() : HostEvaluator());
       }));
