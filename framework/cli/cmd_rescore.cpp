@@ -42,14 +42,18 @@ Runner add_rescore(CLI::App& app) {
   cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")->delimiter(',')
       ->check(decimal_number());
   cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)")
-      ->check(decimal_number());
+      ->check(decimal_number())
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--critic", a->critic, "local model as YAML, e.g. '{type: vhgp, restarts: 8}' (default: the run's)");
   cmd->add_option("--continue", a->continue_steps,
-                  "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)");
+                  "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--rollouts", a->rollouts,
                   "evaluate the initial, learned and selected policies (and the continued one) with M fresh "
-                  "rollouts under the new weights (new trials: not offline)");
-  cmd->add_option("--seed", a->seed, "seed of the fit, the continuation and the rollouts (default: the run's)");
+                  "rollouts under the new weights (new trials: not offline)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--seed", a->seed, "seed of the fit, the continuation and the rollouts (default: the run's)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);

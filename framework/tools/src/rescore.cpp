@@ -136,8 +136,9 @@ Weights parse_weight_list(const std::string& text, const std::vector<std::string
     const std::string item = text.substr(start, end - start);
     start = end + 1;
     if (item.empty()) {
+      // An empty list (or a trailing comma) means no more; an empty item inside one (`a=1,,b=2`, `,,`) is a typo.
       if (end >= text.size()) break;
-      continue;
+      throw InputError(fmt::format("--weights: an empty item in '{}'; expected name=value,name=value", text));
     }
     const std::size_t eq = item.find('=');
     if (eq == std::string::npos)
@@ -150,6 +151,9 @@ Weights parse_weight_list(const std::string& text, const std::vector<std::string
                                    fmt::join(components, ", ")));
     const double v = to_number(item.substr(eq + 1), "--weights " + name);
     if (!std::isfinite(v) || v < 0) throw InputError(fmt::format("--weights: weight of '{}' must be finite and >= 0", name));
+    if (w.count(name) != 0)
+      throw InputError(fmt::format("--weights: '{}' given twice ({} and {}); each component once", name,
+                                   w.at(name), v));
     w[name] = v;
     if (end >= text.size()) break;
   }
