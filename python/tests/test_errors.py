@@ -345,3 +345,14 @@ def test_minimize_components_are_declared_on_the_task_and_must_be_finite(tmp_pat
     bad = dict(cfg, task=dict(cfg["task"], components=["energy", "cost"]))
     with pytest.raises(varbo.ConfigError, match="names a column of the trials table"):
         varbo.minimize(f, bad, budget=3, output=tmp_path / "other")
+
+
+def test_yes_no_arguments_refuse_strings_and_a_missing_reason_is_not_none(tmp_path):
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 5, "seed": 1})
+    with pytest.raises(TypeError, match="as_frame"):
+        s.trials(as_frame="no")
+    t = s.ask()[0]
+    s.fail(t, None)
+    assert s.trials(as_frame=False)[0].error == "failed"
+    with pytest.raises(TypeError, match="reason"):
+        s.fail(s.ask()[0], 3)

@@ -198,8 +198,12 @@ class Study:
     def fail(self, trial_or_id: Union[Trial, int], reason: str = "failed") -> None:
         """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
         i = _trial_id(trial_or_id, self)
+        if reason is None:
+            reason = "failed"  # not the text "None"
+        elif not isinstance(reason, str):
+            raise TypeError(f"fail: reason: expected a str, got {type(reason).__name__}")
         self._check_file()
-        self._impl.fail(i, str(reason))
+        self._impl.fail(i, reason)
 
     def tell_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], cost: float,
                    components: Optional[Mapping[str, float]] = None) -> int:
@@ -230,6 +234,8 @@ class Study:
     def trials(self, as_frame: Optional[bool] = None):
         """Every trial by id: a ``pandas.DataFrame`` when pandas is importable (columns ``params_<name>`` and
         ``components_<name>``, as Optuna's ``trials_dataframe``), else a list of Trial. ``as_frame`` forces either."""
+        if as_frame is not None:
+            as_frame = _checks.flag(as_frame, "trials: as_frame")  # "no" was taken as true
         records = [self._trial(d) for d in self._impl.trials()]
         if as_frame is False:
             return records
@@ -506,7 +512,7 @@ class Model:
         X = _checks.float_array(X, "predict: X")
         if X.ndim == 1:
             X = X.reshape(1, -1) if X.size == self.dim else X.reshape(-1, 1)
-        return Prediction(**self._impl.predict(X, bool(gradients)))
+        return Prediction(**self._impl.predict(X, _checks.flag(gradients, "predict: gradients")))
 
     def __repr__(self) -> str:
         return f"varbo.Model({self.surrogate}, objective={self.objective:.6g}, ok={self.ok})"
