@@ -103,6 +103,13 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
   if (ov.resume && !store_exists(store_path))
     throw InputError(fmt::format("{}: no study store to resume", store_path));
+  if (own_store && !ov.resume && !ov.overwrite && !std::filesystem::exists(store_path) &&
+      std::filesystem::exists(study.output + "/trials.csv"))
+    // A trials.csv without its study: someone's own file, or a run whose study.db is gone. Writing the run here
+    // replaced it silently (session 20).
+    throw InputError(fmt::format("{}: the folder holds a trials.csv but no study.db; a run here would replace it. Choose "
+                                 "another folder, or {} to replace it",
+                                 study.output, ov.overwrite_hint));
   {
     std::error_code ec;
     std::filesystem::create_directories(study.output, ec);
