@@ -6,28 +6,13 @@
 #include <cstdlib>
 #include <limits>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo::cli {
-
-namespace {
-
-/// An integer flag read as text: CLI11 saturated 99999999999999999999 to 2^63 − 1 and took `--seed -1` as "not
-/// given"; here either is an error naming the flag and the range, as the same key in the file gets.
-long long integer_flag(const std::string& text, const char* flag, long long lo) {
-  errno = 0;
-  char* end = nullptr;
-  const long long v = std::strtoll(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno == ERANGE || v < lo)
-    throw InputError(fmt::format("{}: expected an integer in [{}, {}], got '{}'", flag, lo,
-                                 std::numeric_limits<long long>::max(), text));
-  return v;
-}
-
-}  // namespace
 
 Runner add_run(CLI::App& app) {
   auto* cmd = app.add_subcommand("run", "Run a study from a YAML configuration");

@@ -35,7 +35,7 @@ Runner add_select(CLI::App& app) {
     std::string run, surrogate, optimizer = kSelectOptimizer;
     std::vector<double> kappas;
     bool from_config = false, json = false, among_evaluated = false;
-    long long seed = 1;
+    std::string seed = "1";
     int threads = 0;
   };
   auto a = std::make_shared<Args>();
@@ -61,8 +61,7 @@ Runner add_select(CLI::App& app) {
                 "from the data extrapolates)");
   return [a]() {
     ThreadLimit limit(a->threads);
-    if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
-    const auto seed = static_cast<std::uint64_t>(a->seed);
+    const auto seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));  // not saturated
     std::vector<double> kappas = a->kappas.empty() ? std::vector<double>{2.0, 0.0, -2.0} : a->kappas;
     Registry& registry = default_registry();
     const RunFolder run = load_run_folder(a->run, registry);
