@@ -87,6 +87,10 @@ TEST_CASE("parse_answer") {
     CHECK(!parse_answer("nan\n", why));
     CHECK(contains(why, "not a finite"));
     CHECK(!parse_answer("inf\n", why));
+    CHECK(!parse_answer("1e400\n", why));  // an overflow is named as one (it was "not a number"; session 20)
+    CHECK(contains(why, "beyond the range of a double"));
+    CHECK(!parse_answer("-2.5e999\n", why));
+    CHECK(contains(why, "beyond the range of a double"));
     CHECK(!parse_answer("{\"cost\": \"3\"}\n", why));
     CHECK(contains(why, "not a number"));
     CHECK(!parse_answer("{\"value\": 3}\n", why));
