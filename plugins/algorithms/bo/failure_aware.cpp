@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pending_exclusion.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/option_set.hpp"
 
@@ -215,18 +216,8 @@ bool FeasibilityWeightedAcquisition::in_tabu(const Vec& x) const {
 }
 
 double FeasibilityWeightedAcquisition::evaluate(const Vec& x, Vec* grad) const {
-  for (const Vec& c : tabu_) {
-    const Vec v = x - c;
-    Index j = 0;
-    const double d = v.cwiseAbs().maxCoeff(&j);
-    if (d < tabu_radius_) {
-      if (grad) {
-        *grad = Vec::Zero(x.size());
-        (*grad)(j) = (v(j) >= 0 ? 1.0 : -1.0) / tabu_radius_;
-      }
-      return -1.0 - (tabu_radius_ - d) / tabu_radius_;
-    }
-  }
+  // boundary_tabu: below every excluded (≥ −1) and allowed point.
+  if (const std::optional<double> v = excluded_ball_value(x, tabu_, tabu_radius_, 0.0, grad)) return *v;
   Vec dp;
   const double p = model_.probability(x, grad ? &dp : nullptr);
   if (p < p_min_) {

@@ -27,21 +27,26 @@ double AwayFromPoints::below_values(const Acquisition& inner, const Mat& X) {
   return u;
 }
 
-double AwayFromPoints::evaluate(const Vec& x, Vec* grad) const {
-  for (const Vec& c : points_) {
+std::optional<double> excluded_ball_value(const Vec& x, const std::vector<Vec>& centres, double radius, double floor,
+                                          Vec* grad) {
+  for (const Vec& c : centres) {
     const Vec v = x - c;
     Index j = 0;
     const double d = v.cwiseAbs().maxCoeff(&j);
-    if (d < radius_) {
-      // Below every value outside (floor − 1 at the face), lowest at the centre; the gradient points outwards
-      // along the coordinate that sets the ∞-norm.
+    if (d < radius) {
       if (grad) {
         *grad = Vec::Zero(x.size());
-        (*grad)(j) = (v(j) >= 0 ? 1.0 : -1.0) / radius_;
+        (*grad)(j) = (v(j) >= 0 ? 1.0 : -1.0) / radius;
       }
-      return floor_ - 1.0 - (radius_ - d) / radius_;
+      return floor - 1.0 - (radius - d) / radius;
     }
   }
+  return std::nullopt;
+}
+
+double AwayFromPoints::evaluate(const Vec& x, Vec* grad) const {
+  // Below every value outside (floor − 1 at a ball's face), so a local maximizer started inside climbs out.
+  if (const std::optional<double> v = excluded_ball_value(x, points_, radius_, floor_, grad)) return *v;
   return inner_.evaluate(x, grad);
 }
 

@@ -8,6 +8,7 @@
 // twice (found with two Study handles on a bowl: trials 19 and 20 at the same θ). When the acquisition's best point
 // lies within `pending_distance` (∞-norm, unit cube) of a pending point, bo maximizes it once more with those
 // neighbourhoods excluded by AwayFromPoints. Runs without pending points are unchanged.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,6 +18,12 @@ namespace varbo::bo {
 
 /// The first of `points` within `radius` (∞-norm) of x, or -1.
 Index nearest_within(const Vec& x, const std::vector<Vec>& points, double radius);
+
+/// Inside an ∞-norm ball of `radius` around one of `centres` (strictly): `floor` − 1 − (radius − d)/radius, lowest
+/// at the centre, with its gradient (outwards along the coordinate that sets the ∞-norm) when grad is non-null;
+/// nullopt outside every ball. The exclusion both AwayFromPoints and bo's boundary_tabu use.
+std::optional<double> excluded_ball_value(const Vec& x, const std::vector<Vec>& centres, double radius, double floor,
+                                          Vec* grad);
 
 /// `inner` outside the ∞-norm balls of `radius` around `points`; inside them a value below `floor` − 1, rising
 /// linearly towards the balls' faces (gradient included), so a local maximizer started inside climbs out.

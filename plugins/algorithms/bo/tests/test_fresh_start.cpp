@@ -12,12 +12,13 @@
 #include "varbo/log.hpp"
 #include "varbo/registry.hpp"
 #include "varbo/surrogate.hpp"
+#include "bo_on_bowl.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
 
 namespace {
-double bowl(const Vec& x) { return (x.array() - 0.3).square().sum(); }
+using test::bowl;
 
 struct Trial {
   Vec x;
@@ -29,13 +30,7 @@ const std::string kCollapsing =
     "{type: bo, initial_points: 3, refine_last: 4, region: {type: trust_region, restart_center: new_points, "
     "failure_tolerance: 1, length_min: 0.3}}";
 
-std::unique_ptr<Algorithm> make(const std::string& algorithm, Index budget) {
-  BuildContext ctx;
-  ctx.dim = 2;
-  ctx.budget = budget;
-  ctx.seed = 5;
-  return test::registry().create<Algorithm>(algorithm, ctx);
-}
+std::unique_ptr<Algorithm> make(const std::string& algorithm, Index budget) { return test::make_bo(algorithm, budget); }
 
 std::vector<Trial> run(const std::string& algorithm, Index budget) {
   auto a = make(algorithm, budget);

@@ -10,20 +10,15 @@
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
 #include "varbo/registry.hpp"
+#include "bo_on_bowl.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
 
 namespace {
-double bowl(const Vec& x) { return (x.array() - 0.3).square().sum(); }
+using test::bowl;
 
-std::unique_ptr<Algorithm> make(const std::string& algorithm, Index budget) {
-  BuildContext ctx;
-  ctx.dim = 2;
-  ctx.budget = budget;
-  ctx.seed = 5;
-  return test::registry().create<Algorithm>(algorithm, ctx);
-}
+std::unique_ptr<Algorithm> make(const std::string& algorithm, Index budget) { return test::make_bo(algorithm, budget); }
 
 // `told` trials of the bowl, serially.
 std::unique_ptr<Algorithm> after(const std::string& algorithm, Index budget, Index told) {
