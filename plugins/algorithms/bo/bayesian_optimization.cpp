@@ -13,6 +13,7 @@
 #include <string>
 #include <utility>
 
+#include "acquisition_scale.hpp"
 #include "bo_streams.hpp"
 #include "pending_exclusion.hpp"
 #include "varbo/errors.hpp"
@@ -416,10 +417,13 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   if (feasible && !refining_ && !blocked_.empty() && failure_settings_.boundary_tabu > 0)
     feasible->set_tabu(blocked_, failure_settings_.boundary_tabu);
   const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : base;
-  AcquisitionFunction f(acquisition, dim_);
+  AcquisitionFunction unscaled(acquisition, dim_);
+  const double scale = acquisition_scale(*surrogate_);  // 1 unless the costs are tiny (acquisition_scale.hpp)
+  const ScaledFunction f(unscaled, scale);
   Rng orng = rng_.stream(kOptimize, uk * 2);
   const Mat starts = starts_near(region_->seeds(), orng);
   OptimizeResult res = optimizer_->maximize(f, *region_, starts, orng);
+  res.value /= scale;
   if (!res.success) {
     // No finite value at a feasible point: the x of such a result is arbitrary (sample_polish's is the box
     // centre, possibly outside the region). The best feasible start instead (issue 12, item 10).
@@ -438,9 +442,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     if (hit >= 0) {
       const AwayFromPoints away(acquisition, pending, pending_distance_,
                                 AwayFromPoints::below_values(acquisition, data.X));
-      AcquisitionFunction g(away, dim_);
+      AcquisitionFunction g_unscaled(away, dim_);
+      const ScaledFunction g(g_unscaled, scale);
       Rng prng = rng_.stream(kPendingAway, uk);
-      const OptimizeResult again = optimizer_->maximize(g, *region_, starts, prng);
+      OptimizeResult again = optimizer_->maximize(g, *region_, starts, prng);
+      again.value /= scale;
       const bool clear = again.success && again.x.size() == dim_ && again.x.allFinite() &&
                          nearest_within(Box::unit(dim_).clamp(again.x), pending, pending_distance_) < 0;
       log_info("bo: trial {}: the acquisition's best point is pending (the {} of {} pending); {}", k, hit + 1,
