@@ -449,7 +449,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       again.value /= scale;
       const bool clear = again.success && again.x.size() == dim_ && again.x.allFinite() &&
                          nearest_within(Box::unit(dim_).clamp(again.x), pending, pending_distance_) < 0;
-      log_info("bo: trial {}: the acquisition's best point is pending (the {} of {} pending); {}", k, hit + 1,
+      log_info("bo: trial {}: the acquisition's best point is a pending one (pending point {} of {}); {}", k, hit + 1,
                pending.size(), clear ? fmt::format("searched again at least {:g} away from them", pending_distance_)
                                      : std::string("no other point found: choosing at random"));
       if (clear) res = again;
