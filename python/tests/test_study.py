@@ -165,3 +165,25 @@ def test_trials_dataframe_when_pandas(tmp_path):
     s.tell(t, 1.0)
     df = s.trials()
     assert isinstance(df, pd.DataFrame) and list(df["params_x1"]) == [t.params["x1"]]
+
+
+def test_a_study_of_your_own_parameters_for_ask_tell_and_the_cli(tmp_path):
+    # Session 20: Study.create refused the task `python` and a config with `parameters:` but no task, so an ask/tell
+    # study over one's own space had to borrow a benchmark's domain; the CLI's suggest refused a study that minimize
+    # wrote ("unknown task 'python'").
+    from conftest import run_cli
+    s = varbo.Study.create(tmp_path / "own.db", {"parameters": [
+        {"name": "gain", "type": "real", "low": 0, "high": 10},
+        {"name": "mode", "type": "categorical", "choices": ["pd", "lqr"]}], "budget": 4, "seed": 1})
+    t = s.ask()[0]
+    assert 0 <= t.params["gain"] <= 10 and t.params["mode"] in ("pd", "lqr")
+    s.tell(t, 1.5)
+    box = varbo.Study.create(tmp_path / "box.db", {"task": {"type": "python", "lower": [0], "upper": [1],
+                                                            "names": ["k"]}, "budget": 3})
+    assert list(box.ask()[0].params) == ["k"]
+    r = run_cli("suggest", tmp_path / "own.db")
+    assert "gain=" in r.stdout and "mode=" in r.stdout
+    out = tmp_path / "run"
+    varbo.minimize(lambda p: p["x"] ** 2, space={"x": (-1, 1)}, budget=3, seed=1, output=out)
+    r = run_cli("suggest", out / "study.db", check=False)
+    assert r.returncode == 2 and "budget" in r.stderr and "unknown task" not in r.stderr

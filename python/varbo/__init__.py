@@ -172,7 +172,12 @@ class Study:
         location = _checks.path(path_or_url, "Study.create: path_or_url")
         if is_path(config):
             return cls(_varbo._Study.create_from_file(location, os.fspath(config)))
+        if isinstance(config, Mapping) and "parameters" in config and "task" not in config:
+            # Typed parameters alone: the task `python` takes them as the domain, evaluated by the caller (ask/tell).
+            config = dict(config, task={"type": "python"})
         text, name = to_yaml(config)
+        if not isinstance(config, Mapping) and has_parameters(text) and not has_task(text):
+            text = text.rstrip("\n") + "\ntask: {type: python}\n"
         return cls(_varbo._Study.create_from_yaml(location, text, name))
 
     @classmethod

@@ -13,6 +13,7 @@
 
 #include "study_impl.hpp"
 #include "varbo/csv.hpp"
+#include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
@@ -105,6 +106,7 @@ void create_study_store(Study::Impl& impl, const std::string& store_path) {
 Study Study::create(const std::string& store_path, const std::string& config_file) {
   const ConfigNode root = ConfigNode::load_file(config_file);
   auto impl = impl_with_plugins(plugin_paths_of(root));
+  add_host_python_task(*impl->own_registry);  // a domain evaluated elsewhere (study_plugins.cpp, shared_registry)
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
   create_study_store(*impl, store_path);
   return Study(std::move(impl));
@@ -113,6 +115,7 @@ Study Study::create(const std::string& store_path, const std::string& config_fil
 Study Study::create_from_yaml(const std::string& store_path, const std::string& yaml, const std::string& name) {
   const ConfigNode root = ConfigNode::parse(yaml, name);
   auto impl = impl_with_plugins(plugin_paths_of(root));
+  add_host_python_task(*impl->own_registry);
   impl->init(parse_study(root, *impl->own_registry), *impl->own_registry);
   create_study_store(*impl, store_path);
   return Study(std::move(impl));

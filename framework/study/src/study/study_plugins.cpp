@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "study_impl.hpp"
+#include "varbo/host_task.hpp"
 
 namespace fs = std::filesystem;
 
@@ -81,6 +82,10 @@ const Registry& shared_registry(const std::vector<std::string>& extra) {
     auto plugins = std::make_unique<SharedPlugins>();
     plugins->loader.set_on_demand(true);
     plugins->loader.load_default(extra);  // throws (nothing cached) when a plugin named explicitly cannot load
+    // The task `python` as a domain (box or `parameters:`) evaluated elsewhere: a study varbo.minimize wrote, or
+    // one created for ask/tell from Python, opens for suggest, observe, worker and verify (the function itself is
+    // the Python module's, inside minimize only).
+    add_host_python_task(plugins->registry);
     it = cache->emplace(key, std::move(plugins)).first;
   }
   return it->second->registry;
