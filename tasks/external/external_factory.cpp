@@ -7,7 +7,6 @@
 #include <set>
 
 #include "external_task.hpp"
-#include "varbo/csv.hpp"
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
 
@@ -43,19 +42,6 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
   };
   return set;
 }
-/// A non-empty list of distinct, non-empty names (parameters or cost components).
-std::vector<std::string> unique_names(const ConfigNode& n, const std::string& what) {
-  if (!n.is_sequence() || n.size() == 0) n.fail(fmt::format("expected a non-empty list of {} names", what));
-  std::vector<std::string> out;
-  std::set<std::string> seen;
-  for (std::size_t i = 0; i < n.size(); ++i) {
-    const ConfigNode item = n.item(i);
-    if (!item.is_scalar() || item.scalar().empty()) item.fail(fmt::format("expected a {} name", what));
-    if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
-    out.push_back(item.scalar());
-  }
-  return out;
-}
 /// A warning about the configuration, once per process: a command builds the task more than once (the study's
 /// domain, then the task that runs the trials), and the same line twice reads like two problems.
 void warn_once(const std::string& message) {
@@ -80,14 +66,7 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
     o.node("command").fail(fmt::format("the command is {} bytes; a command line holds at most 131071 (the "
                                        "kernel's limit for one argument): put it in a script",
                                        s.command.size()));
-  if (o.is_set("components")) {
-    s.components = unique_names(o.node("components"), "cost component");
-    for (std::size_t i = 0; i < s.components.size(); ++i)
-      if (is_trials_table_column(s.components[i]))
-        o.node("components").item(i).fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, "
-                                                       "error, the timings); name the component otherwise",
-                                                       s.components[i]));
-  }
+  if (o.is_set("components")) s.components = cost_component_names(o.node("components"));
   // A missing working directory fails every trial ("cannot change to the working directory"). Only a warning:
   // the task is also built to read a study (status, export, suggest on another machine), which must still open.
   if (!s.process.working_directory.empty()) {
@@ -143,7 +122,7 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
 
   std::vector<std::string> names;
   if (o.is_set("names")) {
-    names = unique_names(o.node("names"), "parameter");
+    names = distinct_names(o.node("names"), "parameter");
     agree(static_cast<Index>(names.size()), "names");
   }
   if (dim == 0) o.source().fail("cannot tell the number of parameters: give dim, lower/upper or names (or declare the study's `parameters:`)");

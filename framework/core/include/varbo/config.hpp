@@ -72,4 +72,12 @@ class ConfigNode {
 std::string closest_match(const std::string& word, const std::vector<std::string>& candidates);
 std::string join(const std::vector<std::string>& items, const std::string& sep = ", ");
 
+/// A non-empty list of distinct, non-empty names (`what`: "parameter", "cost component"); a ConfigError at the
+/// offending item otherwise.
+std::vector<std::string> distinct_names(const ConfigNode& list, const std::string& what);
+
+/// A task's `components:` list: distinct_names, none of them a fixed column of the trials table
+/// (is_trials_table_column, csv.hpp), which would make a second column of that name.
+std::vector<std::string> cost_component_names(const ConfigNode& list);
+
 }  // namespace varbo

@@ -6,9 +6,11 @@
 #include <filesystem>
 #include <fstream>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #include "../io/utf8.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo {
@@ -286,6 +288,29 @@ std::string closest_match(const std::string& word, const std::vector<std::string
 std::string join(const std::vector<std::string>& items, const std::string& sep) {
   std::string out;
   for (std::size_t i = 0; i < items.size(); ++i) out += (i ? sep : "") + items[i];
+  return out;
+}
+
+std::vector<std::string> distinct_names(const ConfigNode& list, const std::string& what) {
+  if (!list.is_sequence() || list.size() == 0) list.fail(fmt::format("expected a non-empty list of {} names", what));
+  std::vector<std::string> out;
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const ConfigNode item = list.item(i);
+    if (!item.is_scalar() || item.scalar().empty()) item.fail(fmt::format("expected a {} name", what));
+    if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
+    out.push_back(item.scalar());
+  }
+  return out;
+}
+
+std::vector<std::string> cost_component_names(const ConfigNode& list) {
+  std::vector<std::string> out = distinct_names(list, "cost component");
+  for (std::size_t i = 0; i < out.size(); ++i)
+    if (is_trials_table_column(out[i]))
+      list.item(i).fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the "
+                                    "timings); name the component otherwise",
+                                    out[i]));
   return out;
 }
 

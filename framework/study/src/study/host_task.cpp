@@ -4,10 +4,8 @@
 #include <fmt/format.h>
 
 #include <cmath>
-#include <set>
 #include <string>
 
-#include "varbo/csv.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
 
@@ -52,22 +50,7 @@ class HostTask : public Task, public SpaceAware {
 
 /// `components: [...]`: the cost components the function's dict answers carry (columns of trials.csv).
 std::vector<std::string> declared_components(const Options& o) {
-  std::vector<std::string> out;
-  if (!o.given("components")) return out;
-  const ConfigNode n = o.node("components");
-  if (!n.is_sequence() || n.size() == 0) n.fail("expected a non-empty list of cost component names");
-  std::set<std::string> seen;
-  for (std::size_t i = 0; i < n.size(); ++i) {
-    const ConfigNode item = n.item(i);
-    if (!item.is_scalar() || item.scalar().empty()) item.fail("expected a cost component name");
-    if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
-    if (is_trials_table_column(item.scalar()))
-      item.fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); "
-                            "name the component otherwise",
-                            item.scalar()));
-    out.push_back(item.scalar());
-  }
-  return out;
+  return o.given("components") ? cost_component_names(o.node("components")) : std::vector<std::string>{};
 }
 
 std::unique_ptr<Task> make_host_task(const Options& o, HostEvaluator evaluate) {
@@ -94,13 +77,7 @@ std::unique_ptr<Task> make_host_task(const Options& o, HostEvaluator evaluate) {
       n.fail(fmt::format("expected a list of {} parameter names (one per bound)", d));
     // Distinct, non-empty names: the objective receives a dict by name, so a repeated name would hide a
     // dimension from it (`names: [a, a]` passed only the last value), as the external task refuses too.
-    std::set<std::string> seen;
-    for (std::size_t i = 0; i < n.size(); ++i) {
-      const ConfigNode item = n.item(i);
-      if (!item.is_scalar() || item.scalar().empty()) item.fail("expected a non-empty parameter name");
-      if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
-      dom.names.push_back(item.scalar());
-    }
+    dom.names = distinct_names(n, "parameter");
   }
   for (Index i = static_cast<Index>(dom.names.size()); i < d; ++i) dom.names.push_back(fmt::format("x{}", i + 1));
   return std::make_unique<HostTask>(std::move(dom), std::move(keys), std::move(evaluate), declared_components(o));
