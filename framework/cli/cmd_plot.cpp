@@ -192,7 +192,9 @@ svg::Figure plot_slice(const RunFolder& run, const Registry& registry, const Plo
   const auto seed = static_cast<std::uint64_t>(a.seed);
   const ResolvedComponent* own = run_surrogate_spec(run);
   const ResolvedComponent spec =
-      own ? *own : registry.resolve(Kind::Surrogate, component_arg(a.gp, "surrogate", "--gp"));
+      !a.surrogate.empty() ? registry.resolve(Kind::Surrogate, component_arg(a.surrogate, "surrogate", "--surrogate"))
+      : own                ? *own
+                           : registry.resolve(Kind::Surrogate, component_arg(a.gp, "surrogate", "--gp"));
   const Fitted m = fit(run, registry, spec, seed);
   Index best = 0;
   run.cost.minCoeff(&best);
@@ -248,7 +250,7 @@ Runner add_plot(CLI::App& app) {
   cmd->add_option("--kappa", a->kappas, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
       ->delimiter(',')
       ->check(decimal_number());
-  cmd->add_option("--surrogate", a->surrogate, "2-D: model to draw (default: the run's surrogate)");
+  cmd->add_option("--surrogate", a->surrogate, "2-D and --slice: model to draw (default: the run's surrogate)");
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
   cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));
   cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")->capture_default_str();
@@ -257,6 +259,14 @@ Runner add_plot(CLI::App& app) {
                   "typed parameters: draw the model along this parameter, the others at the best trial");
   return [a, gp_opt, vh_opt]() {
     ThreadLimit limit(a->threads);
+    const bool pair_given = gp_opt->count() > 0 || vh_opt->count() > 0;
+    // An option the drawing does not use is refused, not ignored: `--gp` on a 2-D run drew the run's own model and
+    // the user took it for the one asked for.
+    auto refuse_pair = [&](const std::string& why) {
+      if (pair_given)
+        throw InputError(fmt::format("{}: --gp and --vhgp name the two models of a 1-D plot; {}, name its model "
+                                     "with --surrogate", a->run, why));
+    };
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
     if (a->kappas.empty()) a->kappas = {-1.5, 0.0, 1.5};
     Registry& registry = default_registry();
@@ -266,6 +276,7 @@ Runner add_plot(CLI::App& app) {
         throw InputError(fmt::format("{}: the run has typed parameters or constraints; name the parameter to draw "
                                      "with --slice NAME (one of {})",
                                      a->run, join(run.names)));
+      refuse_pair("a --slice plot draws one model");
       const svg::Figure fig = plot_slice(run, registry, *a);
       const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
       refuse_to_write_over_a_study(out, "-o");
@@ -277,6 +288,10 @@ Runner add_plot(CLI::App& app) {
     const Index d = run.domain.box.dim();
     if (d != 1 && d != 2)
       throw InputError(fmt::format("{}: the task has {} parameters; plot draws 1-D and 2-D tasks only", a->run, d));
+    if (d == 2) refuse_pair("a 2-D plot draws one model");
+    if (d == 1 && !a->surrogate.empty())
+      throw InputError(fmt::format("{}: --surrogate names the model of a 2-D or --slice plot; a 1-D plot draws two, "
+                                   "named by --gp and --vhgp", a->run));
     const svg::Figure fig = d == 1 ? plot_1d(run, registry, *a, gp_opt->count() > 0, vh_opt->count() > 0)
                                    : plot_2d(run, registry, *a);
     const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;

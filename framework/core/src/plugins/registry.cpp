@@ -139,6 +139,11 @@ const ComponentInfo& Registry::find(Kind kind, const std::string& name, const Co
     msg = fmt::format("unknown {} '{}'. Known: {}{}", kind_name(kind), safe_text(name, 40),
                       known.empty() ? "(none loaded; check the plugin path)" : join(known),
                       near.empty() ? "" : "; did you mean '" + near + "'?");
+    // The task `python` exists only where a Python program provides the objective (host_task.cpp): say so rather
+    // than list the benchmarks as if the user had misspelled one.
+    if (kind == Kind::Task && name == "python")
+      msg = "the task 'python' is a function of a Python program: run it with varbo.minimize(...) or ask/tell "
+            "from Python (docs/python.md); `varbo run` cannot call it (tasks here: " + join(known) + ")";
   }
   lock.unlock();
   if (where) {
