@@ -80,6 +80,8 @@ struct RunSummary {
   double best_cost = 0;
   std::optional<Vec> recommended_theta; ///< user units, by the algorithm's recommendation rule
   std::string recommendation_rule;      ///< e.g. "lowest_mean_evaluated" (bo's `recommendation`), if known
+  /// With typed parameters (`parameters:`): the two points as `name=value` (labels for categories), for report().
+  std::string best_params, recommended_params;
   /// Where the optimum is known: noise-free cost of the recommended θ − f* (the regret of what a user
   /// deploys; needs Task::noiseless_cost).
   std::optional<double> regret_recommended;

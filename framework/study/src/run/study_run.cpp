@@ -38,14 +38,23 @@ std::string fmt_vec(const Vec& v) {
   for (Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v[i]);
   return s + "]";
 }
+/// `lr=0.001, solver=lqr`: what a user of typed parameters reads (θ holds a category's index, not its label).
+std::string params_text(const SearchSpace& space, const Vec& theta) {
+  std::string s;
+  for (std::size_t i = 0; i < space.parameters().size(); ++i)
+    s += fmt::format("{}{}={}", i ? ", " : "", space.parameters()[i].name,
+                     safe_text(space.format_value(i, theta[static_cast<Index>(i)]), 40));
+  return s;
+}
 }  // namespace
 
 std::string RunSummary::report() const {
   std::string s = fmt::format("varbo run summary\n  output          {}\n  evaluations     {} ({} failed)\n", output,
                               evaluations, failed);
-  if (best_theta) s += fmt::format("  best cost       {:.8g} at {}\n", best_cost, fmt_vec(*best_theta));
+  if (best_theta)
+    s += fmt::format("  best cost       {:.8g} at {}\n", best_cost, best_params.empty() ? fmt_vec(*best_theta) : best_params);
   if (recommended_theta)
-    s += fmt::format("  recommended     {}{}\n", fmt_vec(*recommended_theta),
+    s += fmt::format("  recommended     {}{}\n", recommended_params.empty() ? fmt_vec(*recommended_theta) : recommended_params,
                      recommendation_rule.empty() ? std::string() : " (" + recommendation_rule + ")");
   if (regret_recommended) s += fmt::format("  regret of the recommended θ     {:.3e}\n", *regret_recommended);
   if (regret_best_observed) s += fmt::format("  regret of the best observed θ   {:.3e}\n", *regret_best_observed);
@@ -332,6 +341,10 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     if (ov.on_trial && !ov.on_trial(row.trial)) break;
   }
   if (!summary.recommended_theta) recommend();
+  if (const SearchSpace* space = st.space().get()) {
+    if (summary.best_theta) summary.best_params = params_text(*space, *summary.best_theta);
+    if (summary.recommended_theta) summary.recommended_params = params_text(*space, *summary.recommended_theta);
+  }
   if (st.replay_mismatches() > 0)
     log_warn("{} replayed trial(s) did not reproduce their stored point: this run is not bit-for-bit the run that "
              "would not have stopped",
