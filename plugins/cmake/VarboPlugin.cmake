@@ -51,6 +51,9 @@ function(varbo_add_plugin)
   endif()
   if(DEFINED VARBO_PLUGIN_OUTPUT_DIR)
     set_target_properties(${target} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${VARBO_PLUGIN_OUTPUT_DIR})
+    # varbo's own plugin: its file name goes into the core's list of built-in libraries (top-level
+    # CMakeLists.txt), so a third-party library installed into the same folder is not taken for one.
+    set_property(GLOBAL APPEND PROPERTY VARBO_BUILTIN_PLUGIN_FILES "libvarbo_${P_NAME}.so")
     install(TARGETS ${target} LIBRARY DESTINATION ${VARBO_PLUGIN_INSTALL_DIR})
   endif()
 endfunction()

@@ -308,6 +308,50 @@ TEST_CASE("a plugin whose registration throws reports the reason") {
   CHECK(contains(m, "failed to register: fixture refuses to register"));
 }
 
+TEST_CASE("a plugin whose registration fails part-way leaves none of its components") {
+  Registry r;
+  PluginLoader l(r);
+  try {
+    l.load_file(fixture("half"));
+    FAIL("loaded");
+  } catch (const PluginLoadError& e) {
+    CHECK(contains(e.what(), "failed to register: fails after one component"));
+  }
+  // Before: reported as skipped, yet `acquisition: fixture_half` ran.
+  CHECK(r.try_find(Kind::Acquisition, "fixture_half") == nullptr);
+  CHECK(l.loaded().empty());
+}
+
+TEST_CASE("a registration that throws something other than a std::exception is a load error, not a crash") {
+  const std::string m = error_loading<PluginLoadError>(fixture("intthrow"));
+  CHECK(contains(m, "failed to register: it threw something that is not a std::exception"));
+}
+
+TEST_CASE("option declarations are checked when the plugin loads") {
+  // An option named `type` was written beside the component's `type:` into config.resolved.yaml and the stored
+  // study, which then no longer parsed ("duplicate key 'type'").
+  CHECK(contains(error_loading<PluginLoadError>(fixture("typeopt")), "declares an option named 'type'"));
+  CHECK(contains(error_loading<PluginLoadError>(fixture("optdup")), "declares the option 'w' twice"));
+  Registry r;
+  auto info = make_component<Acquisition>("my acq/v2", "", {}, Factory<Acquisition>([](const Options&, const BuildContext&) {
+                                            return std::unique_ptr<Acquisition>();
+                                          }));
+  CHECK_THROWS_WITH_AS(r.add(info), doctest::Contains("character other than letters"), PluginLoadError);
+}
+
+TEST_CASE("only varbo's own libraries in the built-in folder are built-in") {
+  // A third-party plugin installed into lib/varbo/plugins (where the SDK's RPATH points) counted as built-in:
+  // its `ei` made every default `acquisition: ei` ambiguous.
+  const std::string dir = PluginLoader::builtin_path().front();
+  ComponentInfo own, theirs, elsewhere;
+  own.library = dir + "/libvarbo_acquisitions.so";
+  theirs.library = dir + "/libvarbo_thirdparty.so";
+  elsewhere.library = std::string(VARBO_FIXTURE_DIR) + "/libvarbo_acquisitions.so";
+  CHECK(is_builtin(own));
+  CHECK_FALSE(is_builtin(theirs));
+  CHECK_FALSE(is_builtin(elsewhere));
+}
+
 TEST_CASE("a missing file is named") {
   CHECK(error_loading<PluginLoadError>("/nonexistent/libvarbo_x.so") ==
         "/nonexistent/libvarbo_x.so: plugin library not found");

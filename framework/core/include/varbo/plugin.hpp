@@ -99,6 +99,9 @@ const char* host_fingerprint();
     } catch (const std::exception& e) {                                                             \
       std::snprintf(error, error_size, "%s", e.what());                                             \
       return 1;                                                                                     \
+    } catch (...) {                                                                                 \
+      std::snprintf(error, error_size, "%s", "it threw something that is not a std::exception");   \
+      return 1;                                                                                     \
     }                                                                                               \
   }                                                                                                 \
   static void varbo_register_components_(varbo::PluginRegistrar& registry)

@@ -121,6 +121,9 @@ class Registry {
   const ComponentInfo* try_find(Kind kind, const std::string& name) const;
   std::vector<const ComponentInfo*> components(Kind kind) const;
   std::vector<const ComponentInfo*> all() const;
+  /// Removes every component `library` added: a plugin whose registration failed part-way is not loaded, so
+  /// none of its components may stay usable.
+  void remove_library(const std::string& library);
 
   /// Resolves `node` (a name, or a map with `type:` and options) into a validated component.
   ResolvedComponent resolve(Kind kind, const ConfigNode& node) const;
@@ -139,6 +142,8 @@ class Registry {
       throw;
     } catch (const std::exception& e) {
       throw_factory_error(c, e);  // e.g. std::invalid_argument from a third-party factory
+    } catch (...) {  // `throw 7` in a third-party factory ended the process (std::terminate)
+      throw_factory_error(c, std::runtime_error("it threw something that is not a std::exception"));
     }
   }
   /// Convenience: resolve YAML text such as "{type: ei, xi: 0.1}" and create.

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <map>
 #include <mutex>
 #include <set>
@@ -77,8 +78,49 @@ void PluginRegistrar::add(ComponentInfo info) {
   registry_.add(std::move(info));
 }
 
-void Registry::add(ComponentInfo info) {
+namespace {
+/// A component name is the second half of "plugin/name" and a word of the plugin index and of YAML: letters,
+/// digits, '_', '-', '.' (as a plugin name), so that `type: my acq/v2` cannot be registered and never found.
+void check_component_name(const ComponentInfo& info) {
   if (info.name.empty()) throw PluginLoadError("a component has an empty name");
+  if (info.name.size() > 128)
+    throw PluginLoadError(fmt::format("{} name '{}...' is longer than 128 characters", kind_name(info.kind),
+                                      safe_text(info.name, 40)));
+  for (unsigned char ch : info.name)
+    if (!(std::isalnum(ch) || ch == '_' || ch == '-' || ch == '.'))
+      throw PluginLoadError(fmt::format("{} name '{}' has a character other than letters, digits, '_', '-', '.'",
+                                        kind_name(info.kind), printable(info.name)));
+}
+
+/// Option declarations are checked when the plugin loads, not when a config uses them: an option named `type`
+/// was written next to the component's `type:` into config.resolved.yaml and the stored study, which then no
+/// longer parsed ("duplicate key 'type'"); a repeated option was listed twice by --describe.
+void check_option_names(const ComponentInfo& info) {
+  std::set<std::string> seen;
+  for (const OptionSpec& o : info.options) {
+    if (o.name.empty())
+      throw PluginLoadError(fmt::format("{} '{}' declares an option with an empty name", kind_name(info.kind),
+                                        info.name));
+    if (o.name == "type")
+      throw PluginLoadError(fmt::format("{} '{}' declares an option named 'type', which names the component itself "
+                                        "in a configuration ({{type: {}, ...}}); rename the option",
+                                        kind_name(info.kind), info.name, info.name));
+    if (!seen.insert(o.name).second)
+      throw PluginLoadError(fmt::format("{} '{}' declares the option '{}' twice", kind_name(info.kind), info.name,
+                                        printable(o.name)));
+  }
+}
+}  // namespace
+
+void Registry::remove_library(const std::string& library) {
+  std::unique_lock<std::shared_mutex> lock(items_mutex());
+  items_.erase(std::remove_if(items_.begin(), items_.end(), [&](const auto& c) { return c->library == library; }),
+               items_.end());
+}
+
+void Registry::add(ComponentInfo info) {
+  check_component_name(info);
+  check_option_names(info);
   if (static_cast<std::size_t>(info.factory.index()) != static_cast<std::size_t>(info.kind))
     throw PluginLoadError(fmt::format("component '{}' declares kind {} but its factory makes another kind",
                                       info.name, kind_name(info.kind)));
