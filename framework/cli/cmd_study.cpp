@@ -2,6 +2,8 @@
 // Every command opens the study file, does one transaction and exits, so several workers may share a study.
 #include <fmt/format.h>
 
+#include <map>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -16,6 +18,7 @@
 #include "varbo/log.hpp"
 #include "varbo/named_values.hpp"
 #include "varbo/study_api.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -214,24 +217,67 @@ Runner add_fail(CLI::App& app) {
 }
 
 Runner add_abandon(CLI::App& app) {
-  auto* cmd = app.add_subcommand("abandon", "Abandon pending trials whose worker died (their points may be suggested again)");
+  auto* cmd = app.add_subcommand("abandon", "Abandon pending trials (their points may be suggested again): those "
+                                            "named by --id, else every pending trial whose worker is not alive");
   struct Args {
     std::string store;
     std::string older_than = "0";
+    std::vector<std::string> ids;
+    bool include_live = false;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
+  cmd->add_option("--id", a->ids, "abandon this pending trial (repeatable); without it: every pending trial that "
+                                  "passes the other options");
   cmd->add_option("--older-than", a->older_than, "only trials suggested more than this many seconds ago (0 = all)");
+  cmd->add_flag("--include-live", a->include_live,
+                "also trials held by a worker whose heartbeat is fresh (within the study's heartbeat_timeout): "
+                "by default they are spared, since that worker is still running them");
   return [a]() {
     const double older_than = parse_number(a->older_than, "--older-than");
     if (!std::isfinite(older_than) || older_than < 0)
       throw InputError(fmt::format("--older-than: expected a finite number of seconds ≥ 0, got '{}'; nothing written",
                                    a->older_than));
+    std::vector<std::int64_t> wanted;
+    for (const auto& text : a->ids) wanted.push_back(parse_id(text));
     Study s = Study::open(a->store);
-    const auto ids = s.abandon(older_than, fmt::format("abandoned (pending longer than {} s)", older_than));
+    // Named trials must be pending: abandoning a finished one would be a silent no-op the user took for done.
+    for (const auto id : wanted) {
+      const auto t = s.store().trial(id);
+      if (!t) throw InputError(fmt::format("{}: no trial {}; nothing written", s.store().location(), id));
+      if (t->state != TrialState::Pending)
+        throw InputError(fmt::format("{}: trial {} is {}, not pending; nothing written", s.store().location(), id,
+                                     state_name(t->state)));
+    }
+    // A worker is alive while its heartbeat is fresher than the study's heartbeat_timeout (docs/studies.md,
+    // "Workers"). Before, `varbo abandon` took every pending trial, a live worker's included, which then ran twice.
+    const double now = unix_time(), window = s.config().heartbeat_timeout;
+    std::map<std::string, double> beat;
+    for (const auto& w : s.store().workers())
+      if (w.state == "running") beat[w.id] = w.heartbeat_at;
+    std::vector<std::string> spared;
+    auto live = [&](const TrialRecord& t) {
+      const auto it = beat.find(t.worker);
+      return !t.worker.empty() && it != beat.end() && (window <= 0 || now - it->second < window);
+    };
+    const auto ids = s.abandon_where(
+        [&](const TrialRecord& t) {
+          if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), t.id) == wanted.end()) return false;
+          if (older_than > 0 && now - t.created_at <= older_than) return false;
+          if (!a->include_live && live(t)) {
+            spared.push_back(fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id, printable(t.worker),
+                                         now - beat[t.worker]));
+            return false;
+          }
+          return true;
+        },
+        older_than > 0 ? fmt::format("abandoned (pending longer than {} s)", older_than) : std::string("abandoned"));
     std::vector<std::string> t;
     for (auto id : ids) t.push_back(std::to_string(id));
     std::printf("abandoned %zu trial(s)%s%s\n", ids.size(), ids.empty() ? "" : ": ", join(t).c_str());
+    if (!spared.empty())
+      std::printf("spared %zu trial(s) held by a live worker: %s (--include-live abandons them too)\n", spared.size(),
+                  join(spared).c_str());
     return 0;
   };
 }

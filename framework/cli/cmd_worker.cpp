@@ -55,13 +55,14 @@ void install_stop_handlers() {
 }
 
 /// The `external` task for the study's domain, built through the registry like any configured task.
-std::unique_ptr<Task> external_task(const Study& study, const std::string& command, double timeout) {
+std::unique_ptr<Task> external_task(const Study& study, const std::string& command, double timeout, double grace) {
   const Domain& d = study.domain();
   YAML::Emitter em;
   em << YAML::Flow << YAML::BeginMap << YAML::Key << "type" << YAML::Value << "external";
   em << YAML::Key << "command" << YAML::Value << YAML::DoubleQuoted << command;
   if (study.space()) {  // typed parameters: the task takes the study's space (and sends "params")
-    em << YAML::Key << "timeout" << YAML::Value << exact(timeout) << YAML::EndMap;
+    em << YAML::Key << "timeout" << YAML::Value << exact(timeout);
+    em << YAML::Key << "grace" << YAML::Value << exact(grace) << YAML::EndMap;
     const ResolvedComponent spec =
         study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<varbo worker --command>"));
     BuildContext ctx;
@@ -76,7 +77,8 @@ std::unique_ptr<Task> external_task(const Study& study, const std::string& comma
   for (Index i = 0; i < d.box.dim(); ++i) em << exact(d.box.upper[i]);
   em << YAML::EndSeq << YAML::Key << "names" << YAML::Value << YAML::BeginSeq;
   for (const auto& n : d.names) em << YAML::DoubleQuoted << n;
-  em << YAML::EndSeq << YAML::Key << "timeout" << YAML::Value << exact(timeout) << YAML::EndMap;
+  em << YAML::EndSeq << YAML::Key << "timeout" << YAML::Value << exact(timeout);
+  em << YAML::Key << "grace" << YAML::Value << exact(grace) << YAML::EndMap;
   const ResolvedComponent spec =
       study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<varbo worker --command>"));
   BuildContext ctx;
@@ -84,20 +86,48 @@ std::unique_ptr<Task> external_task(const Study& study, const std::string& comma
   return study.registry().create<Task>(spec, ctx);
 }
 
+/// The study's own `external` task, its settings as the study declares them — input (json or args), timeout,
+/// grace, workdir, containment, components — with --command, --timeout and --grace replacing theirs when given.
+/// Before, a worker always built a plain task from --command: `input: args` was ignored (the command got no
+/// arguments, θ arrived on stdin) and the study's timeout was replaced by the worker's 600 s default.
+std::unique_ptr<Task> study_external_task(const Study& study, const std::string& command, const std::string& timeout,
+                                          const std::string& grace) {
+  YAML::Node n = YAML::Clone(study.config().task.source.yaml());
+  if (!command.empty()) n["command"] = command;
+  if (!timeout.empty()) n["timeout"] = parse_number(timeout, "--timeout");
+  if (!grace.empty()) n["grace"] = parse_number(grace, "--grace");
+  YAML::Emitter em;
+  em << YAML::Flow << n;
+  const ResolvedComponent spec =
+      study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<the study's task, with varbo worker's options>"));
+  BuildContext ctx;
+  ctx.seed = study.config().seed;
+  std::unique_ptr<Task> task = study.registry().create<Task>(spec, ctx);
+  if (study.space())
+    if (auto* aware = dynamic_cast<SpaceAware*>(task.get())) aware->set_search_space(study.space());
+  return task;
+}
+
 /// Refreshes the worker's heartbeat every `interval` seconds on its own connection to the store, so that a
 /// long trial keeps its worker alive.
-/// Heartbeats on the thread's own store connection, every `interval` seconds until destroyed.
+/// Heartbeats on the thread's own store connection, every `interval` seconds until destroyed. A connection that
+/// cannot be made is tried again at the next beat: before, a failure at the first beat (a database restart as
+/// the worker started) stopped the heartbeats for good, and the live worker's trials were abandoned and run again
+/// elsewhere.
 std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, const std::string& worker, double interval) {
   auto store = std::make_shared<std::unique_ptr<StudyStore>>();
+  auto said = std::make_shared<bool>(false);
   return std::make_unique<BackgroundTicker>(
       [interval](int k) { return (k + 1) * interval; },
-      [store, path, worker](int) {
+      [store, said, path, worker](int) {
         if (!*store) {
           try {
             *store = open_store(path);
+            if (std::exchange(*said, false)) log_warn("worker {}: heartbeats resumed", worker);
           } catch (const Error& e) {
-            log_warn("worker {}: heartbeats stopped: {}", worker, e.what());
-            return false;
+            if (!std::exchange(*said, true))
+              log_warn("worker {}: heartbeat not recorded: {}; trying again at every beat", worker, e.what());
+            return true;
           }
         }
         const auto [host, pid] = worker_host_pid(worker);
@@ -141,16 +171,16 @@ Runner add_worker(CLI::App& app) {
   auto* cmd = app.add_subcommand("worker", "Work on a study: suggest, run a command on θ, record its cost, repeat "
                                            "until the budget is used");
   struct Args {
-    std::string store, command, timeout = "600", host_id, reconnect = "120";
+    std::string store, command, timeout, grace, host_id, reconnect = "120";
     long long max_trials = 0;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("--command", a->command,
                   "shell command evaluating one θ, as the external task runs it: {\"theta\": [...], \"names\": "
-                  "[...], \"trial\": k} on stdin, the cost (or {\"cost\": c, \"components\": {...}}) on the last "
-                  "line of stdout")
-      ->required();
+                  "[...], \"trial\": k, \"id\": k} on stdin, the cost (or {\"cost\": c, \"components\": {...}}) on "
+                  "the last line of stdout (default: the study's command, when its task is external; its other "
+                  "settings — input, timeout, grace, workdir — apply either way)");
   cmd->add_option("--max-trials", a->max_trials, "stop after this many trials (0 = until the budget is used)")
       ->check(CLI::Range(0LL, 1000000000LL));
   cmd->add_option("--host-id", a->host_id, "the host part of this worker's id (default $VARBO_HOST_ID, else the host "
@@ -159,13 +189,22 @@ Runner add_worker(CLI::App& app) {
                   "seconds to keep retrying (with backoff) when the database server is unreachable or the connection "
                   "drops, before exiting 2 (PostgreSQL studies; 0 = exit at once)");
   cmd->add_option("--timeout", a->timeout, "seconds before the command and its whole process tree are killed "
-                                           "(a failed trial)");
-  return [a]() {
-    const double timeout = parse_number(a->timeout, "--timeout");
-    if (!(timeout > 0) || !std::isfinite(timeout))
-      throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
+                                           "(a failed trial; default: the study's external task's, else 600)");
+  cmd->add_option("--grace", a->grace, "seconds between SIGTERM and SIGKILL when a trial is stopped (default: the "
+                                       "study's external task's, else 0.2)");
+  return [a, cmd]() {
+    if (!a->timeout.empty()) {
+      const double timeout = parse_number(a->timeout, "--timeout");
+      if (!(timeout > 0) || !std::isfinite(timeout))
+        throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
+    }
+    if (!a->grace.empty()) {
+      const double grace = parse_number(a->grace, "--grace");
+      if (!(grace >= 0) || !(grace <= 3600))
+        throw InputError(fmt::format("--grace: expected a number of seconds from 0 to 3600, got '{}'", a->grace));
+    }
     // Blank too: it reached the task's own check, whose message named a synthesized "<varbo worker --command>:1:27".
-    if (a->command.find_first_not_of(" \t\r\n") == std::string::npos)
+    if (cmd->count("--command") > 0 && a->command.find_first_not_of(" \t\r\n") == std::string::npos)
       throw InputError("--command: expected a shell command, got an empty one");
     const double reconnect = parse_number(a->reconnect, "--reconnect-timeout");
     if (!(reconnect >= 0) || !std::isfinite(reconnect))
@@ -173,7 +212,18 @@ Runner add_worker(CLI::App& app) {
     Study study = Study::open(a->store);
     const std::string id = new_worker_id(a->host_id);
     study.set_worker(id);
-    std::unique_ptr<Task> task = external_task(study, a->command, timeout);
+    const ResolvedComponent& own = study.config().task;
+    std::unique_ptr<Task> task;
+    if (own.info && own.info->name == "external") {
+      task = study_external_task(study, a->command, a->timeout, a->grace);
+    } else {
+      if (a->command.empty())
+        throw InputError(fmt::format("{}: the study's task is '{}', not an external command: give the command that "
+                                     "evaluates a θ with --command",
+                                     a->store, own.info ? own.info->name : "?"));
+      task = external_task(study, a->command, a->timeout.empty() ? 600.0 : parse_number(a->timeout, "--timeout"),
+                           a->grace.empty() ? 0.2 : parse_number(a->grace, "--grace"));
+    }
     install_stop_handlers();
     const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
     study.heartbeat();
@@ -181,6 +231,7 @@ Runner add_worker(CLI::App& app) {
     std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
     long long done = 0;
     int exit_code = 0;
+    Index failures_in_a_row = 0;
     std::vector<std::string> waiting_for;  // the pending trials last reported
     while (a->max_trials == 0 || done < a->max_trials) {
       if (const int sig = g_stop.load()) {
@@ -200,9 +251,9 @@ Runner add_worker(CLI::App& app) {
           // wait for an observe, or for `varbo abandon`).
           std::fprintf(stderr,
                        "varbo worker: the budget is held by %zu trial(s) pending elsewhere: %s; waiting for them to "
-                       "be observed, failed or abandoned (`varbo abandon %s ID`, or automatically once their worker "
-                       "is silent for the heartbeat timeout)\n",
-                       others.size(), join(others).c_str(), a->store.c_str());
+                       "be observed, failed or abandoned (`varbo abandon %s --id ID`; a trial a worker holds is also "
+                       "abandoned once that worker is silent for the heartbeat timeout)\n",
+                       others.size(), join(others).c_str(), shell_word(a->store).c_str());
           waiting_for = others;
         }
         std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 0.25)));
@@ -211,7 +262,15 @@ Runner add_worker(CLI::App& app) {
       const TrialRecord& t = asked.front();
       Rng rng = Rng(study.config().seed).stream(0x7a5c).stream(static_cast<std::uint64_t>(t.id));
       const auto t0 = std::chrono::steady_clock::now();
-      Evaluation e = task->evaluate(t.theta, rng);
+      if (auto* aware = dynamic_cast<TrialAware*>(task.get())) aware->set_next_trial(static_cast<long>(t.id), static_cast<long>(t.id));
+      Evaluation e;
+      try {
+        e = task->evaluate(t.theta, rng);
+      } catch (const std::exception& err) {  // a failed trial, never a crash (task.hpp)
+        e = Evaluation{};
+        e.ok = false;
+        e.error = err.what();
+      }
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (const int sig = interrupt_signal(); sig != 0 && !e.ok) {
         // Stopped by a second signal: no result. Abandoned, not failed, as `varbo run` does: it does not count
@@ -229,8 +288,9 @@ Runner add_worker(CLI::App& app) {
         e.ok = false;
         e.error = fmt::format("non-finite cost {}", e.cost);
       }
+      int taken_elsewhere = 0;
       try {
-      retrying(reconnect, id, [&] {
+      taken_elsewhere = retrying(reconnect, id, [&] {
         try {
           study.record(t.id, e, seconds);
         } catch (const InputError&) {
@@ -238,17 +298,31 @@ Runner add_worker(CLI::App& app) {
           const auto stored = study.store().trial(t.id);
           const bool landed = stored && (e.ok ? stored->state == TrialState::Complete && stored->cost == e.cost
                                               : stored->state == TrialState::Failed);
-          if (!landed) throw;
+          if (landed) return 0;
+          // Recorded by someone else meanwhile (an operator's `varbo fail` when the robot fell): theirs stands.
+          // Before, the worker exited here and left the rest of the night's trials unrun.
+          if (stored && (stored->state == TrialState::Complete || stored->state == TrialState::Failed)) {
+            std::fprintf(stderr,
+                         "trial %lld (%s): already recorded as %s by another process; this worker's result (%s) is "
+                         "not stored\n",
+                         static_cast<long long>(t.id), t.phase.c_str(),
+                         stored->state == TrialState::Complete ? ("complete, cost " + exact(stored->cost)).c_str()
+                                                               : "failed",
+                         e.ok ? ("cost " + exact(e.cost)).c_str() : "failed");
+            return 1;
+          }
+          throw;
         }
         return 0;
       });
       } catch (const std::exception& err) {
         // The trial ran (on a robot, perhaps for an hour) but its result is not stored (a full disk, a store
         // gone): say it, with the command that records it once the cause is fixed. It stays pending.
-        std::string cmd = e.ok ? fmt::format("varbo observe {} {} {}", a->store, t.id, exact(e.cost))
-                               : fmt::format("varbo fail {} {} --reason 'recorded by hand'", a->store, t.id);
+        std::string cmd = e.ok ? fmt::format("varbo observe {} {} {}", shell_word(a->store), t.id, exact(e.cost))
+                               : fmt::format("varbo fail {} {} --reason 'recorded by hand'", shell_word(a->store), t.id);
         if (e.ok)
-          for (const auto& [name, value] : e.components) cmd += fmt::format(" --component {}={}", name, exact(value));
+          for (const auto& [name, value] : e.components)
+            cmd += " --component " + shell_word(fmt::format("{}={}", name, exact(value)));
         std::fprintf(stderr, "trial %lld (%s) was evaluated but its result could not be recorded: %s; once the cause "
                      "is fixed, record it with: %s\n",
                      static_cast<long long>(t.id), e.ok ? ("cost " + exact(e.cost)).c_str() : "failed",
@@ -256,13 +330,27 @@ Runner add_worker(CLI::App& app) {
         throw;
       }
       ++done;
+      if (taken_elsewhere) continue;
       std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
                    e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());
+      // This worker's own trials: a rig that fails every trial (unplugged, E-stop) stops instead of using the
+      // study's budget up in a second; the other workers go on.
+      failures_in_a_row = e.ok ? 0 : failures_in_a_row + 1;
+      const Index limit = study.config().stop_after_failures;
+      if (limit > 0 && failures_in_a_row >= limit) {
+        std::fprintf(stderr,
+                     "varbo worker %s: stopping after %lld failed trials in a row (stop_after_failures: %lld), the "
+                     "last: %s; check this machine's setup, then start the worker again\n",
+                     id.c_str(), static_cast<long long>(failures_in_a_row), static_cast<long long>(limit),
+                     safe_text(e.error, 300).c_str());
+        exit_code = 2;
+        break;
+      }
     }
     beats.reset();  // first: a beat after it would mark the worker running again
     study.heartbeat("stopped");
     std::fprintf(stderr, "varbo worker %s: %lld trial(s) done%s\n", id.c_str(), done,
-                 exit_code ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");
+                 exit_code > 128 ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");
     return exit_code;
   };
 }

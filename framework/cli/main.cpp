@@ -2,6 +2,7 @@
 #include <malloc.h>
 
 #include <cctype>
+#include <csignal>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -40,6 +41,11 @@ int main(int argc, char** argv) {
   // still mapped; the heap is trimmed only past 1 GB free.
   mallopt(M_MMAP_THRESHOLD, 256 << 20);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // A closed output pipe is an error to handle, not a death: `varbo run CFG 2>&1 | tee log` over ssh gets SIGHUP
+  // and then writes to a pipe whose reader is gone; the default SIGPIPE killed varbo half-way through stopping
+  // (no "continue it with" line in log.txt, the run lock left behind). Commands a task runs get the default back
+  // (process_tree.cpp resets it before exec).
+  std::signal(SIGPIPE, SIG_IGN);
   CLI::App app{"varbo " VARBO_VERSION_STRING
                ": sample-efficient, risk-aware and cautious Bayesian optimization\n"
                "Compose an algorithm in YAML, run it, inspect models. See README.md."};
@@ -86,6 +92,8 @@ int main(int argc, char** argv) {
         // printf ignores a full disk or a closed file: `varbo export --csv S > /dev/full` exited 0 with the
         // data lost. A failed write of standard output is the command's failure.
         if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+          // `varbo export S | head -1`: the reader left on purpose; end as a process killed by SIGPIPE would.
+          if (errno == EPIPE) return rc != 0 ? rc : 128 + SIGPIPE;
           std::fprintf(stderr, "varbo: error: standard output: write failed (%s)\n", std::strerror(errno));
           return rc != 0 ? rc : 2;
         }
@@ -99,6 +107,9 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "varbo: internal error: %s\n", e.what());
+    return 3;
+  } catch (...) {  // not a std::exception (`throw 7` in plugin code): std::terminate ended the process before
+    std::fprintf(stderr, "varbo: internal error: an exception that is not a std::exception\n");
     return 3;
   }
   return 0;

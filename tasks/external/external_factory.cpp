@@ -27,10 +27,16 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
                 "list of the cost components the command reports in \"components\" (columns of trials.csv, "
                 "what `varbo rescore` re-weights); undeclared ones are kept in a study's store only"),
       opt::choice("input", &S::input, {{"json", InputMode::Json}, {"args", InputMode::Args}},
-                  "json: {\"theta\": [...], \"names\": [...], \"trial\": k} on stdin; args: θ appended as arguments"),
+                  "json: {\"theta\": [...], \"names\": [...], \"trial\": k, \"id\": i} on stdin; args: θ appended as "
+                  "arguments (either way VARBO_TRIAL=k and VARBO_TRIAL_ID=i in the environment)"),
       opt::real("timeout", opt::nested(&S::process, &ProcessOptions::timeout_seconds),
                 "seconds before the command and every process it started are killed (a failed trial)")
           .above(0),
+      opt::real("grace", opt::nested(&S::process, &ProcessOptions::kill_grace_seconds),
+                "seconds between SIGTERM and SIGKILL when a trial is stopped (its timeout, Ctrl-C): the time the "
+                "command has to bring the hardware to a safe state")
+          .at_least(0)
+          .at_most(3600),
       opt::string("workdir", opt::nested(&S::process, &ProcessOptions::working_directory),
                   "working directory of the command (default: inherited)"),
       opt::choice("containment", opt::nested(&S::process, &ProcessOptions::containment),

@@ -39,13 +39,19 @@ void ExternalTask::set_search_space(SharedSpace space) {
   s_.names = s_.space->names();
 }
 
-std::string ExternalTask::json_input(const Vec& theta, long trial) const {
+std::string ExternalTask::json_input(const Vec& theta, long trial, long id) const {
   nlohmann::json j;
   if (s_.space) j["params"] = nlohmann::json::parse(s_.space->params(theta).to_json());
   j["theta"] = std::vector<double>(theta.data(), theta.data() + theta.size());
   j["names"] = s_.names;
   j["trial"] = trial;
+  if (id >= 0) j["id"] = id;
   return j.dump() + "\n";
+}
+
+void ExternalTask::set_next_trial(long trial, long id) {
+  next_trial_ = trial;
+  next_id_ = id;
 }
 
 std::string ExternalTask::command_with_args(const Vec& theta) const {
@@ -72,9 +78,13 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
     return e;
   }
   const long trial = next_trial_++;
+  const long id = next_id_.exchange(-1);
   const bool json = s_.input == InputMode::Json;
+  ProcessOptions process = s_.process;
+  process.environment.push_back(fmt::format("VARBO_TRIAL={}", trial));
+  if (id >= 0) process.environment.push_back(fmt::format("VARBO_TRIAL_ID={}", id));
   const ProcessResult r =
-      run_shell(json ? s_.command : command_with_args(theta), json ? json_input(theta, trial) : "", s_.process);
+      run_shell(json ? s_.command : command_with_args(theta), json ? json_input(theta, trial, id) : "", process);
 
   // The message goes to trials.csv, log.txt, the study store and the terminal: bounded (a 50 MB line is
   // quoted by its ends) and printable (binary output is escaped), whatever the command wrote.

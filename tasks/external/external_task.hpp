@@ -26,7 +26,7 @@ struct ExternalTaskSettings {
   std::vector<ConfigNode> domain_keys;  ///< dim, bounds, lower, upper, names as given (to refuse `parameters:`)
 };
 
-class ExternalTask : public Task, public SpaceAware {
+class ExternalTask : public Task, public SpaceAware, public TrialAware {
  public:
   explicit ExternalTask(ExternalTaskSettings settings);
   Domain domain() const override;
@@ -35,17 +35,22 @@ class ExternalTask : public Task, public SpaceAware {
   void set_search_space(SharedSpace space) override;
   Evaluation evaluate(const Vec& theta, Rng& rng) override;
   std::vector<std::string> component_names() const override { return s_.components; }
+  /// The runner's trial row and study id for the next evaluate(): sent as "trial" and "id", and in the
+  /// environment as VARBO_TRIAL and VARBO_TRIAL_ID. Without it (the task used alone) "trial" counts this
+  /// object's evaluations from 0 and no id is sent.
+  void set_next_trial(long trial, long id) override;
 
   /// What is sent: the JSON document {"theta": [...], "names": [...], "trial": k} (with typed parameters also
   /// "params": {"lr": 0.001, "waypoints": 4, "solver": "lqr"}) or the shell text appended to the command
   /// (numbers with 17 significant digits, so θ round-trips exactly; with typed parameters name=value words,
   /// labels for categories).
-  std::string json_input(const Vec& theta, long trial) const;
+  std::string json_input(const Vec& theta, long trial, long id = -1) const;
   std::string command_with_args(const Vec& theta) const;
 
  private:
   ExternalTaskSettings s_;
-  std::atomic<long> next_trial_{0};  ///< 0-based count of evaluations of this task object
+  std::atomic<long> next_trial_{0};  ///< the next trial's number (set_next_trial, else a count from 0)
+  std::atomic<long> next_id_{-1};    ///< the next trial's study id, -1 when not told
 };
 
 }  // namespace varbo::tasks

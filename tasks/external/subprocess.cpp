@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <string_view>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -208,10 +209,15 @@ int signal_token(const std::string& entry, int sig) {
 struct Environment {
   std::vector<std::string> strings;
   std::vector<char*> pointers;
-  explicit Environment(const std::string& token_entry) {
-    for (char** e = environ; e != nullptr && *e != nullptr; ++e)
-      if (std::strncmp(*e, kTokenVar, std::strlen(kTokenVar)) != 0 || (*e)[std::strlen(kTokenVar)] != '=')
-        strings.emplace_back(*e);  // a token inherited from an enclosing varbo is replaced
+  Environment(const std::string& token_entry, const std::vector<std::string>& extra) {
+    std::vector<std::string> replaced = {kTokenVar};  // a token inherited from an enclosing varbo is replaced
+    for (const auto& x : extra) replaced.push_back(x.substr(0, x.find('=')));
+    for (char** e = environ; e != nullptr && *e != nullptr; ++e) {
+      const std::string_view entry(*e);
+      const std::string_view name = entry.substr(0, entry.find('='));
+      if (std::find(replaced.begin(), replaced.end(), name) == replaced.end()) strings.emplace_back(*e);
+    }
+    strings.insert(strings.end(), extra.begin(), extra.end());
     strings.push_back(token_entry);
     for (auto& s : strings) pointers.push_back(s.data());
     pointers.push_back(nullptr);
@@ -276,7 +282,7 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   plan.parent = ::getpid();
   plan.grace_ms = static_cast<long>(std::max(0.0, options.kill_grace_seconds) * 1000);
   const std::string token_entry = fmt::format("{}={}", kTokenVar, new_token());
-  Environment env(token_entry);
+  Environment env(token_entry, options.environment);
   plan.envp = env.pointers.data();
   // The trial's cgroup (trial_cgroup.hpp). Failing to make one falls back to the process group and the tree
   // walk, unless `containment: cgroup` asked for it.

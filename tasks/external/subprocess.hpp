@@ -8,6 +8,7 @@
 // stdin; at most max_stdout bytes of output are held in memory.
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "trial_cgroup.hpp"
 
@@ -25,6 +26,8 @@ struct ProcessOptions {
   /// How the command's processes are held together (trial_cgroup.hpp): a cgroup per trial where possible
   /// (Auto), always (Cgroup: the trial does not start without one), or never (ProcessGroup).
   Containment containment = Containment::Auto;
+  /// NAME=value entries added to the command's environment (replacing inherited ones of those names).
+  std::vector<std::string> environment;
 };
 
 struct ProcessResult {

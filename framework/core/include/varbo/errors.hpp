@@ -21,5 +21,8 @@ class UnknownComponentError : public ConfigError { public: using ConfigError::Co
 class NumericalError : public Error { public: using Error::Error; };
 /// Bad data files or command-line input.
 class InputError : public Error { public: using Error::Error; };
+/// An exception that is not varbo's own came out of an algorithm or its components while a study that loads
+/// third-party plugins was asked or told: the message says what was being done and which plugins those are.
+class PluginCodeError : public Error { public: using Error::Error; };
 
 }  // namespace varbo

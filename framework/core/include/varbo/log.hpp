@@ -12,6 +12,9 @@ LogLevel log_level();
 /// Also append every message (any level >= Info) to this file; empty closes it.
 void set_log_file(const std::string& path);
 void log_message(LogLevel level, std::string_view message);
+/// To the log file only (when one is open): an error the caller reports on stderr itself, which a run's
+/// log.txt must still hold.
+void log_file_message(LogLevel level, std::string_view message);
 
 template <class... Args>
 void log_debug(fmt::format_string<Args...> f, Args&&... args) {

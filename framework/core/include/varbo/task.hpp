@@ -56,4 +56,16 @@ class Task {
   }
 };
 
+/// Optional interface (found with dynamic_cast, as SpaceAware) of a task that hands the trial's number to what it
+/// runs: the runner says which trial the next evaluate() is. `trial` is the row of trials.csv (`varbo run`; a
+/// worker has no row and passes the id), `id` the study's trial id (`varbo status`, `export`): both continue
+/// over a resumed run, and ids are distinct across the workers of a study. Before, the external task counted its
+/// own evaluations from 0 in every process, so a resumed run or a second worker sent "trial": 0 again and a
+/// script naming its recordings by it overwrote earlier ones.
+class TrialAware {
+ public:
+  virtual ~TrialAware();
+  virtual void set_next_trial(long trial, long id) = 0;
+};
+
 }  // namespace varbo

@@ -14,6 +14,10 @@ std::string abbreviate(std::string_view text, std::size_t keep = 1024);
 /// Valid UTF-8 on one line: well-formed UTF-8 sequences are kept, \n \r \t become those two-character
 /// escapes, other control bytes and bytes that are not UTF-8 become \xHH.
 std::string printable(std::string_view text);
+/// `text` as one word of a POSIX shell command: unchanged when it holds only characters no shell treats
+/// specially (letters, digits, and _ - . / : , + = @ %), else in single quotes. For the commands varbo prints
+/// for a user to paste: a PostgreSQL URL holds '&', which split `varbo observe URL 2 0.5` into two commands.
+std::string shell_word(std::string_view text);
 
 /// printable(abbreviate(text, keep)): what to keep of a message of unknown size and content.
 inline std::string safe_text(std::string_view text, std::size_t keep = 1024) {

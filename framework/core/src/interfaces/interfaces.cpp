@@ -27,6 +27,7 @@ ValueStallRegion::~ValueStallRegion() = default;
 Sampler::~Sampler() = default;
 Optimizer::~Optimizer() = default;
 Task::~Task() = default;
+TrialAware::~TrialAware() = default;
 Algorithm::~Algorithm() = default;
 ComponentExtension::~ComponentExtension() = default;
 RunContinuation::~RunContinuation() = default;

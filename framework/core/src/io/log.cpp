@@ -35,6 +35,15 @@ void set_log_file(const std::string& path) {
   if (!path.empty()) f.open(path, std::ios::app);
 }
 
+void log_file_message(LogLevel level, std::string_view message) {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  auto& f = log_file();
+  if (f.is_open()) {
+    f << "[" << tag(level) << "] " << message << '\n';
+    f.flush();
+  }
+}
+
 void log_message(LogLevel level, std::string_view message) {
   std::lock_guard<std::mutex> lock(g_mutex);
   auto& f = log_file();

@@ -1,5 +1,11 @@
 #include "varbo/text.hpp"
 
+#include <cstring>
+
+#include <cctype>
+
+#include <algorithm>
+
 #include "utf8.hpp"
 
 #include <fmt/format.h>
@@ -44,6 +50,17 @@ std::string abbreviate(std::string_view text, std::size_t keep) {
   for (int k = 0; k < 3 && head > 0 && is_continuation(static_cast<unsigned char>(text[head])); ++k) --head;
   for (int k = 0; k < 3 && tail < text.size() && is_continuation(static_cast<unsigned char>(text[tail])); ++k) ++tail;
   return fmt::format("{}[... {} bytes omitted ...]{}", text.substr(0, head), tail - head, text.substr(tail));
+}
+
+std::string shell_word(std::string_view text) {
+  const bool plain = !text.empty() && std::all_of(text.begin(), text.end(), [](char ch) {
+    const auto c = static_cast<unsigned char>(ch);
+    return std::isalnum(c) || std::strchr("_-./:,+=@%", ch) != nullptr;
+  });
+  if (plain) return std::string(text);
+  std::string out = "'";
+  for (const char ch : text) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
+  return out + "'";
 }
 
 std::string printable(std::string_view text) {

@@ -237,6 +237,13 @@ ResolvedComponent Registry::resolve(Kind kind, const ConfigNode& node) const {
     node.fail(fmt::format("expected {} name or a map with 'type:' and its options", kind_with_article(kind)));
   }
   const ComponentInfo& info = find(kind, type, &type_node);
+  // The bare-name form (`task: external`) cannot give a required option: say which, at the name, in the map
+  // form to write (before: "<none>: missing required key for task 'external'", no position, no key).
+  if (node.is_scalar())
+    for (const OptionSpec& o : info.options)
+      if (o.required)
+        node.fail(fmt::format("{} '{}' needs the key '{}' ({}): write it as a map, {{type: {}, {}: ...}}",
+                              kind_name(kind), info.name, o.name, o.expected(), type, o.name));
   ResolvedComponent rc;
   rc.info = &info;
   rc.source = node;

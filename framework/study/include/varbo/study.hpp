@@ -23,6 +23,9 @@ struct StudyConfig {
   std::optional<Vec> initial_point;  ///< user units
   double heartbeat_timeout = 60;     ///< a silent `varbo worker`'s pending trials are abandoned after it (0: never)
   bool retry_abandoned = false;      ///< re-queue an abandoned trial's θ as it is
+  /// `varbo run` and `varbo worker` stop (exit 2, everything recorded) after this many failed trials in a row:
+  /// an unplugged robot or a pressed E-stop must not burn the budget in a second (0: never stop).
+  Index stop_after_failures = 10;
   /// `parameters:` (typed parameters, docs/search_space.md), validated; null when absent (the task's domain).
   SharedSpace parameters;
   /// `constraints:` as given (checked against the parameter names when the study is built); undefined if absent.

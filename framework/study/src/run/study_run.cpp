@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "run_writer.hpp"
 #include "../study/study_impl.hpp"
@@ -94,7 +95,25 @@ void refuse_to_replace(const std::string& folder, const std::string& store_path,
 
 }  // namespace
 
+namespace {
+RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov);
+}
+
 RunSummary run_study(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov) {
+  try {
+    return run_study_logged(study_in, registry, ov);
+  } catch (const Interrupted&) {
+    throw;  // said in the log already, with the command that continues the run
+  } catch (const std::exception& e) {
+    // The caller prints it; log.txt must hold it too (a run's log ended without the reason it stopped).
+    log_file_message(LogLevel::Error, e.what());
+    set_log_file("");
+    throw;
+  }
+}
+
+namespace {
+RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov) {
   StudyConfig study = study_in;
   if (ov.threads) study.threads = *ov.threads;
   if (ov.seed) study.seed = *ov.seed;
@@ -110,6 +129,9 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // continued with --resume (docs/studies.md).
   const bool own_store = !ov.store;  // <output>/study.db, not a study file given with --study
   const std::string store_path = ov.store ? *ov.store : study.output + "/study.db";
+  // What `varbo run --resume` takes to continue this run: the folder when it holds the study, else the study
+  // itself (`--study elsewhere.db` or a PostgreSQL URL: "--resume FOLDER" found no study.db there).
+  const std::string resume_target = shell_word(ov.store ? *ov.store : study.output);
   if (ov.resume && !store_exists(store_path))
     throw InputError(fmt::format("{}: no study store to resume", store_path));
   if (own_store && !ov.resume && !ov.overwrite && !std::filesystem::exists(store_path) &&
@@ -181,6 +203,9 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   // The recommendation after the latest tell, and its noise-free regret where the task can tell it.
   // A resumed run's algorithm is rebuilt from the store first (before, a finished run resumed had none, and its
   // summary.json lost the recommended θ and its regret).
+  bool bad_recommendation_said = false;
+  Index failures_in_a_row = 0;
+  std::string last_failure;
   auto recommend = [&]() {
     const Algorithm* a = st.algorithm();
     if (!a) {
@@ -190,6 +215,14 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     } else {
       const std::optional<Vec> r = a->recommendation();
       if (!r) return;
+      const Index d = st.space() ? st.space()->encoded_dim() : domain.box.dim();
+      if (r->size() != d || !r->allFinite()) {  // a third-party algorithm's mistake: said once, not printed as θ
+        if (std::exchange(bad_recommendation_said, true)) return;
+        log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation",
+                 study.algorithm.info->full_name(), r->size(), r->allFinite() ? "" : " with a non-finite coordinate",
+                 d);
+        return;
+      }
       summary.recommended_theta =
           st.space() ? st.space()->decode(st.space()->admissible(*r)) : from_unit(*r, domain.box);
     }
@@ -265,12 +298,17 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     Rng trng = task_rng.stream(static_cast<std::uint64_t>(index));
     Evaluation evaluation;
     const auto t0 = std::chrono::steady_clock::now();
+    if (auto* aware = dynamic_cast<TrialAware*>(&task)) aware->set_next_trial(static_cast<long>(index), static_cast<long>(t.id));
     try {
       evaluation = task.evaluate(t.theta, trng);
     } catch (const std::exception& e) {
       evaluation = Evaluation{};
       evaluation.ok = false;
       evaluation.error = e.what();
+    } catch (...) {  // task.hpp: an exception from evaluate() is a failed trial, never a crash (`throw 7` was one)
+      evaluation = Evaluation{};
+      evaluation.ok = false;
+      evaluation.error = "the task threw something that is not a std::exception";
     }
     const double evaluation_seconds = seconds_since(t0);
     if ((stop_signal = stop_requested()) != 0 && !evaluation.ok) {
@@ -323,6 +361,8 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     if (summary.regret_recommended) row.regret_recommended = *summary.regret_recommended;
     account(row);
     writer.trial(row);
+    failures_in_a_row = row.ok() ? 0 : failures_in_a_row + 1;
+    if (!row.ok()) last_failure = row.trial.error;
     if (ov.progress) {
       std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
                                      study.budget, t.phase, row.ok() ? row.trial.cost : NAN,
@@ -339,6 +379,16 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
     summary.seconds = seconds_since(t_start);
     writer.summary(summary, shown, optimum);
     if (ov.on_trial && !ov.on_trial(row.trial)) break;
+    if (study.stop_after_failures > 0 && failures_in_a_row >= study.stop_after_failures &&
+        summary.evaluations < study.budget) {
+      const std::string why = fmt::format(
+          "run {} stopped after {} failed trials in a row (stop_after_failures: {}), the last: {}; every trial is "
+          "recorded. Check the setup (is the robot powered, the E-stop released, the command right?), then continue "
+          "with: {}",
+          study.output, failures_in_a_row, study.stop_after_failures, safe_text(last_failure, 300),
+          fmt::format(fmt::runtime(ov.resume_hint), resume_target));
+      throw InputError(why);
+    }
   }
   if (!summary.recommended_theta) recommend();
   if (const SearchSpace* space = st.space().get()) {
@@ -353,13 +403,14 @@ RunSummary run_study(const StudyConfig& study_in, const Registry& registry, cons
   writer.summary(summary, shown, optimum);
   if (stop_signal) {
     log_warn("run {} stopped by {} after {} evaluations; continue it with: {}", study.output,
-             signal_name(stop_signal), summary.evaluations, fmt::format(fmt::runtime(ov.resume_hint), study.output));
+             signal_name(stop_signal), summary.evaluations, fmt::format(fmt::runtime(ov.resume_hint), resume_target));
     set_log_file("");
     throw Interrupted(stop_signal);
   }
   set_log_file("");
   return summary;
 }
+}  // namespace
 
 RunSummary run_study_file(const std::string& config_file, const RunOverrides& overrides) {
   ConfigNode root = ConfigNode::load_file(config_file);

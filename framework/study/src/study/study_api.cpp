@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "plugin_code.hpp"
 #include "study_impl.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/host_task.hpp"
@@ -210,7 +211,8 @@ std::vector<TrialRecord> Study::ask(Index q) {
       return;
     }
     try {
-      m.sync();
+      detail::in_plugin_code(*m.registry, "bringing the algorithm up to date with the study's results",
+                             [&] { m.sync(); });
       log_cpu("algorithm brought up to date (saved state restored, results since told)");
       m.save_state();  // the state after every finished result, for the next process that opens the study
     } catch (...) {
@@ -221,9 +223,22 @@ std::vector<TrialRecord> Study::ask(Index q) {
     const Index n = std::min(q, remaining);
     m.dirty = true;  // until the suggestion is stored
     m.alg->set_pending(pending);
-    std::vector<Suggestion> sugg = m.alg->ask(n);
+    const std::string algorithm = m.config.algorithm.info->full_name();
+    std::vector<Suggestion> sugg = detail::in_plugin_code(
+        *m.registry, fmt::format("asking algorithm '{}' for {} point(s)", algorithm, n), [&] { return m.alg->ask(n); });
     log_cpu("algorithm asked (model fit, acquisition)");
     const Index d = m.encoded_dim();
+    // What the algorithm returned is checked before anything is stored: more points than asked left stray
+    // pending trials and ended a run early; a NaN coordinate reached the task and then failed in the store as
+    // a "corrupt vector", blaming the store.
+    if (static_cast<Index>(sugg.size()) > n)
+      throw PluginCodeError(fmt::format("algorithm '{}' ({}) returned {} points when asked for {}; nothing stored",
+                                        algorithm, m.config.algorithm.info->library, sugg.size(), n));
+    for (const Suggestion& sg : sugg)
+      if (sg.x.size() == d && !sg.x.allFinite())
+        throw PluginCodeError(fmt::format("algorithm '{}' ({}) suggested a point with a non-finite coordinate; "
+                                          "nothing stored",
+                                          algorithm, m.config.algorithm.info->library));
     const double now = unix_time();
     for (std::size_t j = 0; j < sugg.size(); ++j) {
       TrialRecord r;
@@ -366,7 +381,9 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
   // The serial case: tell the live algorithm now, so recommendation() and snapshot() are current.
   if (m.alg && !m.dirty && m.outstanding == id && seq == static_cast<std::int64_t>(m.told_ids.size())) {
     if (auto stored = m.store->trial(id)) {
-      m.alg->tell({observation_of(*stored)});
+      detail::in_plugin_code(*m.registry, fmt::format("telling algorithm '{}' the result of trial {}",
+                                                      m.config.algorithm.info->full_name(), id),
+                             [&] { m.alg->tell({observation_of(*stored)}); });
       m.told_ids.push_back(id);
       m.outstanding.reset();
       // After a serial ask the state saved with it already covers this result: no transaction for nothing (on
@@ -426,14 +443,26 @@ std::optional<Vec> Study::recommendation() {
   if (m.store->next_finish_seq() == 0) return std::nullopt;
   m.store->transaction([&] {
     try {
-      m.sync();
+      detail::in_plugin_code(*m.registry, "bringing the algorithm up to date with the study's results",
+                             [&] { m.sync(); });
     } catch (...) {
       m.dirty = true;
       throw;
     }
   });
-  const std::optional<Vec> r = m.alg ? m.alg->recommendation() : std::nullopt;
+  const std::optional<Vec> r =
+      m.alg ? detail::in_plugin_code(*m.registry,
+                                     fmt::format("asking algorithm '{}' for its recommendation",
+                                                 m.config.algorithm.info->full_name()),
+                                     [&] { return m.alg->recommendation(); })
+            : std::nullopt;
   if (!r) return std::nullopt;
+  if (r->size() != m.encoded_dim() || !r->allFinite()) {
+    log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation",
+             m.config.algorithm.info->full_name(), r->size(), r->allFinite() ? "" : " with a non-finite coordinate",
+             m.encoded_dim());
+    return std::nullopt;
+  }
   return m.space ? m.space->decode(m.space->admissible(*r)) : from_unit(*r, m.domain.box);
 }
 

@@ -32,6 +32,10 @@ const std::vector<OptionSpec>& study_options() {
       opt::node("constraints", "",
                 "linear inequalities in user units over real/int parameters, e.g. [\"t1 + t2 + t3 <= 5.5\"]; "
                 "every suggestion satisfies them (docs/search_space.md)"),
+      opt::integer("stop_after_failures", 10,
+                   "`varbo run` and `varbo worker` stop (exit 2, every trial recorded; continue with --resume) after "
+                   "this many failed trials in a row, e.g. a robot unplugged or an E-stop pressed (0 = never)")
+          .at_least(0),
       opt::boolean("retry_abandoned", false,
                    "hand an abandoned trial's θ out again as it is (phase 'retry') instead of letting the algorithm "
                    "suggest anew"),
@@ -81,6 +85,7 @@ YAML::Node StudyConfig::resolved() const {
   out["output"] = output;
   out["heartbeat_timeout"] = heartbeat_timeout;
   out["retry_abandoned"] = retry_abandoned;
+  out["stop_after_failures"] = stop_after_failures;
   if (initial_point) {
     std::vector<double> v(initial_point->data(), initial_point->data() + initial_point->size());
     out["initial_point"] = v;
@@ -150,6 +155,7 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   s.threads = static_cast<int>(o.integer("threads"));
   s.heartbeat_timeout = o.real("heartbeat_timeout");
   s.retry_abandoned = o.boolean("retry_abandoned");
+  s.stop_after_failures = static_cast<Index>(o.integer("stop_after_failures"));
   s.output = o.is_set("output") ? o.str("output") : std::string();
   if (o.given("output") && s.output.find_first_not_of(" \t") == std::string::npos)
     o.node("output").fail("an empty folder name; expected a run folder such as runs/gait (leave the key out for "

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "varbo/text.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
@@ -16,8 +17,32 @@ namespace {
 /// width that overflows (`bounds: [-1e308, 1e308]` has width inf) made every θ inf or nan, and the first trial
 /// then could not be stored ("corrupt vector [null,null]", a half-made run folder). Any task's domain, a plugin's
 /// too, is checked here once, before anything is created.
-void check_domain(const StudyConfig& config, const Domain& domain) {
+void check_domain(const StudyConfig& config, const Domain& domain, const Task& task) {
   const Box& b = domain.box;
+  const std::string origin =
+      config.task.info->library.empty() ? std::string() : fmt::format(" (from {})", config.task.info->library);
+  // What a task's code hands over is checked like what a user writes: a box whose bounds differ in length, a
+  // name missing or given twice (trials.csv got the header `x,x`, or a name invented by position), a cost
+  // component named twice (both columns showed one value, the other lost).
+  if (b.lower.size() != b.upper.size())
+    config.task.source.fail(fmt::format("task '{}'{}: its domain has {} lower and {} upper bounds", config.task.info->name,
+                                        origin, b.lower.size(), b.upper.size()));
+  if (!domain.names.empty() && static_cast<Index>(domain.names.size()) != b.dim())
+    config.task.source.fail(fmt::format("task '{}'{}: its domain has {} dimensions but {} names",
+                                        config.task.info->name, origin, b.dim(), domain.names.size()));
+  auto distinct = [&](const std::vector<std::string>& names, const char* what) {
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      if (names[i].empty())
+        config.task.source.fail(fmt::format("task '{}'{}: {} {} has an empty name", config.task.info->name, origin,
+                                            what, i + 1));
+      for (std::size_t j = 0; j < i; ++j)
+        if (names[i] == names[j])
+          config.task.source.fail(fmt::format("task '{}'{}: {} name '{}' is given twice", config.task.info->name,
+                                              origin, what, printable(names[i])));
+    }
+  };
+  distinct(domain.names, "parameter");
+  distinct(task.component_names(), "cost component");
   for (Index i = 0; i < b.dim(); ++i) {
     const double lo = b.lower(i), hi = b.upper(i);
     // lo == hi is a task's own business (a typed space's `fixed` parameter is such a dimension until the space
@@ -46,7 +71,9 @@ SharedSpace resolve_study_space(const StudyConfig& config, Task& task, Domain& d
     aware->set_search_space(config.parameters);
   }
   domain = task.domain();
-  check_domain(config, domain);
+  check_domain(config, domain, task);
+  if (domain.names.empty())  // a task that names no parameter: x1, x2, ... as the benchmarks call theirs
+    for (Index i = 0; i < domain.box.dim(); ++i) domain.names.push_back(fmt::format("x{}", i + 1));
   SharedSpace space = aware ? aware->search_space() : nullptr;
   if (config.constraints.defined()) {
     SearchSpace s = space ? *space : SearchSpace::from_box(domain.box, domain.names);

@@ -54,12 +54,12 @@ std::vector<Trial> read_trials(const std::string& folder, const Box& box) {
 }
 
 std::vector<Trial> run(const std::string& name, const std::string& task, const Box& box, const std::string& algorithm,
-                       int budget, int threads, int seed = 3) {
+                       int budget, int threads, int seed = 3, const std::string& extra = "") {
   RunOverrides ov;
   ov.output = test::temp_folder("failure_aware_" + name);
   ov.threads = threads;
   test::run_yaml("task: " + task + "\nbudget: " + std::to_string(budget) + "\nseed: " + std::to_string(seed) +
-                     "\nalgorithm: " + algorithm + "\n",
+                     "\nalgorithm: " + algorithm + "\n" + extra,
                  test::registry(), ov);
   return read_trials(*ov.output, box);
 }
@@ -187,7 +187,8 @@ TEST_CASE("issue 11 regression: BO leaves a failure region instead of repeating 
   CHECK(failed_last_half == 0);
 
   // The same run ignoring failures (the behaviour before) does repeat: the test can tell the difference.
-  const std::vector<Trial> off = run("x1_quarter_off", kFailingTask, kFailingBox, "{type: bo, failure_model: {enabled: off}}", 24, 2);
+  const std::vector<Trial> off = run("x1_quarter_off", kFailingTask, kFailingBox, "{type: bo, failure_model: {enabled: off}}", 24, 2,
+                                       3, "stop_after_failures: 0\n");  // it fails on and on: that is the point
   int off_failed = 0;
   for (std::size_t i = 6; i < off.size(); ++i) off_failed += !off[i].ok;
   std::printf("  with failure_model off: %d of 18 BO trials failed; closest repeat %.3g\n", off_failed,

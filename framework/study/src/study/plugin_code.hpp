@@ -1,0 +1,59 @@
+#pragma once
+// Exceptions out of an algorithm and its components (surrogate, acquisition, optimizer, region, ... — possibly a
+// third-party plugin's code) while a study is asked or told. varbo's own errors pass unchanged. Anything else —
+// a std::runtime_error from a plugin's Surrogate::fit, or `throw 7`, which is not a std::exception at all and
+// ended the process (std::terminate) — becomes a PluginCodeError (exit 2) that says what was being done and
+// names the third-party plugins loaded, when there are any: before, it read "internal error: <their message>"
+// (exit 3), blaming varbo and naming no plugin. With only varbo's own plugins it stays an internal error.
+#include <fmt/format.h>
+
+#include <exception>
+#include <stdexcept>
+#include <string>
+
+#include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
+#include "varbo/registry.hpp"
+#include "varbo/text.hpp"
+
+namespace varbo::detail {
+
+/// "bo2 (/path/libvarbo_bo2.so), ..." for the loaded libraries that are not varbo's own; "" when none.
+inline std::string third_party_plugins(const Registry& registry) {
+  std::vector<std::string> seen;
+  for (const ComponentInfo* c : registry.all()) {
+    if (is_builtin(*c) || c->library.empty() || c->library.front() == '<') continue;  // '<': the Python module
+    const std::string entry = fmt::format("{} ({})", c->plugin, c->library);
+    if (std::find(seen.begin(), seen.end(), entry) == seen.end()) seen.push_back(entry);
+  }
+  return join(seen);
+}
+
+[[noreturn]] inline void rethrow_from_plugin_code(const Registry& registry, const std::string& doing,
+                                                  const std::string& what, bool standard) {
+  const std::string plugins = third_party_plugins(registry);
+  if (plugins.empty()) {
+    if (standard) throw;  // varbo's own code: an internal error, as it is
+    throw std::runtime_error(fmt::format("{}: an exception that is not a std::exception", doing));
+  }
+  throw PluginCodeError(fmt::format("{}: {} — an exception from plugin code, not a varbo error; the third-party "
+                                    "plugins loaded are: {}",
+                                    doing, safe_text(what, 2000), plugins));
+}
+
+template <class F>
+decltype(auto) in_plugin_code(const Registry& registry, const std::string& doing, F&& f) {
+  try {
+    return f();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    rethrow_from_plugin_code(registry, doing, e.what(), true);
+  } catch (...) {
+    rethrow_from_plugin_code(registry, doing, "it threw something that is not a std::exception", false);
+  }
+}
+
+}  // namespace varbo::detail
