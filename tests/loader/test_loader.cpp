@@ -16,6 +16,8 @@
 #include "varbo/loader.hpp"
 #include "varbo/plugin.hpp"
 #include "varbo/study.hpp"
+#include "varbo/study_api.hpp"
+#include "study_helpers.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -350,6 +352,36 @@ TEST_CASE("only varbo's own libraries in the built-in folder are built-in") {
   CHECK(is_builtin(own));
   CHECK_FALSE(is_builtin(theirs));
   CHECK_FALSE(is_builtin(elsewhere));
+}
+
+TEST_CASE("exceptions and bad points from a third-party algorithm are named, not internal errors") {
+  Registry r;
+  PluginLoader l(r);
+  l.load_default({fixture("good")});
+  auto ask_with = [&](const std::string& mode) -> std::string {
+    const std::string folder = test::temp_folder("loader_misbehaving_" + mode);
+    const StudyConfig cfg = parse_study(
+        ConfigNode::parse("task: branin\nbudget: 4\nalgorithm: {type: fixture_misbehaving, mode: " + mode + "}\n",
+                          "<test>"),
+        r);
+    Study s = Study::attach(folder + "/s.db", cfg, r);
+    try {
+      s.ask();
+    } catch (const PluginCodeError& e) {
+      CHECK(s.store().trials().empty());  // nothing stored
+      return e.what();
+    }
+    return "(no error)";
+  };
+  // Before: "internal error: fixture: ask exploded" (exit 3), naming no plugin; `throw 42` ended the process.
+  const std::string thrown = ask_with("throw");
+  CHECK(contains(thrown, "asking algorithm 'fixture/fixture_misbehaving'"));
+  CHECK(contains(thrown, "fixture: ask exploded"));
+  CHECK(contains(thrown, "third-party plugins loaded are: fixture (" + fixture("good") + ")"));
+  CHECK(contains(ask_with("throw_int"), "not a std::exception"));
+  // Before: the extra point became a stray pending trial; the NaN reached the task and failed in the store.
+  CHECK(contains(ask_with("too_many"), "returned 2 points when asked for 1"));
+  CHECK(contains(ask_with("nan"), "non-finite coordinate"));
 }
 
 TEST_CASE("a missing file is named") {
