@@ -136,6 +136,13 @@ void serve(const DashboardHttp& http) {
     }
     json_reply(res, 500, error_body(what));
   });
+  // SO_REUSEADDR only (a port in TIME_WAIT after a restart is fine). httplib's default is SO_REUSEPORT, which let
+  // a second dashboard bind the port a first one serves: both ran, and the kernel split the requests between two
+  // studies (docs/dashboard.md promises "a port in use: a message naming it, exit 2").
+  server.set_socket_options([](httplib::socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
   const int bound = port == 0 ? server.bind_to_any_port(host) : (server.bind_to_port(host, port) ? port : -1);
   if (bound < 0)
     throw InputError(fmt::format("--host {} --port {}: cannot listen there (in use, or not an address of this machine)",
