@@ -139,7 +139,7 @@ void serve(const DashboardHttp& http) {
   // SO_REUSEADDR only (a port in TIME_WAIT after a restart is fine). httplib's default is SO_REUSEPORT, which let
   // a second dashboard bind the port a first one serves: both ran, and the kernel split the requests between two
   // studies (docs/dashboard.md promises "a port in use: a message naming it, exit 2").
-  server.set_socket_options([](httplib::socket_t sock) {
+  server.set_socket_options([](socket_t sock) {
     int yes = 1;
     ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
