@@ -7,6 +7,8 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <set>
+#include <mutex>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -82,6 +84,25 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
       if (p.evaluations == 0 && i + 1 < list.size())
         item.child("evaluations").fail("only the last phase may run until the budget is spent (evaluations: 0)");
       phases_.push_back(std::move(p));
+    }
+    // Phases the budget never reaches were accepted in silence (`budget: 8`, design 3, phases [20, 2]: the second
+    // never ran).
+    Index start = initial_points_;
+    for (std::size_t i = 0; i < phases_.size(); ++i) {
+      if (budget_ > 0 && start >= budget_) {
+        // Once per process: a command builds the algorithm more than once (checks, then the run).
+        static std::mutex said_mutex;
+        static std::set<std::string> said;
+        const std::string msg = fmt::format(
+            "bo: phase {}{} never runs: the initial design ({} trials) and the phases before it use the whole "
+            "budget of {}",
+            i + 1, i + 1 < phases_.size() ? fmt::format(" (and the {} after it)", phases_.size() - i - 1) : "",
+            initial_points_, budget_);
+        const std::lock_guard<std::mutex> lock(said_mutex);
+        if (said.insert(msg).second) log_warn("{}", msg);
+        break;
+      }
+      start += phases_[i].evaluations;
     }
   } else {
     Phase p;

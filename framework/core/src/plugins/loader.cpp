@@ -100,6 +100,8 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
     throw PluginLoadError(fmt::format("{}: not loaded: {} (VARBO_PLUGIN(\"name\", ...) names it)", path, why));
   const std::string name = info.name;
   for (const auto& l : loaded_)
+    if (l.path == path) return;  // the same file again (Python's load_plugin twice): already there, nothing to say
+  for (const auto& l : loaded_)
     if (l.name == name) {
       // First wins, and built-in folders are searched first: a third-party library cannot replace a plugin
       // shipped with varbo. Two installs of varbo's own plugins (build tree and prefix) are routine: quiet.
@@ -323,6 +325,15 @@ void PluginLoader::load_default(const std::vector<std::string>& extra) {
     } else {
       try {
         load_file(p, false);  // a file named explicitly must load
+        // ... and not be passed over for another library of its plugin name (it was a warning, exit 0, and the
+        // study ran with the other library's components).
+        const bool loaded = std::any_of(loaded_.begin(), loaded_.end(), [&](const LoadedLibrary& l) {
+          return fs::weakly_canonical(l.path, ec) == fs::weakly_canonical(p, ec);
+        });
+        if (!loaded && !metadata_only_)
+          throw PluginLoadError(fmt::format("{}: not loaded: a plugin of the same name is already loaded (see the "
+                                            "warning above); rename one of them",
+                                            p));
       } catch (const PluginLoadError& e) {
         // Said where the name came from: an error out of every command for a stray file in VARBO_PLUGIN_PATH
         // named neither the variable nor why a file there must load.

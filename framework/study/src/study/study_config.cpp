@@ -20,7 +20,7 @@ const std::vector<OptionSpec>& study_options() {
       opt::integer("seed", 1, "random seed: fixes the whole run, whatever the thread count").at_least(0),
       opt::integer("threads", 0, "TBB worker threads (0 = all cores)").at_least(0),
       opt::string("output", "", "run folder (default: runs/<config file name>)"),
-      opt::node("plugin_path", "", "extra plugin files or folders, searched before the defaults"),
+      opt::node("plugin_path", "", "a list of extra plugin files or folders (relative to the study file), searched after varbo's own plugins: a built-in name keeps meaning the built-in component"),
       opt::reals("initial_point", "", "θ0 in user units, for algorithms that start from a known policy"),
       opt::string("description", "", "free text, copied to the run folder"),
       opt::real("heartbeat_timeout", 60,
