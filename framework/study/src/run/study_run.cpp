@@ -39,6 +39,11 @@ std::string fmt_vec(const Vec& v) {
   for (Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v[i]);
   return s + "]";
 }
+/// "5", or "5 (study id 6)" once the two numberings differ (after an abandoned trial): the log speaks of the row
+/// of trials.csv, `varbo status` and `export` of the study's id.
+std::string trial_label(Index index, std::int64_t id) {
+  return index == id ? std::to_string(index) : fmt::format("{} (study id {})", index, id);
+}
 /// `lr=0.001, solver=lqr`: what a user of typed parameters reads (θ holds a category's index, not its label).
 std::string params_text(const SearchSpace& space, const Vec& theta) {
   std::string s;
@@ -314,7 +319,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     if ((stop_signal = stop_requested()) != 0 && !evaluation.ok) {
       const std::string reason = fmt::format("interrupted by {}", signal_name(stop_signal));
       st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
-      log_warn("trial {} abandoned: {} ({})", index, reason, safe_text(evaluation.error, 300));
+      log_warn("trial {} abandoned: {} ({})", trial_label(index, t.id), reason, safe_text(evaluation.error, 300));
       break;
     }
     if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);
@@ -327,7 +332,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       evaluation.ok = false;
       evaluation.error = fmt::format("non-finite cost {}", evaluation.cost);
     }
-    if (!evaluation.ok) log_warn("trial {} failed: {}", index, evaluation.error);
+    if (!evaluation.ok) log_warn("trial {} failed: {}", trial_label(index, t.id), evaluation.error);
     // The result and the model snapshot of this iteration are committed together; the row is the stored trial.
     // The snapshot is read after the algorithm has been told the result, so an algorithm that updates in tell()
     // (rssgd's step) shows the update this trial caused, not the previous one.

@@ -183,6 +183,18 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
         "match to continue it); first difference: {}. Use another study file, or continue it with the configuration "
         "it was created with (`varbo run --resume {}`, without options that change it such as --seed)",
         store_path, first_difference(stored, identity), store_path));
+  // The budget is not part of the identity (`--resume --budget 40` continues the study), but the stored
+  // configuration must say the budget now in force: `varbo status` and a later `varbo suggest` read it (they showed
+  // "budget 30, 0 left" after a run resumed to 33).
+  if (const auto text = impl->store->meta(store_key::kConfig)) {
+    YAML::Node n = YAML::Load(*text);
+    if (n.IsMap() && n["budget"] && n["budget"].as<Index>() != impl->config.budget) {
+      log_info("{}: budget {} (was {}), recorded in the study", store_path, impl->config.budget, n["budget"].as<Index>());
+      n["budget"] = impl->config.budget;
+      impl->store->transaction(
+          [&] { impl->store->set_meta(store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(n)); });
+    }
+  }
   return Study(std::move(impl));
 }
 
