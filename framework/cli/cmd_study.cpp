@@ -115,6 +115,9 @@ Runner add_suggest(CLI::App& app) {
                                    "or the algorithm is done",
                                    a->store, s.config().budget, finished, pending));
     }
+    if (static_cast<long long>(trials.size()) < a->batch)  // on stderr: stdout stays the trials (or the JSON)
+      std::fprintf(stderr, "varbo: %zu of the %lld trials asked: the budget of %lld has no more room\n", trials.size(),
+                   a->batch, static_cast<long long>(s.config().budget));
     const auto& names = s.domain().names;
     if (a->json) {
       nlohmann::json out = nlohmann::json::array();

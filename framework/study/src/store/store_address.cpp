@@ -8,6 +8,7 @@
 
 #include "store_url.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/text.hpp"
 #include "varbo/store.hpp"
 
 namespace varbo {
@@ -56,7 +57,7 @@ PostgresAddress parse_postgres_address(const std::string& url) {
   const std::string base = url.substr(0, q);
   std::vector<std::string> kept, shown;
   PostgresAddress a;
-  bool has_app = false, has_timeout = false;
+  bool has_app = false, has_timeout = false, seen_study = false;
   if (q != std::string::npos) {
     const std::string query = url.substr(q + 1);
     std::size_t start = 0;
@@ -68,7 +69,13 @@ PostgresAddress parse_postgres_address(const std::string& url) {
       const auto eq = param.find('=');
       const std::string key = param.substr(0, eq);
       if (key == "study") {
-        a.study = eq == std::string::npos ? "" : percent_decode(param.substr(eq + 1));
+        const std::string name = eq == std::string::npos ? "" : percent_decode(param.substr(eq + 1));
+        // `study=a&study=b` used b in silence: which study a worker writes to must never be a guess.
+        if (seen_study && name != a.study)
+          throw InputError(fmt::format("{}: the URL names two studies ('{}' and '{}'); give one study=NAME",
+                                       hide_password(base), printable(a.study), printable(name)));
+        seen_study = true;
+        a.study = name;
         continue;
       }
       has_app = has_app || key == "application_name";

@@ -62,14 +62,20 @@ void Study::Impl::init(const StudyConfig& c, const Registry& reg) {
   domain.names.resize(static_cast<std::size_t>(d));
   std::optional<Vec> theta0 = config.initial_point ? config.initial_point : task->initial_point();
   if (theta0) {
-    if (theta0->size() != d)
-      config.source.child("initial_point")
-          .fail(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
+    // The study's `initial_point:` is the user's; otherwise the task's own (Task::initial_point) is its plugin's
+    // mistake, reported at the task and naming its library (it was blamed on a key the config does not have).
+    const bool from_config = config.initial_point.has_value();
+    auto bad = [&](const std::string& what) {
+      if (from_config) config.source.child("initial_point").fail(what);
+      config.task.source.fail(fmt::format("task '{}'{}: its own initial point (Task::initial_point): {}",
+                                          config.task.info->name,
+                                          config.task.info->library.empty() ? "" : " (" + config.task.info->library + ")",
+                                          what));
+    };
+    if (theta0->size() != d) bad(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
     std::string why;
-    if (space && !space->contains(*theta0, &why))
-      config.source.child("initial_point").fail("the initial point is not admissible: " + why);
-    if (!domain.box.contains(*theta0))
-      config.source.child("initial_point").fail("the initial point lies outside the task's domain");
+    if (space && !space->contains(*theta0, &why)) bad("the initial point is not admissible: " + why);
+    if (!domain.box.contains(*theta0)) bad("the initial point lies outside the task's domain");
     initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
   }
 }
