@@ -325,7 +325,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);
     // A task that knows its noise-free cost (Task::noiseless_cost) but leaves the evaluation's field empty:
     // regret_best_observed fell back to the noisy cost and went negative (two_minima_1d: −0.073).
-    if (evaluation.ok && std::isnan(evaluation.noiseless_cost))
+    if (optimum && evaluation.ok && std::isnan(evaluation.noiseless_cost))  // only for the regret
       if (const std::optional<double> v = task.noiseless_cost(t.theta); v && std::isfinite(*v))
         evaluation.noiseless_cost = *v;
     if (evaluation.ok && !std::isfinite(evaluation.cost)) {
