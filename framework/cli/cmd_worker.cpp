@@ -54,36 +54,36 @@ void install_stop_handlers() {
   for (int s : kStopSignals) sigaction(s, &sa, nullptr);
 }
 
-/// The `external` task for the study's domain, built through the registry like any configured task.
-std::unique_ptr<Task> external_task(const Study& study, const std::string& command, double timeout, double grace) {
-  const Domain& d = study.domain();
+/// The worker's task from its YAML, resolved and built through the registry like any configured task, and given
+/// the study's typed parameters when it has them (then the task sends "params").
+std::unique_ptr<Task> build_task(const Study& study, const YAML::Node& n, const std::string& origin) {
   YAML::Emitter em;
-  em << YAML::Flow << YAML::BeginMap << YAML::Key << "type" << YAML::Value << "external";
-  em << YAML::Key << "command" << YAML::Value << YAML::DoubleQuoted << command;
-  if (study.space()) {  // typed parameters: the task takes the study's space (and sends "params")
-    em << YAML::Key << "timeout" << YAML::Value << exact(timeout);
-    em << YAML::Key << "grace" << YAML::Value << exact(grace) << YAML::EndMap;
-    const ResolvedComponent spec =
-        study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<varbo worker --command>"));
-    BuildContext ctx;
-    ctx.seed = study.config().seed;
-    std::unique_ptr<Task> task = study.registry().create<Task>(spec, ctx);
-    if (auto* aware = dynamic_cast<SpaceAware*>(task.get())) aware->set_search_space(study.space());
-    return task;
-  }
-  em << YAML::Key << "lower" << YAML::Value << YAML::BeginSeq;
-  for (Index i = 0; i < d.box.dim(); ++i) em << exact(d.box.lower[i]);
-  em << YAML::EndSeq << YAML::Key << "upper" << YAML::Value << YAML::BeginSeq;
-  for (Index i = 0; i < d.box.dim(); ++i) em << exact(d.box.upper[i]);
-  em << YAML::EndSeq << YAML::Key << "names" << YAML::Value << YAML::BeginSeq;
-  for (const auto& n : d.names) em << YAML::DoubleQuoted << n;
-  em << YAML::EndSeq << YAML::Key << "timeout" << YAML::Value << exact(timeout);
-  em << YAML::Key << "grace" << YAML::Value << exact(grace) << YAML::EndMap;
-  const ResolvedComponent spec =
-      study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<varbo worker --command>"));
+  em << YAML::Flow << n;
+  const ResolvedComponent spec = study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), origin));
   BuildContext ctx;
   ctx.seed = study.config().seed;
-  return study.registry().create<Task>(spec, ctx);
+  std::unique_ptr<Task> task = study.registry().create<Task>(spec, ctx);
+  if (study.space())
+    if (auto* aware = dynamic_cast<SpaceAware*>(task.get())) aware->set_search_space(study.space());
+  return task;
+}
+
+/// A plain `external` task running `command` on the study's domain (a study whose own task is not external).
+std::unique_ptr<Task> external_task(const Study& study, const std::string& command, double timeout, double grace) {
+  YAML::Node n(YAML::NodeType::Map);
+  n["type"] = "external";
+  n["command"] = command;
+  if (!study.space()) {  // typed parameters define the domain themselves
+    const Domain& d = study.domain();
+    for (Index i = 0; i < d.box.dim(); ++i) {
+      n["lower"].push_back(exact(d.box.lower[i]));  // exact(): the bounds round-trip through the text
+      n["upper"].push_back(exact(d.box.upper[i]));
+    }
+    for (const auto& name : d.names) n["names"].push_back(name);
+  }
+  n["timeout"] = exact(timeout);
+  n["grace"] = exact(grace);
+  return build_task(study, n, "<varbo worker --command>");
 }
 
 /// The study's own `external` task, its settings as the study declares them — input (json or args), timeout,
@@ -96,16 +96,7 @@ std::unique_ptr<Task> study_external_task(const Study& study, const std::string&
   if (!command.empty()) n["command"] = command;
   if (!timeout.empty()) n["timeout"] = parse_number(timeout, "--timeout");
   if (!grace.empty()) n["grace"] = parse_number(grace, "--grace");
-  YAML::Emitter em;
-  em << YAML::Flow << n;
-  const ResolvedComponent spec =
-      study.registry().resolve(Kind::Task, ConfigNode::parse(em.c_str(), "<the study's task, with varbo worker's options>"));
-  BuildContext ctx;
-  ctx.seed = study.config().seed;
-  std::unique_ptr<Task> task = study.registry().create<Task>(spec, ctx);
-  if (study.space())
-    if (auto* aware = dynamic_cast<SpaceAware*>(task.get())) aware->set_search_space(study.space());
-  return task;
+  return build_task(study, n, "<the study's task, with varbo worker's options>");
 }
 
 /// Refreshes the worker's heartbeat every `interval` seconds on its own connection to the store, so that a

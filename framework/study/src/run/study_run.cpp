@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
-#include <utility>
 
 #include "run_writer.hpp"
 #include "../study/study_impl.hpp"
@@ -221,11 +220,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       const std::optional<Vec> r = a->recommendation();
       if (!r) return;
       const Index d = st.space() ? st.space()->encoded_dim() : domain.box.dim();
-      if (r->size() != d || !r->allFinite()) {  // a third-party algorithm's mistake: said once, not printed as θ
-        if (std::exchange(bad_recommendation_said, true)) return;
-        log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation",
-                 study.algorithm.info->full_name(), r->size(), r->allFinite() ? "" : " with a non-finite coordinate",
-                 d);
+      if (!study_detail::usable_recommendation(*r, d, study.algorithm.info->full_name(), !bad_recommendation_said)) {
+        bad_recommendation_said = true;  // said once per run: recommend() runs after every trial
         return;
       }
       summary.recommended_theta =

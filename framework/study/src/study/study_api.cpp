@@ -92,6 +92,14 @@ bool study_detail::adopt_current_resolution(const std::string& store_path, const
   return true;
 }
 
+bool study_detail::usable_recommendation(const Vec& r, Index dim, const std::string& algorithm, bool say) {
+  if (r.size() == dim && r.allFinite()) return true;
+  if (say)
+    log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation", algorithm,
+             r.size(), r.allFinite() ? "" : " with a non-finite coordinate", dim);
+  return false;
+}
+
 Study::Study(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Study::Study(Study&&) noexcept = default;
 Study& Study::operator=(Study&&) noexcept = default;
@@ -469,12 +477,8 @@ std::optional<Vec> Study::recommendation() {
                                      [&] { return m.alg->recommendation(); })
             : std::nullopt;
   if (!r) return std::nullopt;
-  if (r->size() != m.encoded_dim() || !r->allFinite()) {
-    log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation",
-             m.config.algorithm.info->full_name(), r->size(), r->allFinite() ? "" : " with a non-finite coordinate",
-             m.encoded_dim());
+  if (!study_detail::usable_recommendation(*r, m.encoded_dim(), m.config.algorithm.info->full_name(), true))
     return std::nullopt;
-  }
   return m.space ? m.space->decode(m.space->admissible(*r)) : from_unit(*r, m.domain.box);
 }
 

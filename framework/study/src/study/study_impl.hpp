@@ -39,6 +39,10 @@ std::string emit(const YAML::Node& n);
 /// (`config`), may name settings it did not (an option added since, whose default now applies). Then say so, with
 /// the first difference, and record the configuration as resolved now, so the study continues with these settings
 /// and they are written down from here on; trials and states are untouched. False when nothing differed.
+/// Whether an algorithm's recommendation (unit cube / encoding) has the study's dimension and finite coordinates;
+/// a third-party algorithm's mistake is said (when `say`) and the point dropped, never printed as θ.
+bool usable_recommendation(const Vec& r, Index dim, const std::string& algorithm, bool say);
+
 bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config, const Registry& registry);
 
 }  // namespace study_detail
