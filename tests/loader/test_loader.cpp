@@ -515,3 +515,46 @@ TEST_CASE("a plugin index is trusted only while every library in its folder is a
   CHECK_FALSE(detail::read_plugin_index(dir.string()));
   fs::remove_all(dir);
 }
+
+TEST_CASE("a project moved with its run folder and plugins resumes with the plugins where they are now") {
+  // A relative `plugin_path` used to be stored as the absolute path of its day: after the project folder was moved
+  // (or copied to the lab's machine), `--resume` warned "does not exist; ignored" and then refused the study
+  // ("unknown acquisition 'fixture_constant'"), and Study::open did the same.
+  const fs::path root = test::temp_folder("loader_moved_project");
+  const fs::path before = root / "before", after = root / "after";
+  fs::create_directories(before / "plugins");
+  fs::copy_file(fixture("good"), before / "plugins" / "libvarbo_fixture_good.so");
+  {
+    std::ofstream(before / "study.yaml") << "task: {type: branin}\nbudget: 6\nseed: 1\nthreads: 1\n"
+                                            "plugin_path: [plugins]\n"
+                                            "algorithm: {type: bo, initial_points: 3, acquisition: fixture_constant}\n";
+  }
+  RunOverrides ov;
+  ov.output = (before / "runs" / "a").string();
+  ov.budget = 4;
+  ov.progress = false;
+  CHECK(run_study_file((before / "study.yaml").string(), ov).evaluations == 4);
+  {
+    Study s = Study::create((before / "st.db").string(), (before / "study.yaml").string());
+    const auto t = s.ask(1);
+    REQUIRE(t.size() == 1);
+    s.tell(t[0].id, 1.0);
+  }
+  fs::rename(before, after);
+  RunOverrides resume;
+  resume.progress = false;
+  resume.budget = 6;
+  const RunSummary r = resume_study((after / "runs" / "a").string(), resume);
+  CHECK(r.evaluations == 6);
+  Study s = Study::open((after / "st.db").string());
+  CHECK(s.ask(1).size() == 1);  // the acquisition fixture_constant is found again
+
+  // A copy next to the original loads the copy's plugins, not the original's: with the original's plugin replaced
+  // by a file that cannot load (removed first: the process still maps the old one), the copy still opens and asks.
+  const fs::path copy = root / "copy";
+  fs::copy(after, copy, fs::copy_options::recursive);
+  fs::remove(after / "plugins" / "libvarbo_fixture_good.so");
+  std::ofstream(after / "plugins" / "libvarbo_fixture_good.so") << "rebuilt badly\n";
+  CHECK(Study::open((copy / "st.db").string()).ask(1).size() == 1);
+  CHECK_THROWS(Study::open((after / "st.db").string()));
+}

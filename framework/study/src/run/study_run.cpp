@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "run_writer.hpp"
+#include "../study/stored_plugin_paths.hpp"
 #include "../study/study_impl.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
@@ -442,12 +443,7 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
   std::unique_ptr<StudyStore> store = open_store(store_path);
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration", store_path));
-  std::vector<std::string> paths;
-  {
-    std::stringstream ss(store->meta(store_key::kPluginPaths).value_or(""));
-    for (std::string l; std::getline(ss, l);)
-      if (!l.empty()) paths.push_back(l);
-  }
+  const std::vector<std::string> paths = study_detail::stored_plugin_paths(*store, store_path);
   RunOverrides ov = overrides;
   if (!url && ov.output && std::filesystem::is_directory(target) && !same_file(*ov.output, target))
     // The run folder holds the study and its outputs together: writing the outputs elsewhere split the run (the

@@ -13,6 +13,7 @@
 
 #include "plugin_code.hpp"
 #include "study_impl.hpp"
+#include "stored_plugin_paths.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
@@ -108,7 +109,7 @@ Study::~Study() = default;
 namespace {
 void create_study_store(Study::Impl& impl, const std::string& store_path) {
   impl.make_algorithm();  // surface configuration errors before any file is written
-  impl.store = create_store(store_path, impl.meta_entries(study_identity(impl.config)));
+  impl.store = create_store(store_path, impl.meta_entries(study_identity(impl.config), store_path));
 }
 }  // namespace
 
@@ -143,9 +144,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
   log_cpu("store opened");
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration (corrupt store?)", store_path));
-  std::vector<std::string> paths;
-  for (const auto& l : lines_of(store->meta(store_key::kPluginPaths).value_or("")))
-    if (!l.empty()) paths.push_back(l);
+  const std::vector<std::string> paths = study_detail::stored_plugin_paths(*store, store_path);
   std::unique_ptr<Impl> impl;
   const Registry* registry = nullptr;
   const bool shared = &add_components == &kNoComponents;

@@ -1,6 +1,7 @@
 // Study::Impl (study_impl.hpp): building a study from its configuration, the workers' liveness, retries of
 // abandoned trials, and the small helpers the study's files share.
 #include "study_impl.hpp"
+#include "stored_plugin_paths.hpp"
 
 #include <fmt/format.h>
 
@@ -154,12 +155,14 @@ TrialRecord Study::Impl::pending_trial(std::int64_t id, const char* verb) const 
   return *t;
 }
 
-std::vector<std::pair<std::string, std::string>> Study::Impl::meta_entries(const std::string& identity) const {
-  std::string paths;
-  for (const auto& p : plugin_paths_of(config.source)) paths += fs::absolute(p).string() + "\n";
-  return {{store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(config.resolved())},
-          {store_key::kIdentity, identity},
-          {store_key::kPluginPaths, paths}};
+std::vector<std::pair<std::string, std::string>> Study::Impl::meta_entries(const std::string& identity,
+                                                                         const std::string& store_address) const {
+  std::vector<std::pair<std::string, std::string>> out = {
+      {store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(config.resolved())},
+      {store_key::kIdentity, identity}};
+  for (auto& e : study_detail::plugin_path_entries(plugin_paths_of(config.source), store_address))
+    out.push_back(std::move(e));
+  return out;
 }
 
 }  // namespace varbo

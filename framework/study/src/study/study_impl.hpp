@@ -100,8 +100,10 @@ struct Study::Impl {
   /// The trial `id`, which must be pending (or abandoned: a late result); `verb` names the command refused.
   TrialRecord pending_trial(std::int64_t id, const char* verb) const;
 
-  /// The meta entries a new store is created with: the resolved configuration, its identity, the plugin paths.
-  std::vector<std::pair<std::string, std::string>> meta_entries(const std::string& identity) const;
+  /// The meta entries a new store at `store_address` is created with: the resolved configuration, its identity,
+  /// the plugin paths (stored_plugin_paths.hpp).
+  std::vector<std::pair<std::string, std::string>> meta_entries(const std::string& identity,
+                                                                const std::string& store_address) const;
 
   // --- the algorithm rebuilt from saved states and the trials (study_rebuild.cpp) ---
 
