@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
@@ -24,6 +25,7 @@ Runner add_run(CLI::App& app) {
     std::string output;
     std::string study;
     std::string resume;
+    std::string reconnect = "120";
     bool no_progress = false;
     bool overwrite = false;
   };
@@ -42,8 +44,14 @@ Runner add_run(CLI::App& app) {
   auto* budget = cmd->add_option("--budget", a->budget, "number of evaluations (an integer >= 1); overrides the file");
   auto* output = cmd->add_option("-o,--output", a->output, "run folder; overrides the file");
   cmd->add_flag("--no-progress", a->no_progress, "no per-trial progress lines");
+  cmd->add_option("--reconnect-timeout", a->reconnect,
+                  "seconds to keep retrying (with backoff) when the database server is unreachable or the connection "
+                  "drops, before the run stops with exit 2 (PostgreSQL studies; 0 = stop at once)");
   return [a, seed, budget, output]() {
     RunOverrides ov;
+    ov.reconnect_seconds = parse_number(a->reconnect, "--reconnect-timeout");
+    if (!(ov.reconnect_seconds >= 0) || !std::isfinite(ov.reconnect_seconds))
+      throw InputError(fmt::format("--reconnect-timeout: expected a number of seconds ≥ 0, got '{}'", a->reconnect));
     if (a->threads >= 0) ov.threads = a->threads;
     if (seed->count() > 0) ov.seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));
     if (budget->count() > 0) ov.budget = integer_flag(a->budget, "--budget", 1);

@@ -20,6 +20,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
+#include "varbo/store_retry.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo/text.hpp"
 
@@ -136,24 +137,11 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
       });
 }
 
-/// Runs `f`, retrying with backoff (0.5 s doubling to 15 s) while the store's server cannot be reached, for at most
-/// `limit` seconds: a worker of a days-long study outlives a database restart or a network cut. Nothing is
-/// written by a failed attempt, so retrying is safe.
+/// store_retry.hpp's retry, stopped by a stop signal: a worker of a days-long study outlives a database restart or a
+/// network cut.
 template <class F>
 auto retrying(double limit, const std::string& worker, F&& f) -> decltype(f()) {
-  const auto start = std::chrono::steady_clock::now();
-  double wait = 0.5;
-  for (;;) {
-    try {
-      return f();
-    } catch (const StoreConnectionError& e) {
-      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      if (elapsed + wait > limit || g_stop.load()) throw;
-      log_warn("worker {}: {}; retrying in {:.1f} s", worker, e.what(), wait);
-      std::this_thread::sleep_for(std::chrono::duration<double>(wait));
-      wait = std::min(15.0, 2 * wait);
-    }
-  }
+  return retry_while_unreachable(limit, "worker " + worker, [] { return g_stop.load() != 0; }, std::forward<F>(f));
 }
 
 }  // namespace

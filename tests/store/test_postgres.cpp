@@ -457,3 +457,47 @@ TEST_CASE("postgresql: a serial result is one transaction; nothing locks the stu
     CHECK(r[0][2].as<int>() > 0);  // the algorithm saves states: the case the shortcut is about
   }
 }
+
+TEST_CASE("postgresql: `varbo run` rides out a server restart: every trial recorded once, the run lock taken again") {
+  // A server of this test's own (the shared one serves other tests meanwhile), restarted while the run works.
+  // Before, the first lost connection ended the run (exit 2) and left the trial being recorded pending.
+  const std::string dir = test::temp_folder("pg_run_restart");
+  const std::string server = test::source_path("tests/store/pg_server.sh");
+  const std::string state = dir + "/server";
+  REQUIRE(std::system((server + " start " + state + " >/dev/null").c_str()) == 0);
+  std::string base;
+  std::getline(std::ifstream(state + "/url"), base);
+  const std::string url = base + "&study=restart";
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: external, command: 'cat > /dev/null; sleep 0.3; echo 2.5', dim: 2}\n"
+                                      "budget: 10\nseed: 3\nalgorithm: {type: random}\n";
+  const std::string log = dir + "/run.log";
+  const pid_t run = test::spawn({VARBO_EXE, "run", dir + "/cfg.yaml", "-o", dir + "/out", "--study", url}, log);
+  auto finished = [&] {
+    try {
+      Index n = 0;
+      for (const auto& t : open_store(url)->trials()) n += t.finished() ? 1 : 0;
+      return n;
+    } catch (const InputError&) {
+      return Index{0};
+    }
+  };
+  for (int i = 0; i < 1200 && finished() < 3; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  CHECK(finished() >= 3);
+  // Down for 2 s: the run's transactions fail (retried with backoff), and so does taking the lock again.
+  CHECK(std::system((server + " restart " + state + " 2").c_str()) == 0);
+  const auto exit = test::wait_for(run);
+  const auto trials = open_store(url)->trials();
+  (void)std::system((server + " stop " + state).c_str());
+  CHECK(exit.exit_code == 0);
+  REQUIRE(trials.size() == 10);
+  std::set<std::int64_t> seqs;
+  for (const auto& t : trials) {
+    CHECK(t.state == TrialState::Complete);
+    seqs.insert(t.finish_seq);
+  }
+  CHECK(seqs.size() == 10);
+  const std::string text = test::slurp(log);
+  CAPTURE(text);
+  CHECK(text.find("the lock is taken again") != std::string::npos);
+  CHECK(text.find("10 (0 failed)") != std::string::npos);
+}

@@ -20,6 +20,15 @@ namespace {
 struct Session final : detail::DatabaseLockSession {
   pqxx::connection connection;
   explicit Session(const std::string& conninfo) : connection(conninfo) {}
+  bool alive() override {
+    try {
+      pqxx::nontransaction n(connection);
+      n.exec("SELECT 1");
+      return true;
+    } catch (const std::exception&) {  // a dropped session: the server has released its locks
+      return false;
+    }
+  }
 };
 
 // One 64-bit advisory key per study name; the prefix keeps it apart from the key that serializes table creation
@@ -67,6 +76,9 @@ std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::s
     throw InputError(fmt::format("the study {} is in use by another `varbo run` ({}); wait for it to end or stop it; "
                                  "only one run may drive a study (advisory lock on the database server)",
                                  address.display, owner));
+  } catch (const pqxx::broken_connection& e) {  // the server is unreachable: worth retrying (store_retry.hpp)
+    throw StoreConnectionError(fmt::format("{}: cannot take the run lock on the database server: {}",
+                                           address.display, postgres_cause(e)));
   } catch (const pqxx::failure& e) {
     throw InputError(fmt::format("{}: cannot take the run lock on the database server: {}", address.display,
                                  postgres_cause(e)));

@@ -45,6 +45,10 @@ class DatabaseRunLock {
   DatabaseRunLock& operator=(DatabaseRunLock&&) noexcept;
   ~DatabaseRunLock();  ///< closes the session, which releases the lock
 
+  /// Whether the lock's session still lives (one round trip): false after the server restarted or the connection
+  /// was cut, when the server has released the lock and another run could take it.
+  bool held() const;
+
   struct Session;
 
  private:

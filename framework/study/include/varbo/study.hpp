@@ -55,6 +55,9 @@ struct RunOverrides {
   std::optional<std::string> output;
   std::optional<Index> budget;
   bool progress = true;  ///< one line per trial on stderr
+  /// A study in a database: seconds to keep retrying (with backoff) a suggestion or a result whose connection was
+  /// lost (a server restart, a network cut) before the run stops; 0 = stop at once (store_retry.hpp).
+  double reconnect_seconds = 120;
   /// Study store of the run (default: <output>/study.db). An existing store is continued (its configuration
   /// must match); a new one is created.
   std::optional<std::string> store;

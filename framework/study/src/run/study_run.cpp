@@ -24,6 +24,7 @@
 #include "varbo/parallel.hpp"
 #include "varbo/run_lock.hpp"
 #include "varbo/store.hpp"
+#include "varbo/store_retry.hpp"
 #include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo/text.hpp"
@@ -289,8 +290,35 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     const int s = interrupt_signal();
     return s != 0 || !ov.stop_signal ? s : ov.stop_signal();
   };
+  // A database study outlives a server restart or a network cut: what a lost connection cut short is retried
+  // (store_retry.hpp), and the one-writer lock, whose session the server has then ended, is taken again. Before,
+  // the first lost connection ended the run, and the trial being recorded was left pending.
+  const bool database_study = database_lock.has_value();
+  auto retake_lock = [&] {
+    // (An attempt that failed to take it again left it empty: the next one tries again.)
+    if (!database_study || (database_lock && database_lock->held())) return;
+    database_lock.reset();
+    database_lock.emplace(DatabaseRunLock::acquire(store_path));  // another run took it meanwhile: an InputError
+    log_warn("run {}: the database session holding the study's run lock had ended; the lock is taken again",
+             study.output);
+  };
+  auto reconnecting = [&](auto&& f) {
+    return retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, [&] { return stop_requested() != 0; },
+                                   f, retake_lock);
+  };
   while (summary.evaluations < study.budget && !(stop_signal = stop_requested())) {
-    std::vector<TrialRecord> asked = st.ask(1);
+    if (database_study) reconnecting([&] { retake_lock(); });
+    bool ask_retried = false;
+    std::vector<TrialRecord> asked = reconnecting([&] {
+      if (ask_retried) {
+        // A suggestion whose COMMIT was cut may have landed: this run is the study's one writer, so a trial of its
+        // own pending now is that one (it would hold a budget slot for good), and is abandoned before asking again.
+        st.abandon_where([&](const TrialRecord& p) { return p.worker == me; },
+                         "suggested while the connection to the database server was lost");
+      }
+      ask_retried = true;
+      return st.ask(1);
+    });
     if (asked.empty()) {
       log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
       break;
@@ -315,7 +343,9 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     const double evaluation_seconds = seconds_since(t0);
     if ((stop_signal = stop_requested()) != 0 && !evaluation.ok) {
       const std::string reason = fmt::format("interrupted by {}", signal_name(stop_signal));
-      st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
+      retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, {}, [&] {
+        return st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
+      });
       log_warn("trial {} abandoned: {} ({})", trial_label(index, t.id), reason, safe_text(evaluation.error, 300));
       break;
     }
@@ -341,9 +371,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     // its result — perhaps an hour of robot time — would be gone with the error. Say it, with the command that
     // records it once the cause is fixed.
     auto say_result_lost = [&](const std::exception& e) {
+      // Quoted: a PostgreSQL URL's '&' would send the pasted command to the background.
       const std::string observe =
-          evaluation.ok ? fmt::format("varbo observe {} {} {}", store_path, t.id, exact(evaluation.cost))
-                        : fmt::format("varbo fail {} {} --reason 'recorded by hand'", store_path, t.id);
+          evaluation.ok ? fmt::format("varbo observe {} {} {}", shell_word(store_path), t.id, exact(evaluation.cost))
+                        : fmt::format("varbo fail {} {} --reason 'recorded by hand'", shell_word(store_path), t.id);
       std::string parts;
       for (const auto& [name, value] : evaluation.components) parts += fmt::format(" --component {}={}", name, exact(value));
       log_warn("trial {} ({}) was evaluated but its result could not be recorded: {}; it is pending in the store. "
@@ -351,6 +382,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
                 t.id, evaluation.ok ? "cost " + exact(evaluation.cost) : "failed", safe_text(e.what(), 300), observe,
                 evaluation.ok ? parts : std::string());
     };
+    try {
+    reconnecting([&] {
     try {
     st.transaction([&] {
       row.trial = st.record(t.id, evaluation, evaluation_seconds);
@@ -360,6 +393,21 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       summary.regret_recommended.reset();
       recommend();
       if (summary.regret_recommended) st.set_meta(regret_key(index), exact(*summary.regret_recommended));
+    });
+    } catch (const StoreConnectionError&) {
+      throw;  // retried
+    } catch (const InputError&) {
+      // After a retry: a COMMIT cut by the lost connection may have landed (the trial, its snapshot and regret
+      // together); then the trial is finished with this result and there is nothing left to write.
+      const auto stored = st.store().trial(t.id);
+      const bool landed = stored && stored->finish_seq >= 0 &&
+                          (evaluation.ok ? stored->state == TrialState::Complete && stored->cost == evaluation.cost
+                                         : stored->state == TrialState::Failed);
+      if (!landed) throw;
+      row.trial = *stored;
+      summary.regret_recommended.reset();
+      recommend();
+    }
     });
     } catch (const std::exception& e) {
       say_result_lost(e);

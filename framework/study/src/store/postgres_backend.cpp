@@ -91,5 +91,6 @@ DatabaseRunLock::DatabaseRunLock(std::unique_ptr<Session> session) : session_(st
 DatabaseRunLock::DatabaseRunLock(DatabaseRunLock&&) noexcept = default;
 DatabaseRunLock& DatabaseRunLock::operator=(DatabaseRunLock&&) noexcept = default;
 DatabaseRunLock::~DatabaseRunLock() = default;
+bool DatabaseRunLock::held() const { return session_ && session_->held && session_->held->alive(); }
 
 }  // namespace varbo

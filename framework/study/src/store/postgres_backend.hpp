@@ -15,10 +15,12 @@ namespace varbo::detail {
 /// A held `varbo run` lock on the database server (DatabaseRunLock): the lock lasts as long as this object.
 struct DatabaseLockSession {
   virtual ~DatabaseLockSession() = default;
+  /// Whether the session (and so the lock) still lives: one round trip.
+  virtual bool alive() = 0;
 };
 
 /// Bumped whenever this table changes: a library of another build is refused with a clear message.
-inline constexpr int kPostgresBackendAbi = 1;
+inline constexpr int kPostgresBackendAbi = 2;
 
 struct PostgresBackend {
   int abi = kPostgresBackendAbi;
