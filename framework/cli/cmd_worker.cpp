@@ -188,7 +188,11 @@ Runner add_worker(CLI::App& app) {
     const double reconnect = parse_number(a->reconnect, "--reconnect-timeout");
     if (!(reconnect >= 0) || !std::isfinite(reconnect))
       throw InputError(fmt::format("--reconnect-timeout: expected a number of seconds ≥ 0, got '{}'", a->reconnect));
-    Study study = Study::open(a->store);
+    // A worker started with its machine (a robot booting after a power cut) may come up before the database
+    // server: it waits for it as for an outage later on. A server that refuses it (password, no such database)
+    // is an error at once.
+    install_stop_handlers();
+    Study study = retrying(reconnect, "(starting)", [&] { return Study::open(a->store); });
     const std::string id = new_worker_id(a->host_id);
     study.set_worker(id);
     const ResolvedComponent& own = study.config().task;
@@ -203,7 +207,6 @@ Runner add_worker(CLI::App& app) {
       task = external_task(study, a->command, a->timeout.empty() ? 600.0 : parse_number(a->timeout, "--timeout"),
                            a->grace.empty() ? 0.2 : parse_number(a->grace, "--grace"));
     }
-    install_stop_handlers();
     const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
     study.heartbeat();
     auto beats = start_heartbeats(a->store, id, hb);

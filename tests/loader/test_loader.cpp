@@ -558,3 +558,39 @@ TEST_CASE("a project moved with its run folder and plugins resumes with the plug
   CHECK(Study::open((copy / "st.db").string()).ask(1).size() == 1);
   CHECK_THROWS(Study::open((after / "st.db").string()));
 }
+
+TEST_CASE("a third-party surrogate or acquisition with wrong gradient lengths is named before its outputs are used") {
+  // Before: release builds check no Eigen sizes, so the built-in acquisitions and optimizers read and wrote past the
+  // vectors' ends (garbage suggestions or a crash), naming nobody.
+  Registry r;
+  PluginLoader l(r);
+  l.load_default({fixture("good")});
+  auto fourth_ask = [&](const std::string& name, const std::string& algorithm) -> std::string {
+    const std::string folder = test::temp_folder("loader_bad_outputs_" + name);
+    const StudyConfig cfg = parse_study(
+        ConfigNode::parse("task: branin\nbudget: 6\nseed: 2\nthreads: 1\nalgorithm: " + algorithm + "\n", "<test>"), r);
+    Study s = Study::attach(folder + "/s.db", cfg, r);
+    for (int i = 0; i < 3; ++i) {  // the initial design asks nothing of the model
+      const auto t = s.ask();
+      REQUIRE(t.size() == 1);
+      s.tell(t[0].id, t[0].theta.squaredNorm());
+    }
+    try {
+      const auto t = s.ask();
+      CHECK(t.size() == 1);
+    } catch (const PluginCodeError& e) {
+      CHECK(s.store().pending_trials().empty());  // nothing stored
+      return e.what();
+    }
+    return "(no error)";
+  };
+  const std::string bo = "{type: bo, initial_points: 3, ";
+  CHECK(contains(fourth_ask("short", bo + "surrogate: {type: fixture_bad_model, mode: short_gradient}}"),
+                 "surrogate 'fixture/fixture_bad_model' returned a gradient d_mean of length 1, expected 2"));
+  CHECK(contains(fourth_ask("nan", bo + "surrogate: {type: fixture_bad_model, mode: nan_mean}}"),
+                 "surrogate 'fixture/fixture_bad_model' returned a non-finite mean"));
+  CHECK(contains(fourth_ask("long", bo + "acquisition: fixture_long_gradient}"),
+                 "acquisition 'fixture/fixture_long_gradient' returned a gradient of length 3 at a point of dimension 2"));
+  // The same model with right outputs runs.
+  CHECK(fourth_ask("ok", bo + "surrogate: {type: fixture_bad_model, mode: ok}}") == "(no error)");
+}

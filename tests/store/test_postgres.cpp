@@ -501,3 +501,41 @@ TEST_CASE("postgresql: `varbo run` rides out a server restart: every trial recor
   CHECK(text.find("the lock is taken again") != std::string::npos);
   CHECK(text.find("10 (0 failed)") != std::string::npos);
 }
+
+TEST_CASE("postgresql: a worker started while its server is down waits for it; a server that refuses it is an error") {
+  // A robot booting after a power cut can start its worker before the database server is up. Before, the worker
+  // exited 2 at once, whatever --reconnect-timeout said.
+  const std::string dir = test::temp_folder("pg_worker_start");
+  const std::string server = test::source_path("tests/store/pg_server.sh");
+  const std::string state = dir + "/server";
+  REQUIRE(std::system((server + " start " + state + " >/dev/null").c_str()) == 0);
+  std::string base, folder;
+  std::getline(std::ifstream(state + "/url"), base);
+  std::getline(std::ifstream(state + "/datadir"), folder);
+  const std::string url = base + "&study=late";
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: branin}\nbudget: 3\nseed: 3\nalgorithm: {type: random}\n";
+  REQUIRE(varbo_cli({"study", "create", url, dir + "/cfg.yaml"}, dir).first == 0);
+  // Down for 3 s; the worker starts once the socket is gone.
+  auto restart = std::async(std::launch::async, [&] { return std::system((server + " restart " + state + " 3").c_str()); });
+  for (int i = 0; i < 400 && std::filesystem::exists(folder + "/.s.PGSQL.5432"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  const std::string log = dir + "/worker.log";
+  const pid_t worker = test::spawn({VARBO_EXE, "worker", url, "--command", "cat > /dev/null; echo 1.5"}, log);
+  CHECK(restart.get() == 0);
+  const auto exit = test::wait_for(worker);
+  const auto trials = open_store(url)->trials();
+  (void)std::system((server + " stop " + state).c_str());
+  CHECK(exit.exit_code == 0);
+  CHECK(trials.size() == 3);
+  const std::string text = test::slurp(log);
+  CAPTURE(text);
+  CHECK(text.find("worker (starting):") != std::string::npos);
+  CHECK(text.find("retrying in") != std::string::npos);
+  // A wrong password is final: exit 2 at once, not two minutes of retries.
+  const std::string shared = test::pg_base_url();
+  const std::string wrong = "postgresql://varbo_pw:wrong@" + shared.substr(shared.find("@") + 1) + "&study=late";
+  const auto [code, out] = varbo_cli({"worker", wrong, "--command", "echo 1"}, dir);
+  CHECK(code == 2);
+  CHECK(out.find("password authentication failed") != std::string::npos);
+  CHECK(out.find("retrying in") == std::string::npos);
+}

@@ -133,6 +133,16 @@ std::string postgres_cause(const std::exception& e) {
   return m;
 }
 
+bool postgres_refused(const std::exception& e) {
+  const std::string m = e.what();
+  // libpq has no error codes for a failed connection, only the server's message. A server starting up or shutting
+  // down ("the database system is starting up") is transient and stays retried.
+  for (const char* refusal : {"authentication failed", "does not exist", "no pg_hba.conf entry", "permission denied",
+                              "password is required", "not permitted to log in", "too many connections for role"})
+    if (m.find(refusal) != std::string::npos) return true;
+  return false;
+}
+
 namespace {
 
 class PostgresStore final : public StudyStore {
@@ -456,7 +466,9 @@ class PostgresStore final : public StudyStore {
         n.exec(kQuietNotices);
       }
     } catch (const pqxx::broken_connection& e) {
-      throw StoreConnectionError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
+      const std::string msg = fmt::format("{}: cannot connect to the database server: {}", location(), cause(e));
+      if (postgres_refused(e)) throw InputError(msg);  // not worth retrying: the server said no
+      throw StoreConnectionError(msg);
     } catch (const pqxx::failure& e) {
       throw InputError(fmt::format("{}: cannot connect to the database server: {}", location(), cause(e)));
     }

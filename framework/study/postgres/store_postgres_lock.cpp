@@ -77,6 +77,9 @@ std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::s
                                  "only one run may drive a study (advisory lock on the database server)",
                                  address.display, owner));
   } catch (const pqxx::broken_connection& e) {  // the server is unreachable: worth retrying (store_retry.hpp)
+    if (postgres_refused(e))
+      throw InputError(fmt::format("{}: cannot take the run lock on the database server: {}", address.display,
+                                   postgres_cause(e)));
     throw StoreConnectionError(fmt::format("{}: cannot take the run lock on the database server: {}",
                                            address.display, postgres_cause(e)));
   } catch (const pqxx::failure& e) {

@@ -2,6 +2,7 @@
 // recommendation. Attempts and the final refinement: bo_attempts.cpp; rules that end an attempt early:
 // bo_restart_rules.cpp; options: bo_options.cpp; saved state: bo_state.cpp.
 #include "bayesian_optimization.hpp"
+#include "component_outputs.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -38,12 +39,14 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   const Registry& r = *ctx.registry;
   design_sampler_ = r.create<Sampler>(o.component("initial_design"), ctx);
   surrogate_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+  surrogate_name_ = o.component("surrogate").info->full_name();
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
   optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
   // The recommender's own instance: an optimizer may carry state from call to call (hit_and_run's chains), and
   // recommending must change no trial, also when a resumed run replays the trials without recommending.
   recommend_optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
   refine_acquisition_ = r.create<Acquisition>(o.component("refine_acquisition"), ctx);
+  refine_acquisition_name_ = o.component("refine_acquisition").info->full_name();
   std::shared_ptr<Acquisition> default_acq = r.create<Acquisition>(o.component("acquisition"), ctx);
   const BoSettings settings = bo_options().read(o);
   const double epsilon = settings.epsilon;
@@ -81,6 +84,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                                                 : default_acq;
       p.name = p.random ? "random" : (po.given("acquisition") ? po.component("acquisition").info->name
                                                               : o.component("acquisition").info->name);
+      p.acquisition_name = po.given("acquisition") ? po.component("acquisition").info->full_name()
+                                                   : o.component("acquisition").info->full_name();
       if (p.evaluations == 0 && i + 1 < list.size())
         item.child("evaluations").fail("only the last phase may run until the budget is spent (evaluations: 0)");
       phases_.push_back(std::move(p));
@@ -109,6 +114,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
     p.acquisition = default_acq;
     p.epsilon = epsilon;
     p.name = o.component("acquisition").info->name;
+    p.acquisition_name = o.component("acquisition").info->full_name();
     phases_.push_back(std::move(p));
   }
 
@@ -411,7 +417,17 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   AcquisitionContext actx{surrogate_.get(), model_data, k, &arng};
   // The final refinement exploits: by default the posterior mean's minimum in the small box (κ = 0).
   Acquisition& base = refining_ ? *refine_acquisition_ : *phase.acquisition;
+  // Sizes and values checked at one point before the acquisition and its optimizer use them in bulk (a wrong
+  // gradient length was undefined behaviour there): the surrogate before the acquisition reads its gradients, the
+  // acquisition before the failure and pending wrappers do.
+  const Vec probe = Vec::Constant(dim_, 0.5);
+  if (surrogate_->ready()) {
+    check_surrogate_outputs(*surrogate_, surrogate_name_, probe, dim_);
+    if (const Surrogate& scored = surrogate_->acquisition_model(); &scored != surrogate_.get())
+      check_surrogate_outputs(scored, surrogate_name_ + " (its acquisition model)", probe, dim_);
+  }
   base.prepare(actx);
+  check_acquisition_outputs(base, refining_ ? refine_acquisition_name_ : phase.acquisition_name, probe, dim_);
   // With failures seen, maximize the acquisition weighted by P(success) (failure_aware.hpp). The final refinement
   // around the incumbent (a success) only excludes likely failures: weighting pulled its points away from a
   // failure boundary beside the minimizer (docs/defaults.md).

@@ -25,6 +25,7 @@ struct Phase {
   Index evaluations = 0;  ///< 0 = until the budget is spent
   bool random = false;
   std::shared_ptr<Acquisition> acquisition;
+  std::string acquisition_name;  ///< plugin/name, for messages about what it returns
   double epsilon = 0;
 };
 
@@ -128,6 +129,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   bool round_in_model_ = true;  ///< `discrete: transform` (else relax)
   std::unique_ptr<Sampler> design_sampler_;
   std::unique_ptr<Surrogate> surrogate_;
+  std::string surrogate_name_;  ///< plugin/name, for messages about what it returns (component_outputs.hpp)
+  std::string refine_acquisition_name_;
   std::unique_ptr<RegionConstraint> region_;
   std::unique_ptr<Optimizer> optimizer_;
   std::unique_ptr<Optimizer> recommend_optimizer_;  ///< the recommender's own (see the constructor)

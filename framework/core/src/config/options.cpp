@@ -53,7 +53,7 @@ std::string type_name(OptionType type) {
     case OptionType::Choice: return "choice";
     case OptionType::RealList: return "list of reals";
     case OptionType::Component: return "component";
-    case OptionType::Node: return "map";
+    case OptionType::Node: return "yaml";  // a map or a list (`phases:` is a list)
   }
   return "?";
 }

@@ -19,4 +19,9 @@ PostgresAddress parse_postgres_address(const std::string& url);
 /// A libpqxx error's message for ours: one line, without libpq's "FATAL:  " / "ERROR:  " prefixes.
 std::string postgres_cause(const std::exception& e);
 
+/// Whether a failed connection attempt was refused by a server that answered — wrong password, no such role or
+/// database, no pg_hba.conf entry, no permission — rather than a server that is down or unreachable. A refusal is
+/// final (an InputError); only an unreachable server is worth retrying (StoreConnectionError, store_retry.hpp).
+bool postgres_refused(const std::exception& e);
+
 }  // namespace varbo

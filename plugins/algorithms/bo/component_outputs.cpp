@@ -1,0 +1,47 @@
+#include "component_outputs.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace varbo::bo {
+
+void check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim) {
+  const Prediction p = model.predict(x, true);
+  auto fail = [&](const std::string& what) {
+    throw std::runtime_error(fmt::format("surrogate '{}' returned {} (a prediction at a point of dimension {}); the "
+                                         "surrogate's predict() is wrong",
+                                         model_name, what, dim));
+  };
+  if (!std::isfinite(p.mean)) fail(fmt::format("a non-finite mean {}", p.mean));
+  if (!(p.latent_var >= 0) || !std::isfinite(p.latent_var))
+    fail(fmt::format("a latent variance of {} (expected a finite number ≥ 0)", p.latent_var));
+  const struct {
+    const char* name;
+    const Vec& v;
+  } gradients[] = {{"d_mean", p.d_mean},
+                   {"d_latent_var", p.d_latent_var},
+                   {"d_log_noise_mean", p.d_log_noise_mean},
+                   {"d_log_noise_var", p.d_log_noise_var}};
+  // A model without gradients leaves all four empty (has_gradient() false); then the acquisition optimizers work
+  // without them. Any other length is a bug, and so is a mix of filled and empty ones.
+  const bool none = p.d_mean.size() == 0;
+  for (const auto& g : gradients)
+    if (g.v.size() != (none ? 0 : dim))
+      fail(fmt::format("a gradient {} of length {}, expected {}{}", g.name, g.v.size(), dim,
+                       none ? " (d_mean is empty: no gradients at all)" : ""));
+}
+
+void check_acquisition_outputs(const Acquisition& acquisition, const std::string& acquisition_name, const Vec& x,
+                               Index dim) {
+  if (!acquisition.has_gradient()) return;
+  Vec grad = Vec::Zero(dim);
+  acquisition.evaluate(x, &grad);
+  if (grad.size() != dim)
+    throw std::runtime_error(fmt::format("acquisition '{}' returned a gradient of length {} at a point of dimension "
+                                         "{}; its evaluate() is wrong (or it should declare has_gradient() false)",
+                                         acquisition_name, grad.size(), dim));
+}
+
+}  // namespace varbo::bo

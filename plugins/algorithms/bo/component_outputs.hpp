@@ -1,0 +1,22 @@
+#pragma once
+// What a surrogate and an acquisition hand back is checked at one point per trial before it is used in bulk.
+// A third-party model returning a gradient of the wrong length made Eigen (release builds check no sizes) read
+// and write past a vector's end inside the built-in acquisitions and optimizers: garbage suggestions or a crash,
+// never a message naming the component. One extra prediction per trial costs nothing beside a fit.
+#include <string>
+#include "varbo/acquisition.hpp"
+#include "varbo/surrogate.hpp"
+
+namespace varbo::bo {
+
+/// Predicts with `model` at x (unit cube, dimension `dim`) with gradients and checks the Prediction: finite
+/// mean, latent variance ≥ 0, and every gradient of length `dim` (or all empty: a model without gradients).
+/// Throws std::runtime_error naming `model_name` and what is wrong.
+void check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim);
+
+/// Evaluates the prepared `acquisition` at x with a gradient and checks its length (`dim`, or empty when the
+/// acquisition declares none). Throws std::runtime_error naming `acquisition_name`.
+void check_acquisition_outputs(const Acquisition& acquisition, const std::string& acquisition_name, const Vec& x,
+                               Index dim);
+
+}  // namespace varbo::bo
