@@ -409,6 +409,8 @@ TEST_CASE("bad-input corpus: clear errors, no crash, no hang, no partial state")
       selected_cases.push_back(std::move(c));
     }
   }
+  // A VARBO_CASE that matches nothing ran nothing and passed: a typo looked like a fixed case.
+  if (only && selected_cases.empty()) FAIL_CHECK("VARBO_CASE=" << std::string(only) << " matches no case");
   // Cases are independent (own folder, own process group): a few at a time, as most of them wait on a child.
   const int jobs = std::max(1, std::atoi(std::getenv("VARBO_CASE_JOBS") ? std::getenv("VARBO_CASE_JOBS") : "8"));
   std::vector<Result> results(selected_cases.size());
