@@ -290,3 +290,32 @@ TEST_CASE("varbo select and plot --slice on a run folder with typed parameters")
   CHECK(st == 2);
   CHECK(no_slice.find("--slice NAME") != std::string::npos);
 }
+
+TEST_CASE("bo does not suggest a category again where every trial failed") {
+  // A rig that fails for one controller type (category `a`) whatever the integer: before, the acquisition's
+  // optimum in the relaxed coordinates passed the P(success) check between two categories and was then rounded to
+  // `a`, so (a, 2) failed at trials 4, 13, 17, 18 and 19 (red team, session 22). P(success) is judged at the
+  // point evaluated now.
+  set_log_level(LogLevel::Error);
+  const std::string dir = test::temp_folder("typed_failures");
+  const std::string yaml =
+      "task: {type: external, command: \"echo 1\"}\nbudget: 20\nseed: 1\nthreads: 1\nstop_after_failures: 0\n"
+      "parameters:\n  - {name: c, type: categorical, choices: [a, b, c]}\n  - {name: n, type: int, low: 1, high: 3}\n";
+  Study s = Study::create_from_yaml(dir + "/s.db", yaml);
+  const Index design = 10;  // bo's initial design for d = 4 encoded coordinates: 2 (d + 1)
+  Index failed_after_design = 0, asked = 0;
+  for (int k = 0; k < 20; ++k) {
+    const auto t = s.ask(1);
+    REQUIRE(t.size() == 1);
+    const Params p = s.params(t[0].theta);
+    if (p.label("c") == "a") {
+      s.fail(t[0].id, "the rig fell");
+      if (asked >= design) ++failed_after_design;
+    } else {
+      const double n = static_cast<double>(p.integer("n"));
+      s.tell(t[0].id, (n - 2) * (n - 2) + (p.label("c") == "b" ? 1.0 : 0.5));
+    }
+    ++asked;
+  }
+  CHECK(failed_after_design == 0);
+}

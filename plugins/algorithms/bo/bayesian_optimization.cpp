@@ -180,6 +180,11 @@ std::optional<Vec> BayesianOptimization::best_feasible(const DifferentiableFunct
   return best;
 }
 
+Vec BayesianOptimization::evaluated_point(const Vec& x) const {
+  const Vec c = Box::unit(dim_).clamp(x);
+  return space_ ? space_->admissible(c) : c;
+}
+
 Vec BayesianOptimization::random_point(Rng& rng) const {
   Mat m = design_sampler_->sample(*region_, 1, rng);
   if (m.rows() == 0) m = design_sampler_->sample(BoxRegion(Box::unit(dim_)), 1, rng);
@@ -225,7 +230,7 @@ Vec BayesianOptimization::random_point_avoiding_failures(Rng& rng) const {
   double best_p = -1;
   for (int i = 0; i < 64; ++i) {
     Vec x = random_point(rng);
-    const double p = feasibility_->probability(x);
+    const double p = feasibility_->probability(evaluated_point(x));
     if (p >= exclusion_threshold_) return x;
     if (p > best_p) {
       best_p = p;
@@ -507,10 +512,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "random";
     return s;
   }
-  if (feasible && feasibility_->probability(Box::unit(dim_).clamp(res.x)) < p_min) {
-    // Every start ended where failure is likely: never suggest it; a random point where success is likely.
+  if (feasible && feasibility_->probability(evaluated_point(res.x)) < p_min) {
+    // Every start ended where failure is likely (judged at the point that would be evaluated: with typed
+    // parameters its rounding): never suggest it; a random point where success is likely.
     log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < min_probability; choosing at random",
-             k, feasibility_->probability(Box::unit(dim_).clamp(res.x)));
+             k, feasibility_->probability(evaluated_point(res.x)));
     s.x = random_point_avoiding_failures(orng);
     s.phase = "random";
     return s;

@@ -112,6 +112,10 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// A random point; with the failure model on, the first of up to 64 draws with P(success) ≥ min_probability
   /// (else the likeliest draw), so random and ε-random trials avoid known failure regions too.
   Vec random_point_avoiding_failures(Rng& rng) const;
+  /// The point a suggestion x (unit cube) becomes: clamped and, with typed parameters, admissible (integers and
+  /// categories rounded). P(success) is judged there: the relaxation between two categories could pass where the
+  /// category evaluated had failed every time.
+  Vec evaluated_point(const Vec& x) const;
   /// Of 64 random points with P(success) ≥ min_p, the one farthest from the nearest of `away` (a design's
   /// replacement for a point where failure is likely or was seen: it keeps the design space-filling and away from
   /// earlier minima); the likeliest if none qualifies.
