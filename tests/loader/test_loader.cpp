@@ -587,8 +587,8 @@ TEST_CASE("a third-party surrogate or acquisition with wrong gradient lengths is
   const std::string bo = "{type: bo, initial_points: 3, ";
   CHECK(contains(fourth_ask("short", bo + "surrogate: {type: fixture_bad_model, mode: short_gradient}}"),
                  "surrogate 'fixture/fixture_bad_model' returned a gradient d_mean of length 1, expected 2"));
-  CHECK(contains(fourth_ask("nan", bo + "surrogate: {type: fixture_bad_model, mode: nan_mean}}"),
-                 "surrogate 'fixture/fixture_bad_model' returned a non-finite mean"));
+  // A NaN mean is numerical trouble, not a size bug: survived (the acquisition optimizer's fallback), no error.
+  CHECK(fourth_ask("nan", bo + "surrogate: {type: fixture_bad_model, mode: nan_mean}}") == "(no error)");
   CHECK(contains(fourth_ask("long", bo + "acquisition: fixture_long_gradient}"),
                  "acquisition 'fixture/fixture_long_gradient' returned a gradient of length 3 at a point of dimension 2"));
   // The same model with right outputs runs.

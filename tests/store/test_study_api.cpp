@@ -305,3 +305,21 @@ TEST_CASE("studies reopened in parallel threads share the process's plugin regis
     for (std::size_t k = 0; k < serial[i].size(); ++k) CHECK(parallel[i][k] == serial[i][k]);
   }
 }
+
+TEST_CASE("select on a study whose costs overflow the model answers the best observed trial, not a crash") {
+  // A cost beyond ~1e154 (a diverged simulation's finite cost) gives the model infinite variances and NaN means at
+  // every point; find_incumbent then had no index (-1), and select indexed the trials with it: a segfault in the
+  // Python binding, or an empty θ (red team, session 22).
+  const std::string dir = test::temp_folder("study_select_overflow");
+  Study s = Study::create_from_yaml(dir + "/s.db", "task: {type: branin}\nbudget: 10\nseed: 2\nalgorithm: {type: bo}\n");
+  const std::int64_t low = s.tell_point((Vec(2) << 1.0, 5.0).finished(), 1.0);
+  s.tell_point((Vec(2) << 2.0, 5.0).finished(), 1e155);
+  s.tell_point((Vec(2) << 3.0, 5.0).finished(), 2.0);
+  for (const double kappa : {0.0, 1.0}) {
+    const auto sel = s.select(kappa);
+    REQUIRE(sel);
+    CHECK(sel->trial_id == low);
+    REQUIRE(sel->theta.size() == 2);
+    CHECK(sel->theta[0] == 1.0);
+  }
+}

@@ -9,8 +9,8 @@
 
 namespace varbo::bo {
 
-/// Predicts with `model` at x (unit cube, dimension `dim`) with gradients and checks the Prediction: finite
-/// mean, latent variance ≥ 0, and every gradient of length `dim` (or all empty: a model without gradients).
+/// Predicts with `model` at x (unit cube, dimension `dim`) with gradients and checks the Prediction's gradients:
+/// each of length `dim` (or all empty: a model without gradients).
 /// Throws std::runtime_error naming `model_name` and what is wrong.
 void check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim);
 

@@ -67,6 +67,14 @@ Incumbent find_incumbent(const Surrogate& model, const Dataset& data, double kap
       best = Incumbent{i, p.mean, s};
     }
   }
+  if (best.index < 0 && data.size() > 0) {
+    // No finite value at any point (a model overflowed by costs beyond ~1e154, whose squares a double cannot
+    // hold): the lowest observation, as it is. An index of -1 reached callers that index the data with it
+    // (Study::select segfaulted, or answered an empty θ).
+    Index i = 0;
+    data.y.minCoeff(&i);
+    best = Incumbent{i, data.y[i], 0.0};
+  }
   return best;
 }
 
