@@ -323,3 +323,39 @@ TEST_CASE("select on a study whose costs overflow the model answers the best obs
     CHECK(sel->theta[0] == 1.0);
   }
 }
+
+TEST_CASE("a process's own ask does not abandon its own pending trial as a silent worker's") {
+  // One heartbeat, then a trial longer than heartbeat_timeout while the same Study asks for the next: before, its
+  // own ask abandoned its own running trial ("worker host:pid silent for 3 s") and the θ could be handed out again.
+  const std::string dir = test::temp_folder("study_own_heartbeat");
+  Study s = Study::create_from_yaml(dir + "/s.db", "task: {type: branin}\nbudget: 6\nseed: 2\nheartbeat_timeout: 0.2\n"
+                                                   "algorithm: {type: random}\n");
+  s.heartbeat();
+  const auto first = s.ask(1);
+  REQUIRE(first.size() == 1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  CHECK(s.ask(1).size() == 1);
+  CHECK(s.store().trial(first[0].id)->state == TrialState::Pending);
+  // Another process's view: the worker is silent, its trial abandoned at that process's ask.
+  Study other = Study::open(dir + "/s.db");
+  other.set_worker("elsewhere:1");
+  CHECK(other.ask(1).size() == 1);
+  CHECK(other.store().trial(first[0].id)->state == TrialState::Abandoned);
+}
+
+TEST_CASE("a task's component named like a column or a parameter is not recorded; the cost and the others are") {
+  // A command answering {"cost": 2, "components": {"cost": 3, "state": 1}} made `varbo export --csv` write two
+  // `cost` and two `state` columns, and csv readers took the component for the trial's cost (red team, session 22).
+  const std::string dir = test::temp_folder("study_component_names");
+  Study s = Study::create_from_yaml(dir + "/s.db", kRandomYaml);
+  const auto t = s.ask(1).at(0);
+  Evaluation e;
+  e.cost = 2.0;
+  e.components = {{"cost", 3.0}, {"state", 1.0}, {"x1", 4.0}, {"energy", 0.5}};
+  s.record(t.id, e, 0.1);
+  const auto stored = s.store().trial(t.id);
+  REQUIRE(stored);
+  CHECK(stored->cost == 2.0);
+  REQUIRE(stored->components.size() == 1);
+  CHECK(stored->components[0].first == "energy");
+}

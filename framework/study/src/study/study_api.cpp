@@ -388,7 +388,20 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
                  m.store->location(), id, exact(ev.cost));
       });
     }
-    t.components = ev.components;
+    // A component named like a parameter or a column of the trials table (a command's answer {"cost": 2,
+    // "components": {"cost": 3}}) made a second column of that name in the exports, which csv readers took for
+    // the first (the trial's cost read as 3). Tell refuses it; a task's result keeps its cost and loses only that
+    // component, said each time (red team, session 22).
+    t.components.clear();
+    for (const auto& [name, v] : ev.components) {
+      if (names_a_column(name, m.domain.names)) {
+        log_warn("{}: trial {}: component '{}' not recorded: it names a parameter or a column of the trials table "
+                 "(index, id, state, phase, cost, ok, error, worker, the timings); rename it where the task reports it",
+                 m.store->location(), id, name);
+        continue;
+      }
+      t.components.emplace_back(name, v);
+    }
     t.noiseless_cost = ev.noiseless_cost;
     t.error = ev.error;
     t.finished_at = unix_time();

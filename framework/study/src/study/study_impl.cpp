@@ -100,7 +100,9 @@ void Study::Impl::abandon_silent_workers() {
   const double now = unix_time();
   std::vector<WorkerRecord> silent;
   for (const auto& w : store->workers())
-    if (w.state == "running" && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
+    // Not this process's own: it is asking, so it is alive (a Python loop that sent one heartbeat and then asked
+    // while its first trial ran had that trial abandoned by its own ask; red team, session 22).
+    if (w.state == "running" && w.id != worker && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
   if (silent.empty()) return;
   for (TrialRecord t : store->pending_trials()) {
     for (const auto& w : silent) {
