@@ -8,6 +8,7 @@
 #include <signal.h>
 
 #include <cmath>
+#include <filesystem>
 #include <memory>
 
 #include "common.hpp"
@@ -15,6 +16,7 @@
 #include "varbo/host_task.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/loader.hpp"
+#include "varbo/store.hpp"
 #include "varbo/study.hpp"
 
 namespace varbo::python {
@@ -188,6 +190,7 @@ void bind_minimize(py::module_& m) {
           }
         };
         std::optional<RunSummary> summary;
+        std::string given_output;  // the run folder as the caller named it (relative paths stay relative)
         {
           py::gil_scoped_release release;
           ScopedObjective scope(&objective);
@@ -212,6 +215,11 @@ void bind_minimize(py::module_& m) {
             space = resolve_study_space(study, *task, domain);
             names = domain.names;
           }
+          // The objective may change the working directory (os.chdir): the run folder is the one meant when
+          // minimize was called. Before, a relative output was looked for again after the last trial, from the new
+          // directory ("run1/study.db: no such study file"), and the result and summary.json were lost.
+          given_output = ov.output ? *ov.output : study.output;
+          if (!is_database_url(given_output)) ov.output = std::filesystem::absolute(given_output).string();
           try {
             summary = run_study(study, registry, ov);
           } catch (const Interrupted&) {
@@ -224,6 +232,7 @@ void bind_minimize(py::module_& m) {
           throw py::error_already_set();
         }
         py::dict out = summary_dict(*summary);
+        out["output"] = given_output;
         auto typed = [&](const std::optional<Vec>& x) {
           return x ? py::object(params_of(*x, names, space.get())) : py::object(py::none());
         };

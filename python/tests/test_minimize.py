@@ -216,3 +216,28 @@ def test_study_open_on_a_minimize_run(tmp_path):
     (t,) = s.ask()  # the budget is 8: three more
     s.tell(t, 0.5)
     assert len(s.trials(as_frame=False)) == 6
+
+
+def test_objective_changing_directory_keeps_the_run(tmp_path, monkeypatch):
+    """An objective that calls os.chdir: the relative run folder is the one meant when minimize was called.
+    Before, every trial ran, then minimize raised "run1/study.db: no such study file" and summary.json was lost."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "elsewhere").mkdir()
+
+    def f(p):
+        os.chdir(tmp_path / "elsewhere")
+        return p["x"] ** 2
+
+    res = varbo.minimize(f, {"x": (-1, 1)}, budget=4, seed=1, output="run1")
+    assert res.evaluations == 4 and res.output == "run1"
+    assert (tmp_path / "run1" / "summary.json").exists()
+    assert not (tmp_path / "elsewhere" / "run1").exists()
+
+
+def test_output_naming_a_study_address_is_refused_before_anything_is_made(tmp_path, monkeypatch):
+    """Before, a folder tree named after the URL was made, then "study name 'gait/study.db'" was refused."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(varbo.InputError, match="is a study address, not a run folder"):
+        varbo.minimize(lambda p: p["x"] ** 2, {"x": (-1, 1)}, budget=3,
+                       output="postgresql://lab@db/varbo?study=gait")
+    assert list(tmp_path.iterdir()) == []

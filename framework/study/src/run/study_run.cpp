@@ -130,6 +130,13 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
 
   // Every configuration error surfaces before anything is created (no empty run folder left behind).
   Study::validate(study, registry);
+  if (is_database_url(study.output))
+    // It made a folder tree named after the URL ("postgresql:/varbo@/db?host=…&study=gait/") and then refused the
+    // "study name 'gait/study.db'".
+    throw InputError(fmt::format("output '{}' is a study address, not a run folder: the run folder holds trials.csv, "
+                                 "summary.json and the plots; a study in a database is given with `--study URL` "
+                                 "(Python: varbo.Study with a URL)",
+                                 study.output));
 
   // The study store: every trial is committed there before it appears in trials.csv, so a killed run can be
   // continued with --resume (docs/studies.md).
