@@ -319,3 +319,28 @@ TEST_CASE("bo does not suggest a category again where every trial failed") {
   }
   CHECK(failed_after_design == 0);
 }
+
+TEST_CASE("the initial design and random search spread inside linear constraints, not on their boundary") {
+  // Drawn over the whole cube, the infeasible points were projected onto the constraint: with a + b <= 0.3 (4.5 % of
+  // the square) all 10 of bo's design points and 30 of 30 random points had a + b = 0.3 (red team, session 22).
+  set_log_level(LogLevel::Error);
+  const std::string dir = test::temp_folder("typed_constraint_spread");
+  const std::string space =
+      "parameters:\n  - {name: a, type: real, low: 0, high: 1}\n  - {name: b, type: real, low: 0, high: 1}\n"
+      "constraints:\n  - \"a + b <= 0.3\"\n";
+  for (const std::string algorithm : {"{type: bo, initial_points: 10}", "{type: random}", "{type: random, sampler: sobol}"}) {
+    CAPTURE(algorithm);
+    const std::string yaml = "task: {type: external, command: \"echo 1\"}\nbudget: 10\nseed: 3\nalgorithm: " + algorithm +
+                             "\n" + space;
+    Study s = Study::create_from_yaml(dir + "/s" + std::to_string(std::hash<std::string>{}(algorithm)) + ".db", yaml);
+    int on_boundary = 0, inside = 0;
+    for (const auto& t : s.ask(10)) {
+      const double sum = t.theta[0] + t.theta[1];
+      CHECK(sum <= 0.3 + 1e-12);
+      if (sum > 0.3 - 1e-6) ++on_boundary;
+      else ++inside;
+    }
+    CHECK(inside == 10);
+    CHECK(on_boundary == 0);
+  }
+}

@@ -118,11 +118,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
     phases_.push_back(std::move(p));
   }
 
-  Rng drng = rng_.stream(kDesign);
-  design_ = initial_points_ > 0 ? design_sampler_->sample(BoxRegion(Box::unit(dim_)), initial_points_, drng)
-                                : Mat(0, dim_);
-  if (ctx.initial_point && design_.rows() > 0) design_.row(0) = ctx.initial_point->transpose();
-  if (replicate_design_ && design_.rows() >= 2) design_.row(design_.rows() - 1) = design_.row(0);
+  if (ctx.initial_point) initial_point_ = *ctx.initial_point;
+  draw_initial_design();
   data_ = Dataset::empty(dim_);
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
@@ -136,6 +133,7 @@ void BayesianOptimization::set_search_space(SharedSpace space) {
   // Typed parameters (docs/search_space.md): the surrogate sees integers and categories rounded (unless
   // `discrete: relax`), the region keeps to the linear constraints; neither wrapper is there for a plain box.
   space_ = std::move(space);
+  if (space_->has_constraints()) draw_initial_design();  // inside the constraints now that they are known
   const SharedSpace model_space = round_in_model_ ? space_ : nullptr;
   surrogate_ = respect_types(std::move(surrogate_), model_space);
   region_ = respect_constraints(std::move(region_), space_);
@@ -183,6 +181,26 @@ std::optional<Vec> BayesianOptimization::best_feasible(const DifferentiableFunct
 Vec BayesianOptimization::evaluated_point(const Vec& x) const {
   const Vec c = Box::unit(dim_).clamp(x);
   return space_ ? space_->admissible(c) : c;
+}
+
+void BayesianOptimization::draw_initial_design() {
+  Rng drng = rng_.stream(kDesign);
+  design_ = initial_points_ > 0 ? design_sample(initial_points_, drng) : Mat(0, dim_);
+  if (initial_point_ && design_.rows() > 0) design_.row(0) = initial_point_->transpose();
+  if (replicate_design_ && design_.rows() >= 2) design_.row(design_.rows() - 1) = design_.row(0);
+}
+
+Mat BayesianOptimization::design_sample(Index n, Rng& rng) const {
+  if (!space_ || !space_->has_constraints()) return design_sampler_->sample(BoxRegion(Box::unit(dim_)), n, rng);
+  const auto feasible = respect_constraints(std::make_unique<BoxRegion>(Box::unit(dim_)), space_);
+  Mat m = design_sampler_->sample(*feasible, n, rng);
+  if (m.rows() < n) {
+    const Mat rest = design_sampler_->sample(BoxRegion(Box::unit(dim_)), n - m.rows(), rng);
+    Mat all(n, dim_);
+    all << m, rest;
+    m = all;
+  }
+  return m;
 }
 
 Vec BayesianOptimization::random_point(Rng& rng) const {

@@ -56,6 +56,13 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
  private:
   const Phase& phase_at(Index evaluation) const;
   Vec random_point(Rng& rng) const;
+  /// n design points from the design sampler over the unit cube, inside the study's linear constraints when it has
+  /// any (rejection; topped up with points of the whole cube, which the study repairs, if the feasible set is too
+  /// small to find them). Before, designs were drawn over the whole cube and the infeasible points projected onto
+  /// the constraint's boundary: with `a + b <= 0.3` every design point lay on that line (red team, session 22).
+  Mat design_sample(Index n, Rng& rng) const;
+  /// The initial design: `initial_points_` points from kDesign's stream, the initial point first.
+  void draw_initial_design();
   Mat starts_near(const Mat& seeds, Rng& rng) const;
   /// The start inside the region with the highest finite f (the first inside one if none is finite).
   std::optional<Vec> best_feasible(const DifferentiableFunction& f, const Mat& starts) const;
@@ -140,6 +147,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::unique_ptr<Optimizer> recommend_optimizer_;  ///< the recommender's own (see the constructor)
   std::vector<Phase> phases_;
   Index initial_points_ = 0;
+  std::optional<Vec> initial_point_;  ///< BuildContext::initial_point: the design's first point
   Index restart_points_ = 0;  ///< see BoSettings::restart_points
   bool restart_away_ = false;  ///< restart_design: away
   bool replicate_design_ = false;  ///< the designs' last point repeats their first

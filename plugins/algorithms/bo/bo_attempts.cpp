@@ -33,7 +33,7 @@ void BayesianOptimization::begin_fresh_attempt(Index k, int fresh_starts, const 
 Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   Rng drng = rng_.stream(kFreshDesign, static_cast<std::uint64_t>(fresh_starts_));
   const Mat design = restart_away_ ? design_away_from_minima(drng)
-                                   : design_sampler_->sample(BoxRegion(Box::unit(dim_)), restart_points_, drng);
+                                   : design_sample(restart_points_, drng);
   const Index last = design.rows() - 1, row = k - fresh_trial_;
   const Vec x = design.row(replicate_design_ && last >= 1 && row == last ? 0 : row).transpose();
   // A design point where failure is likely (the failure model of every trial so far) is replaced by a point where
@@ -100,7 +100,7 @@ Mat BayesianOptimization::design_away_from_minima(Rng& rng) const {
   Mat best;
   double best_score = -1;
   for (int c = 0; c < 16; ++c) {
-    Mat design = design_sampler_->sample(BoxRegion(Box::unit(dim_)), restart_points_, rng);
+    Mat design = design_sample(restart_points_, rng);
     double score = std::numeric_limits<double>::infinity();
     for (Index i = 0; i < design.rows(); ++i)
       for (const Vec& m : minima) score = std::min(score, (design.row(i).transpose() - m).norm());

@@ -3,11 +3,12 @@
 #include <memory>
 
 #include "varbo/registry.hpp"
+#include "varbo/search_space.hpp"
 #include "varbo/state.hpp"
 
 namespace varbo::random_search {
 
-class RandomSearch final : public Algorithm, public AlgorithmState {
+class RandomSearch final : public Algorithm, public AlgorithmState, public SpaceAware {
  public:
   /// Points are drawn a block at a time when first asked for, so a huge budget costs no memory up front.
   static constexpr Index kBlock = 4096;
@@ -21,6 +22,9 @@ class RandomSearch final : public Algorithm, public AlgorithmState {
   /// Snapshot: the sample counter (the data come back through the history).
   std::optional<std::string> save_state() const override;
   void restore_state(const std::string& state, const std::vector<Observation>& history) override;
+  /// With linear constraints the samples are drawn inside them (rejection), not over the whole cube: the study's
+  /// repair projected the infeasible ones onto the boundary, and with `a + b <= 0.3` every point lay on that line.
+  void set_search_space(SharedSpace space) override;
 
  private:
   std::optional<Vec> point(Index k);  ///< the k-th point of the sequence (k < budget_)
@@ -36,6 +40,7 @@ class RandomSearch final : public Algorithm, public AlgorithmState {
   Index next_ = 0;
   Index skip_ = 0;
   Dataset data_;
+  SharedSpace space_;  ///< typed parameters and constraints (null: a plain box)
 };
 
 }  // namespace varbo::random_search
