@@ -8,6 +8,7 @@
 #include "backends.hpp"
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/state.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
 
@@ -358,4 +359,27 @@ TEST_CASE("a task's component named like a column or a parameter is not recorded
   CHECK(stored->cost == 2.0);
   REQUIRE(stored->components.size() == 1);
   CHECK(stored->components[0].first == "energy");
+}
+
+TEST_CASE("cma_es hands concurrent workers distinct candidates, beyond the population too, and uses their results") {
+  // Every process opening the study rebuilt the same generation and handed out its first candidate: 3 `varbo
+  // suggest` in a row gave 3 trials at one θ, and two workers ran the same θ (red team, session 22).
+  const std::string dir = test::temp_folder("study_cma_es_workers");
+  const std::string db = dir + "/s.db";
+  Study::create_from_yaml(db, "task: {type: branin}\nbudget: 30\nseed: 2\nalgorithm: {type: cma_es}\n");
+  std::vector<TrialRecord> asked;
+  for (int k = 0; k < 8; ++k) asked.push_back(Study::open(db).ask(1).at(0));  // λ = 6 for d = 2, then 2 more
+  std::vector<Vec> points;
+  for (const auto& t : asked) points.push_back(t.x);
+  CHECK(min_distance(points) > 0);
+  for (const auto& t : asked) Study::open(db).tell(t.id, t.theta.squaredNorm());
+  // The results, told by other processes, completed a generation: the next candidates come from the new one.
+  Study s = Study::open(db);
+  const auto next = s.ask(1).at(0);
+  CHECK(std::find_if(points.begin(), points.end(), [&](const Vec& p) { return p == next.x; }) == points.end());
+  const auto* cma = dynamic_cast<const AlgorithmState*>(s.algorithm());
+  REQUIRE(cma != nullptr);
+  const auto state = cma->save_state();
+  REQUIRE(state);
+  CHECK(state->find("generation: 1") != std::string::npos);
 }

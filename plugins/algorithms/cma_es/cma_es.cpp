@@ -71,14 +71,35 @@ std::vector<Suggestion> CmaEs::ask(Index q) {
   std::vector<Suggestion> out;
   for (Index k = 0; k < q; ++k) {
     auto it = std::find_if(pop_.begin(), pop_.end(), [](const Candidate& c) { return !c.asked; });
-    if (it == pop_.end()) {
+    while (it == pop_.end()) {
       draw_candidate();
       it = pop_.end() - 1;
+      const auto elsewhere = std::find(pending_elsewhere_.begin(), pending_elsewhere_.end(), it->x);
+      if (elsewhere != pending_elsewhere_.end()) {  // handed out by another process already
+        it->asked = true;
+        pending_elsewhere_.erase(elsewhere);
+        it = pop_.end();
+      }
     }
     it->asked = true;
     out.push_back(Suggestion{it->x, "cma_es", 0, 0});
   }
   return out;
+}
+
+void CmaEs::set_pending(const std::vector<Vec>& pending) {
+  pending_elsewhere_.clear();
+  for (const Vec& p : pending) {
+    bool matched = false;
+    for (auto& c : pop_)
+      if (!c.told && c.x.size() == p.size() && c.x == p) {
+        c.asked = matched = true;
+        break;
+      }
+    // Not in the generation as this process knows it: a candidate drawn beyond λ by the process that asked it,
+    // which this process's next draws repeat (the same stream): skipped when drawn (ask).
+    if (!matched) pending_elsewhere_.push_back(p);
+  }
 }
 
 void CmaEs::tell(const std::vector<Observation>& observations) {
@@ -95,7 +116,8 @@ void CmaEs::tell(const std::vector<Observation>& observations) {
       cost = std::isfinite(worst_) ? worst_ : std::numeric_limits<double>::max();
     }
     for (auto& c : pop_) {
-      if (c.asked && !c.told && c.x.size() == obs.x.size() && c.x == obs.x) {
+      // Asked here or by another process (a worker's candidate, told after this process rebuilt the generation).
+      if (!c.told && c.x.size() == obs.x.size() && c.x == obs.x) {
         c.told = true;
         c.cost = cost;
         ++told_count_;

@@ -41,6 +41,9 @@ class CmaEs final : public Algorithm, public AlgorithmState, public SpaceAware {
   /// Matches observations to pending candidates by x; the distribution is updated as soon as λ results of the
   /// current generation have arrived. Failed observations (ok = false) get the worst cost seen so far.
   void tell(const std::vector<Observation>& observations) override;
+  /// Candidates of the current generation pending elsewhere (another worker's suggest) count as handed out, so the
+  /// next ask gives the next candidate. Before, every concurrent `varbo suggest` / worker got the same θ.
+  void set_pending(const std::vector<Vec>& pending) override;
   std::optional<Vec> recommendation() const override;
   /// Exact snapshot (cma_es_state.cpp): the distribution, its paths and the current generation.
   std::optional<std::string> save_state() const override;
@@ -61,6 +64,7 @@ class CmaEs final : public Algorithm, public AlgorithmState, public SpaceAware {
   };
   void new_generation();
   void draw_candidate();
+  std::vector<Vec> pending_elsewhere_;  ///< pending points of no known candidate (set_pending)
   void update();
 
   Index d_;
