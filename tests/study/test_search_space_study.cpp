@@ -344,3 +344,26 @@ TEST_CASE("the initial design and random search spread inside linear constraints
     CHECK(on_boundary == 0);
   }
 }
+
+TEST_CASE("a constraint in tiny units (farads) is kept like the same constraint in ones") {
+  // c1 + c2 <= 1e-10 over [0, 3e-10]²: an absolute tolerance of 1e-9 accepted every violation (11 of 12 trials broke
+  // it, `observe new` took c1 = c2 = 3e-10), and at 1e-9 scale points were pushed a whole bound inside (session 22).
+  set_log_level(LogLevel::Error);
+  const std::string dir = test::temp_folder("typed_constraint_units");
+  for (const double unit : {1e-10, 1.0, 1e10}) {
+    CAPTURE(unit);
+    const std::string yaml = fmt::format(
+        "task: {{type: external, command: \"echo 1\"}}\nbudget: 12\nseed: 3\nthreads: 1\nalgorithm: {{type: bo, "
+        "initial_points: 6}}\nparameters:\n  - {{name: c1, type: real, low: 0, high: {0}}}\n  - {{name: c2, type: real, "
+        "low: 0, high: {0}}}\nconstraints:\n  - \"c1 + c2 <= {1}\"\n",
+        3 * unit, unit);
+    Study s = Study::create_from_yaml(fmt::format("{}/s{}.db", dir, std::log10(unit)), yaml);
+    for (int k = 0; k < 12; ++k) {
+      const auto t = s.ask(1).at(0);
+      CHECK((t.theta[0] + t.theta[1]) / unit <= 1 + 1e-9);
+      s.tell(t.id, (t.theta[0] - unit) * (t.theta[0] - unit) / (unit * unit));
+    }
+    const Vec violating = (Vec(2) << 3 * unit, 3 * unit).finished();
+    CHECK_THROWS_WITH_AS(s.tell_point(violating, 1.0), doctest::Contains("is violated"), InputError);
+  }
+}

@@ -265,12 +265,18 @@ bool SearchSpace::contains(const Vec& theta, std::string* why, double tol) const
     }
   }
   for (const auto& c : constraints_) {
+    // The tolerance is relative to the constraint's own magnitude over the box (its bound and each term at the
+    // far end of its parameter's range), not at least 1: with parameters in farads (c1 + c2 <= 1e-10) an absolute
+    // 1e-9 accepted every violation (red team, session 22).
     double lhs = 0, scale = std::abs(c.bound);
     for (const auto& [i, a] : c.terms) {
       lhs += a * theta[static_cast<Index>(i)];
-      scale = std::max(scale, std::abs(a * theta[static_cast<Index>(i)]));
+      const Parameter& q = params_[i];
+      const double reach = q.type == ParameterType::Fixed ? std::abs(q.value)
+                                                           : std::max(std::abs(q.low), std::abs(q.high));
+      scale = std::max({scale, std::abs(a * theta[static_cast<Index>(i)]), std::abs(a) * reach});
     }
-    if (lhs > c.bound + tol * std::max(1.0, scale))
+    if (lhs > c.bound + tol * (scale > 0 ? scale : 1.0))
       return no(fmt::format("constraint '{}' is violated ({} > {})", c.text, lhs, c.bound));
   }
   return true;

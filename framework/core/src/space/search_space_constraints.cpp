@@ -74,6 +74,13 @@ bool SearchSpace::finalize() {
       A_(j, offset_[i]) += a * w;
       b_[j] -= a * lo;
     }
+    // Unit rows: the margins and tolerances below (1e-9) are then distances in the unit cube, whatever the
+    // constraint's units (with c1 + c2 <= 1e-10 farads, 1e-9 of b was ten times the bound itself).
+    const double n = A_.row(j).norm();
+    if (n > 0) {
+      A_.row(j) /= n;
+      b_[j] /= n;
+    }
   }
   pool_.resize(0, encoded_dim_);
   if (m == 0) return true;
