@@ -219,6 +219,11 @@ def dash11_hostile(varbo, folder):
             line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n"
                                             "Connection: close\r\n\r\n".encode())
             check(" 405 " in line and "read-only" in json.loads(body)["error"], f"{method}: {line} {body}")
+        # Without a body (no Content-Length, as `curl -X POST` sends it): httplib answered 400 before routing.
+        for method in ("POST", "PUT", "PATCH"):
+            line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+                                     .encode())
+            check(" 405 " in line and "read-only" in json.loads(body)["error"], f"{method} without a body: {line} {body}")
         # The first '=' splits name and value (cpp-httplib kept the text after the last one).
         status, body, _ = d.get("/api/rescore?weights=nope=2")
         check(status == 400 and "unknown component 'nope'" in body["error"], f"weights=nope=2: {status} {body}")

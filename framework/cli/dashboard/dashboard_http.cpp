@@ -119,8 +119,14 @@ void serve(const DashboardHttp& http) {
   server.Delete(".*", refuse);
   server.Options(".*", refuse);
   // Anything else (another path or method, a request httplib cannot parse): a JSON error, never a stack trace.
-  server.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+  server.set_error_handler([refuse](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;
+    // httplib refuses a POST/PUT/PATCH without a body (no Content-Length) with 400 before routing: it is the method
+    // that is not served, as docs/dashboard.md says (red team, session 22).
+    if (res.status == 400 && (req.method == "POST" || req.method == "PUT" || req.method == "PATCH")) {
+      refuse(req, res);
+      return;
+    }
     const std::string message =
         res.status == 404 ? fmt::format("no such page '{}'", req.path)
                           : fmt::format("request refused (HTTP {}); the dashboard answers GET / and GET /api/...", res.status);
