@@ -241,3 +241,11 @@ def test_output_naming_a_study_address_is_refused_before_anything_is_made(tmp_pa
         varbo.minimize(lambda p: p["x"] ** 2, {"x": (-1, 1)}, budget=3,
                        output="postgresql://lab@db/varbo?study=gait")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_space_bound_of_another_form_is_named(tmp_path):
+    """{"x": np.array([0, 1])} is a bound; three numbers are named, not reported as "no search space"."""
+    res = varbo.minimize(lambda p: p["x"] ** 2, {"x": np.array([0.0, 1.0])}, budget=3, output=str(tmp_path / "a"))
+    assert res.evaluations == 3
+    with pytest.raises(varbo.ConfigError, match=r"space: x: expected \(low, high\), got \(0, 1, 2\)"):
+        varbo.minimize(lambda p: p["x"] ** 2, {"x": (0, 1, 2)}, budget=3, output=str(tmp_path / "b"))

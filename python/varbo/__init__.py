@@ -347,7 +347,7 @@ def _space_task(space: Any) -> Dict[str, Any]:
             if not isinstance(k, str) or not k:
                 raise ConfigError(f"space: every parameter name must be a non-empty str, got {k!r}")
         names = list(space)
-        bounds = list(space.values())
+        bounds = [tuple(b.tolist()) if isinstance(b, np.ndarray) and b.ndim == 1 else b for b in space.values()]
     else:
         bounds = [tuple(b) if isinstance(b, (list, tuple, np.ndarray)) else b for b in space]
         names = None
@@ -416,7 +416,9 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
         space = [tuple(r) for r in space.tolist()] if space.ndim == 2 else space
     if (config_or_space is not None and space is None and isinstance(config_or_space, Mapping) and config_or_space
             and not ({"task", "parameters"} & set(config_or_space))
-            and all(isinstance(v, (list, tuple)) and len(v) == 2 for v in config_or_space.values())):
+            and all(isinstance(v, (list, tuple, np.ndarray)) for v in config_or_space.values())):
+        # {name: (low, high)}; a bound of another form (an array, three numbers) is named by _space_task rather than
+        # reported as "no search space" (red team, session 22)
         space, config_or_space = config_or_space, None  # {name: (low, high)} with a bad bound: _space_task says which
     if space is not None and not _is_typed_space(space):
         if isinstance(space, (str, bytes)) or not isinstance(space, (Mapping, list, tuple)):
