@@ -111,9 +111,14 @@ Runner add_suggest(CLI::App& app) {
         finished += t.finished() ? 1 : 0;
         pending += t.state == TrialState::Pending ? 1 : 0;
       }
-      throw InputError(fmt::format("{}: nothing to suggest: the budget of {} trials is used ({} finished, {} pending) "
-                                   "or the algorithm is done",
-                                   a->store, s.config().budget, finished, pending));
+      // Exit 4, not 2: a script's loop (`while t=$(varbo suggest S); do …; done`) ends here as planned, and must be
+      // able to tell that from an error (an unreachable database, a broken study), which it should report or retry.
+      std::fprintf(stderr,
+                   "varbo: %s: nothing to suggest: the budget of %lld trials is used (%lld finished, %lld pending) or "
+                   "the algorithm is done\n",
+                   printable(a->store).c_str(), static_cast<long long>(s.config().budget),
+                   static_cast<long long>(finished), static_cast<long long>(pending));
+      return 4;
     }
     if (static_cast<long long>(trials.size()) < a->batch)  // on stderr: stdout stays the trials (or the JSON)
       std::fprintf(stderr, "varbo: %zu of the %lld trials asked: the budget of %lld has no more room\n", trials.size(),
