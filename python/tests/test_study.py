@@ -186,4 +186,4 @@ def test_a_study_of_your_own_parameters_for_ask_tell_and_the_cli(tmp_path):
     out = tmp_path / "run"
     varbo.minimize(lambda p: p["x"] ** 2, space={"x": (-1, 1)}, budget=3, seed=1, output=out)
     r = run_cli("suggest", out / "study.db", check=False)
-    assert r.returncode == 2 and "budget" in r.stderr and "unknown task" not in r.stderr
+    assert r.returncode == 4 and "budget" in r.stderr and "unknown task" not in r.stderr  # 4: nothing to suggest
