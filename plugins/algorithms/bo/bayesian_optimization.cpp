@@ -22,6 +22,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
+#include "varbo/constrained_sampling.hpp"
 #include "varbo/space_wrappers.hpp"
 #include "varbo/value_stall.hpp"
 
@@ -191,16 +192,7 @@ void BayesianOptimization::draw_initial_design() {
 }
 
 Mat BayesianOptimization::design_sample(Index n, Rng& rng) const {
-  if (!space_ || !space_->has_constraints()) return design_sampler_->sample(BoxRegion(Box::unit(dim_)), n, rng);
-  const auto feasible = respect_constraints(std::make_unique<BoxRegion>(Box::unit(dim_)), space_);
-  Mat m = design_sampler_->sample(*feasible, n, rng);
-  if (m.rows() < n) {
-    const Mat rest = design_sampler_->sample(BoxRegion(Box::unit(dim_)), n - m.rows(), rng);
-    Mat all(n, dim_);
-    all << m, rest;
-    m = all;
-  }
-  return m;
+  return sample_unit_cube(*design_sampler_, space_, dim_, n, rng);
 }
 
 Vec BayesianOptimization::random_point(Rng& rng) const {

@@ -56,10 +56,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
  private:
   const Phase& phase_at(Index evaluation) const;
   Vec random_point(Rng& rng) const;
-  /// n design points from the design sampler over the unit cube, inside the study's linear constraints when it has
-  /// any (rejection; topped up with points of the whole cube, which the study repairs, if the feasible set is too
-  /// small to find them). Before, designs were drawn over the whole cube and the infeasible points projected onto
-  /// the constraint's boundary: with `a + b <= 0.3` every design point lay on that line (red team, session 22).
+  /// n design points from the design sampler, inside the study's linear constraints (varbo/constrained_sampling.hpp).
   Mat design_sample(Index n, Rng& rng) const;
   /// The initial design: `initial_points_` points from kDesign's stream, the initial point first.
   void draw_initial_design();

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "varbo/errors.hpp"
-#include "varbo/space_wrappers.hpp"
+#include "varbo/constrained_sampling.hpp"
 
 namespace varbo::random_search {
 
@@ -30,19 +30,7 @@ std::optional<Vec> RandomSearch::point(Index k) {
   if (b != loaded_block_) {
     Rng rng = Rng(seed_).stream(1);
     if (budget_ > kBlock) rng = rng.stream(static_cast<std::uint64_t>(b));
-    const Index n = std::min(block_, budget_ - b * block_);
-    if (space_ && space_->has_constraints()) {
-      const auto feasible = respect_constraints(std::make_unique<BoxRegion>(Box::unit(dim_)), space_);
-      points_ = sampler_->sample(*feasible, n, rng);
-      if (points_.rows() < n) {  // a feasible set too small to find by rejection: the rest over the cube (repaired)
-        const Mat rest = sampler_->sample(BoxRegion(Box::unit(dim_)), n - points_.rows(), rng);
-        Mat all(n, dim_);
-        all << points_, rest;
-        points_ = all;
-      }
-    } else {
-      points_ = sampler_->sample(BoxRegion(Box::unit(dim_)), n, rng);
-    }
+    points_ = sample_unit_cube(*sampler_, space_, dim_, std::min(block_, budget_ - b * block_), rng);
     if (b == 0 && initial_point_ && points_.rows() > 0) points_.row(0) = initial_point_->transpose();
     loaded_block_ = b;
   }

@@ -1,0 +1,16 @@
+#pragma once
+// Points of the unit cube drawn inside a study's linear constraints, for the algorithms that draw designs or random
+// points themselves (bo's initial and fresh-start designs, random search). Drawn over the whole cube, the
+// infeasible ones were projected onto the constraint's boundary by the study's repair: with `a + b <= 0.3`
+// every design point lay on that line (docs/search_space.md).
+#include "varbo/sampler.hpp"
+#include "varbo/search_space.hpp"
+
+namespace varbo {
+
+/// n points from `sampler` over the unit cube of dimension d, inside `space`'s linear constraints when it has any
+/// (the sampler's rejection), topped up with points of the whole cube when the feasible set is too small to be
+/// found by rejection (the study then repairs them). Without constraints: exactly the sampler's points over the cube.
+Mat sample_unit_cube(const Sampler& sampler, const SharedSpace& space, Index d, Index n, Rng& rng);
+
+}  // namespace varbo
