@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
@@ -42,6 +43,39 @@ inline CLI::Validator decimal_number() {
                    : "expected a finite decimal number such as 0.25 or -1.5e-3, got '" + text + "'";
       },
       "DECIMAL");
+}
+/// The items of a list option given comma-separated and/or repeated ("--kappa 2,0 --kappa -2"). An empty item
+/// ("1,,2", a trailing comma, "") is an error naming the flag: CLI11's own `delimiter` dropped it silently, so a
+/// mistyped list ran with fewer values than written.
+inline std::vector<std::string> list_items(const std::vector<std::string>& given, const std::string& flag,
+                                           const std::string& example) {
+  std::vector<std::string> out;
+  for (const auto& text : given) {
+    std::size_t start = 0;
+    while (true) {
+      const std::size_t comma = text.find(',', start);
+      const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      if (item.empty())
+        throw InputError(fmt::format("{}: an empty item in '{}'; expected a comma-separated list such as {}", flag,
+                                     text, example));
+      out.push_back(item);
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+  }
+  return out;
+}
+/// list_items of finite decimal numbers (as decimal_number() checks one).
+inline std::vector<double> decimal_items(const std::vector<std::string>& given, const std::string& flag,
+                                         const std::string& example) {
+  std::vector<double> out;
+  for (const auto& item : list_items(given, flag, example)) {
+    const auto v = parse_decimal(item);
+    if (!v || !std::isfinite(*v))
+      throw InputError(fmt::format("{}: expected a finite decimal number such as 0.25 or -1.5e-3, got '{}'", flag, item));
+    out.push_back(*v);
+  }
+  return out;
 }
 /// "name=value".
 std::pair<std::string, double> parse_component(const std::string& text);

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "background_ticker.hpp"
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "component_arg.hpp"
 #include "varbo/csv.hpp"
@@ -78,7 +79,7 @@ Runner add_fit(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--predict", a->predict, "CSV of points (same θ columns) to predict at")->check(CLI::ExistingFile);
   cmd->add_option("--columns", a->columns, "θ columns to use (default: every column but y, i and index)")
-      ->delimiter(',');
+      ->type_name("NAME[,NAME...]");
   cmd->add_flag("--no-optimize", a->no_optimize, "keep the hyperparameters given in the YAML; only condition");
   cmd->add_option("--seed", a->seed, "random seed for restarts");
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
@@ -91,7 +92,7 @@ Runner add_fit(CLI::App& app) {
     std::vector<Index> xcols;
     std::vector<std::string> xnames;
     if (!a->columns.empty()) {
-      for (const auto& name : a->columns) {
+      for (const auto& name : list_items(a->columns, "--columns", "x1,x2")) {
         if (name == "y")
           throw InputError(fmt::format("--columns: 'y' is the target (the costs) and cannot also be a θ column"));
         if (std::find(xnames.begin(), xnames.end(), name) != xnames.end())

@@ -28,6 +28,7 @@ struct PlotArgs {
   std::string run, output, gp = "gp", vhgp = "vhgp", surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
   std::string slice;  ///< typed parameters: the parameter along which the model is cut
   std::vector<double> kappas;
+  std::vector<std::string> kappa_text;  ///< --kappa as given (decimal_items)
   long long seed = 1;
   int threads = 0, grid = 0;
 };
@@ -247,9 +248,8 @@ Runner add_plot(CLI::App& app) {
   auto* vh_opt = cmd->add_option("--vhgp", a->vhgp, "1-D: the heteroscedastic surrogate (inline YAML or file)");
   cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
   cmd->add_option("-o,--output", a->output, "SVG file (default: RUN_DIR/model.svg)");
-  cmd->add_option("--kappa", a->kappas, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
-      ->delimiter(',')
-      ->check(decimal_number());
+  cmd->add_option("--kappa", a->kappa_text, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
+      ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--surrogate", a->surrogate, "2-D and --slice: model to draw (default: the run's surrogate)");
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
   cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));
@@ -268,7 +268,8 @@ Runner add_plot(CLI::App& app) {
                                      "with --surrogate", a->run, why));
     };
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
-    if (a->kappas.empty()) a->kappas = {-1.5, 0.0, 1.5};
+    a->kappas = a->kappa_text.empty() ? std::vector<double>{-1.5, 0.0, 1.5}
+                                      : decimal_items(a->kappa_text, "--kappa", "-1.5,0,1.5");
     Registry& registry = default_registry();
     const RunFolder run = load_run_folder(a->run, registry);
     if (run.space) {  // typed parameters: a cut along one named parameter (its axes are not encoded coordinates)

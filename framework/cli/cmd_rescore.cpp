@@ -29,7 +29,7 @@ Runner add_rescore(CLI::App& app) {
       "rescore", "Re-weight a run's cost components and select policies offline for risk factors κ (J̃ + κ r̃)");
   struct Args {
     std::string run, weights, critic;
-    std::vector<double> kappa{0.0, 2.0};
+    std::vector<std::string> kappa;  ///< as given (decimal_items); default 0, 2
     double epsilon = -1;
     long long continue_steps = 0, rollouts = 0, seed = -1;
     int threads = 0;
@@ -39,8 +39,8 @@ Runner add_rescore(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   cmd->add_option("--weights", a->weights, "new weights, e.g. energy=0.1,tracking=1 (unlisted: the run's)");
-  cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")->delimiter(',')
-      ->check(decimal_number());
+  cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")
+      ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)")
       ->check(decimal_number())
       ->check(CLI::PositiveNumber);
@@ -61,7 +61,7 @@ Runner add_rescore(CLI::App& app) {
     const ComponentRun run = load_component_run(a->run, registry);
     OfflineRequest request;
     request.weight_changes = parse_weight_list(a->weights, run.components);
-    request.kappas = a->kappa;
+    request.kappas = a->kappa.empty() ? std::vector<double>{0.0, 2.0} : decimal_items(a->kappa, "--kappa", "0,2");
     request.epsilon = a->epsilon;
     if (!a->critic.empty()) request.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse(a->critic, "--critic"));
     if (a->seed >= 0) request.seed = static_cast<std::uint64_t>(a->seed);

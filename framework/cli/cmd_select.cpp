@@ -33,7 +33,7 @@ Runner add_select(CLI::App& app) {
       "select", "Pick risk-sensitive policies from a finished run: for each kappa, argmin E + kappa*s (no new trials)");
   struct Args {
     std::string run, surrogate, optimizer = kSelectOptimizer;
-    std::vector<double> kappas;
+    std::vector<std::string> kappas;  ///< as given: decimal_items splits them
     bool from_config = false, json = false, among_evaluated = false;
     std::string seed = "1";
     int threads = 0;
@@ -43,8 +43,7 @@ Runner add_select(CLI::App& app) {
   cmd->add_option("--kappa", a->kappas,
                   "risk factor(s): > 0 risk-averse, < 0 risk-seeking, 0 neutral; repeat or comma-separate "
                   "(default: 2, 0, -2)")
-      ->delimiter(',')
-      ->check(decimal_number());
+      ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_flag("--surrogate-from-config", a->from_config,
                 "fit the surrogate of config.resolved.yaml from its defaults only (default: start the fit from "
                 "the last hyperparameters in model.yaml)");
@@ -62,7 +61,8 @@ Runner add_select(CLI::App& app) {
   return [a]() {
     ThreadLimit limit(a->threads);
     const auto seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));  // not saturated
-    std::vector<double> kappas = a->kappas.empty() ? std::vector<double>{2.0, 0.0, -2.0} : a->kappas;
+    std::vector<double> kappas = a->kappas.empty() ? std::vector<double>{2.0, 0.0, -2.0}
+                                                   : decimal_items(a->kappas, "--kappa", "2,0,-2");
     Registry& registry = default_registry();
     const RunFolder run = load_run_folder(a->run, registry);
 

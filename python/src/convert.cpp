@@ -52,6 +52,15 @@ Mat to_mat(const py::handle& obj, const std::string& what) {
   return m;
 }
 
+namespace {
+/// An int parameter's value, and a fixed one without a fraction (`value: 3`): an int, as the external command's
+/// JSON gives it (json.loads reads 3 as int); a fixed 3 arrived as 3.0, and `range(n)` failed on it.
+bool is_whole(const ParamValue& v) {
+  const bool integral = v.type == ParameterType::Int || (v.type == ParameterType::Fixed && v.number == std::round(v.number));
+  return integral && std::abs(v.number) < 9e15;
+}
+}  // namespace
+
 py::dict params_of(const Vec& theta, const std::vector<std::string>& names, const SearchSpace* space) {
   py::dict d;
   if (space && static_cast<std::size_t>(theta.size()) == space->size()) {
@@ -61,7 +70,7 @@ py::dict params_of(const Vec& theta, const std::vector<std::string>& names, cons
       py::str key(p.names[i]);
       if (v.is_label())
         d[key] = py::str(v.label);
-      else if (v.type == ParameterType::Int && std::abs(v.number) < 9e15)
+      else if (is_whole(v))
         d[key] = py::int_(static_cast<long long>(std::llround(v.number)));
       else
         d[key] = py::float_(v.number);
@@ -161,7 +170,10 @@ py::list parameters_of(const SearchSpace& space) {
     } else if (p.type == ParameterType::Categorical) {
       d["choices"] = p.choices;
     } else {
-      d["value"] = p.choices.empty() ? py::object(py::float_(p.value)) : py::object(py::str(p.choices[0]));
+      d["value"] = !p.choices.empty() ? py::object(py::str(p.choices[0]))
+                   : is_whole(ParamValue{ParameterType::Fixed, p.value, {}})
+                       ? py::object(py::int_(static_cast<long long>(std::llround(p.value))))
+                       : py::object(py::float_(p.value));
     }
     out.append(d);
   }
@@ -175,6 +187,11 @@ Components components_of(const py::handle& obj) {
     throw InputError("components: expected a dict {name: number}");
   for (const auto& [k, v] : py::reinterpret_borrow<py::dict>(obj)) {
     if (!py::isinstance<py::str>(k)) throw InputError("components: every name must be a string");
+    // A bool is not a number here (as for costs and parameter values): `{"fell": True}` was stored as 1.0.
+    if (py::isinstance<py::bool_>(v) || py::isinstance(v, py::module_::import("numpy").attr("bool_")))
+      throw InputError(fmt::format("components: '{}' is {} (type bool); expected a number (write 1.0 for a "
+                                   "flag you want as a number)",
+                                   py::cast<std::string>(k), py::cast<std::string>(py::repr(v))));
     double x = 0;
     try {
       x = py::cast<double>(v);

@@ -342,6 +342,15 @@ def test_minimize_components_are_declared_on_the_task_and_must_be_finite(tmp_pat
         assert (t.state == "failed") == (t.params["a"] > 0.5)
         if t.state == "failed":
             assert "component 'bad'" in t.error
+    # A bool is not a number (session 23: True was stored as 1.0): the trial fails saying so, tell() refuses it.
+    flag = lambda p: {"cost": p["a"], "components": {"energy": 1.0, "bad": p["a"] > 0.5}}
+    r = varbo.minimize(flag, cfg, budget=4, seed=1, output=tmp_path / "flags")
+    assert all(t.state == "failed" and "'bad' is" in t.error and "bool" in t.error for t in r.trials)
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 5, "seed": 1})
+    t = s.ask()[0]
+    with pytest.raises(varbo.InputError, match="'fell' is True"):
+        s.tell(t, 1.0, {"fell": True})
+    assert s.trials(as_frame=False)[0].state == "pending"
     bad = dict(cfg, task=dict(cfg["task"], components=["energy", "cost"]))
     with pytest.raises(varbo.ConfigError, match="names a column of the trials table"):
         varbo.minimize(f, bad, budget=3, output=tmp_path / "other")
@@ -356,3 +365,38 @@ def test_yes_no_arguments_refuse_strings_and_a_missing_reason_is_not_none(tmp_pa
     assert s.trials(as_frame=False)[0].error == "failed"
     with pytest.raises(TypeError, match="reason"):
         s.fail(s.ask()[0], 3)
+
+
+def test_second_minimize_on_a_running_study_names_the_program_holding_it(tmp_path):
+    # Session 23: the lock's message said "another `varbo run`" when a Python minimize held the study.
+    import threading
+    started, release = threading.Event(), threading.Event()
+
+    def slow(p):
+        started.set()
+        release.wait(30)
+        return p["x"] ** 2
+
+    out = tmp_path / "run"
+    first = threading.Thread(target=lambda: varbo.minimize(slow, {"algorithm": {"type": "random"}},
+                                                           space={"x": (0, 1)}, budget=2, seed=1, output=out))
+    first.start()
+    try:
+        assert started.wait(30)
+        with pytest.raises(varbo.InputError, match=r"in use by another run \((?!varbo run)\S+ pid %d " % os.getpid()):
+            varbo.minimize(lambda p: 0.0, {"algorithm": {"type": "random"}}, space={"x": (0, 1)}, budget=4, seed=1,
+                           output=out, resume=True)
+    finally:
+        release.set()
+        first.join(60)
+    assert len(varbo.Study.open(out / "study.db").trials(as_frame=False)) == 2
+
+
+def test_heartbeat_state_is_running_or_stopped(tmp_path):
+    # Session 23: any word was stored, and a worker whose state was neither was never abandoned when silent.
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 5, "seed": 1})
+    for bad in ("banana", "Running", ""):
+        with pytest.raises(varbo.InputError, match="expected running or stopped"):
+            s.heartbeat(bad)
+    s.heartbeat()
+    s.heartbeat("stopped")

@@ -35,7 +35,7 @@ def assert_admissible(params):
     assert type(params["step"]) is int and 8 <= params["step"] <= 256
     assert isinstance(params["solver"], str) and params["solver"] in CHOICES
     assert isinstance(params["gain"], float) and -1 <= params["gain"] <= 1
-    assert params["horizon"] == 3.0
+    assert params["horizon"] == 3 and type(params["horizon"]) is int  # as the CLI's JSON has it (session 23)
 
 
 def external_config(budget=12):

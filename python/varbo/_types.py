@@ -15,7 +15,8 @@ class Trial:
 
     ``params`` maps each parameter's name to its value in your units (``x1, x2, …`` until the search space names
     them); with typed ``parameters:`` an ``int`` for an int parameter, the label (``str``) of a categorical one, a
-    ``float`` for a real one, fixed values included; ``x`` is the same point as an array, ``x_unit`` in the unit cube the algorithm works in. ``state`` is
+    ``float`` for a real one; a fixed value as declared, a number without a fraction as an ``int`` (as the CLI's
+    JSON gives it to an external command); ``x`` is the same point as an array, ``x_unit`` in the unit cube the algorithm works in. ``state`` is
     pending, complete, failed or abandoned; ``cost`` is None until a result is told.
     """
 

@@ -136,7 +136,8 @@ def main():
                            ("/api/grid?x=nope", 400), ("/api/grid?x=" + urllib_quote(HOSTILE_X) + "&y=" + urllib_quote(HOSTILE_X), 400),
                            ("/api/select?kappa=1&among_evaluated=maybe", 400), ("/api/nothing", 404), ("/nothing", 404),
                            ("/api/rescore?weights=nope%3D1", 400), ("/api/rescore?weights=" + urllib_quote(HOSTILE_COMPONENT + "=-1"), 400),
-                           ("/api/rescore?kappa=0,x", 400), ("/api/rescore?kappa=", 400), ("/api/rescore?epsilon=-1", 400)]:
+                           ("/api/rescore?kappa=0,x", 400), ("/api/rescore?kappa=", 400), ("/api/rescore?epsilon=-1", 400),
+                           ("/api/select?kappa=1&kappa=2", 400), ("/api/trials?since=0&since=1", 400)]:
             status, body, _ = d.get(path)
             check(status == code and isinstance(body.get("error"), str) and body["error"], f"{path}: {status} {body}")
         status, body, _ = d.get("/api/grid?x=%3Cscript%3Ealert(1)%3C%2Fscript%3E")

@@ -44,6 +44,11 @@ TEST_CASE("loading a missing file is a clear error") {
 TEST_CASE("closest_match suggests near names only") {
   CHECK(closest_match("xii", {"xi", "kappa"}) == "xi");
   CHECK(closest_match("zzzzzz", {"xi", "kappa"}).empty());
+  // Session 23: a word replaced whole is no near miss ("1" suggested "pd" for a category's index).
+  CHECK(closest_match("1", {"pd", "lqr", "mpc"}).empty());
+  CHECK(closest_match("ab", {"xy"}).empty());
+  CHECK(closest_match("pf", {"pd", "lqr"}) == "pd");
+  CHECK(closest_match("lqrr", {"pd", "lqr"}) == "lqr");
 }
 
 namespace {

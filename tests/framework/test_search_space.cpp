@@ -124,6 +124,13 @@ TEST_CASE("the typed Params view and values from text") {
   CHECK_THROWS_AS(s.parse_value(1, "7.5"), InputError);
   CHECK_THROWS_AS(s.parse_value(1, "12"), InputError);
   CHECK_THROWS_AS(s.parse_value(3, "lqe"), InputError);
+  // An index where the label belongs: said so, and no suggestion of an unrelated label.
+  CHECK_THROWS_WITH_AS(s.parse_value(3, "1"), doctest::Contains("given by its label, not by its index"), InputError);
+  try {
+    s.parse_value(3, "1");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()).find("did you mean") == std::string::npos);
+  }
   CHECK_THROWS_AS(s.parse_value(5, "4"), InputError);
   CHECK(s.format_value(3, 2) == "mpc");
   CHECK(s.format_value(1, 4) == "4");

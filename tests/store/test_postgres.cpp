@@ -274,7 +274,7 @@ TEST_CASE("postgresql: a second varbo run on a study being run exits 2 naming th
   // Another run folder, the same database study: refused, naming the owner; nothing written by it.
   const auto [code, msg] = varbo_cli({"-q", "run", cfg, "-o", dir + "/second", "--study", url, "--no-progress"}, dir);
   CHECK(code == 2);
-  CHECK(msg.find("in use by another `varbo run`") != std::string::npos);
+  CHECK(msg.find("in use by another run") != std::string::npos);
   CHECK(msg.find("varbo run pid " + std::to_string(first) + " started") != std::string::npos);
   CHECK(msg.find("study=run_lock_") != std::string::npos);
   CHECK(varbo_cli({"-q", "run", "--resume", url, "--no-progress"}, dir).first == 2);

@@ -45,7 +45,7 @@ TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the o
   CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress"}, second).exit_code == 2);
   CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress", "--overwrite"}, second).exit_code == 2);
   const std::string msg = slurp(second);
-  CHECK(contains(msg, "in use by another `varbo run`"));
+  CHECK(contains(msg, "in use by another run"));
   CHECK(contains(msg, "pid " + std::to_string(first)));  // the owner is named
   CHECK(contains(msg, out + "/study.db.lock"));
   // External workers are not locked out: the store stays readable while the run drives it.

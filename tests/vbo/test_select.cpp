@@ -1,5 +1,6 @@
 // select_policies (varbo/select.hpp): risk-sensitive selection on a fitted model, Kuindersma 2013 eq. (20).
 #include <cmath>
+#include <filesystem>
 
 #include "fake_two_wells.hpp"
 #include "study_helpers.hpp"
@@ -126,23 +127,23 @@ TEST_CASE("load_run_folder: missing files and bad rows name the file") {
   CHECK_THROWS_AS(load_run_folder(dir + "/nope", test::registry()), InputError);
 }
 
-TEST_CASE("load_run_folder: parameters named like fixed columns (index, cost) are read by position") {
-  // Session 20: the first column of a name was taken, so a parameter `index` read the trial number as θ and a
-  // parameter `cost` was read as the cost (`select` answered with θ = [1, ...]).
+TEST_CASE("parameters named like columns of the trials table (index, cost) are refused where they are written") {
+  // Session 20 read such columns by position; trials.csv still had two `cost` columns (pandas: cost, cost.1), so
+  // a parameter may not take the name of a fixed column: the config names the parameter's line.
   const std::string out = test::temp_folder("vbo_named_columns");
-  const std::string yaml = "task: {type: external, command: \"cat > /dev/null; echo 1.5\"}\nparameters:\n"
-                           "  - {name: index, type: real, low: 10, high: 100}\n"
-                           "  - {name: cost, type: real, low: 0, high: 1}\n"
-                           "budget: 4\nseed: 1\nalgorithm: {type: random}\noutput: " + out + "\n";
-  test::run_yaml(yaml, test::registry());
-  const RunFolder run = load_run_folder(out, test::registry());
-  CHECK(run.names == std::vector<std::string>{"index", "cost"});
-  REQUIRE(run.theta.rows() == 4);
-  for (Index i = 0; i < 4; ++i) {
-    CHECK(run.theta(i, 0) >= 10.0);
-    CHECK(run.theta(i, 1) <= 1.0);
-    CHECK(run.cost(i) == 1.5);
+  for (const std::string name : {"index", "cost", "regret_recommended"}) {
+    const std::string yaml = "task: {type: external, command: \"cat > /dev/null; echo 1.5\"}\nparameters:\n"
+                             "  - {name: a, type: real, low: 10, high: 100}\n"
+                             "  - {name: " + name + ", type: real, low: 0, high: 1}\n"
+                             "budget: 4\nseed: 1\nalgorithm: {type: random}\noutput: " + out + "/" + name + "\n";
+    const std::string expected = "<test study>:4:12: key 'parameters[1].name': '" + name + "' names a column";
+    CHECK_THROWS_WITH_AS(test::run_yaml(yaml, test::registry()), doctest::Contains(expected.c_str()), ConfigError);
+    CHECK_FALSE(std::filesystem::exists(out + "/" + name));
   }
+  // The external task's own `names:` (a box) likewise.
+  const std::string box = "task: {type: external, command: \"echo 1\", lower: [0, 0], upper: [1, 1], names: [a, ok]}\n"
+                          "budget: 2\nalgorithm: {type: random}\noutput: " + out + "/box\n";
+  CHECK_THROWS_WITH_AS(test::run_yaml(box, test::registry()), doctest::Contains("'ok' names a column"), ConfigError);
 }
 
 TEST_CASE("select_among: the candidate minimizing E + kappa s, by brute force on the same model") {

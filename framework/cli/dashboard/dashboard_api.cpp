@@ -28,6 +28,12 @@ struct RequestError : std::runtime_error {
 std::optional<std::string> query_value(const ApiQuery& query, const std::string& name) {
   const auto it = query.find(name);
   if (it == query.end()) return std::nullopt;
+  // `?kappa=1&kappa=2` answered for the first only; a repeated parameter is refused, as the CLI refuses a key
+  // given twice (lists are comma-separated: kappa=1,2).
+  if (const auto n = query.count(name); n > 1)
+    throw RequestError(400, fmt::format("query parameter '{}' is given {} times; give it once (a list is "
+                                        "comma-separated, e.g. kappa=0,2)",
+                                        name, n));
   return it->second;
 }
 

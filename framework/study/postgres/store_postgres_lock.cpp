@@ -38,8 +38,8 @@ constexpr const char* kKey = "hashtextextended('varbo run: ' || $1, 0)";
 /// "varbo run pid 4711 started 2026-12-02T03:04:05Z host rig-3": at most 63 bytes are kept by the server,
 /// so the host, the longest part, comes last.
 std::string announcement() {
-  return fmt::format("varbo run pid {} started {} host {}", static_cast<long>(getpid()), detail::utc_timestamp(),
-                     detail::machine_name());
+  return fmt::format("{} pid {} started {} host {}", detail::run_owner_program(), static_cast<long>(getpid()),
+                     detail::utc_timestamp(), detail::machine_name());
 }
 
 /// The session holding the study's lock, as it announced itself ("" when it is gone or cannot be seen).
@@ -73,7 +73,7 @@ std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::s
     if (locked) return s;
     std::string owner = owner_of(s->connection, address.study);
     if (owner.empty()) owner = "another session, which just ended or cannot be seen";
-    throw InputError(fmt::format("the study {} is in use by another `varbo run` ({}); wait for it to end or stop it; "
+    throw InputError(fmt::format("the study {} is in use by another run ({}); wait for it to end or stop it; "
                                  "only one run may drive a study (advisory lock on the database server)",
                                  address.display, owner));
   } catch (const pqxx::broken_connection& e) {  // the server is unreachable: worth retrying (store_retry.hpp)

@@ -281,7 +281,8 @@ std::string closest_match(const std::string& word, const std::vector<std::string
       best = c;
     }
   }
-  if (best_d <= std::max<std::size_t>(2, word.size() / 3)) return best;
+  // A candidate that shares no character position with the word is no near miss ("1" -> "pd" was suggested).
+  if (best_d <= std::max<std::size_t>(2, word.size() / 3) && best_d < word.size()) return best;
   return {};
 }
 
@@ -299,6 +300,11 @@ std::vector<std::string> distinct_names(const ConfigNode& list, const std::strin
     const ConfigNode item = list.item(i);
     if (!item.is_scalar() || item.scalar().empty()) item.fail(fmt::format("expected a {} name", what));
     if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
+    // A parameter named `cost` gave trials.csv two `cost` columns, and a reader took the first (the θ value).
+    if (what == "parameter" && is_trials_table_column(item.scalar()))
+      item.fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); "
+                            "name the parameter otherwise",
+                            item.scalar()));
     out.push_back(item.scalar());
   }
   return out;

@@ -333,8 +333,11 @@ double SearchSpace::parse_value(std::size_t i, const std::string& text) const {
     for (std::size_t j = 0; j < p.choices.size(); ++j)
       if (printable(p.choices[j]) == text) return static_cast<double>(j);
     const std::string near = closest_match(text, p.choices);
-    throw InputError(fmt::format("parameter '{}': '{}' is not one of its choices ({}){}", p.name, text,
-                                 join(p.choices), near.empty() ? "" : "; did you mean '" + near + "'?"));
+    // "solver=1": an index where the label belongs (trials.csv, --param and tell_point all speak in labels).
+    const bool index = parse_decimal(text).has_value();
+    throw InputError(fmt::format("parameter '{}': '{}' is not one of its choices ({}){}{}", p.name, text,
+                                 join(p.choices), near.empty() ? "" : "; did you mean '" + near + "'?",
+                                 index ? "; a category is given by its label, not by its index" : ""));
   }
   if (p.type == ParameterType::Fixed && !p.choices.empty()) {
     if (text != p.choices[0])

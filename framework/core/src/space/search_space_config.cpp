@@ -6,6 +6,7 @@
 #include <cmath>
 #include <set>
 
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
 
@@ -113,6 +114,11 @@ SearchSpace parse_search_space(const ConfigNode& list) {
     Parameter p = parse_parameter(list.item(i));
     if (!seen.insert(p.name).second)
       list.item(i).child("name").fail(fmt::format("duplicate parameter name '{}'", p.name));
+    if (is_trials_table_column(p.name))  // trials.csv would get two columns of that name
+      list.item(i).child("name").fail(fmt::format(
+          "'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); name the "
+          "parameter otherwise",
+          p.name));
     ps.push_back(std::move(p));
   }
   bool free = false;

@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <ctime>
 
 namespace varbo::detail {
@@ -11,6 +12,12 @@ std::string machine_name() {
   if (gethostname(host, sizeof host - 1) != 0) return "unknown";
   host[sizeof host - 1] = '\0';
   return host;
+}
+
+std::string run_owner_program() {
+  const std::string name = program_invocation_short_name;  // GNU: argv[0]'s last component
+  if (name == "varbo") return "varbo run";
+  return name.empty() ? std::string("a program") : name;
 }
 
 std::string utc_timestamp() {

@@ -18,8 +18,9 @@ namespace varbo {
 namespace {
 
 std::string owner_line() {
-  return fmt::format("pid {} on host {}, started {}", static_cast<long>(getpid()), detail::machine_name(),
-                     detail::utc_timestamp());
+  // The program's name too: the holder may be `varbo run`, a worker or a Python `varbo.minimize` (python3).
+  return fmt::format("{} pid {} on host {}, started {}", detail::run_owner_program(), static_cast<long>(getpid()),
+                     detail::machine_name(), detail::utc_timestamp());
 }
 
 }  // namespace
@@ -58,7 +59,7 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
         throw InputError(fmt::format("{}: cannot lock: {}", lock_path, std::strerror(err)));
       std::string owner = owner_of(lock_path);
       if (owner.empty()) owner = "another process (starting up)";
-      throw InputError(fmt::format("{} is in use by another `varbo run` ({}); wait for it to end or stop it; "
+      throw InputError(fmt::format("{} is in use by another run ({}); wait for it to end or stop it; "
                                    "only one run may drive a study (lock file {})",
                                    what, owner, lock_path));
     }

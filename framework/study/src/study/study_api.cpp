@@ -22,6 +22,7 @@
 #include "varbo/search_space_config.hpp"
 #include "varbo/space_wrappers.hpp"
 #include "varbo/state.hpp"
+#include "varbo/text.hpp"
 
 namespace fs = std::filesystem;
 
@@ -188,7 +189,8 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
     throw InputError(fmt::format(
         "{}: this study was created from a different configuration (task, algorithm, seed and initial point must "
         "match to continue it); first difference: {}. Use another study file, or continue it with the configuration "
-        "it was created with (`varbo run --resume {}`, without options that change it such as --seed)",
+        "it was created with (`varbo run --resume {}` or `varbo.minimize(..., output=..., resume=True)`, without "
+        "options that change it such as a seed)",
         store_path, first_difference(stored, identity), store_path));
   // The budget is not part of the identity (`--resume --budget 40` continues the study), but the stored
   // configuration must say the budget now in force: `varbo status` and a later `varbo suggest` read it (they showed
@@ -558,6 +560,11 @@ void Study::set_worker(const std::string& name) { impl_->worker = name; }
 const Registry& Study::registry() const { return *impl_->registry; }
 
 void Study::heartbeat(const std::string& state) {
+  // Only these two mean something to the liveness check (study_impl.cpp): another word ("banana", "Running")
+  // was stored, and the worker was then never abandoned however long it stayed silent.
+  if (state != "running" && state != "stopped")
+    throw InputError(fmt::format("heartbeat: state '{}': expected running or stopped; nothing written",
+                                 safe_text(state, 100)));
   Impl& m = *impl_;
   WorkerRecord w;
   w.id = m.worker;

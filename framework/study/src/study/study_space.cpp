@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "varbo/csv.hpp"
 #include "varbo/text.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/search_space_config.hpp"
@@ -42,6 +43,11 @@ void check_domain(const StudyConfig& config, const Domain& domain, const Task& t
     }
   };
   distinct(domain.names, "parameter");
+  for (const auto& n : domain.names)  // a plugin's own names: trials.csv and the store key columns by name
+    if (is_trials_table_column(n))
+      config.task.source.fail(fmt::format("task '{}'{}: its parameter '{}' is named like a column of the trials "
+                                          "table (index, phase, cost, ok, error, the timings)",
+                                          config.task.info->name, origin, n));
   distinct(task.component_names(), "cost component");
   for (Index i = 0; i < b.dim(); ++i) {
     const double lo = b.lower(i), hi = b.upper(i);
