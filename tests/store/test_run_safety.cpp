@@ -263,3 +263,40 @@ TEST_CASE("an external command answering in hexadecimal is a failed trial, not a
   }
   fs::remove_all(dir);
 }
+
+TEST_CASE("a run on a study keeps the trials `varbo suggest` handed out pending; a killed run's own are abandoned") {
+  // Red team, session 23: `varbo run --study S` abandoned them as "interrupted: the run stopped", ran their points
+  // again, and the operator's real results became late ones over the budget.
+  const std::string dir = scratch("run_keeps_suggested");
+  const std::string cfg = dir + "/c.yaml", db = dir + "/s.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: external, command: 'cat > /dev/null; echo 0.5', dim: 2, bounds: [-1, 1]}\n"
+                        "algorithm: random\nbudget: 5\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "study", "create", db, cfg}).exit_code == 0);
+  REQUIRE(test::run({V, "-q", "suggest", db, "--batch", "2"}).exit_code == 0);
+  CHECK(test::run({V, "run", cfg, "--study", db, "-o", dir + "/out", "--no-progress"}, log).exit_code == 0);
+  const std::string msg = slurp(log);
+  CHECK(contains(msg, "trial(s) 0, 1 are pending"));
+  auto store = open_sqlite_store(db);
+  CHECK(store->trial(0)->state == TrialState::Pending);
+  CHECK(store->trial(1)->state == TrialState::Pending);
+  CHECK(store->trials().size() == 5);  // 2 pending + 3 run: the budget holds
+  CHECK(test::run({V, "-q", "observe", db, "0", "0.25"}, log).exit_code == 0);
+  CHECK(open_sqlite_store(db)->trial(0)->state == TrialState::Complete);
+
+  // A run killed mid-trial: its own pending trial is abandoned by the resumed run (the earlier rule, kept).
+  const std::string out = dir + "/killed";
+  std::ofstream(dir + "/slow") << "";  // the first trial hangs while this file exists
+  std::ofstream(cfg) << "task: {type: external, command: 'cat > /dev/null; test -f " + dir +
+                            "/slow && sleep 30; echo 1', dim: 1}\nalgorithm: random\nbudget: 2\n";
+  const pid_t first = test::spawn({V, "-q", "run", cfg, "-o", out, "--no-progress"}, dir + "/first.log");
+  for (int i = 0; i < 3000 && !(fs::exists(out + "/study.db") && trial_count(out + "/study.db") >= 1); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(trial_count(out + "/study.db") >= 1);
+  kill(first, SIGKILL);
+  test::wait_for(first);
+  fs::remove(dir + "/slow");
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress"}, log).exit_code == 0);
+  CHECK(open_sqlite_store(out + "/study.db")->trial(0)->state == TrialState::Abandoned);
+  fs::remove_all(dir);
+}

@@ -637,8 +637,22 @@ std::vector<Suggestion> BayesianOptimization::ask(Index q) {
     }
     for (const Vec& p : pending_) fantasy.add(p, lie(p));
   }
+  // The initial design is handed out by what is still missing, not by position: a design point evaluated or
+  // pending is matched to its row, and the next trial of the design takes the first row without one. In trial
+  // order that is row k, as before; with a trial abandoned out of order (trial 0 abandoned, trial 1 done) the
+  // position had pointed at trial 1's row again, a repeated experiment (red team, session 23), and now the
+  // abandoned trial's point comes back.
+  std::vector<bool> design_taken;
+  if (told_ + offset < design_.rows()) design_taken = design_rows_taken();
   for (Index j = 0; j < q; ++j) {
     Suggestion s = suggest(told_ + offset + j, fantasy, j == 0);
+    if (told_ + offset + j < design_.rows()) {
+      const auto free = std::find(design_taken.begin(), design_taken.end(), false);
+      if (free != design_taken.end()) {
+        *free = true;
+        s.x = design_point(static_cast<Index>(free - design_taken.begin()));
+      }
+    }
     // The acquisition was maximized over the relaxation (piecewise constant in the integer and categorical
     // coordinates); what is evaluated, and what later points of the batch see, is its admissible point.
     if (space_) s.x = space_->admissible(s.x);
@@ -654,6 +668,30 @@ std::vector<Suggestion> BayesianOptimization::ask(Index q) {
   }
   prefitted_ = false;
   return out;
+}
+
+Vec BayesianOptimization::design_point(Index row) const {
+  const Vec x = design_.row(row).transpose();
+  return space_ ? space_->admissible(x) : x;
+}
+
+std::vector<bool> BayesianOptimization::design_rows_taken() const {
+  std::vector<bool> taken(static_cast<std::size_t>(design_.rows()), false);
+  std::vector<Vec> points;
+  for (Index i = 0; i < data_.size(); ++i) points.push_back(data_.X.row(i).transpose());
+  points.insert(points.end(), failed_.begin(), failed_.end());
+  points.insert(points.end(), pending_.begin(), pending_.end());
+  // Each point takes one row (the first free equal one): a replicated design row is two rows.
+  for (const Vec& p : points)
+    for (Index r = 0; r < design_.rows(); ++r) {
+      if (taken[static_cast<std::size_t>(r)]) continue;
+      const Vec x = design_point(r);
+      if (x.size() == p.size() && (x - p).cwiseAbs().maxCoeff() <= 1e-12) {
+        taken[static_cast<std::size_t>(r)] = true;
+        break;
+      }
+    }
+  return taken;
 }
 
 void BayesianOptimization::tell(const std::vector<Observation>& observations) {

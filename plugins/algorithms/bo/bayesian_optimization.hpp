@@ -59,6 +59,10 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// n design points from the design sampler, inside the study's linear constraints (varbo/constrained_sampling.hpp).
   Mat design_sample(Index n, Rng& rng) const;
   /// The initial design: `initial_points_` points from kDesign's stream, the initial point first.
+  /// Row `row` of the initial design as handed out (admissible for a typed space).
+  Vec design_point(Index row) const;
+  /// Which design rows an evaluated (successful or failed) or pending point already took (ask()).
+  std::vector<bool> design_rows_taken() const;
   void draw_initial_design();
   Mat starts_near(const Mat& seeds, Rng& rng) const;
   /// The start inside the region with the highest finite f (the first inside one if none is finite).

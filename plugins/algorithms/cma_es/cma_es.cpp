@@ -70,7 +70,9 @@ void CmaEs::new_generation() {
 std::vector<Suggestion> CmaEs::ask(Index q) {
   std::vector<Suggestion> out;
   for (Index k = 0; k < q; ++k) {
-    auto it = std::find_if(pop_.begin(), pop_.end(), [](const Candidate& c) { return !c.asked; });
+    // Nor a told one: a result of a candidate this process never asked (another process's, or one the replay
+    // matched after an earlier trial was abandoned) was handed out again (red team, session 23).
+    auto it = std::find_if(pop_.begin(), pop_.end(), [](const Candidate& c) { return !c.asked && !c.told; });
     while (it == pop_.end()) {
       draw_candidate();
       it = pop_.end() - 1;

@@ -29,8 +29,10 @@ std::optional<Vec> RandomSearch::point(Index k) {
   const Index b = k / block_;
   if (b != loaded_block_) {
     Rng rng = Rng(seed_).stream(1);
-    if (budget_ > kBlock) rng = rng.stream(static_cast<std::uint64_t>(b));
-    points_ = sample_unit_cube(*sampler_, space_, dim_, std::min(block_, budget_ - b * block_), rng);
+    // Blocks past the budget (points passed over as evaluated already) have streams of their own.
+    if (budget_ > kBlock || b * block_ >= budget_) rng = rng.stream(static_cast<std::uint64_t>(b));
+    const Index left = budget_ - b * block_;
+    points_ = sample_unit_cube(*sampler_, space_, dim_, left > 0 ? std::min(block_, left) : block_, rng);
     if (b == 0 && initial_point_ && points_.rows() > 0) points_.row(0) = initial_point_->transpose();
     loaded_block_ = b;
   }
@@ -40,17 +42,36 @@ std::optional<Vec> RandomSearch::point(Index k) {
 
 std::vector<Suggestion> RandomSearch::ask(Index q) {
   std::vector<Suggestion> out;
-  for (Index j = 0; j < q && next_ + skip_ < budget_; ++j, ++next_) {
+  Index passed_pending = 0;  // pending elsewhere: passed over in this process only (no state is saved then)
+  while (static_cast<Index>(out.size()) < q && next_ + skip_ < budget_ + skipped_ + passed_pending) {
     std::optional<Vec> x = point(next_ + skip_);
+    ++next_;
     if (!x) break;
+    const std::vector<double> key(x->data(), x->data() + x->size());
+    if (told_.count(key)) {
+      ++skipped_;  // evaluated already (out of order): never hand a point out twice
+      continue;
+    }
+    if (pending_.count(key)) {
+      ++passed_pending;
+      continue;
+    }
     out.push_back(Suggestion{*x, "random", 0, 0});
   }
   return out;
 }
 
+void RandomSearch::set_pending(const std::vector<Vec>& pending) {
+  skip_ = static_cast<Index>(pending.size());
+  pending_.clear();
+  for (const Vec& p : pending) pending_.insert(std::vector<double>(p.data(), p.data() + p.size()));
+}
+
 void RandomSearch::tell(const std::vector<Observation>& observations) {
-  for (const auto& o : observations)
+  for (const auto& o : observations) {
+    told_.insert(std::vector<double>(o.x.data(), o.x.data() + o.x.size()));
     if (o.ok) data_.add(o.x, o.cost);
+  }
 }
 
 std::optional<Vec> RandomSearch::recommendation() const {

@@ -1,6 +1,8 @@
 #pragma once
 // The baseline every method must beat: points from a sampler, no model.
 #include <memory>
+#include <set>
+#include <vector>
 
 #include "varbo/registry.hpp"
 #include "varbo/search_space.hpp"
@@ -16,8 +18,9 @@ class RandomSearch final : public Algorithm, public AlgorithmState, public Space
   RandomSearch(const Options& options, const BuildContext& ctx);
   std::vector<Suggestion> ask(Index q) override;
   void tell(const std::vector<Observation>& observations) override;
-  /// Points pending elsewhere took the next samples: skip that many, so concurrent workers get distinct ones.
-  void set_pending(const std::vector<Vec>& pending) override { skip_ = static_cast<Index>(pending.size()); }
+  /// Points pending elsewhere took the next samples: skip that many, so concurrent workers get distinct ones
+  /// (and any sample equal to a pending point: after results out of order the count alone fell short).
+  void set_pending(const std::vector<Vec>& pending) override;
   std::optional<Vec> recommendation() const override;
   /// Snapshot: the sample counter (the data come back through the history).
   std::optional<std::string> save_state() const override;
@@ -27,7 +30,7 @@ class RandomSearch final : public Algorithm, public AlgorithmState, public Space
   void set_search_space(SharedSpace space) override;
 
  private:
-  std::optional<Vec> point(Index k);  ///< the k-th point of the sequence (k < budget_)
+  std::optional<Vec> point(Index k);  ///< the k-th point of the sequence (blocks past the budget on demand)
 
   std::unique_ptr<Sampler> sampler_;
   std::uint64_t seed_ = 0;
@@ -39,6 +42,11 @@ class RandomSearch final : public Algorithm, public AlgorithmState, public Space
   Mat points_;
   Index next_ = 0;
   Index skip_ = 0;
+  /// Sequence points passed over because they had been evaluated already: a trial abandoned out of order left the
+  /// counter behind the results (the replay asks once per result), and the next point repeated an evaluated one.
+  Index skipped_ = 0;
+  std::set<std::vector<double>> told_;  ///< every evaluated point, failed ones too (exact coordinates)
+  std::set<std::vector<double>> pending_;  ///< points pending elsewhere (set_pending)
   Dataset data_;
   SharedSpace space_;  ///< typed parameters and constraints (null: a plain box)
 };

@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <optional>
+#include <set>
 #include <filesystem>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <sstream>
 
+#include "owner_identity.hpp"
 #include "run_writer.hpp"
 #include "../study/stored_plugin_paths.hpp"
 #include "../study/study_impl.hpp"
@@ -188,15 +190,36 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // Trials a killed session of this run left pending: their results will never come, and the replay suggests
   // them again. Only trials of processes on this host that no longer exist are touched, so a study shared
   // with live external workers keeps their pending trials.
+  // Only a run's own trials, that is: each run session records its worker id in the study (`run_worker/ID`),
+  // and a trial handed out by `varbo suggest` (whose process has ended too, by design) is someone's experiment
+  // in progress — abandoning it ran its point again and turned the operator's result into a late one (red team,
+  // session 23). Studies from before this record (no `run_workers` key) keep the earlier rule.
   const std::string me = default_worker_name();
   const std::string host = me.substr(0, me.rfind(':'));
+  const bool runs_recorded = st.meta("run_workers").has_value();
+  std::set<std::int64_t> leftovers;  // decided before the transaction (which may run its body again)
+  std::vector<std::int64_t> others_pending;
+  for (const TrialRecord& t : st.store().pending_trials()) {
+    const auto [worker_host, pid] = worker_host_pid(t.worker);
+    const bool dead_here =
+        worker_host == host && pid > 0 && (kill(static_cast<pid_t>(pid), 0) != 0 || pid == static_cast<long>(getpid()));
+    const bool a_run = !runs_recorded || st.meta("run_worker/" + t.worker).has_value();
+    if (dead_here && a_run) leftovers.insert(t.id);
+    else others_pending.push_back(t.id);
+  }
   const std::vector<std::int64_t> interrupted = st.abandon_where(
-      [&](const TrialRecord& t) {
-        const auto [worker_host, pid] = worker_host_pid(t.worker);
-        if (worker_host != host) return false;
-        return pid > 0 && (kill(static_cast<pid_t>(pid), 0) != 0 || pid == static_cast<long>(getpid()));
-      },
+      [&](const TrialRecord& t) { return leftovers.count(t.id) > 0; },
       "interrupted: the run stopped before the result was recorded");
+  st.set_meta("run_workers", "1");
+  st.set_meta("run_worker/" + me, detail::utc_timestamp());
+  if (!others_pending.empty()) {
+    std::string ids;
+    for (std::size_t i = 0; i < others_pending.size() && i < 10; ++i) ids += (i ? ", " : "") + std::to_string(others_pending[i]);
+    if (others_pending.size() > 10) ids += fmt::format(" and {} more", others_pending.size() - 10);
+    log_warn("{}: trial(s) {} are pending, asked by `varbo suggest`, a worker or another program; they are left to "
+             "it and count against the budget until their results come (`varbo abandon {} --id ID` gives one up)",
+             store_path, ids, shell_word(store_path));
+  }
 
   const std::optional<Optimum> optimum = task.optimum();
   RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value(), st.space());

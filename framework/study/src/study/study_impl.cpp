@@ -161,7 +161,10 @@ std::vector<std::pair<std::string, std::string>> Study::Impl::meta_entries(const
                                                                          const std::string& store_address) const {
   std::vector<std::pair<std::string, std::string>> out = {
       {store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(config.resolved())},
-      {store_key::kIdentity, identity}};
+      {store_key::kIdentity, identity},
+      // This study records which workers were `varbo run` sessions (study_run.cpp): a resumed run abandons only
+      // their leftover trials, never those `varbo suggest` handed out.
+      {"run_workers", "1"}};
   for (auto& e : study_detail::plugin_path_entries(plugin_paths_of(config.source), store_address))
     out.push_back(std::move(e));
   return out;
