@@ -534,8 +534,9 @@ def fit(surrogate_config: Config, X: Any, y: Any, *, seed: int = 1, optimize: bo
     text, name = to_yaml(surrogate_config, "surrogate")
     seed = _checks.integer(seed, "fit: seed", 0, _checks.UINT64_MAX)
     threads = _checks.integer(threads, "fit: threads", 0, 2 ** 31 - 1)
+    optimize = _checks.flag(optimize, "fit: optimize")  # bool("no") was True: the fit optimized
     X = _checks.float_array(X, "fit: X")
     if X.ndim == 1:
         X = X.reshape(-1, 1)
-    return Model(_varbo._fit(text, name, X, _checks.float_array(y, "fit: y").ravel(), seed, bool(optimize),
+    return Model(_varbo._fit(text, name, X, _checks.float_array(y, "fit: y").ravel(), seed, optimize,
                              threads))

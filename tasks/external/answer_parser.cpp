@@ -54,7 +54,9 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
     why = "the JSON answer is not an object";
     return std::nullopt;
   }
-  if (j.contains("error")) {
+  // `"error": null` or `""` is no error: Python's json.dumps({"cost": c, "error": None}) writes exactly that, and
+  // every trial of such a script failed with "the command reported an error: null" (red team, session 23).
+  if (j.contains("error") && !j["error"].is_null() && !(j["error"].is_string() && j["error"].get<std::string>().empty())) {
     why = "the command reported an error: " +
           abbreviate(j["error"].is_string() ? j["error"].get<std::string>() : j["error"].dump(), 512);
     return std::nullopt;

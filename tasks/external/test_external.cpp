@@ -102,6 +102,15 @@ TEST_CASE("parse_answer") {
     CHECK(contains(why, "neither a number nor a valid JSON"));
     CHECK(!parse_answer("{\"error\": \"solver diverged\"}\n", why));
     CHECK(contains(why, "solver diverged"));
+    // json.dumps({"cost": c, "error": None}) and an empty reason are no error (session 23: every trial failed).
+    for (const char* text : {"{\"cost\": 1.5, \"error\": null}\n", "{\"cost\": 1.5, \"error\": \"\"}\n"}) {
+      const auto ok = parse_answer(text, why);
+      REQUIRE(ok);
+      CHECK(ok->cost == 1.5);
+    }
+    CHECK(!parse_answer("{\"error\": null}\n", why));  // and still no cost
+    CHECK(contains(why, "no \"cost\""));
+    CHECK(!parse_answer("{\"cost\": 1.5, \"error\": false}\n", why));  // any other value is a reason
   }
   SUBCASE("a key given twice in one object is refused (nlohmann::json kept the last one)") {
     CHECK(!parse_answer("{\"cost\": 1, \"cost\": 2}\n", why));

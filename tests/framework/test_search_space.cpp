@@ -206,6 +206,14 @@ TEST_CASE("constraints parse into Σ a·v ≤ b, whatever side the terms are on"
   const LinearConstraint e = parse_linear_constraint("gain >= -0.5", s.parameters());
   CHECK(e.bound == 0.5);
   CHECK(e.terms[0].second == -1.0);
+  // Strict over integers (session 23: "n < 3" allowed n = 3): whole terms, so Σ < b is Σ ≤ ⌈b⌉ − 1.
+  CHECK(parse_linear_constraint("waypoints < 3", s.parameters()).bound == 2);
+  CHECK(parse_linear_constraint("waypoints < 3.5", s.parameters()).bound == 3);
+  CHECK(parse_linear_constraint("waypoints > 4", s.parameters()).bound == -5);       // −w ≤ −5: w ≥ 5
+  CHECK(parse_linear_constraint("2*waypoints + horizon < 9", s.parameters()).bound == 8);  // horizon is a whole 3
+  // With a real parameter or a fractional coefficient the boundary has no volume: `<` is `<=`.
+  CHECK(parse_linear_constraint("waypoints + gain < 3", s.parameters()).bound == 3);
+  CHECK(parse_linear_constraint("0.5*waypoints < 3", s.parameters()).bound == 3);
 }
 
 TEST_CASE("each bad constraint is refused with the reason") {

@@ -157,6 +157,19 @@ LinearConstraint parse_linear_constraint(const std::string& text, const std::vec
   c.bound = -flip * constant;
   if (c.terms.empty())
     throw ConfigError(fmt::format("constraint '{}': names no parameter (or its coefficients cancel)", text));
+  // A strict comparison over integers: Σ a·v is then an integer, and Σ < b means Σ ≤ ⌈b⌉ − 1 ("n < 3" held n = 3
+  // as "n <= 3" did; red team, session 23). With a real parameter in it the boundary has measure zero and `<` is
+  // `<=` (docs/search_space.md).
+  if (op == "<" || op == ">") {
+    bool integral = true;
+    for (const auto& [i, a] : c.terms) {
+      const Parameter& p = params[i];
+      const bool integer_valued = p.type == ParameterType::Int ||
+                                  (p.type == ParameterType::Fixed && p.choices.empty() && p.value == std::round(p.value));
+      integral = integral && integer_valued && a == std::round(a);
+    }
+    if (integral && std::isfinite(c.bound)) c.bound = std::ceil(c.bound) - 1;
+  }
   return c;
 }
 

@@ -468,10 +468,16 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
         summary.evaluations < study.budget) {
       const std::string why = fmt::format(
           "run {} stopped after {} failed trials in a row (stop_after_failures: {}), the last: {}; every trial is "
-          "recorded. Check the setup (is the robot powered, the E-stop released, the command right?), then continue "
-          "with: {}",
+          "recorded. Check the setup (is the robot powered, the E-stop released?), then continue with: {}{}",
           study.output, failures_in_a_row, study.stop_after_failures, safe_text(last_failure, 300),
-          fmt::format(fmt::runtime(ov.resume_hint), resume_target));
+          fmt::format(fmt::runtime(ov.resume_hint), resume_target),
+          // The command is part of the study's identity (a resumed run runs the stored one): a wrong command is
+          // replaced by a worker's, which runs the same study (red team, session 23).
+          study.task.info && study.task.info->name == "external"
+              ? fmt::format("; if the command itself is wrong, continue with a corrected one: varbo worker {} "
+                            "--command 'CORRECTED COMMAND'",
+                            shell_word(store_path))
+              : std::string());
       throw InputError(why);
     }
   }
