@@ -11,6 +11,8 @@
 #include <filesystem>
 #include <memory>
 
+#include <yaml-cpp/yaml.h>
+
 #include "common.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/host_task.hpp"
@@ -197,6 +199,21 @@ void bind_minimize(py::module_& m) {
           // A registry per run, as `varbo run` builds one: the default plugins, the config's plugin_path and the
           // task `python`.
           const ConfigNode root = ConfigNode::parse(yaml, name);
+          // Resuming: a seed or budget the call does not give (neither argument nor config key) is the study's,
+          // as `varbo run --resume` takes the stored configuration. Before, the defaults applied: a study made with
+          // seed=5 was refused as "another configuration" and a 6-trial run silently grew to 30 (red team,
+          // session 23).
+          if (ov.resume) {
+            const std::string folder = ov.output ? *ov.output : (root.has("output") ? root.child("output").scalar() : "");
+            const std::string store_path = folder + "/study.db";
+            if (!folder.empty() && !is_database_url(folder) && store_exists(store_path)) {
+              if (const auto stored = open_store(store_path)->meta(store_key::kConfig)) {
+                const YAML::Node cfg = YAML::Load(*stored);
+                if (!ov.seed && !root.has("seed") && cfg["seed"]) ov.seed = cfg["seed"].as<std::uint64_t>();
+                if (!ov.budget && !root.has("budget") && cfg["budget"]) ov.budget = cfg["budget"].as<Index>();
+              }
+            }
+          }
           Registry registry;
           PluginLoader loader(registry);
           loader.load_default(plugin_paths_of(root));

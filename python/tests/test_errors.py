@@ -392,6 +392,14 @@ def test_second_minimize_on_a_running_study_names_the_program_holding_it(tmp_pat
     assert len(varbo.Study.open(out / "study.db").trials(as_frame=False)) == 2
 
 
+def test_fit_optimize_refuses_a_str():
+    import numpy as np
+    X = np.linspace(0, 1, 8).reshape(-1, 1)
+    with pytest.raises(TypeError, match="fit: optimize"):  # bool("no") was True (session 23)
+        varbo.fit("gp", X, np.sin(5 * X[:, 0]), optimize="no")
+    assert not varbo.fit("gp", X, np.sin(5 * X[:, 0]), optimize=False).optimized
+
+
 def test_heartbeat_state_is_running_or_stopped(tmp_path):
     # Session 23: any word was stored, and a worker whose state was neither was never abandoned when silent.
     s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 5, "seed": 1})

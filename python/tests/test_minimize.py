@@ -249,3 +249,28 @@ def test_space_bound_of_another_form_is_named(tmp_path):
     assert res.evaluations == 3
     with pytest.raises(varbo.ConfigError, match=r"space: x: expected \(low, high\), got \(0, 1, 2\)"):
         varbo.minimize(lambda p: p["x"] ** 2, {"x": (0, 1, 2)}, budget=3, output=str(tmp_path / "b"))
+
+
+def test_resume_takes_the_stored_seed_and_budget_when_not_given(tmp_path):
+    # Red team, session 23: a run made with seed=5, budget=6 and resumed without them was refused as "another
+    # configuration" (seed 1), and with seed=5 alone it silently grew to the default budget of 30.
+    n = [0]
+
+    def f(p):
+        n[0] += 1
+        if n[0] == 4:
+            raise KeyboardInterrupt
+        return (p["x"] - 0.3) ** 2
+
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        varbo.minimize(f, {"x": (-1, 1)}, budget=6, seed=5, output=out)
+    g = lambda p: (p["x"] - 0.3) ** 2
+    r = varbo.minimize(g, {"x": (-1, 1)}, output=out, resume=True)
+    s = varbo.Study.open(out / "study.db")
+    assert r.evaluations == 6 and s.budget == 6 and s.seed == 5
+    straight = varbo.minimize(g, {"x": (-1, 1)}, budget=6, seed=5, output=tmp_path / "straight")
+    assert [t.x.tolist() for t in r.trials if t.state == "complete"] == [t.x.tolist() for t in straight.trials]
+    with pytest.raises(varbo.InputError, match=r"seed: 5' vs now 'seed: 7'.*varbo.minimize") as e:
+        varbo.minimize(g, {"x": (-1, 1)}, output=out, resume=True, seed=7)
+    assert "varbo run --resume" not in str(e.value)

@@ -189,9 +189,12 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
     throw InputError(fmt::format(
         "{}: this study was created from a different configuration (task, algorithm, seed and initial point must "
         "match to continue it); first difference: {}. Use another study file, or continue it with the configuration "
-        "it was created with (`varbo run --resume {}` or `varbo.minimize(..., output=..., resume=True)`, without "
-        "options that change it such as a seed)",
-        store_path, first_difference(stored, identity), store_path));
+        "it was created with ({}, without options that change it such as a seed)",
+        store_path, first_difference(stored, identity),
+        // A Python objective cannot be run by the command line (red team, session 23).
+        impl->config.task.info && impl->config.task.info->name == "python"
+            ? std::string("`varbo.minimize(..., output=..., resume=True)` with the seed and budget it had or none")
+            : fmt::format("`varbo run --resume {}`", store_path)));
   // The budget is not part of the identity (`--resume --budget 40` continues the study), but the stored
   // configuration must say the budget now in force: `varbo status` and a later `varbo suggest` read it (they showed
   // "budget 30, 0 left" after a run resumed to 33).
