@@ -274,3 +274,17 @@ def test_resume_takes_the_stored_seed_and_budget_when_not_given(tmp_path):
     with pytest.raises(varbo.InputError, match=r"seed: 5' vs now 'seed: 7'.*varbo.minimize") as e:
         varbo.minimize(g, {"x": (-1, 1)}, output=out, resume=True, seed=7)
     assert "varbo run --resume" not in str(e.value)
+
+
+def test_a_result_told_by_another_writer_during_the_run_is_in_the_result_and_summary(tmp_path):
+    # Red team, session 23: fun/x and summary.json's best_cost left it out while best and Study.best() had it.
+    out = tmp_path / "run"
+
+    def cb(t):
+        if t.id == 3:
+            varbo.Study.open(out / "study.db").tell_point({"x": 0.5}, -100.0)
+
+    r = varbo.minimize(lambda p: p["x"] ** 2, {"x": (-1, 1)}, budget=8, seed=1, output=out, callback=cb)
+    assert r.fun == -100.0 and r.x.tolist() == [0.5]
+    assert json.loads((out / "summary.json").read_text())["best_cost"] == -100.0
+    assert r.evaluations == 8 and len(read_trials_csv(out / "trials.csv")) == 8

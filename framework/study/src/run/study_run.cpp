@@ -285,6 +285,26 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     }
   };
 
+  // Results recorded by other writers of the study while this run drives it (`varbo worker`, `varbo observe`, a
+  // Python tell): rows of trials.csv and part of the summary in the order they finished, as a resumed run writes
+  // them. Before, the summary and trials.csv held this run's own trials only — the best result of the study could
+  // be missing from both (red team, session 23).
+  std::int64_t accounted_seq = 0;  // finish_seq of the next trial to account
+  auto catch_up = [&](std::int64_t before_seq) {
+    Index n = 0;
+    for (const TrialRecord& t : st.store().finished_since(accounted_seq)) {
+      if (t.finish_seq >= before_seq) break;
+      TrialRow other;
+      other.index = summary.evaluations;
+      other.trial = t;
+      account(other);
+      writer.trial(other);
+      accounted_seq = t.finish_seq + 1;
+      ++n;
+    }
+    return n;
+  };
+
   // Resume: rewrite the run folder from the store (it may lag behind the store by the trial being written).
   {
     std::vector<TrialRecord> done;
@@ -306,6 +326,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       writer.model(s.snapshot);
       last_snapshot = s.snapshot.iteration;
     }
+    accounted_seq = static_cast<std::int64_t>(done.size());
     if (!done.empty())
       log_info("resuming {}: {} finished trials read from {}{}", study.output, done.size(), store_path,
                interrupted.empty() ? std::string() : fmt::format(", {} interrupted trial(s) suggested again",
@@ -422,7 +443,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       if (new_snapshot) st.add_model_snapshot(StoredSnapshot{index + 1, *snap});
       summary.regret_recommended.reset();
       recommend();
-      if (summary.regret_recommended) st.set_meta(regret_key(index), exact(*summary.regret_recommended));
+      // Keyed by the row the trial takes (its place in the order of results), as a resumed run reads it back.
+      if (summary.regret_recommended)
+        st.set_meta(regret_key(row.trial.finish_seq >= 0 ? static_cast<Index>(row.trial.finish_seq) : index),
+                    exact(*summary.regret_recommended));
     });
     } catch (const StoreConnectionError&) {
       throw;  // retried
@@ -444,8 +468,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       throw;
     }
     if (summary.regret_recommended) row.regret_recommended = *summary.regret_recommended;
+    catch_up(row.trial.finish_seq);  // others' results that came first
+    row.index = summary.evaluations;
     account(row);
     writer.trial(row);
+    accounted_seq = std::max(accounted_seq, row.trial.finish_seq + 1);
     failures_in_a_row = row.ok() ? 0 : failures_in_a_row + 1;
     if (!row.ok()) last_failure = row.trial.error;
     if (ov.progress) {
@@ -481,7 +508,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       throw InputError(why);
     }
   }
-  if (!summary.recommended_theta) recommend();
+  // Results that came in after this run's last one: the recommendation then sees them too.
+  if (catch_up(std::numeric_limits<std::int64_t>::max()) > 0 || !summary.recommended_theta) recommend();
   if (const SearchSpace* space = st.space().get()) {
     if (summary.best_theta) summary.best_params = params_text(*space, *summary.best_theta);
     if (summary.recommended_theta) summary.recommended_params = params_text(*space, *summary.recommended_theta);
