@@ -125,6 +125,7 @@ std::string value_text(const py::handle& given, const std::string& what, const s
                                    "nothing written",
                                    what, name, py::cast<std::string>(py::str(v.attr("shape")))));
     v = v.attr("item")();
+    if (py::isinstance<py::str>(v)) return py::cast<std::string>(v);  // np.array("lqr"): its label
   }
   const bool boolean = py::isinstance<py::bool_>(v) || py::isinstance(v, np.attr("bool_"));
   // Integers exactly (Python's and NumPy's integer types); a bool is not a number here.

@@ -106,6 +106,19 @@ void bind_fit(py::module_& m) {
         for (Index i = 0; i < data.y.size(); ++i)
           if (!data.X.row(i).allFinite() || !std::isfinite(data.y[i]))
             throw InputError(fmt::format("fit: row {} holds a NaN or infinite value (drop failed trials)", i));
+        // As `varbo fit` refuses such a column (cmd_fit.cpp): the models square the values, and a fit of y·1e200
+        // answered ok with infinite variances (red team, session 23).
+        constexpr double kMaxMagnitude = 1e150;
+        for (Index i = 0; i < data.X.rows(); ++i) {
+          if (std::abs(data.y[i]) > kMaxMagnitude)
+            throw InputError(fmt::format("fit: y[{}] = {} is too large in magnitude (at most {:g}: the models square "
+                                         "it); rescale y",
+                                         i, data.y[i], kMaxMagnitude));
+          for (Index c = 0; c < data.X.cols(); ++c)
+            if (std::abs(data.X(i, c)) > kMaxMagnitude)
+              throw InputError(fmt::format("fit: X[{}, {}] = {} is too large in magnitude (at most {:g}); rescale X",
+                                           i, c, data.X(i, c), kMaxMagnitude));
+        }
         const ConfigNode root = ConfigNode::parse(yaml, name);
         const Registry& registry = module_registry();
         // Resolving reads the registry (GIL held: load_plugin() cannot run meanwhile); the fit does not.

@@ -57,7 +57,17 @@ std::string describe(const py::error_already_set& e) {
     type = py::cast<std::string>(e.type().attr("__name__"));
   } catch (...) {
   }
-  return fmt::format("{}: {}", type, e.value() ? py::cast<std::string>(py::str(e.value())) : std::string());
+  // The message as UTF-8 whatever it holds: a message with an undecodable byte (os.fsdecode(b"\xff")) failed to
+  // convert, and the trial's reason became pybind11's "Unable to cast Python instance" (red team, session 23).
+  std::string message;
+  if (e.value()) {
+    try {
+      message = py::cast<std::string>(py::str(e.value()).attr("encode")("utf-8", "backslashreplace"));
+    } catch (...) {
+      message = "(the exception's message could not be read)";
+    }
+  }
+  return fmt::format("{}: {}", type, message);
 }
 
 /// A failed trial saying why.

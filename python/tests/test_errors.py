@@ -408,3 +408,33 @@ def test_heartbeat_state_is_running_or_stopped(tmp_path):
             s.heartbeat(bad)
     s.heartbeat()
     s.heartbeat("stopped")
+
+
+def test_undecodable_text_keeps_the_reason_and_a_0d_label_array_is_its_label(tmp_path):
+    # Red team, session 23: the objective's message became pybind11's "Unable to cast Python instance", fail()
+    # raised "incompatible function arguments", and np.array("lqr") was refused as "got 'lqr' (type str)".
+    import numpy as np
+
+    def f(p):
+        raise OSError("cannot read " + os.fsdecode(b"/dev/ttyUSB\xff"))
+
+    r = varbo.minimize(f, {"x": (0, 1)}, budget=1, seed=1, output=tmp_path / "run")
+    assert r.trials[0].error == "OSError: cannot read /dev/ttyUSB\\udcff"
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "python", "lower": [0], "upper": [1], "names": ["x"]},
+                                               "budget": 5})
+    s.fail(s.ask()[0], os.fsdecode(b"bad \xff"))
+    assert s.trials(as_frame=False)[0].error == "bad \\udcff"
+    z = varbo.Study.create(tmp_path / "z.db", {"parameters": [{"name": "solver", "type": "categorical",
+                                                               "choices": ["pd", "lqr"]}], "budget": 5})
+    tid = z.tell_point({"solver": np.array("lqr")}, 1.0)
+    assert z.trials(as_frame=False)[0].params == {"solver": "lqr"} and tid == 0
+
+
+def test_the_frame_of_a_study_without_trials_has_its_columns(tmp_path):
+    pd = pytest.importorskip("pandas")
+    s = varbo.Study.create(tmp_path / "e.db", {"parameters": [{"name": "n", "type": "int", "low": 0, "high": 3}],
+                                               "budget": 5})
+    df = s.trials()
+    assert isinstance(df, pd.DataFrame) and len(df) == 0
+    assert {"id", "state", "cost", "params_n"} <= set(df.columns)
+    assert len(df[df["state"] == "complete"]) == 0

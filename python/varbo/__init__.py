@@ -207,6 +207,9 @@ class Study:
             reason = "failed"  # not the text "None"
         elif not isinstance(reason, str):
             raise TypeError(f"fail: reason: expected a str, got {type(reason).__name__}")
+        # A reason that is not valid UTF-8 (os.fsdecode of a device name) is kept with escapes; it raised
+        # pybind11's "incompatible function arguments" (red team, session 23).
+        reason = reason.encode("utf-8", "backslashreplace").decode("utf-8")
         self._check_file()
         self._impl.fail(i, reason)
 
@@ -250,15 +253,19 @@ class Study:
             if as_frame:
                 raise
             return records
+        fixed = ("id", "state", "phase", "cost", "error", "worker", "created_at", "finished_at", "fit_seconds",
+                 "acquisition_seconds", "evaluation_seconds")
         rows = []
         for t in records:
-            row = {k: getattr(t, k) for k in ("id", "state", "phase", "cost", "error", "worker", "created_at",
-                                             "finished_at", "fit_seconds", "acquisition_seconds",
-                                             "evaluation_seconds")}
+            row = {k: getattr(t, k) for k in fixed}
             row.update({f"params_{k}": v for k, v in t.params.items()})
             row.update({f"components_{k}": v for k, v in t.components.items()})
             rows.append(row)
-        return pd.DataFrame(rows)
+        # The columns even without a row: `df[df["state"] == "complete"]` on a new study raised KeyError.
+        columns = list(fixed) + [f"params_{n}" for n in self.names]
+        for row in rows:
+            columns += [k for k in row if k not in columns]
+        return pd.DataFrame(rows, columns=columns)
 
     def select(self, kappas: Union[float, Iterable[float]] = 0.0):
         """Risk after learning (Kuindersma 2013, section 3.4): among complete trials, the one minimizing

@@ -103,6 +103,7 @@ static nlohmann::json vec_json(const Vec& v) {
 
 void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::optional<Optimum>& optimum) {
   nlohmann::json j;
+  if (!study_.empty()) j["study"] = study_;
   j["evaluations"] = s.evaluations;
   j["failed"] = s.failed;
   // Share of the trials that failed (no cost): on a robot, how often it fell; 0 before any trial.

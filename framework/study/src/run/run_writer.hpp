@@ -32,6 +32,9 @@ class RunWriter {
   void model(const ModelSnapshot& snapshot);
   void summary(const RunSummary& summary, const Domain& domain, const std::optional<Optimum>& optimum);
   const std::string& folder() const { return folder_; }
+  /// The study the run folder belongs to, written into summary.json as "study" (an absolute path, or the URL with
+  /// its password hidden): a later run of another study refuses to overwrite the folder (study_run.cpp).
+  void set_study(std::string study) { study_ = std::move(study); }
 
  private:
   std::string folder_;
@@ -40,6 +43,7 @@ class RunWriter {
   bool warned_extra_ = false;
   bool with_regret_ = false;  ///< trials.csv carries regret_best_observed and regret_recommended
   SharedSpace space_;         ///< typed parameters: θ written as labels and integers
+  std::string study_;
 };
 
 }  // namespace varbo

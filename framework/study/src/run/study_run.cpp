@@ -11,10 +11,13 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "owner_identity.hpp"
 #include "run_writer.hpp"
+#include "../store/store_url.hpp"
 #include "../study/stored_plugin_paths.hpp"
 #include "../study/study_impl.hpp"
 #include "varbo/csv.hpp"
@@ -82,6 +85,39 @@ bool same_file(const std::string& a, const std::string& b) {
   std::error_code ec;
   if (std::filesystem::exists(a, ec) && std::filesystem::exists(b, ec)) return std::filesystem::equivalent(a, b, ec);
   return std::filesystem::weakly_canonical(a, ec) == std::filesystem::weakly_canonical(b, ec);
+}
+
+/// How summary.json names the study: an absolute path, or a database URL with its password hidden.
+std::string study_tag(const std::string& store_path) {
+  if (is_database_url(store_path)) return parse_postgres_address(store_path).display;
+  return std::filesystem::absolute(store_path).lexically_normal().string();
+}
+
+/// A run folder holds one study's files (trials.csv, summary.json, config.resolved.yaml, model.yaml): a run of
+/// another study there replaced them silently — two study files in one folder, each `--resume`d, took turns
+/// overwriting it (red team, session 23). The folder's summary.json names its study ("study"); folders written
+/// before that say nothing and are not checked.
+std::optional<std::string> other_studys_folder(const std::string& folder, const std::string& store_path) {
+  // The folder's own study.db is its study, whatever summary.json says: a copied or moved run folder names the
+  // original's path there until it is resumed.
+  if (same_file((std::filesystem::path(folder) / "study.db").string(), store_path)) return std::nullopt;
+  std::ifstream in(std::filesystem::path(folder) / "summary.json");
+  if (!in) return std::nullopt;
+  nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object() || !j.contains("study") || !j["study"].is_string()) return std::nullopt;
+  const std::string other = j["study"].get<std::string>();
+  const bool same = is_database_url(store_path) ? other == study_tag(store_path)
+                                                : !is_database_url(other) && same_file(other, store_path);
+  return same ? std::nullopt : std::optional<std::string>(other);
+}
+
+void refuse_other_studys_folder(const std::string& folder, const std::string& store_path, const RunOverrides& ov) {
+  const auto other = other_studys_folder(folder, store_path);
+  if (!other) return;
+  throw InputError(fmt::format("{}: this folder holds the run files (trials.csv, summary.json) of another study, {}; "
+                               "a run of {} would replace them. Give it a run folder of its own with -o DIR{}",
+                               folder, *other, store_path,
+                               ov.resume ? std::string() : ", or " + ov.overwrite_hint + " to replace them"));
 }
 
 /// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
@@ -156,6 +192,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     throw InputError(fmt::format("{}: the folder holds a trials.csv but no study.db; a run here would replace it. Choose "
                                  "another folder, or {} to replace it",
                                  study.output, ov.overwrite_hint));
+  if (!ov.overwrite && !same_file(study.output + "/study.db", store_path))
+    refuse_other_studys_folder(study.output, store_path, ov);
   {
     std::error_code ec;
     std::filesystem::create_directories(study.output, ec);
@@ -223,6 +261,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
 
   const std::optional<Optimum> optimum = task.optimum();
   RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value(), st.space());
+  writer.set_study(study_tag(store_path));
   set_log_file(study.output + "/log.txt");
   log_info("run {}: task {}, algorithm {}, budget {}, seed {}, threads {}", study.output, study.task.info->name,
            study.algorithm.info->name, study.budget, study.seed,
@@ -571,7 +610,9 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
     const fs::path parent = fs::absolute(store_path).parent_path();
     if (url) ov.output = store->meta(store_key::kOutput).value_or("runs/resumed");
     else if (fs::is_directory(target)) ov.output = target;
-    else if (fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) ov.output = parent.string();
+    else if ((fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) &&
+             !other_studys_folder(parent.string(), store_path))
+      ov.output = parent.string();
     else if (auto out = store->meta(store_key::kOutput)) ov.output = *out;  // a study file kept apart (--study)
     else ov.output = parent.string();
   }
