@@ -18,7 +18,12 @@ namespace {
 struct ModuleRegistry {
   Registry registry;
   PluginLoader loader{registry};
-  ModuleRegistry() { loader.load_default(); }
+  // With the task `python` (minimize's): varbo.describe("python") and varbo.plugins("task") listed it nowhere
+  // though docs/python.md configures it (red team, session 23).
+  ModuleRegistry() {
+    loader.load_default();
+    add_python_task(registry);
+  }
 };
 
 ModuleRegistry& instance() {

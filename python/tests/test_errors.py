@@ -438,3 +438,14 @@ def test_the_frame_of_a_study_without_trials_has_its_columns(tmp_path):
     assert isinstance(df, pd.DataFrame) and len(df) == 0
     assert {"id", "state", "cost", "params_n"} <= set(df.columns)
     assert len(df[df["state"] == "complete"]) == 0
+
+
+def test_the_python_task_is_described_and_a_missing_folder_is_named(tmp_path):
+    # Red team, session 23: describe("python") raised UnknownComponentError; a study file in a folder that does not
+    # exist was reported under a temporary name ("x.db.creating-16419: cannot open the study file").
+    d = varbo.describe("python")
+    assert d["kind"] == "task" and {"lower", "upper", "names", "components"} <= {o["name"] for o in d["options"]}
+    assert "python" in [c["name"] for c in varbo.plugins("task")]
+    with pytest.raises(varbo.InputError, match=r"x\.db: cannot create the study file: the folder .*nodir does not exist"):
+        varbo.Study.create(tmp_path / "nodir" / "x.db", {"task": {"type": "branin"}})
+    assert not (tmp_path / "nodir").exists()

@@ -48,6 +48,9 @@ TEST_CASE("out-of-range and mistyped top-level values") {
         "s.yaml:2:9: key 'budget': expected an integer in [1, inf), got '0'");
   CHECK(study_error("task: branin\nseed: many\n") ==
         "s.yaml:2:7: key 'seed': expected an integer in [0, inf), got 'many'");
+  CHECK(study_error("task: branin\nseed: 18446744073709551616\n").find(
+            "key 'seed': expected an integer in [0, inf), got '18446744073709551616': beyond the largest integer a "
+            "setting holds (9223372036854775807)") != std::string::npos);
   CHECK(has(study_error("task: branin\nbudgett: 3\n"), "did you mean 'budget'?"));
 }
 

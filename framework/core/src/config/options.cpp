@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 
 #include <cerrno>
+#include <limits>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
@@ -184,7 +185,15 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     }
     case OptionType::Int: {
       long v;
-      if (!n.is_scalar() || !parse_int(n.scalar(), v)) bad();
+      if (!n.is_scalar()) bad();
+      if (!parse_int(n.scalar(), v)) {
+        // A whole number past what a long holds: "expected an integer in [0, inf), got 18446744073709551616"
+        // read as a contradiction (red team, session 23); say the limit.
+        if (errno == ERANGE)
+          n.fail(fmt::format("expected {}, got {}: beyond the largest integer a setting holds ({})", s.expected(),
+                             shown(n), std::numeric_limits<long>::max()));
+        bad();
+      }
       if (!in_range(s, static_cast<double>(v))) bad();
       return YAML::Node(v);
     }

@@ -599,6 +599,15 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
                                    "have that) or choose another name",
                                    path, suffix, suffix + 1));
   }
+  {
+    // Said of the path given, before the temporary file's name ("x.db.creating-16419: cannot open the study file:
+    // unable to open database file") stood for a folder that does not exist (red team, session 23).
+    std::error_code ec;
+    const fs::path folder = fs::absolute(path, ec).parent_path();
+    if (!fs::is_directory(folder, ec))
+      throw InputError(fmt::format("{}: cannot create the study file: the folder {} does not exist", path,
+                                   folder.string()));
+  }
   const std::string tmp = fmt::format("{}.creating-{}", path, static_cast<long>(getpid()));
   auto cleanup = [&] {
     std::error_code ec;
