@@ -449,3 +449,19 @@ def test_the_python_task_is_described_and_a_missing_folder_is_named(tmp_path):
     with pytest.raises(varbo.InputError, match=r"x\.db: cannot create the study file: the folder .*nodir does not exist"):
         varbo.Study.create(tmp_path / "nodir" / "x.db", {"task": {"type": "branin"}})
     assert not (tmp_path / "nodir").exists()
+
+
+def test_a_trial_of_a_minimize_result_is_refused_by_another_study(tmp_path):
+    # Red team, session 23: minimize's trials carried no study, and another study's pending trial with the same id
+    # took the result silently.
+    seen = []
+    r = varbo.minimize(lambda p: p["x"], {"x": (0, 1)}, budget=3, seed=1, output=tmp_path / "run",
+                       callback=lambda t: seen.append(t))
+    other = varbo.Study.create(tmp_path / "other.db", {"task": {"type": "python", "lower": [0], "upper": [1],
+                                                                "names": ["x"]}, "budget": 5, "seed": 2})
+    other.ask()
+    for t in (r.trials[0], seen[0]):
+        with pytest.raises(varbo.InputError, match="belongs to the study"):
+            other.tell(t, 123.0)
+    assert other.trials(as_frame=False)[0].state == "pending"
+    varbo.Study.open(tmp_path / "run" / "study.db").trials(as_frame=False)  # its own study still reads them

@@ -481,16 +481,25 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
         output = tempfile.mkdtemp(prefix="varbo-minimize-")
         overwrite = True
     user_callback = callback
+    # Trials remember their study, as Study.ask's do: one told to another study with the same id was recorded
+    # there silently (red team, session 23).
+    store_of = (lambda folder: os.path.join(os.fspath(folder), "study.db"))
+
+    def own(d: Dict[str, Any], folder: Any) -> Trial:
+        t = trial_from(d)
+        if folder is not None:
+            t._store = store_of(folder)
+        return t
 
     def on_trial(d: Dict[str, Any]) -> Any:
-        return user_callback(trial_from(d))
+        return user_callback(own(d, output))
 
     r = _varbo._minimize(fun, text, name, None if callback is None else on_trial, seed, budget, threads,
                          None if output is None else os.fspath(output), resume, overwrite, progress)
     return OptimizeResult(x=r["best_x"], fun=r["best_cost"], params=r["best_params"],
                           recommended_x=r["recommended_x"], recommended_params=r["recommended_params"],
                           recommendation_rule=r["recommendation_rule"],
-                          trials=[trial_from(d) for d in r["trials"]], output=r["output"],
+                          trials=[own(d, r["output"]) for d in r["trials"]], output=r["output"],
                           evaluations=r["evaluations"], failed=r["failed"], seconds=r["seconds"])
 
 
