@@ -410,7 +410,13 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       return st.ask(1);
     });
     if (asked.empty()) {
-      log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
+      const std::size_t pending = st.store().pending_trials().size();
+      if (pending > 0)
+        log_info("nothing more to suggest: {} pending trial(s) of other processes hold the rest of the budget; "
+                 "stopping after {} evaluations (their results, when recorded, are part of the study)",
+                 pending, summary.evaluations);
+      else
+        log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
       break;
     }
     const TrialRecord& t = asked.front();
