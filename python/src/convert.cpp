@@ -1,6 +1,7 @@
 // Conversions between varbo's types and Python objects.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common.hpp"
@@ -151,6 +152,18 @@ Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const 
   for (const auto& [k, v] : py::reinterpret_borrow<py::dict>(mapping)) {
     if (!py::isinstance<py::str>(k)) throw InputError(fmt::format("{}: every parameter name must be a str", what));
     const auto name = py::cast<std::string>(k);
+    // A categorical parameter declared with `choices: [True, False]` has the labels "true" and "false" (YAML's
+    // spelling): True given for it is that label. It was refused as "got True (type bool)" (red team, session 23).
+    if (space && (py::isinstance<py::bool_>(v) || py::isinstance(v, py::module_::import("numpy").attr("bool_")))) {
+      const auto& ps = space->parameters();
+      const auto it = std::find_if(ps.begin(), ps.end(), [&](const Parameter& p) { return p.name == name; });
+      const std::string label = py::cast<bool>(v) ? "true" : "false";
+      if (it != ps.end() && it->type == ParameterType::Categorical &&
+          std::find(it->choices.begin(), it->choices.end(), label) != it->choices.end()) {
+        values.emplace_back(name, label);
+        continue;
+      }
+    }
     values.emplace_back(name, value_text(v, what, name));
   }
   if (space) return theta_of_named(*space, values, what);

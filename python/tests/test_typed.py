@@ -248,3 +248,15 @@ def test_optuna_sampler_falls_back_for_continuous_algorithms():
     study.optimize(lambda t: (t.suggest_int("n", 0, 5) - 2) ** 2 + t.suggest_float("x", -1, 1) ** 2, n_trials=6)
     for t in study.trials:
         assert type(t.params["n"]) is int and 0 <= t.params["n"] <= 5 and -1 <= t.params["x"] <= 1
+
+
+def test_a_categorical_of_bools_takes_true_and_false(tmp_path):
+    # Red team, session 23: `choices: [True, False]` became the labels "true"/"false", and tell_point refused True.
+    s = varbo.Study.create(tmp_path / "b.db", {"parameters": [
+        {"name": "use_ff", "type": "categorical", "choices": [True, False]},
+        {"name": "g", "type": "real", "low": 0, "high": 1}], "budget": 5})
+    assert s.parameters[0]["choices"] == ["true", "false"]
+    s.tell_point({"use_ff": False, "g": 0.5}, 1.0)
+    assert s.trials(as_frame=False)[0].params == {"use_ff": "false", "g": 0.5}
+    with pytest.raises(varbo.InputError, match="'g'.*bool"):  # a real parameter still refuses a bool
+        s.tell_point({"use_ff": True, "g": True}, 1.0)
