@@ -119,6 +119,10 @@ Runner add_fit(CLI::App& app) {
     ds.X.resize(data.values.rows(), static_cast<Index>(xcols.size()));
     for (std::size_t j = 0; j < xcols.size(); ++j) ds.X.col(static_cast<Index>(j)) = data.values.col(xcols[j]);
     ds.y = data.values.col(ycol);
+    if (const double top = ds.y.cwiseAbs().maxCoeff(); top > 0 && top < 1e-150)
+      throw InputError(fmt::format("{}: column 'y': every value is at most {:g} in magnitude: the models square it, "
+                                   "which underflows below about 1e-154; rescale the column",
+                                   a->data, top));
 
     Registry& registry = default_registry();
     SurrogateFit fitted;

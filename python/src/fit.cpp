@@ -119,6 +119,10 @@ void bind_fit(py::module_& m) {
               throw InputError(fmt::format("fit: X[{}, {}] = {} is too large in magnitude (at most {:g}); rescale X",
                                            i, c, data.X(i, c), kMaxMagnitude));
         }
+        if (const double top = data.y.cwiseAbs().maxCoeff(); top > 0 && top < 1e-150)
+          throw InputError(fmt::format("fit: every y is at most {:g} in magnitude: the models square it, which "
+                                       "underflows below about 1e-154; rescale y (e.g. multiply by a constant)",
+                                       top));
         const ConfigNode root = ConfigNode::parse(yaml, name);
         const Registry& registry = module_registry();
         // Resolving reads the registry (GIL held: load_plugin() cannot run meanwhile); the fit does not.

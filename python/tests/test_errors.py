@@ -465,3 +465,13 @@ def test_a_trial_of_a_minimize_result_is_refused_by_another_study(tmp_path):
             other.tell(t, 123.0)
     assert other.trials(as_frame=False)[0].state == "pending"
     varbo.Study.open(tmp_path / "run" / "study.db").trials(as_frame=False)  # its own study still reads them
+
+
+def test_costs_too_small_for_the_models_are_said(tmp_path, capfd):
+    # Red team, session 23: costs of 1e-170 broke the model without a word (large ones were warned about).
+    import numpy as np
+    varbo.minimize(lambda p: 1e-170 * (1 + p["x"]), {"x": (0, 1)}, budget=2, seed=1, output=tmp_path / "run")
+    assert "underflow below about 1e-154" in capfd.readouterr().err
+    X = np.linspace(0, 1, 6).reshape(-1, 1)
+    with pytest.raises(varbo.InputError, match="every y is at most"):
+        varbo.fit("gp", X, 1e-170 * (1 + X[:, 0]))

@@ -393,6 +393,16 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
                  m.store->location(), id, exact(ev.cost));
       });
     }
+    if (ev.ok && ev.cost != 0 && std::abs(ev.cost) < 1e-150) {
+      // The other end: squares underflow to 0, and a study whose costs are all this small had a model with a
+      // zero variance and nonsense recommendations, without a word (red team, session 23).
+      static std::once_flag once;
+      std::call_once(once, [&] {
+        log_warn("{}: trial {} has cost {}: the models work with squared costs (variances), which underflow below "
+                 "about 1e-154; if the costs are all this small, rescale them (e.g. multiply by a constant)",
+                 m.store->location(), id, exact(ev.cost));
+      });
+    }
     // A component named like a parameter or a column of the trials table (a command's answer {"cost": 2,
     // "components": {"cost": 3}}) made a second column of that name in the exports, which csv readers took for
     // the first (the trial's cost read as 3). Tell refuses it; a task's result keeps its cost and loses only that
