@@ -105,6 +105,10 @@ struct ResolvedComponent {
 /// position in the config, naming the component, its plugin and the exception's message (exit 2, not an
 /// "internal error").
 [[noreturn]] void throw_factory_error(const ResolvedComponent& c, const std::exception& e);
+/// Called in the handler of a varbo Error from a factory: rethrows it as it is when its message says where
+/// ("file:line:col: ..."), else (a bare ConfigError or InputError from a third-party factory) throws it again as
+/// throw_factory_error does, with the component's position and name.
+[[noreturn]] void rethrow_with_position(const ResolvedComponent& c, const Error& e);
 
 class Registry {
  public:
@@ -134,10 +138,13 @@ class Registry {
       throw std::logic_error("Registry::create: component kind mismatch");
     BuildContext local = ctx;
     local.registry = this;
+    std::unique_ptr<T> made;
     try {
-      return std::get<Factory<T>>(c.info->factory)(c.options, local);
-    } catch (const Error&) {
-      throw;  // already says where (ConfigError from o.node("key").fail(...), a nested component, ...)
+      made = std::get<Factory<T>>(c.info->factory)(c.options, local);
+    } catch (const Error& e) {
+      // Already says where (ConfigError from o.node("key").fail(...), a nested component, ...); a bare one from a
+      // third-party factory (`throw ConfigError("weight must be positive")`) gets the position and component.
+      rethrow_with_position(c, e);
     } catch (const std::bad_alloc&) {
       throw;
     } catch (const std::exception& e) {
@@ -145,6 +152,9 @@ class Registry {
     } catch (...) {  // `throw 7` in a third-party factory ended the process (std::terminate)
       throw_factory_error(c, std::runtime_error("it threw something that is not a std::exception"));
     }
+    // A factory's null pointer was used as the component: a segfault after the initial design's trials.
+    if (!made) throw_factory_error(c, std::runtime_error("its factory returned no object (a null pointer)"));
+    return made;
   }
   /// Convenience: resolve YAML text such as "{type: ei, xi: 0.1}" and create.
   template <class T>

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <regex>
 #include <cctype>
 #include <map>
 #include <mutex>
@@ -257,6 +258,14 @@ void throw_factory_error(const ResolvedComponent& c, const std::exception& e) {
   const std::string origin = info.library.empty() ? std::string() : fmt::format(" (from {})", info.library);
   c.source.fail(fmt::format("{} '{}'{} could not be created: {}", kind_name(info.kind), info.full_name(), origin,
                             e.what()));
+}
+
+void rethrow_with_position(const ResolvedComponent& c, const Error& e) {
+  // A position is "NAME:LINE:COL: " at the start (ConfigNode::fail): a file name, then two numbers.
+  const std::string m = e.what();
+  static const std::regex positioned(R"(^[^\n]*?:\d+:\d+: )");
+  if (std::regex_search(m, positioned)) throw;
+  throw_factory_error(c, e);
 }
 
 bool compatible(const std::vector<const ComponentInfo*>& parts, std::string* why) {

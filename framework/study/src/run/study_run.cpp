@@ -281,6 +281,27 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   bool bad_recommendation_said = false;
   Index failures_in_a_row = 0;
   std::string last_failure;
+  // The regret figures only: a task's noise-free cost that throws (third-party code) leaves them out, said once,
+  // instead of ending the run with "internal error" and the evaluated trial left pending (red team, session 23).
+  bool noiseless_failed = false;
+  auto noiseless = [&](const Vec& theta) -> std::optional<double> {
+    if (noiseless_failed) return std::nullopt;
+    try {
+      return task.noiseless_cost(theta);
+    } catch (const std::exception& e) {
+      noiseless_failed = true;
+      log_warn("task '{}'{}: its noise-free cost (for the regret figures) failed: {}; the run goes on without them",
+               study.task.info->full_name(),
+               study.task.info->library.empty() ? std::string() : " (from " + study.task.info->library + ")",
+               safe_text(e.what(), 300));
+    } catch (...) {
+      noiseless_failed = true;
+      log_warn("task '{}': its noise-free cost threw something that is not a std::exception; the run goes on "
+               "without the regret figures",
+               study.task.info->full_name());
+    }
+    return std::nullopt;
+  };
   auto recommend = [&]() {
     const Algorithm* a = st.algorithm();
     if (!a) {
@@ -299,7 +320,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
           st.space() ? st.space()->decode(st.space()->admissible(*r)) : from_unit(*r, domain.box);
     }
     if (!optimum) return;
-    const std::optional<double> v = task.noiseless_cost(*summary.recommended_theta);
+    const std::optional<double> v = noiseless(*summary.recommended_theta);
     if (v && std::isfinite(*v)) summary.regret_recommended = *v - optimum->cost;
   };
   // Per-row regret of the recommendation, kept in the store so a resumed run rewrites trials.csv exactly.
@@ -449,7 +470,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     // A task that knows its noise-free cost (Task::noiseless_cost) but leaves the evaluation's field empty:
     // regret_best_observed fell back to the noisy cost and went negative (two_minima_1d: −0.073).
     if (optimum && evaluation.ok && std::isnan(evaluation.noiseless_cost))  // only for the regret
-      if (const std::optional<double> v = task.noiseless_cost(t.theta); v && std::isfinite(*v))
+      if (const std::optional<double> v = noiseless(t.theta); v && std::isfinite(*v))
         evaluation.noiseless_cost = *v;
     if (evaluation.ok && !std::isfinite(evaluation.cost)) {
       evaluation.ok = false;
