@@ -43,6 +43,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   surrogate_name_ = o.component("surrogate").info->full_name();
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
   optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
+  optimizer_name_ = o.component("acquisition_optimizer").info->full_name();
   // The recommender's own instance: an optimizer may carry state from call to call (hit_and_run's chains), and
   // recommending must change no trial, also when a resumed run replays the trials without recommending.
   recommend_optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
@@ -510,7 +511,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   }
   s.acquisition_seconds = seconds_since(t_acq);
   if (res.x.size() != dim_ || !res.x.allFinite()) {
-    log_warn("bo: acquisition optimization found no point at trial {} ({}); choosing at random", k, res.message);
+    // Say what was wrong and whose result it was (a third-party optimizer's empty, wrong-length or NaN x read
+    // "found no point at trial 4 ()"; red team, session 23).
+    const std::string what = res.x.size() != dim_ ? fmt::format("a point of dimension {}, expected {}", res.x.size(), dim_)
+                                                   : std::string("a point with a non-finite coordinate");
+    log_warn("bo: acquisition optimization found no point at trial {} ({}: {}{}); choosing at random", k,
+             optimizer_name_, what, res.message.empty() ? "" : "; " + res.message);
     s.x = random_point_avoiding_failures(orng);
     s.phase = "random";
     return s;

@@ -467,6 +467,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       break;
     }
     if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);
+    // "trial 0 failed: " and an empty error column said nothing (red team, session 23).
+    if (!evaluation.ok && evaluation.error.empty()) evaluation.error = "failed (the task gave no reason)";
     // A task that knows its noise-free cost (Task::noiseless_cost) but leaves the evaluation's field empty:
     // regret_best_observed fell back to the noisy cost and went negative (two_minima_1d: −0.073).
     if (optimum && evaluation.ok && std::isnan(evaluation.noiseless_cost))  // only for the regret
