@@ -1,6 +1,9 @@
 #include "random_search.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
+#include <stdexcept>
 
 #include "varbo/errors.hpp"
 #include "varbo/constrained_sampling.hpp"
@@ -10,6 +13,7 @@ namespace varbo::random_search {
 RandomSearch::RandomSearch(const Options& o, const BuildContext& ctx) {
   if (ctx.dim < 1) throw ConfigError("random: the problem dimension must be at least 1");
   sampler_ = ctx.registry->create<Sampler>(o.component("sampler"), ctx);
+  sampler_name_ = o.component("sampler").info->full_name();
   seed_ = ctx.seed;
   dim_ = ctx.dim;
   budget_ = std::max<Index>(ctx.budget, 1);
@@ -32,7 +36,14 @@ std::optional<Vec> RandomSearch::point(Index k) {
     // Blocks past the budget (points passed over as evaluated already) have streams of their own.
     if (budget_ > kBlock || b * block_ >= budget_) rng = rng.stream(static_cast<std::uint64_t>(b));
     const Index left = budget_ - b * block_;
-    points_ = sample_unit_cube(*sampler_, space_, dim_, left > 0 ? std::min(block_, left) : block_, rng);
+    const Index want = left > 0 ? std::min(block_, left) : block_;
+    points_ = sample_unit_cube(*sampler_, space_, dim_, want, rng);
+    // Fewer points than asked is the sampler's bug (a box always holds n points): it ended the run early as
+    // "nothing more to suggest", exit 0, the budget unspent (red team, session 23).
+    if (points_.rows() != want)
+      throw std::runtime_error(fmt::format("random: sampler '{}' returned {} points when asked for {}; its sample() "
+                                           "is wrong",
+                                           sampler_name_, points_.rows(), want));
     if (b == 0 && initial_point_ && points_.rows() > 0) points_.row(0) = initial_point_->transpose();
     loaded_block_ = b;
   }

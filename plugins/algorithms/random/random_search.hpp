@@ -33,6 +33,7 @@ class RandomSearch final : public Algorithm, public AlgorithmState, public Space
   std::optional<Vec> point(Index k);  ///< the k-th point of the sequence (blocks past the budget on demand)
 
   std::unique_ptr<Sampler> sampler_;
+  std::string sampler_name_;  ///< plugin/name, for messages about what it returns
   std::uint64_t seed_ = 0;
   Index dim_ = 0;
   Index budget_ = 1;
