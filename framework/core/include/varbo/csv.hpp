@@ -36,5 +36,7 @@ std::string exact(double v);
 /// A fixed column of trials.csv or of `varbo export` (index, id, state, phase, cost, ok, error, worker, the times and
 /// regrets): a cost component of that name would make a second column of it, read by csv tools as the first.
 bool is_trials_table_column(const std::string& name);
+/// The refusal of such a name for a `what` ("parameter", "component"), one wording wherever it is checked.
+std::string trials_column_clash(const std::string& name, const std::string& what);
 
 }  // namespace varbo

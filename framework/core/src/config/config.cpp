@@ -302,9 +302,7 @@ std::vector<std::string> distinct_names(const ConfigNode& list, const std::strin
     if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
     // A parameter named `cost` gave trials.csv two `cost` columns, and a reader took the first (the θ value).
     if (what == "parameter" && is_trials_table_column(item.scalar()))
-      item.fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); "
-                            "name the parameter otherwise",
-                            item.scalar()));
+      item.fail(trials_column_clash(item.scalar(), "parameter"));
     out.push_back(item.scalar());
   }
   return out;
@@ -314,9 +312,7 @@ std::vector<std::string> cost_component_names(const ConfigNode& list) {
   std::vector<std::string> out = distinct_names(list, "cost component");
   for (std::size_t i = 0; i < out.size(); ++i)
     if (is_trials_table_column(out[i]))
-      list.item(i).fail(fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the "
-                                    "timings); name the component otherwise",
-                                    out[i]));
+      list.item(i).fail(trials_column_clash(out[i], "component"));
   return out;
 }
 

@@ -150,4 +150,10 @@ bool is_trials_table_column(const std::string& name) {
   return std::find(fixed.begin(), fixed.end(), name) != fixed.end();
 }
 
+std::string trials_column_clash(const std::string& name, const std::string& what) {
+  return fmt::format("'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); name the "
+                     "{} otherwise",
+                     name, what);
+}
+
 }  // namespace varbo

@@ -115,10 +115,7 @@ SearchSpace parse_search_space(const ConfigNode& list) {
     if (!seen.insert(p.name).second)
       list.item(i).child("name").fail(fmt::format("duplicate parameter name '{}'", p.name));
     if (is_trials_table_column(p.name))  // trials.csv would get two columns of that name
-      list.item(i).child("name").fail(fmt::format(
-          "'{}' names a column of the trials table (index, phase, cost, ok, error, the timings); name the "
-          "parameter otherwise",
-          p.name));
+      list.item(i).child("name").fail(trials_column_clash(p.name, "parameter"));
     ps.push_back(std::move(p));
   }
   bool free = false;

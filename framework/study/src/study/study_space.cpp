@@ -45,9 +45,8 @@ void check_domain(const StudyConfig& config, const Domain& domain, const Task& t
   distinct(domain.names, "parameter");
   for (const auto& n : domain.names)  // a plugin's own names: trials.csv and the store key columns by name
     if (is_trials_table_column(n))
-      config.task.source.fail(fmt::format("task '{}'{}: its parameter '{}' is named like a column of the trials "
-                                          "table (index, phase, cost, ok, error, the timings)",
-                                          config.task.info->name, origin, n));
+      config.task.source.fail(
+          fmt::format("task '{}'{}: {}", config.task.info->name, origin, trials_column_clash(n, "parameter")));
   distinct(task.component_names(), "cost component");
   for (Index i = 0; i < b.dim(); ++i) {
     const double lo = b.lower(i), hi = b.upper(i);
