@@ -438,7 +438,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // acquisition before the failure and pending wrappers do.
   const Vec probe = Vec::Constant(dim_, 0.5);
   if (surrogate_->ready()) {
-    check_surrogate_outputs(*surrogate_, surrogate_name_, probe, dim_);
+    const Prediction at_centre = check_surrogate_outputs(*surrogate_, surrogate_name_, probe, dim_);
+    // A NaN or negative variance was used silently (red team, session 23): said here, once per trial.
+    if (const std::string bad = unusable_prediction(at_centre); !bad.empty())
+      log_warn("bo: trial {}: surrogate '{}' predicts {} at the centre of the domain; the acquisition may find no "
+               "usable point", k, surrogate_name_, bad);
     if (const Surrogate& scored = surrogate_->acquisition_model(); &scored != surrogate_.get())
       check_surrogate_outputs(scored, surrogate_name_ + " (its acquisition model)", probe, dim_);
   }

@@ -2,12 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <stdexcept>
 
 namespace varbo::bo {
 
-void check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim) {
-  const Prediction p = model.predict(x, true);
+Prediction check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim) {
+  Prediction p = model.predict(x, true);
   auto fail = [&](const std::string& what) {
     throw std::runtime_error(fmt::format("surrogate '{}' returned {} (a prediction at a point of dimension {}); the "
                                          "surrogate's predict() is wrong",
@@ -30,6 +31,15 @@ void check_surrogate_outputs(const Surrogate& model, const std::string& model_na
     if (g.v.size() != (none ? 0 : dim))
       fail(fmt::format("a gradient {} of length {}, expected {}{}", g.name, g.v.size(), dim,
                        none ? " (d_mean is empty: no gradients at all)" : ""));
+  return p;
+}
+
+std::string unusable_prediction(const Prediction& p) {
+  if (!std::isfinite(p.mean)) return fmt::format("a mean of {}", p.mean);
+  if (!(p.latent_var >= 0) || !std::isfinite(p.latent_var)) return fmt::format("a latent variance of {}", p.latent_var);
+  if (!std::isfinite(p.log_noise_mean) || !(p.log_noise_var >= 0) || !std::isfinite(p.log_noise_var))
+    return fmt::format("a log noise variance of mean {} and variance {}", p.log_noise_mean, p.log_noise_var);
+  return {};
 }
 
 void check_acquisition_outputs(const Acquisition& acquisition, const std::string& acquisition_name, const Vec& x,

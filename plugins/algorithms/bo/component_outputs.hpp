@@ -11,8 +11,13 @@ namespace varbo::bo {
 
 /// Predicts with `model` at x (unit cube, dimension `dim`) with gradients and checks the Prediction's gradients:
 /// each of length `dim` (or all empty: a model without gradients).
-/// Throws std::runtime_error naming `model_name` and what is wrong.
-void check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim);
+/// Throws std::runtime_error naming `model_name` and what is wrong; returns the prediction.
+Prediction check_surrogate_outputs(const Surrogate& model, const std::string& model_name, const Vec& x, Index dim);
+
+/// What makes a prediction's values unusable (a non-finite mean, a negative or NaN variance), or "" when none.
+/// Not an error: costs near the overflow of their squares give such values in a built-in model too, and the
+/// acquisition optimizer's fallback survives them; but the user is told, naming the surrogate.
+std::string unusable_prediction(const Prediction& p);
 
 /// Evaluates the prepared `acquisition` at x with a gradient and checks its length (`dim`, or empty when the
 /// acquisition declares none). Throws std::runtime_error naming `acquisition_name`.

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <nlopt.hpp>
@@ -178,6 +179,17 @@ OptimizeResult local_maximize(const DifferentiableFunction& f, const RegionConst
   const Box& box = region.bounds();
   const Index d = box.dim();
   const LocalMethod method = effective_method(settings.method, f.has_gradient(), region.has_constraint(), d);
+  if (settings.method != LocalMethod::Auto && method != settings.method) {
+    // A method the user chose by name and that cannot run here (a constraint it does not handle, no gradient,
+    // BOBYQA in 1-D) is replaced; said once per process, not once per local run (red team, session 23: silent).
+    static std::atomic<bool> said{false};
+    if (!said.exchange(true))
+      log_info("nlopt: local method '{}' cannot be used here ({}); '{}' is used instead", method_name(settings.method),
+               region.has_constraint() && !handles_constraint(settings.method) ? "the region adds a constraint it does not handle"
+               : !f.has_gradient() && needs_gradient(settings.method)          ? "it needs a gradient the function has not"
+                                                                                : "it needs at least 2 variables",
+               method_name(method));
+  }
   Tracker t;
   t.f = &f;
   t.region = &region;
