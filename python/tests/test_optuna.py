@@ -152,3 +152,83 @@ def test_integers_beyond_2_53_use_the_ordinal_fallback():
     study.optimize(lambda t: float(t.suggest_int("rng_seed", 0, 2 ** 62) % 7) + t.suggest_float("x", 0, 1), n_trials=6)
     assert len(study.trials) == 6
     assert all(0 <= t.params["rng_seed"] <= 2 ** 62 for t in study.trials)
+
+
+def test_pruned_trials_are_told_and_not_proposed_again():
+    """Red team, session 24: pruned trials were not told, so the unchanged algorithm proposed the pruned point for
+    the rest of the study (trials 13-19 all at one x)."""
+    def objective(trial):
+        x = trial.suggest_float("x", -1, 1)
+        y = trial.suggest_float("y", -1, 1)
+        if trial.number >= 5 and x < 0:
+            if trial.number % 2:
+                trial.report(5.0 + x * x, 0)  # told at its last intermediate value
+            raise optuna.TrialPruned()  # or, without one, as a failure
+        return (x - 0.5) ** 2 + y * y
+
+    study = optuna.create_study(sampler=varbo.optuna.VarboSampler(seed=3))
+    study.optimize(objective, n_trials=20)
+    points = [(t.params["x"], t.params["y"]) for t in study.trials]
+    assert len(set(points)) == len(points)
+    pruned = [t for t in study.trials if t.state == optuna.trial.TrialState.PRUNED]
+    assert len(pruned) < 10  # the model learns that x < 0 is pruned
+    assert study.best_value < 0.05
+
+
+def test_stepped_float_does_not_repeat_design_points():
+    """Red team, session 24: a float with a step told each design point rounded; bo handed the same design point
+    out again (trials 1-5 identical)."""
+    def objective(trial):
+        x = trial.suggest_float("x", -5, 10)
+        y = trial.suggest_float("y", 0, 15, step=0.5)
+        return branin({"x1": x, "x2": y})
+
+    study = optuna.create_study(sampler=varbo.optuna.VarboSampler(seed=1))
+    study.optimize(objective, n_trials=14)
+    points = [(t.params["x"], t.params["y"]) for t in study.trials]
+    assert len(set(points)) == len(points)
+
+
+def test_one_sampler_two_studies_keep_their_own_points():
+    """Red team, session 24: one sampler serving two studies in turns handed the second study the first one's
+    points (its optimum at +1.5 instead of -1.5)."""
+    sampler = varbo.optuna.VarboSampler(seed=2)
+    a = optuna.create_study(sampler=sampler)
+    b = optuna.create_study(sampler=sampler)
+    for _ in range(12):
+        a.optimize(lambda t: (t.suggest_float("x", -3, 3) - 1.5) ** 2, n_trials=1)
+        b.optimize(lambda t: (t.suggest_float("x", -3, 3) + 1.5) ** 2, n_trials=1)
+    assert a.best_params["x"] == pytest.approx(1.5, abs=0.1)
+    assert b.best_params["x"] == pytest.approx(-1.5, abs=0.1)
+    assert b.best_value < 1e-3  # before: 0.15, b's trials ending at a's optimum
+
+
+def test_random_without_budget_keeps_sampling():
+    """Red team, session 24: `random` with no budget gave one point, then the independent sampler took over
+    silently."""
+    with _no_warning():
+        study = optuna.create_study(sampler=varbo.optuna.VarboSampler({"type": "random"}, seed=1))
+        study.optimize(lambda t: (t.suggest_float("x", 0, 1) - 0.3) ** 2 + t.suggest_float("y", 0, 1) ** 2,
+                       n_trials=8)
+    direct = varbo._varbo._Algorithm("{type: random}", "<test>", 2, 1, 0, 1, "")
+    for _ in range(5):
+        X, _ = direct.ask(1)
+        assert len(X) == 1
+        direct.tell(X, np.array([1.0]))
+
+
+class _no_warning:
+    """No 'outside the intersection search space' warning: every point after the first came from varbo."""
+    def __enter__(self):
+        import logging
+        self.records = []
+        handler = logging.Handler()
+        handler.emit = self.records.append
+        self.handler = handler
+        optuna.logging.get_logger("varbo.optuna").addHandler(handler)
+        return self
+
+    def __exit__(self, *exc):
+        optuna.logging.get_logger("varbo.optuna").removeHandler(self.handler)
+        assert not [r for r in self.records if "intersection search space" in r.getMessage()]
+        return False

@@ -14,7 +14,8 @@ algorithm (``{type: bo}`` unless ``algorithm`` says otherwise: any varbo algorit
 its next admissible point is asked. A space varbo cannot type (a FloatDistribution with ``step``), and any space when
 the algorithm does not handle mixed spaces (no capability ``search_space:mixed``), falls back to an ordinal encoding of the whole space on [0, 1]^d (floats linearly or in log scale, integers and steps by rounding,
 categoricals by the index of the choice). Failed trials are told as failures (bo's failure model avoids where
-trials fail); pending trials are passed as pending points. Parameters outside that space (the first trial,
+trials fail); pruned trials at their last reported intermediate value (as failures when they reported none);
+pending trials are passed as pending points. One sampler may serve several studies: each has its own state. Parameters outside that space (the first trial,
 conditional parameters) come from the independent sampler (Optuna's RandomSampler by default).
 """
 from __future__ import annotations
@@ -120,6 +121,39 @@ def _from_theta(dist: BaseDistribution, t: float) -> Any:
     return float(min(max(float(t), float(dist.low)), float(dist.high)))
 
 
+class _StudyState:
+    """What the sampler keeps for one study (see VarboSampler.__init__)."""
+
+    def __init__(self) -> None:
+        self.search_space = IntersectionSearchSpace()
+        self.alg: Optional[_varbo._Algorithm] = None
+        self.alg_key: Optional[tuple] = None
+        self.told: List[int] = []
+        self.handed_out: Dict[int, tuple] = {}  # trial number -> (search space key, unit point) while running
+        self.said_empty = False
+
+
+def _told_cost(t: FrozenTrial, sign: float) -> float:
+    """The cost a finished trial is told with (NaN: told as a failure).
+
+    A pruned trial was stopped because it did not look promising: it is told at its last reported intermediate
+    value, as Optuna's TPE ranks it, or as a failure when it reported none. Before, pruned trials were not told at
+    all, and the unchanged algorithm proposed the pruned point again for the rest of the study (red team,
+    session 24)."""
+    if t.state == TrialState.COMPLETE:
+        return sign * t.value if t.value is not None else math.nan
+    if t.state == TrialState.PRUNED and t.intermediate_values:
+        v = t.intermediate_values[max(t.intermediate_values)]
+        return sign * float(v) if v is not None and math.isfinite(float(v)) else math.nan
+    return math.nan
+
+
+def _interrupted(t: FrozenTrial) -> bool:
+    """A trial Optuna marked failed because the user pressed Ctrl-C (KeyboardInterrupt), where Optuna records why
+    (its ``fail_reason`` system attribute; Optuna 3.1 records nothing, and such a trial is told as a failure)."""
+    return t.state == TrialState.FAIL and "KeyboardInterrupt" in str(t.system_attrs.get("fail_reason", ""))
+
+
 class VarboSampler(BaseSampler):
     """An Optuna sampler choosing points with a varbo algorithm (default: varbo's plain ``{type: bo}``).
 
@@ -145,13 +179,11 @@ class VarboSampler(BaseSampler):
         self._budget = _checks.integer(budget, "VarboSampler: budget", 0)
         self._threads = _checks.integer(threads, "VarboSampler: threads", 0, 2 ** 31 - 1)
         self._warn = warn_independent_sampling
-        self._search_space = IntersectionSearchSpace()
-        # The live algorithm and the trial numbers told to it, in order: a later call that only adds results
-        # tells those (as a varbo study does) instead of refitting from scratch.
-        self._alg: Optional[_varbo._Algorithm] = None
-        self._alg_key: Optional[tuple] = None
-        self._told: List[int] = []
-        self._handed_out: Dict[int, tuple] = {}  # trial number -> (search space key, unit point) while running
+        # One entry per study this sampler serves (one sampler passed to two studies mixed their trials: the second
+        # study was handed the first one's points; red team, session 24): its intersection search space, the live
+        # algorithm and the trial numbers told to it, in order (a later call that only adds results tells those, as
+        # a varbo study does, instead of refitting from scratch), and the points handed out to running trials.
+        self._studies: Dict[tuple, _StudyState] = {}
         self._lock = threading.Lock()  # study.optimize(n_jobs > 1) samples from several threads
         # Configuration errors surface here, not at the first relative sample.
         _varbo._Algorithm(self._yaml, self._yaml_name, 1, self._seed, self._budget, self._threads)
@@ -171,7 +203,7 @@ class VarboSampler(BaseSampler):
     def __getstate__(self) -> Dict[str, Any]:
         # The live algorithm (C++) is not pickled: the next relative sample rebuilds it from the study's trials.
         state = self.__dict__.copy()
-        state.update(_alg=None, _alg_key=None, _told=[], _handed_out={}, _lock=None)
+        state.update(_studies={}, _lock=None)
         return state
 
     def __setstate__(self, state: Dict[str, Any]) -> None:
@@ -182,11 +214,19 @@ class VarboSampler(BaseSampler):
         if study._is_multi_objective():
             return {}
         space = {}
-        for name, dist in self._search_space.calculate(study).items():
+        with self._lock:
+            per_study = self._state_of(study)
+        for name, dist in per_study.search_space.calculate(study).items():
             if dist.single():
                 continue  # nothing to choose
             space[name] = dist
         return space
+
+    def _state_of(self, study: optuna.Study) -> "_StudyState":
+        key = (id(study._storage), study._study_id)
+        if key not in self._studies:
+            self._studies[key] = _StudyState()
+        return self._studies[key]
 
     def sample_relative(self, study: optuna.Study, trial: FrozenTrial,
                         search_space: Dict[str, BaseDistribution]) -> Dict[str, Any]:
@@ -227,7 +267,9 @@ class VarboSampler(BaseSampler):
                     return False
             return True
 
-        trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.RUNNING))
+        st = self._state_of(study)
+        trials = study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.FAIL, TrialState.PRUNED,
+                                                          TrialState.RUNNING))
         done: List[FrozenTrial] = []
         pending: List[List[float]] = []
         for t in trials:
@@ -236,38 +278,45 @@ class VarboSampler(BaseSampler):
             if t.state == TrialState.RUNNING:
                 # A point this sampler handed out is pending even before its trial stores it (Optuna sets a
                 # relative sample's params only when the objective suggests them).
-                if t.number in self._handed_out and self._handed_out[t.number][0] == key:
-                    pending.append(self._handed_out[t.number][1])
+                if t.number in st.handed_out and st.handed_out[t.number][0] == key:
+                    pending.append(st.handed_out[t.number][1])
                 elif admissible(t):
                     pending.append([encode(n, t.params[n]) for n in names])
+            elif _interrupted(t):
+                continue  # like a varbo trial abandoned: not the point's fault; it may be suggested again
             elif admissible(t):
                 done.append(t)
         running = {t.number for t in trials if t.state == TrialState.RUNNING}
-        self._handed_out = {k: v for k, v in self._handed_out.items() if k in running}
+        st.handed_out = {k: v for k, v in st.handed_out.items() if k in running}
         done.sort(key=lambda t: (t.datetime_complete or t.datetime_start, t.number))
         numbers = [t.number for t in done]
-        if self._alg is None or self._alg_key != key or numbers[:len(self._told)] != self._told:
-            self._alg = _varbo._Algorithm(self._yaml, self._yaml_name, len(names), self._seed, self._budget,
-                                          self._threads, parameters)
-            self._alg_key = key
-            self._told = []
-        new = done[len(self._told):]
+        if st.alg is None or st.alg_key != key or numbers[:len(st.told)] != st.told:
+            st.alg = _varbo._Algorithm(self._yaml, self._yaml_name, len(names), self._seed, self._budget,
+                                       self._threads, parameters)
+            st.alg_key = key
+            st.told = []
+        new = done[len(st.told):]
         if new:
             X = np.array([[encode(n, t.params[n]) for n in names] for t in new], dtype=float)
-            y = np.array([sign * t.value if t.state == TrialState.COMPLETE and t.value is not None else math.nan
-                          for t in new], dtype=float)
+            y = np.array([_told_cost(t, sign) for t in new], dtype=float)
             for i in range(len(new)):  # one result per tell, in finish order, as a varbo study tells them
-                self._alg.tell(X[i:i + 1], y[i:i + 1])
-            self._told.extend(t.number for t in new)
-        self._alg.set_pending(np.array(pending, dtype=float).reshape(-1, len(names)))
-        X, _phases = self._alg.ask(1)
+                st.alg.tell(X[i:i + 1], y[i:i + 1])
+            st.told.extend(t.number for t in new)
+        st.alg.set_pending(np.array(pending, dtype=float).reshape(-1, len(names)))
+        X, _phases = st.alg.ask(1)
         if len(X) == 0:
+            if not st.said_empty:
+                st.said_empty = True
+                optuna.logging.get_logger(__name__).warning(
+                    f"VarboSampler: the varbo algorithm returned no point for trial {trial.number} (its budget, "
+                    f"{self._budget or 'none given'}, is used, or it has converged); from now on the parameters "
+                    f"come from {type(self._independent).__name__}")
             return {}
-        self._handed_out[trial.number] = (key, X[0].tolist())
+        st.handed_out[trial.number] = (key, X[0].tolist())
         if pending:
             # As varbo::Study does: an algorithm asked with pending points is not continued (its state after such
             # an ask is not the serial one); the next sample rebuilds it from the finished trials.
-            self._alg = None
+            st.alg = None
         return {n: decode(n, u) for n, u in zip(names, X[0])}
 
     def sample_independent(self, study: optuna.Study, trial: FrozenTrial, param_name: str,

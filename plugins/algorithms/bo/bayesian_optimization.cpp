@@ -692,15 +692,36 @@ std::vector<bool> BayesianOptimization::design_rows_taken() const {
   points.insert(points.end(), failed_.begin(), failed_.end());
   points.insert(points.end(), pending_.begin(), pending_.end());
   // Each point takes one row (the first free equal one): a replicated design row is two rows.
-  for (const Vec& p : points)
-    for (Index r = 0; r < design_.rows(); ++r) {
+  std::vector<const Vec*> unmatched;
+  for (const Vec& p : points) {
+    bool matched = false;
+    for (Index r = 0; r < design_.rows() && !matched; ++r) {
       if (taken[static_cast<std::size_t>(r)]) continue;
       const Vec x = design_point(r);
-      if (x.size() == p.size() && (x - p).cwiseAbs().maxCoeff() <= 1e-12) {
-        taken[static_cast<std::size_t>(r)] = true;
-        break;
-      }
+      if (x.size() == p.size() && (x - p).cwiseAbs().maxCoeff() <= 1e-12) taken[static_cast<std::size_t>(r)] = matched = true;
     }
+    if (!matched && p.size() == dim_) unmatched.push_back(&p);
+  }
+  // A point told near a row rather than at it (the caller evaluated the design point rounded to its own grid,
+  // e.g. an Optuna float with a step) takes the nearest free row when it lies closer to it than half the design's
+  // smallest spacing: unambiguously that row's evaluation. Before, the row stayed free and was handed out again,
+  // the same experiment five times over (red team, session 24).
+  if (!unmatched.empty() && design_.rows() >= 2) {
+    double spacing = std::numeric_limits<double>::infinity();
+    for (Index a = 0; a < design_.rows(); ++a)
+      for (Index b = a + 1; b < design_.rows(); ++b)
+        spacing = std::min(spacing, (design_point(a) - design_point(b)).norm());
+    for (const Vec* p : unmatched) {
+      Index nearest = -1;
+      double d_nearest = 0.5 * spacing;
+      for (Index r = 0; r < design_.rows(); ++r) {
+        if (taken[static_cast<std::size_t>(r)]) continue;
+        const double d = (design_point(r) - *p).norm();
+        if (d < d_nearest) nearest = r, d_nearest = d;
+      }
+      if (nearest >= 0) taken[static_cast<std::size_t>(nearest)] = true;
+    }
+  }
   return taken;
 }
 

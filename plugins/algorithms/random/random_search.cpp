@@ -16,7 +16,10 @@ RandomSearch::RandomSearch(const Options& o, const BuildContext& ctx) {
   sampler_name_ = o.component("sampler").info->full_name();
   seed_ = ctx.seed;
   dim_ = ctx.dim;
-  budget_ = std::max<Index>(ctx.budget, 1);
+  // No budget (0: the Python ask/tell API and the Optuna sampler when the caller gives none) is no limit: it handed
+  // out one point and then nothing, so the Optuna sampler fell back to its independent sampler silently (red team,
+  // session 24). Blocks of kBlock points then follow one another, each its own stream.
+  budget_ = ctx.budget > 0 ? ctx.budget : kUnbounded;
   // Up to kBlock points: the whole budget in one draw, so a low-discrepancy sampler keeps its structure. A
   // larger budget is drawn in blocks of kBlock (each its own random stream), one block in memory at a time.
   block_ = std::min(budget_, kBlock);

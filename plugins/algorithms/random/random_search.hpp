@@ -14,6 +14,8 @@ class RandomSearch final : public Algorithm, public AlgorithmState, public Space
  public:
   /// Points are drawn a block at a time when first asked for, so a huge budget costs no memory up front.
   static constexpr Index kBlock = 4096;
+  /// The sequence length when no budget is given (ctx.budget 0): as good as endless.
+  static constexpr Index kUnbounded = Index{1} << 50;
 
   RandomSearch(const Options& options, const BuildContext& ctx);
   std::vector<Suggestion> ask(Index q) override;

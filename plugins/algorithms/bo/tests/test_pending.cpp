@@ -119,3 +119,31 @@ TEST_CASE("AwayFromPoints: the inner value outside, below the floor inside, grad
     }
   }
 }
+
+TEST_CASE("bo: a design point told rounded to the caller's grid takes its row; the design goes on") {
+  // Red team, session 24: an Optuna float with a step evaluates each design point rounded to the step and tells
+  // that value. bo matched design rows to results exactly, so the row stayed free and the same design point was
+  // handed out again (five identical trials). A result nearer a free row than half the design's spacing is it.
+  set_log_level(LogLevel::Error);
+  auto a = make("{type: bo, initial_points: 6}", 30);
+  std::vector<Vec> handed;
+  for (int k = 0; k < 6; ++k) {
+    const Suggestion s = a->ask(1).front();
+    handed.push_back(s.x);
+    const Vec rounded = (s.x * 20.0).array().round() / 20.0;  // a grid of 0.05
+    a->tell({Observation{rounded, bowl(rounded), true, {}}});
+  }
+  for (std::size_t i = 0; i < handed.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j) {
+      CAPTURE(i);
+      CAPTURE(j);
+      CHECK(distance(handed[i], handed[j]) > 1e-6);
+    }
+  // Told exactly, the same design is handed out (the rule changes nothing there).
+  auto exact = make("{type: bo, initial_points: 6}", 30);
+  for (int k = 0; k < 6; ++k) {
+    const Suggestion s = exact->ask(1).front();
+    CHECK(distance(s.x, handed[static_cast<std::size_t>(k)]) == 0.0);
+    exact->tell({Observation{s.x, bowl(s.x), true, {}}});
+  }
+}
