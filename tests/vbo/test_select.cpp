@@ -167,3 +167,34 @@ TEST_CASE("select_among: the candidate minimizing E + kappa s, by brute force on
   }
   CHECK_THROWS_AS(select_among(model, domain, {0.0}, Mat(0, 1)), InputError);
 }
+
+TEST_CASE("the run's model for select/plot: warm-started from its last fit, but with the data mean of all trials, "
+          "and a --surrogate with other options is not overridden") {
+  // Red team, session 24: the warm start set the gp's `mean` (which fixes the constant mean) to the last fit's
+  // value, the mean of the first N - 1 costs; and a --surrogate '{type: gp, prior_mean: max}' got the run's fit.
+  const std::string out = test::temp_folder("vbo_select_gp_mean");
+  test::run_yaml("task: branin\nbudget: 12\nseed: 1\nthreads: 1\noutput: " + out +
+                     "\nalgorithm: {type: bo, initial_points: 8, region: box}\n",
+                 test::registry());
+  const RunFolder run = load_run_folder(out, test::registry());
+  REQUIRE(run.data.size() == 12);
+  const ResolvedComponent* own = run_surrogate_spec(run);
+  REQUIRE(own != nullptr);
+  auto mean_of = [](const Surrogate& m) -> double {
+    for (const Hyperparameter& h : m.hyperparameters())
+      if (h.name == "mean") return h.value;
+    return std::nan("");
+  };
+  auto warm = make_run_surrogate(run, *own, test::registry(), 1, true);
+  fit_run_surrogate(*warm, run, 1);
+  auto cold = make_run_surrogate(run, *own, test::registry(), 1, false);
+  fit_run_surrogate(*cold, run, 1);
+  // The gp's constant mean is the standardized data's (prior_mean: zero): the mean of all 12 costs.
+  CHECK(mean_of(*warm) == doctest::Approx(run.data.y.mean()).epsilon(1e-12));
+  CHECK(mean_of(*cold) == doctest::Approx(run.data.y.mean()).epsilon(1e-12));
+  // Another configuration of the same type keeps its own options: prior_mean: max puts the mean at the top cost.
+  const ResolvedComponent max_prior = test::registry().resolve(Kind::Surrogate, ConfigNode::parse("{type: gp, prior_mean: max}", "<test>"));
+  auto other = make_run_surrogate(run, max_prior, test::registry(), 1, true);
+  fit_run_surrogate(*other, run, 1);
+  CHECK(mean_of(*other) == doctest::Approx(run.data.y.maxCoeff()).epsilon(1e-12));
+}

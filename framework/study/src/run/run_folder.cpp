@@ -17,6 +17,8 @@
 #include "varbo/numbers.hpp"
 #include "varbo/text.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 namespace fs = std::filesystem;
 
 namespace varbo {
@@ -176,9 +178,19 @@ std::unique_ptr<Surrogate> make_run_surrogate(const RunFolder& run, const Resolv
   ctx.seed = seed;
   std::unique_ptr<Surrogate> model = respect_types(registry.create<Surrogate>(spec, ctx), run.space);
   const ResolvedComponent* own = run_surrogate_spec(run);
-  if (warm_start && !run.fits.empty() && own != nullptr && own->info == spec.info && !run.fits.back().empty()) {
+  // The warm start is for the run's own model only: a --surrogate of the same type with other options (a prior
+  // mean, given hyperparameters) was overridden by the run's last fit (red team, session 24).
+  const bool same_model = own != nullptr && own->info == spec.info &&
+                          YAML::Dump(own->resolved()) == YAML::Dump(spec.resolved());
+  if (warm_start && !run.fits.empty() && same_model && !run.fits.back().empty()) {
+    // Starting values only. The gp's `mean` is not one: set, it fixes the constant mean, so the model of all the
+    // trials kept the mean of the last fit's data (the first N - 1 trials, or a trust region's attempt: -46.3
+    // where the data mean was -35.4; red team, session 24). Left out, it is the data mean again.
+    Hyperparameters start;
+    for (const Hyperparameter& h : run.fits.back())
+      if (h.name != "mean") start.push_back(h);
     try {
-      model->set_hyperparameters(run.fits.back());
+      model->set_hyperparameters(start);
     } catch (const Error& e) {
       log_warn("{}/model.yaml: last hyperparameters not usable as a start ({}); fitting from the defaults",
                run.folder, e.what());
