@@ -68,7 +68,8 @@ std::vector<RiskSelection> selections(const Surrogate& model, const RunFolder& r
   auto opt = registry.create<Optimizer>(
       registry.resolve(Kind::Optimizer, component_arg(a.optimizer, "acquisition_optimizer", "--optimizer")), octx);
   std::vector<RiskSelection> sel = select_policies(model, run.domain, a.kappas, *opt,
-                                                   Rng(static_cast<std::uint64_t>(a.seed)).stream(0x5e1), run.data.X);
+                                                   Rng(static_cast<std::uint64_t>(a.seed)).stream(0x5e1), run.data.X,
+                                                   nullptr, run.failed);
   for (const auto& s : sel)
     if (!s.ok) log_warn("plot: no selection for kappa {}: {}", s.kappa, s.message);
   return sel;

@@ -1,6 +1,8 @@
 // `varbo status STUDY.db` (a table of the study) and `varbo export STUDY.db --csv`.
 #include <fmt/format.h>
 
+#include <filesystem>
+
 #include <cmath>
 #include <algorithm>
 #include <cstdio>
@@ -33,6 +35,15 @@ std::string csv_cell(const std::string& s) { return csv_text(s); }
 /// enough to show and export them.
 void read_only_components(Registry& registry) { add_host_python_task(registry); }
 
+/// A run folder stands for its study (`varbo status runs/gait`), as `varbo dashboard` and `varbo run --resume` take
+/// it; the commands that only read had refused it (red team, session 24). A folder without one is left to the
+/// store's own message.
+std::string study_of(const std::string& arg) {
+  std::error_code ec;
+  const std::filesystem::path inside = std::filesystem::path(arg) / "study.db";
+  return std::filesystem::is_directory(arg, ec) && std::filesystem::is_regular_file(inside, ec) ? inside.string() : arg;
+}
+
 }  // namespace
 
 Runner add_status(CLI::App& app) {
@@ -40,13 +51,14 @@ Runner add_status(CLI::App& app) {
   auto store = std::make_shared<std::string>();
   cmd->add_option("store", *store, "study file, or postgresql://...?study=NAME URL")->required();
   return [store]() {
-    Study s = Study::open(*store, read_only_components);
+    const std::string address = study_of(*store);
+    Study s = Study::open(address, read_only_components);
     const auto trials = s.trials();
     const auto& names = s.domain().names;
     Index n[4] = {0, 0, 0, 0};
     for (const auto& t : trials) ++n[static_cast<int>(t.state)];
     const Index finished = n[1] + n[2];
-    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", store->c_str(), s.config().task.info->name.c_str(),
+    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", address.c_str(), s.config().task.info->name.c_str(),
                 s.config().algorithm.info->name.c_str(), static_cast<unsigned long long>(s.config().seed));
     std::printf("  trials     %zu: %ld complete, %ld failed, %ld pending, %ld abandoned (budget %ld, %ld left)\n",
                 trials.size(), static_cast<long>(n[1]), static_cast<long>(n[2]), static_cast<long>(n[0]),
@@ -105,7 +117,7 @@ Runner add_export(CLI::App& app) {
   cmd->add_flag("--csv", a->csv, "CSV with a header row (the only format so far)")->required();
   cmd->add_option("-o,--output", a->output, "file to write (default: standard output)");
   return [a]() {
-    Study s = Study::open(a->store, read_only_components);
+    Study s = Study::open(study_of(a->store), read_only_components);
     const auto trials = s.trials();
     std::vector<std::string> comps;
     for (const auto& t : trials)

@@ -52,7 +52,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   bool verbose = false, quiet = false;
   app.add_flag("-v,--verbose", verbose, "debug logging");
-  app.add_flag("-q,--quiet", quiet, "warnings and errors only");
+  app.add_flag("-q,--quiet", quiet, "warnings and errors only (before the subcommand: `varbo -q run ...`; the "
+                                    "per-trial progress lines are `run --no-progress`)");
   std::map<CLI::App*, varbo::cli::Runner> runners;
   auto reg = [&](varbo::cli::Runner (*add)(CLI::App&)) {
     const std::size_t before = app.get_subcommands({}).size();

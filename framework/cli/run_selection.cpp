@@ -2,8 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "component_arg.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 
 namespace varbo::cli {
 
@@ -11,8 +14,12 @@ ResolvedComponent selection_surrogate(const RunFolder& run, const Registry& regi
                                       const std::string& where) {
   if (!surrogate_arg.empty()) return registry.resolve(Kind::Surrogate, component_arg(surrogate_arg, "surrogate", "--surrogate"));
   if (const ResolvedComponent* own = run_surrogate_spec(run)) return *own;
-  throw InputError(fmt::format("{}: the run's algorithm '{}' has no surrogate; name one with --surrogate", where,
-                               run.study.algorithm.info->name));
+  // A run of random, cma_es or rssgd (whose critic is a local model) has no surrogate of its own: the default gp,
+  // said once, as `varbo plot` fits one (select refused where plot went on; red team, session 24).
+  log_info("{}: the run's algorithm '{}' has no surrogate of its own; fitting the default gp (name another with "
+           "--surrogate)",
+           where, run.study.algorithm.info->name);
+  return registry.resolve(Kind::Surrogate, ConfigNode::parse("gp", "<default surrogate>"));
 }
 
 FittedRunModel fit_selection_model(const RunFolder& run, const Registry& registry, const ResolvedComponent& spec,
@@ -30,15 +37,29 @@ std::unique_ptr<Optimizer> make_selection_optimizer(const RunFolder& run, const 
   BuildContext octx;
   octx.dim = run.data.dim();
   octx.seed = seed;
-  return registry.create<Optimizer>(
-      registry.resolve(Kind::Optimizer, component_arg(text, "acquisition_optimizer", flag)), octx);
+  const ResolvedComponent spec = registry.resolve(Kind::Optimizer, component_arg(text, "acquisition_optimizer", flag));
+  // The search keeps to the run's linear constraints and, once trials failed, to the successful trials' cells: an
+  // optimizer that ignores constraints (ceres_lbfgs) answered outside them, worse than the evaluated points, with
+  // ok: true (red team, session 24). Refused as `varbo run` refuses it.
+  const bool constrained = run.failed.rows() > 0 || (run.space && run.space->has_constraints());
+  const auto& provides = spec.info->provides;
+  if (constrained && std::find(provides.begin(), provides.end(), "optimizer:constraints") == provides.end())
+    throw ConfigError(fmt::format("{} {}: '{}' cannot keep to a constraint, and this run's selection has one ({}); "
+                                  "use an optimizer that can, e.g. multistart (the default), sample_polish or "
+                                  "random_search",
+                                  flag, text, spec.info->full_name(),
+                                  run.failed.rows() > 0 ? fmt::format("stay nearer a successful trial than any of "
+                                                                      "the {} failed ones", run.failed.rows())
+                                                        : std::string("the search space's linear constraints")));
+  return registry.create<Optimizer>(spec, octx);
 }
 
 std::vector<RiskSelection> select_on_run(const Surrogate& model, const RunFolder& run, const std::vector<double>& kappas,
                                          const Optimizer& optimizer, std::uint64_t seed, bool among_evaluated) {
   return among_evaluated
              ? select_among(model, run.domain, kappas, run.data.X, run.space)
-             : select_policies(model, run.domain, kappas, optimizer, Rng(seed).stream(0x5e1), run.data.X, run.space);
+             : select_policies(model, run.domain, kappas, optimizer, Rng(seed).stream(0x5e1), run.data.X, run.space,
+                               run.failed);
 }
 
 nlohmann::json selection_json(const RiskSelection& s, const RunFolder& run) {

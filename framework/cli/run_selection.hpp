@@ -18,7 +18,7 @@ namespace varbo::cli {
 inline constexpr const char* kSelectOptimizer = "{type: multistart, candidates: 2000, polish: 8}";
 
 /// The surrogate named by `surrogate_arg` (inline YAML or a file; empty: the run's own). A run whose algorithm has
-/// no surrogate and no `surrogate_arg` is an InputError naming `where`.
+/// no surrogate and no `surrogate_arg` gets the default gp (an info line naming `where` says so).
 ResolvedComponent selection_surrogate(const RunFolder& run, const Registry& registry, const std::string& surrogate_arg,
                                       const std::string& where);
 

@@ -10,11 +10,14 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <set>
 
 #include <yaml-cpp/yaml.h>
 
 #include "common.hpp"
+#include "varbo/config.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/loader.hpp"
@@ -100,6 +103,17 @@ double number(const py::handle& h) {
 void read_result(const py::object& r, Evaluation& ev) {
   if (py::isinstance<py::dict>(r)) {
     py::dict d = py::reinterpret_borrow<py::dict>(r);
+    // A key the result has no use for (a misspelled 'Cost' or 'component') was dropped without a word (red team,
+    // session 24): said once per key and process. Not an error: a dict may carry a caller's own extra values.
+    static std::set<std::string> said;
+    for (const auto& [k, v] : d) {
+      const std::string key = py::isinstance<py::str>(k) ? py::cast<std::string>(k) : std::string(py::repr(k));
+      if (key == "cost" || key == "components" || !said.insert(key).second) continue;
+      const std::string near = closest_match(key, {"cost", "components"});
+      log_warn("the objective's result has the key '{}', which is not used (a result is 'cost' and optionally "
+               "'components'){}",
+               key, near.empty() ? "" : fmt::format("; did you mean '{}'?", near));
+    }
     if (!d.contains("cost")) throw InputError("the objective returned a dict without 'cost'");
     ev.cost = number(d["cost"]);
     if (d.contains("components")) ev.components = components_of(d["components"]);

@@ -475,3 +475,18 @@ def test_costs_too_small_for_the_models_are_said(tmp_path, capfd):
     X = np.linspace(0, 1, 6).reshape(-1, 1)
     with pytest.raises(varbo.InputError, match="every y is at most"):
         varbo.fit("gp", X, 1e-170 * (1 + X[:, 0]))
+
+
+def test_result_dict_keys_that_are_not_used_are_named(tmp_path, capfd):
+    """Red team, session 24: {"cost": c, "component": {...}, "Cost": 99} was accepted and the misspelled keys
+    dropped without a word."""
+    s = varbo.Study.create(tmp_path / "k.db", {"task": {"type": "branin"}, "budget": 3, "seed": 1})
+    t = s.ask()[0]
+    with pytest.warns(UserWarning, match=r"'Cost', 'component'.* not used"):
+        s.tell(t, {"cost": 1.0, "Cost": 99.0, "component": {"energy": 1.0}})
+    assert s.trials(as_frame=False)[0].cost == 1.0
+    varbo.minimize(lambda p: {"cost": p["x"] ** 2, "costs": 1.0}, {"x": (-1, 1)}, budget=3, seed=1,
+                   output=str(tmp_path / "m"))
+    err = capfd.readouterr().err
+    assert err.count("the objective's result has the key 'costs', which is not used") == 1
+    assert "did you mean 'cost'?" in err

@@ -232,3 +232,27 @@ class _no_warning:
         optuna.logging.get_logger("varbo.optuna").removeHandler(self.handler)
         assert not [r for r in self.records if "intersection search space" in r.getMessage()]
         return False
+
+
+def test_costs_beyond_what_the_models_handle_are_named():
+    """Red team, session 24: costs of 1e300 through Optuna gave only 'acquisition optimizer failed' warnings, not
+    the rescaling advice varbo.Study and minimize give."""
+    with _records() as records:
+        study = optuna.create_study(sampler=varbo.optuna.VarboSampler(seed=1))
+        study.optimize(lambda t: 1e300 * (1 + t.suggest_float("x", 0, 1)), n_trials=3)
+    said = [r.getMessage() for r in records if "squared costs" in r.getMessage()]
+    assert len(said) == 1 and "e+300" in said[0]
+
+
+class _records:
+    def __enter__(self):
+        import logging
+        self.records = []
+        self.handler = logging.Handler()
+        self.handler.emit = self.records.append
+        optuna.logging.get_logger("varbo.optuna").addHandler(self.handler)
+        return self.records
+
+    def __exit__(self, *exc):
+        optuna.logging.get_logger("varbo.optuna").removeHandler(self.handler)
+        return False

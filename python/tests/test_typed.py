@@ -252,9 +252,13 @@ def test_optuna_sampler_falls_back_for_continuous_algorithms():
 
 def test_a_categorical_of_bools_takes_true_and_false(tmp_path):
     # Red team, session 23: `choices: [True, False]` became the labels "true"/"false", and tell_point refused True.
-    s = varbo.Study.create(tmp_path / "b.db", {"parameters": [
-        {"name": "use_ff", "type": "categorical", "choices": [True, False]},
-        {"name": "g", "type": "real", "low": 0, "high": 1}], "budget": 5})
+    # Red team, session 24: the function then gets "true"/"false" (str), where `if p["use_ff"]` is always taken:
+    # the labels are kept (the YAML and CLI semantics, and a resumed study's), and a warning says so.
+    with pytest.warns(UserWarning, match=r"'use_ff': its choices are labels, so your function receives 'true', "
+                                         r"'false' \(str\), not True, False"):
+        s = varbo.Study.create(tmp_path / "b.db", {"parameters": [
+            {"name": "use_ff", "type": "categorical", "choices": [True, False]},
+            {"name": "g", "type": "real", "low": 0, "high": 1}], "budget": 5})
     assert s.parameters[0]["choices"] == ["true", "false"]
     s.tell_point({"use_ff": False, "g": 0.5}, 1.0)
     assert s.trials(as_frame=False)[0].params == {"use_ff": "false", "g": 0.5}

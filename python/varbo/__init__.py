@@ -102,6 +102,11 @@ def _components(components: Any) -> Optional[Dict[str, Any]]:
 
 def _cost_and_components(cost: Any, components: Optional[Mapping[str, float]]):
     if isinstance(cost, Mapping):
+        unused = [k for k in cost if k not in ("cost", "components")]
+        if unused:  # a misspelled 'Cost' or 'component' was dropped without a word (red team, session 24)
+            import warnings
+            warnings.warn(f"the result dict's key(s) {', '.join(repr(k) for k in unused)} are not used (a result is "
+                          f"'cost' and optionally 'components')", UserWarning, stacklevel=3)
         if "cost" not in cost:
             raise InputError("a result dict needs 'cost' (and optionally 'components')")
         comps = cost.get("components") if components is None else components

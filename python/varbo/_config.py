@@ -31,6 +31,28 @@ def is_path(config: Any) -> bool:
     return config.endswith((".yaml", ".yml")) or os.path.isfile(config)
 
 
+def _warn_label_choices(parameters: Any, what: str) -> None:
+    """A categorical parameter's choices are labels: ``choices: [True, False]`` or ``[5, 10, 20]`` reach the
+    objective as the str "true"/"false" or "5" (the YAML and CLI semantics, kept by a resumed study), where
+    ``if p["use_ff"]`` is then always taken and ``p["n"] * 2`` is "55" (red team, session 24). Said once per
+    parameter when the config is created from a dict."""
+    if not isinstance(parameters, list):
+        return
+    import warnings
+    for p in parameters:
+        if not isinstance(p, dict) or p.get("type") != "categorical" or not isinstance(p.get("choices"), list):
+            continue
+        odd = [c for c in p["choices"] if not isinstance(c, str)]
+        if odd:
+            labels = ["true" if c is True else "false" if c is False else str(c) for c in odd]
+            warnings.warn(
+                f"<{what} dict>: categorical parameter {p.get('name')!r}: its choices are labels, so your function "
+                f"receives {', '.join(repr(x) for x in labels[:3])}{', ...' if len(labels) > 3 else ''} (str), not "
+                f"{', '.join(repr(c) for c in odd[:3])}{', ...' if len(odd) > 3 else ''}; write the choices as "
+                f"strings and convert them in your function, or use an int parameter for numbers",
+                UserWarning, stacklevel=4)
+
+
 def to_yaml(config: Any, what: str = "config") -> Tuple[str, str]:
     """(YAML text, name for messages)."""
     if is_path(config):
@@ -42,6 +64,7 @@ def to_yaml(config: Any, what: str = "config") -> Tuple[str, str]:
             from . import InputError
             raise InputError(f"{path}: cannot read the {what}: {e.strerror}") from None
     if isinstance(config, dict):
+        _warn_label_choices(config.get("parameters"), what)
         try:
             return json.dumps(config, indent=2, default=_plain), f"<{what} dict>"
         except RecursionError:

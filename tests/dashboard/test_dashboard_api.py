@@ -126,6 +126,8 @@ def main():
         check(status == 200 and g1["mean"] == sl["slices"][0]["mean"], "1-D grid equals the slice")
         status, g2, _ = d.get("/api/grid?x=" + urllib_quote(HOSTILE_X) + "&y=" + urllib_quote(HOSTILE_Y) + "&n=7")
         check(status == 200 and len(g2["mean"]) == 7 and all(len(r) == 7 for r in g2["std"]), "2-D grid shape")
+        # The trials along x with their costs (session 24: the 1-D grid had none of the data docs/dashboard.md lists).
+        check(len(g1["data_x"]) == len(g1["data_cost"]) == len(g2["data_x"]) > 0, "1-D grid data, one per trial")
         status, reg, _ = d.get("/api/region")
         check(status == 200 and isinstance(reg["iterations"], list), "region")
 
@@ -137,7 +139,9 @@ def main():
                            ("/api/select?kappa=1&among_evaluated=maybe", 400), ("/api/nothing", 404), ("/nothing", 404),
                            ("/api/rescore?weights=nope%3D1", 400), ("/api/rescore?weights=" + urllib_quote(HOSTILE_COMPONENT + "=-1"), 400),
                            ("/api/rescore?kappa=0,x", 400), ("/api/rescore?kappa=", 400), ("/api/rescore?epsilon=-1", 400),
-                           ("/api/select?kappa=1&kappa=2", 400), ("/api/trials?since=0&since=1", 400)]:
+                           ("/api/select?kappa=1&kappa=2", 400), ("/api/trials?since=0&since=1", 400),
+                           # Integers are digits, as in the CLI and YAML: 1e1 was taken as 10 (session 24).
+                           ("/api/trials?since=1e1", 400), ("/api/slices?n=1e1", 400), ("/api/trials?since=-", 400)]:
             status, body, _ = d.get(path)
             check(status == code and isinstance(body.get("error"), str) and body["error"], f"{path}: {status} {body}")
         status, body, _ = d.get("/api/grid?x=%3Cscript%3Ealert(1)%3C%2Fscript%3E")

@@ -198,3 +198,65 @@ TEST_CASE("the run's model for select/plot: warm-started from its last fit, but 
   fit_run_surrogate(*other, run, 1);
   CHECK(mean_of(*other) == doctest::Approx(run.data.y.maxCoeff()).epsilon(1e-12));
 }
+
+namespace {
+// A model that only knows "larger x1 is better": mean −x1, no variance. It extrapolates past any failure.
+class Slope final : public Surrogate {
+ public:
+  FitReport fit(const Dataset&, Rng&) override { return {}; }
+  FitReport condition(const Dataset&) override { return {}; }
+  Prediction predict(const Vec& x, bool with_gradient) const override {
+    Prediction p;
+    p.mean = -x[0];
+    p.log_noise_mean = -30;
+    if (with_gradient) {
+      p.d_mean = Vec::Zero(x.size());
+      p.d_mean[0] = -1;
+      p.d_latent_var = p.d_log_noise_mean = p.d_log_noise_var = Vec::Zero(x.size());
+    }
+    return p;
+  }
+  double signal_variance() const override { return 1; }
+  Hyperparameters hyperparameters() const override { return {}; }
+  void set_hyperparameters(const Hyperparameters&) override {}
+  bool ready() const override { return true; }
+};
+}  // namespace
+
+TEST_CASE("select_policies with failed trials: the selection keeps twice as far from every failure as from the "
+          "nearest success") {
+  // Red team, session 24: trials failed beyond x1 = 0.7 and select chose x1 = 1 (the model extrapolates).
+  Domain domain{Box{Vec::Zero(2), Vec::Ones(2)}, {"x1", "x2"}};
+  Mat ok(3, 2), failed(2, 2);
+  ok << 0.2, 0.5, 0.4, 0.5, 0.6, 0.5;
+  failed << 0.75, 0.5, 0.75, 0.9;
+  BuildContext ctx;
+  ctx.dim = 2;
+  const auto opt = test::registry().create<Optimizer>("{type: multistart, candidates: 512, polish: 4}", ctx);
+  const Slope model;
+  const auto free = select_policies(model, domain, {0.0}, *opt, Rng(1), ok);
+  REQUIRE(free[0].ok);
+  CHECK(free[0].theta[0] == doctest::Approx(1.0));  // without the failures: the corner
+  const auto kept = select_policies(model, domain, {0.0}, *opt, Rng(1), ok, nullptr, failed);
+  REQUIRE(kept[0].ok);
+  // Along x2 = 0.5 the region around (0.6, 0.5) against (0.75, 0.5) ends a third of the way: x1 = 0.65. Off that
+  // line the Apollonius ball of the pair reaches further where the other failure is far enough; the maximum of x1
+  // over the region on a grid (spacing 1e-4 in x1, 1e-2 in x2: at most the true maximum) is the reference.
+  auto inside = [&](double a, double b) {
+    const Vec x = (Vec(2) << a, b).finished();
+    const double ds = (ok.rowwise() - x.transpose()).rowwise().squaredNorm().minCoeff();
+    const double df = (failed.rowwise() - x.transpose()).rowwise().squaredNorm().minCoeff();
+    return df >= 4 * ds;
+  };
+  double best = 0;
+  for (int i = 0; i <= 10000; ++i)
+    for (int j = 0; j <= 100; ++j)
+      if (inside(i * 1e-4, j * 1e-2)) best = std::max(best, i * 1e-4);
+  const double df = (failed.rowwise() - kept[0].x.transpose()).rowwise().squaredNorm().minCoeff();
+  const double ds = (ok.rowwise() - kept[0].x.transpose()).rowwise().squaredNorm().minCoeff();
+  CHECK(df >= 4 * ds - 1e-9);                  // inside the region (so at most its true maximum)
+  CHECK(kept[0].theta[0] >= best - 2e-3);      // and at its maximum, up to the optimizer's tolerance
+  CHECK(kept[0].theta[0] < 0.75);
+  // Failed points without successful ones are an error, not a silent unconstrained search.
+  CHECK_THROWS_AS(select_policies(model, domain, {0.0}, *opt, Rng(1), Mat(), nullptr, failed), InputError);
+}

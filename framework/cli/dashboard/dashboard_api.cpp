@@ -49,7 +49,10 @@ double finite_number(const ApiQuery& query, const std::string& name) {
 long long integer(const ApiQuery& query, const std::string& name, long long fallback, long long lo, long long hi) {
   const auto text = query_value(query, name);
   if (!text) return fallback;
-  const std::optional<double> v = parse_decimal(*text);
+  // Digits only, as the CLI and YAML take integers: `since=1e1` was taken as 10 (red team, session 24).
+  const bool digits = !text->empty() && text->find_first_not_of("0123456789", (*text)[0] == '-' ? 1 : 0) == std::string::npos &&
+                      *text != "-";
+  const std::optional<double> v = digits ? parse_decimal(*text) : std::nullopt;
   if (!v || !std::isfinite(*v) || *v != std::floor(*v) || *v < static_cast<double>(lo) || *v > static_cast<double>(hi))
     throw RequestError(400, fmt::format("query parameter '{}': expected an integer in [{}, {}], got '{}'", name, lo, hi,
                                         *text));
@@ -61,7 +64,9 @@ bool flag(const ApiQuery& query, const std::string& name) {
   if (!text) return false;
   if (*text == "1" || *text == "true" || text->empty()) return true;
   if (*text == "0" || *text == "false") return false;
-  throw RequestError(400, fmt::format("query parameter '{}': expected 1, 0, true or false, got '{}'", name, *text));
+  // A bare `?among_evaluated` (no value) is the flag set, as in HTML forms; the message says so.
+  throw RequestError(400, fmt::format("query parameter '{}': expected 1, 0, true, false or no value (= true), got '{}'",
+                                      name, *text));
 }
 
 json theta_json(const std::vector<std::string>& names, const Vec& theta) {
@@ -369,6 +374,15 @@ std::string DashboardApi::grid(const ApiQuery& query) {
     }
     j["mean"] = mean;
     j["std"] = sd;
+    // The trials along x with their costs (docs/dashboard.md listed data_x for the 1-D grid too; it had none).
+    std::vector<double> dx, dc;
+    for (Index r = 0; r < run.theta.rows(); ++r) {
+      const double v = run.theta(r, static_cast<Index>(i));
+      dx.push_back(ax.scale == "log10" ? std::log10(v) : v);
+      dc.push_back(run.cost[r]);
+    }
+    j["data_x"] = dx;
+    j["data_cost"] = dc;
     return json_text(j);
   }
   const std::size_t k = parameter_index(run, *yname, "y");

@@ -57,7 +57,7 @@ class DashboardStudy {
   std::optional<double> regret_recommended(std::int64_t row) const;
 
   /// The model on the complete trials now in the store, refitted only when that number changed. InputError when
-  /// no model can be had (the algorithm has no surrogate, fewer than 2 complete trials). The caller must hold
+  /// no model can be had (fewer than 2 complete trials; an algorithm without a surrogate gets the default gp). The caller must hold
   /// the lock returned by lock_model() while it uses the model (surrogates are not made for concurrent use).
   std::shared_ptr<const DashboardModel> model();
   std::unique_lock<std::mutex> lock_model() const { return std::unique_lock<std::mutex>(model_mutex_); }

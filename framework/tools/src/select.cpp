@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <bit>
 #include <limits>
+#include <optional>
 #include <cmath>
 #include <stdexcept>
 
@@ -40,6 +41,47 @@ void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain,
   r.ok = std::isfinite(r.criterion);
 }
 
+// Near the successful trials, away from the failed ones: x is inside when its nearest failed trial is at least
+// kFailureMargin times as far as its nearest successful one, c(x) = min_f ‖x − f‖² − m² min_s ‖x − s‖² ≥ 0
+// (gradient 2 (x − f*) − 2 m² (x − s*)). Around one success s and one failure f that is a ball (Apollonius) holding
+// s and reaching a third of the way towards f. The plain nearest-trial rule (m = 1, the Voronoi cells) was tried
+// first: a success at the edge of the data owns a cell reaching far past the failures beside it (the cliff run of
+// the red team, session 24: the selection came out at x1 = 0.86, where trials fail beyond 0.7). It is intersected
+// with the space's own constraint (typed linear constraints).
+constexpr double kFailureMargin = 2.0;
+
+class AwayFromFailures final : public RegionConstraint {
+ public:
+  AwayFromFailures(const RegionConstraint& inner, const Mat& successes, const Mat& failed)
+      : inner_(inner), successes_(successes), failed_(failed) {}
+  const Box& bounds() const override { return inner_.bounds(); }
+  bool has_constraint() const override { return true; }
+  double constraint(const Vec& x, Vec* grad) const override {
+    Index s = 0, f = 0;
+    (successes_.rowwise() - x.transpose()).rowwise().squaredNorm().minCoeff(&s);
+    (failed_.rowwise() - x.transpose()).rowwise().squaredNorm().minCoeff(&f);
+    constexpr double m2 = kFailureMargin * kFailureMargin;
+    const double cell =
+        (failed_.row(f).transpose() - x).squaredNorm() - m2 * (successes_.row(s).transpose() - x).squaredNorm();
+    if (inner_.has_constraint()) {
+      Vec g_inner(x.size());
+      const double c_inner = inner_.constraint(x, grad ? &g_inner : nullptr);
+      if (c_inner < cell) {
+        if (grad) *grad = g_inner;
+        return c_inner;
+      }
+    }
+    if (grad) *grad = 2.0 * (x - failed_.row(f).transpose()) - 2.0 * m2 * (x - successes_.row(s).transpose());
+    return cell;
+  }
+  Mat seeds() const override { return successes_; }
+
+ private:
+  const RegionConstraint& inner_;
+  const Mat& successes_;
+  const Mat& failed_;
+};
+
 // One selection per κ; a non-finite κ gets a message, the others `choose`.
 template <class Choose>
 std::vector<RiskSelection> for_each_kappa(const std::vector<double>& kappas, Choose choose) {
@@ -58,20 +100,27 @@ std::vector<RiskSelection> for_each_kappa(const std::vector<double>& kappas, Cho
 
 std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
                                            const std::vector<double>& kappas, const Optimizer& optimizer,
-                                           const Rng& rng, const Mat& starts, const SharedSpace& space) {
+                                           const Rng& rng, const Mat& starts, const SharedSpace& space,
+                                           const Mat& failed) {
   if (!model.ready()) throw InputError("select: the model is not fitted (no data?)");
   const Index d = space ? space->encoded_dim() : domain.box.dim();
   if (d < 1) throw InputError("select: the domain has no parameters");
   if (starts.size() > 0 && starts.cols() != d)
     throw InputError(fmt::format("select: starting points have {} columns, the domain {}", starts.cols(), d));
+  if (failed.rows() > 0 && (failed.cols() != d || starts.rows() == 0))
+    throw InputError(fmt::format("select: {} failed points of dimension {} with {} successful ones; the domain has {}",
+                                 failed.rows(), failed.cols(), starts.rows(), d));
   const std::unique_ptr<RegionConstraint> unit = respect_constraints(std::make_unique<BoxRegion>(Box::unit(d)), space);
+  std::optional<AwayFromFailures> away;
+  if (failed.rows() > 0) away.emplace(*unit, starts, failed);
+  const RegionConstraint& region = away ? static_cast<const RegionConstraint&>(*away) : *unit;
   return for_each_kappa(kappas, [&](RiskSelection& r) {
     const NegativeConfidenceBound f(model, d, r.kappa);
     // The stream depends only on κ's value: selecting [2, -2] or [-2] gives the same answer for -2.
     Rng krng = rng.stream(0x5e1ec7, std::bit_cast<std::uint64_t>(r.kappa == 0.0 ? 0.0 : r.kappa));
     OptimizeResult res;
     try {
-      res = optimizer.maximize(f, *unit, starts, krng);
+      res = optimizer.maximize(f, region, starts, krng);
     } catch (const std::exception& e) {
       res.success = false;
       res.message = e.what();
@@ -80,9 +129,21 @@ std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain&
       r.message = fmt::format("the optimizer found no point ({})", res.message);
       return;
     }
-    const Vec x = space ? space->admissible(res.x) : Vec(Box::unit(d).clamp(res.x));
+    Vec x = space ? space->admissible(res.x) : Vec(Box::unit(d).clamp(res.x));
+    std::string note;
+    if (away && away->constraint(x, nullptr) < -1e-9) {
+      // The optimizer's point (or its admissible rounding) lies nearer a failure: the best successful trial instead.
+      Index best = 0;
+      double best_value = std::numeric_limits<double>::infinity();
+      for (Index i = 0; i < starts.rows(); ++i) {
+        const double v = -f.value(starts.row(i).transpose(), nullptr);
+        if (v < best_value) best_value = v, best = i;
+      }
+      x = starts.row(best).transpose();
+      note = "; the optimizer's point lay too near a failed trial: the best successful trial";
+    }
     describe_at(r, model, domain, x, model.predict(x, false), space);
-    r.message = r.ok ? res.message : "non-finite prediction at the optimizer's point";
+    r.message = r.ok ? res.message + note : "non-finite prediction at the optimizer's point";
   });
 }
 

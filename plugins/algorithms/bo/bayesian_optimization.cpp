@@ -535,8 +535,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   if (feasible && feasibility_->probability(evaluated_point(res.x)) < p_min) {
     // Every start ended where failure is likely (judged at the point that would be evaluated: with typed
     // parameters its rounding): never suggest it; a random point where success is likely.
-    log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < min_probability; choosing at random",
-             k, feasibility_->probability(evaluated_point(res.x)));
+    // The level applied is named with its value: "< min_probability" was printed where the incumbent's level
+    // (refine_min_probability, 0.8) applied and min_probability was 0.5 (red team, session 24).
+    log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < {:.3g} ({}); choosing at random", k,
+             feasibility_->probability(evaluated_point(res.x)), p_min,
+             p_min > exclusion_threshold_ ? "the incumbent's level, at most refine_min_probability"
+                                          : "min_probability");
     s.x = random_point_avoiding_failures(orng);
     s.phase = "random";
     return s;

@@ -48,7 +48,7 @@ BoundOption<BoSettings> pending_distance_option() {
                        "a model-based suggestion within this distance (∞-norm, unit cube) of a point pending "
                        "elsewhere or earlier in the batch is searched again outside that neighbourhood, so two "
                        "workers do not run the same θ (0 = a pending θ may be suggested again, e.g. as a replicate "
-                       "under noise)")
+                       "under noise); 1e-3 when not given")
                  .at_least(0)
                  .at_most(0.5),
              [](const Options& o, BoSettings& s) { s.pending_distance = o.real("pending_distance"); })

@@ -24,6 +24,7 @@ struct RunFolder {
   Vec cost;                         ///< their costs
   std::vector<std::string> phases;  ///< their phases ("initial", "ei", ...)
   Dataset data;                     ///< the same trials in the unit cube, as the algorithm saw them
+  Mat failed;                       ///< failed trials (ok = 0) in the unit cube, rows; θ unreadable ones left out
   std::vector<std::string> components;  ///< trials.csv cost-component columns (between `ok` and the timings)
   Mat component_values;             ///< successful trials × components (NaN where a value is missing)
   std::vector<Hyperparameters> fits;  ///< model.yaml: hyperparameters after each fit (may be empty)

@@ -107,7 +107,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
     if (header[i] == "fit_seconds") comp_end = i;
   for (std::size_t i = ok_col + 1; i < comp_end; ++i) run.components.push_back(header[i]);
 
-  std::vector<Vec> thetas, values;
+  std::vector<Vec> thetas, values, failed_thetas;
   std::vector<double> costs;
   int lineno = 1;
   while (std::getline(in, line)) {
@@ -119,20 +119,31 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
                                    header.size(), cells.size()));
     ++run.trials;
     const std::string where = fmt::format("{}:{}", csv, lineno);
-    if (cells[ok_col] != "1") continue;  // failed trials inform no model (as in the algorithm)
-    Vec t(d);
-    for (Index j = 0; j < d; ++j) {
-      const std::string& cell = cells[xcols[static_cast<std::size_t>(j)]];
-      if (!run.space) {
-        t[j] = parse_number(cell, where);
-        continue;
+    auto theta_of_row = [&] {
+      Vec t(d);
+      for (Index j = 0; j < d; ++j) {
+        const std::string& cell = cells[xcols[static_cast<std::size_t>(j)]];
+        if (!run.space) {
+          t[j] = parse_number(cell, where);
+          continue;
+        }
+        try {  // labels for categories
+          t[j] = run.space->parse_value(static_cast<std::size_t>(j), cell);
+        } catch (const InputError& e) {
+          throw InputError(fmt::format("{}: {}", where, e.what()));
+        }
       }
-      try {  // labels for categories
-        t[j] = run.space->parse_value(static_cast<std::size_t>(j), cell);
-      } catch (const InputError& e) {
-        throw InputError(fmt::format("{}: {}", where, e.what()));
+      return t;
+    };
+    if (cells[ok_col] != "1") {
+      // Failed trials inform no model (as in the algorithm), but `select` keeps its choices away from them.
+      try {
+        if (const Vec t = theta_of_row(); t.allFinite()) failed_thetas.push_back(t);
+      } catch (const InputError&) {
       }
+      continue;
     }
+    const Vec t = theta_of_row();
     const double y = parse_number(cells[cost_col], where);
     if (!t.allFinite() || !std::isfinite(y)) continue;
     Vec v(static_cast<Index>(run.components.size()));
@@ -157,6 +168,12 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
     // The same clamp as the runner: a θ written in user units maps back into the unit cube.
     const Vec& t = thetas[static_cast<std::size_t>(i)];
     run.data.add(run.space ? run.space->encode(t) : Vec(Box::unit(d).clamp(to_unit(t, run.domain.box))), run.cost[i]);
+  }
+  run.failed.resize(static_cast<Index>(failed_thetas.size()), run.data.dim());
+  for (std::size_t i = 0; i < failed_thetas.size(); ++i) {
+    const Vec& t = failed_thetas[i];
+    run.failed.row(static_cast<Index>(i)) =
+        (run.space ? run.space->encode(t) : Vec(Box::unit(d).clamp(to_unit(t, run.domain.box)))).transpose();
   }
   run.fits = read_model_yaml(folder + "/model.yaml");
   return run;

@@ -48,9 +48,15 @@ class NegativeConfidenceBound : public DifferentiableFunction {
 /// the others in the list. The result is in the order of `kappas`; θ is mapped to `domain.box`.
 /// With a search space (typed parameters, docs/search_space.md) the cube is its encoding, the search keeps to its
 /// constraints and θ is the admissible point decoded.
+/// With `failed` points (unit cube rows: trials that failed, e.g. a robot that fell), a selection must lie at least
+/// twice as far from every failed point as from its nearest point of `starts` (the successful trials): a region
+/// around the successes that keeps away from the failures beside them. Without it the model, which knows nothing
+/// of failures, chose the extrapolated corner beyond them (red team, session 24). The optimizer must then handle
+/// a constraint.
 std::vector<RiskSelection> select_policies(const Surrogate& model, const Domain& domain,
                                            const std::vector<double>& kappas, const Optimizer& optimizer,
-                                           const Rng& rng, const Mat& starts = Mat(), const SharedSpace& space = nullptr);
+                                           const Rng& rng, const Mat& starts = Mat(), const SharedSpace& space = nullptr,
+                                           const Mat& failed = Mat());
 
 /// For each κ, the row of `points` (unit cube, e.g. the evaluated θ) minimizing E + κ·s: the selection that
 /// never leaves the data (Kuindersma 2013, Alg. 2 picks among evaluated policies the same way).
