@@ -545,6 +545,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "random";
     return s;
   }
+  // A point outside the box is the optimizer's bug (the built-in ones keep to it): clamped as before, but said,
+  // naming it (a third-party optimizer's stray points were clamped silently; session 23's note).
+  if (!Box::unit(dim_).contains(res.x, 1e-9))
+    log_warn("bo: trial {}: acquisition optimizer '{}' returned a point outside the unit cube (max |coordinate - "
+             "clamp| {:.3g}); clamped into it",
+             k, optimizer_name_, (res.x - Box::unit(dim_).clamp(res.x)).cwiseAbs().maxCoeff());
   s.x = Box::unit(dim_).clamp(res.x);
   s.phase = refining_ ? "refine" : phase.name;
   // The attempt ends here (why: the log's reason); the region restarts afresh with a new design.
