@@ -38,7 +38,7 @@ std::unique_ptr<Optimizer> make_selection_optimizer(const RunFolder& run, const 
   octx.dim = run.data.dim();
   octx.seed = seed;
   const ResolvedComponent spec = registry.resolve(Kind::Optimizer, component_arg(text, "acquisition_optimizer", flag));
-  // The search keeps to the run's linear constraints and, once trials failed, to the successful trials' cells: an
+  // The search keeps to the run's linear constraints and, once trials failed, away from them (select.hpp): an
   // optimizer that ignores constraints (ceres_lbfgs) answered outside them, worse than the evaluated points, with
   // ok: true (red team, session 24). Refused as `varbo run` refuses it.
   const bool constrained = run.failed.rows() > 0 || (run.space && run.space->has_constraints());
@@ -48,8 +48,9 @@ std::unique_ptr<Optimizer> make_selection_optimizer(const RunFolder& run, const 
                                   "use an optimizer that can, e.g. multistart (the default), sample_polish or "
                                   "random_search",
                                   flag, text, spec.info->full_name(),
-                                  run.failed.rows() > 0 ? fmt::format("stay nearer a successful trial than any of "
-                                                                      "the {} failed ones", run.failed.rows())
+                                  run.failed.rows() > 0 ? fmt::format("keep twice as far from the {} failed trials "
+                                                                      "as from the nearest successful one",
+                                                                      run.failed.rows())
                                                         : std::string("the search space's linear constraints")));
   return registry.create<Optimizer>(spec, octx);
 }

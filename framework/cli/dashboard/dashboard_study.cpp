@@ -149,14 +149,13 @@ RunFolder DashboardStudy::run_view(const std::vector<TrialRecord>& trials,
     for (const auto& [name, v] : t.components)
       run.component_values(i, std::find(run.components.begin(), run.components.end(), name) - run.components.begin()) = v;
     // The same mapping as load_run_folder: θ in user units back into the unit cube.
-    run.data.add(run.space ? run.space->encode(t.theta) : Vec(Box::unit(d).clamp(to_unit(t.theta, run.domain.box))),
-                 t.cost);
+    run.data.add(unit_point(run, t.theta), t.cost);
   }
   // Failed trials, as load_run_folder reads them (ok = 0 in trials.csv): the κ selection keeps away from them.
   std::vector<Vec> failed;
   for (const auto* t : finished)
     if (t->state == TrialState::Failed && t->theta.size() == d && t->theta.allFinite())
-      failed.push_back(run.space ? run.space->encode(t->theta) : Vec(Box::unit(d).clamp(to_unit(t->theta, run.domain.box))));
+      failed.push_back(unit_point(run, t->theta));
   run.failed.resize(static_cast<Index>(failed.size()), run.data.dim());
   for (std::size_t i = 0; i < failed.size(); ++i) run.failed.row(static_cast<Index>(i)) = failed[i].transpose();
   for (const auto& s : snapshots) run.fits.push_back(s.snapshot.hyperparameters);

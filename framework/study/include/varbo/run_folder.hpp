@@ -30,6 +30,10 @@ struct RunFolder {
   std::vector<Hyperparameters> fits;  ///< model.yaml: hyperparameters after each fit (may be empty)
 };
 
+/// θ (user units) as the algorithm saw it: the search space's encoding, or the box mapped onto the unit cube
+/// (clamped, as the runner does). One mapping for the successful and the failed trials, the CLI and the dashboard.
+Vec unit_point(const RunFolder& run, const Vec& theta);
+
 /// Reads `folder`; components are resolved against `registry`. Throws InputError/ConfigError naming the file.
 RunFolder load_run_folder(const std::string& folder, const Registry& registry);
 

@@ -53,6 +53,10 @@ std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
 
 }  // namespace
 
+Vec unit_point(const RunFolder& run, const Vec& theta) {
+  return run.space ? run.space->encode(theta) : Vec(Box::unit(theta.size()).clamp(to_unit(theta, run.domain.box)));
+}
+
 RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   RunFolder run;
   run.folder = folder;
@@ -167,14 +171,11 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
     run.cost[i] = costs[static_cast<std::size_t>(i)];
     // The same clamp as the runner: a θ written in user units maps back into the unit cube.
     const Vec& t = thetas[static_cast<std::size_t>(i)];
-    run.data.add(run.space ? run.space->encode(t) : Vec(Box::unit(d).clamp(to_unit(t, run.domain.box))), run.cost[i]);
+    run.data.add(unit_point(run, t), run.cost[i]);
   }
   run.failed.resize(static_cast<Index>(failed_thetas.size()), run.data.dim());
-  for (std::size_t i = 0; i < failed_thetas.size(); ++i) {
-    const Vec& t = failed_thetas[i];
-    run.failed.row(static_cast<Index>(i)) =
-        (run.space ? run.space->encode(t) : Vec(Box::unit(d).clamp(to_unit(t, run.domain.box)))).transpose();
-  }
+  for (std::size_t i = 0; i < failed_thetas.size(); ++i)
+    run.failed.row(static_cast<Index>(i)) = unit_point(run, failed_thetas[i]).transpose();
   run.fits = read_model_yaml(folder + "/model.yaml");
   return run;
 }
