@@ -19,6 +19,8 @@ namespace varbo::gp {
 
 namespace {
 constexpr double kLog2Pi = 1.8378770664093454836;
+/// Costs whose spread is within this fraction of their mean are constant to the double they are stored in (64 ulps).
+constexpr double kConstantSpread = 64 * std::numeric_limits<double>::epsilon();
 
 Vec clamp_to(const Box& box, const Vec& p) { return p.cwiseMax(box.lower).cwiseMin(box.upper); }
 }  // namespace
@@ -126,8 +128,10 @@ GpSurrogate::Standardization GpSurrogate::standardization(const Vec& y) {
     }
   }
   // Constant (or single) costs carry no scale: keep 1 so the model stays well defined. "Constant" is relative to
-  // the costs' magnitude only: costs of order 1e-13 that vary were modelled as constant under an absolute floor.
-  s.scale = (std::isfinite(sd) && sd > 1e-12 * std::abs(s.shift) && sd > 1e-290) ? sd : 1.0;
+  // the costs' magnitude only: costs of order 1e-13 that vary were modelled as constant under an absolute floor;
+  // and it means a spread of a few ulps of the mean (rounding), not 1e-12 of it: costs of 1e15 + y with y spanning
+  // 300 are known to ~0.1 and were modelled with scale 1 and a capped signal (session 25).
+  s.scale = (std::isfinite(sd) && sd > kConstantSpread * std::abs(s.shift) && sd > 1e-290) ? sd : 1.0;
   s.top = (y.maxCoeff() - s.shift) / s.scale;
   return s;
 }

@@ -397,6 +397,32 @@ TEST_CASE("the fit does not depend on the costs' units: 1e-13 and 1e200 times th
   }
 }
 
+TEST_CASE("a large offset of the costs does not change the model (costs of 1e15 + a few hundred)") {
+  // Red team, session 25: costs of 1e15 + y with y spanning ~300 were standardized with scale 1 (their spread
+  // was under 1e-12 of their mean) and the signal std sat at its bound: a point 720 above the offset was
+  // predicted 278 ± 18. A double still holds y to ~0.1 there. Tolerances: the mean within 0.5 (4 ulps of 1e15
+  // and the fit's own rounding), the latent std within 5 %.
+  const Dataset base = branin_like(20, 4);
+  GpSurrogate reference(2, settings_for(KernelType::Matern52, 4), lbfgs());
+  Rng r0(21);
+  REQUIRE(reference.fit(base, r0).ok);
+  REQUIRE(base.y.maxCoeff() - base.y.minCoeff() > 50);  // a spread far under 1e-12 · 1e15 = 1000
+  for (const Vec& at : {Vec((Vec(2) << 0.37, 0.61).finished()), Vec((Vec(2) << 0.9, 0.9).finished())}) {
+    const Prediction p0 = reference.predict(at, false);
+    for (const double offset : {1e14, 1e15}) {
+      CAPTURE(offset);
+      Dataset shifted = base;
+      shifted.y.array() += offset;
+      GpSurrogate gp(2, settings_for(KernelType::Matern52, 4), lbfgs());
+      Rng rng(21);
+      REQUIRE(gp.fit(shifted, rng).ok);
+      const Prediction p = gp.predict(at, false);
+      CHECK(std::abs((p.mean - offset) - p0.mean) < 0.5);
+      CHECK(std::sqrt(p.latent_var) == doctest::Approx(std::sqrt(p0.latent_var)).epsilon(0.05));
+    }
+  }
+}
+
 TEST_CASE("all restarts failing keeps the previous hyperparameters and reports ok = false") {
   const Dataset data = branin_like(20, 13);
   GpSurrogate gp(2, settings_for(KernelType::Matern52, 3), std::make_shared<FailingOptimizer>());

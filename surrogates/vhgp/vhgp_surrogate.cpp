@@ -82,8 +82,10 @@ VhgpSurrogate::Scaling VhgpSurrogate::scaling_for(const Vec& y) const {
     }
   }
   // Constant only relative to the costs' magnitude (an absolute 1e-24 on the variance made costs of order 1e-13
-  // that vary look constant).
-  s.scale = (std::isfinite(sd) && sd > 1e-12 * std::abs(s.mean) && sd > 1e-290) ? sd : 1.0;
+  // that vary look constant), and only within a few ulps of it (the gp's rule, gp_surrogate.cpp).
+  s.scale = (std::isfinite(sd) && sd > 64 * std::numeric_limits<double>::epsilon() * std::abs(s.mean) && sd > 1e-290)
+                ? sd
+                : 1.0;
   return s;
 }
 

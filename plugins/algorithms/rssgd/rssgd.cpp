@@ -37,6 +37,15 @@ const OptionSet<Settings>& option_set() {
       opt::real("step_max", opt::nested(&Settings::step, &StepSize::max),
                 "upper bound of the scaled step η/r̃_θ (paper: 0.5)")
           .above(0),
+      opt::real("cost_unit", &Settings::cost_unit,
+                "the cost difference step_min and step_max refer to (η/r̃_θ ∈ [step_min, step_max] / cost_unit): "
+                "-1 = the standard deviation of the critic's local costs, which makes the update independent of "
+                "the cost's units; a number > 0 fixes it (1 = the paper's literal range, for costs of order 1)")
+          .at_least(-1),
+      opt::real("max_step", &Settings::max_step,
+                "largest |Δθ| of one update in the unit cube (-1 = ε, the local data ball's radius: a longer step "
+                "leaves every observation the critic was fitted on; 0 = no limit, as the paper)")
+          .at_least(-1),
       opt::real("epsilon", -1, "radius ε of the local data ball in the unit cube (-1 = 3.5·max σ, as the paper)")
           .at_least(-1),
       opt::integer("neighbors", opt::nested(&Settings::neighborhood, &Neighborhood::k_nearest),
@@ -76,6 +85,8 @@ Settings settings_from(const Options& o, Index dim) {
     s.sigma = Eigen::Map<const Vec>(v.data(), dim);
   }
   if (s.step.min > s.step.max) o.node("step_min").fail("step_min must not exceed step_max");
+  if (s.cost_unit != -1 && !(s.cost_unit > 0))
+    o.node("cost_unit").fail("expected -1 (the local costs' standard deviation) or a cost difference > 0");
   const double eps = o.real("epsilon");
   s.neighborhood.radius = eps > 0 ? eps : 3.5 * s.sigma.maxCoeff();  // paper: ε = 3.5σ
   s.neighborhood.min_points = s.min_fit_points;
@@ -197,20 +208,37 @@ void Rssgd::update_from(const Observation& o, const Pending&) {
   const Vec z = o.x - theta_;
   const CriticEstimates est = query_critic(*critic_, theta_, o.x);
   const double kappa = kappa_at(steps_);
-  const Vec delta = risk_sensitive_update(z, o.cost, est, kappa, s_.step);
+  const double unit = s_.cost_unit > 0 ? s_.cost_unit : local_cost_unit(ld.y, advantage_of(o.cost, est, kappa));
+  Vec delta = risk_sensitive_update(z, o.cost, est, kappa, s_.step, unit);
   if (!delta.allFinite()) {
     log_warn("rssgd: non-finite update at step {} (critic J~ {}, r~ {}); skipped", steps_, est.mean_at_theta,
              est.std_at_theta);
     return;
+  }
+  const double limit = s_.max_step < 0 ? s_.neighborhood.radius : s_.max_step;
+  if (limit > 0 && delta.norm() > limit) {
+    // The step would leave the data the critic was fitted on (a policy far from every trial on the next run). With
+    // the paper's range (cost_unit 1) this is what costs far from order 1 do: say so once.
+    if (!step_limit_warned_) {
+      log_warn("rssgd: update {} would move θ by {:.3g} in the unit cube, beyond max_step {:.3g}; limited to it{}", steps_,
+               delta.norm(), limit,
+               s_.cost_unit > 0 ? fmt::format(" (with cost_unit {:g} the step range [step_min, step_max] is per {:g} of "
+                                              "cost; the local costs spread {:.3g}: consider cost_unit: -1)",
+                                              s_.cost_unit, s_.cost_unit, local_cost_unit(ld.y, 0.0))
+                                : std::string());
+      step_limit_warned_ = true;
+    }
+    delta *= limit / delta.norm();
   }
   theta_ = Box::unit(theta_.size()).clamp(theta_ + delta);
   ++updates_;
   snapshot_.iteration = data_.size();
   snapshot_.hyperparameters = critic_->hyperparameters();
   snapshot_.objective = rep.objective;
-  snapshot_.note = fmt::format("step {} kappa {} local {} J~ {:.6g} r~ {:.6g} r~z {:.6g} step_size {:.4g} |dtheta| {:.4g}",
-                               steps_, kappa, local.size(), est.mean_at_theta, est.std_at_theta,
-                               est.std_at_perturbed, scaled_step(s_.step, est.std_at_theta), delta.norm());
+  snapshot_.note = fmt::format(
+      "step {} kappa {} local {} J~ {:.6g} r~ {:.6g} r~z {:.6g} cost_unit {:.4g} step_size {:.4g} |dtheta| {:.4g}",
+      steps_, kappa, local.size(), est.mean_at_theta, est.std_at_theta, est.std_at_perturbed, unit,
+      scaled_step(s_.step, est.std_at_theta, unit), delta.norm());
   has_snapshot_ = true;
   log_debug("rssgd: {}", snapshot_.note);
 }

@@ -25,6 +25,8 @@ struct KappaPhase {
 struct Settings {
   Vec sigma;                 ///< per-dimension perturbation std (unit cube); isotropic when all equal
   StepSize step;
+  double cost_unit = -1;     ///< what step.min/max refer to (rssgd_update.hpp); -1 = the local costs' std
+  double max_step = -1;      ///< largest |Δθ| of one update (unit cube); -1 = the ε-ball's radius, 0 = no limit
   Neighborhood neighborhood;
   double kappa = 0;          ///< used when `schedule` is empty
   std::vector<KappaPhase> schedule;
@@ -78,6 +80,7 @@ class Rssgd final : public Algorithm, public AlgorithmState {
   Index steps_ = 0;          ///< perturbations told (κ schedule position)
   Index updates_ = 0;        ///< updates applied
   bool critic_ready_ = false;
+  bool step_limit_warned_ = false;
   double last_fit_seconds_ = 0;
   std::optional<double> kappa_override_;
   Index kappa_override_from_ = 0;

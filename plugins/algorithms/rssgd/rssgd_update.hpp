@@ -15,6 +15,11 @@
 namespace varbo::rssgd {
 
 /// η and the range of the scaled step η / r̃_θ (paper, section 5.4: η = 0.5, η/r̃ ∈ [0.01, 0.5]).
+/// The paper's range is in 1/cost units of its own tasks (costs of order 1), so a fixed range makes the step
+/// depend on the cost's units: at costs ×1e4 the lower bound lets one update move θ by 100 unit cubes, at ×1e-2
+/// the upper bound freezes θ. `cost_unit` is the cost difference the range refers to (η/r̃ ∈ [min, max] / unit);
+/// the algorithm sets it to the spread of the local costs (option `cost_unit: auto`), which makes the update
+/// independent of the cost's units and offset; 1 is the paper's literal range.
 struct StepSize {
   double eta = 0.5;
   double min = 0.01;
@@ -28,13 +33,22 @@ struct CriticEstimates {
   double std_at_perturbed = 1;  ///< r̃_{θ+z}
 };
 
-/// η / r̃_θ clamped to [min, max]. A non-positive or non-finite r̃_θ (a degenerate critic) gives `max`:
-/// the clamp is what keeps the step bounded in that case (section 4.1.2, last paragraph).
-double scaled_step(const StepSize& step, double std_at_theta);
+/// η / r̃_θ clamped to [min, max] / cost_unit. A non-positive or non-finite r̃_θ (a degenerate critic) gives
+/// `max / cost_unit`: the clamp is what keeps the step bounded in that case (section 4.1.2, last paragraph).
+double scaled_step(const StepSize& step, double std_at_theta, double cost_unit = 1);
+
+/// Ĵ_{θ+z} − J̃_θ + κ (r̃_{θ+z} − r̃_θ): the observed cost against the baseline of eq. (19).
+double advantage_of(double observed_cost, const CriticEstimates& critic, double kappa);
 
 /// Δθ = −(η / r̃_θ) (Ĵ_{θ+z} − J̃_θ + κ (r̃_{θ+z} − r̃_θ)) z      (eq. 19, divided by r̃_θ as in Algorithm 3)
+/// with η / r̃_θ clamped by scaled_step(step, r̃_θ, cost_unit).
 Vec risk_sensitive_update(const Vec& z, double observed_cost, const CriticEstimates& critic, double kappa,
-                          const StepSize& step);
+                          const StepSize& step, double cost_unit = 1);
+
+/// The spread of costs that `cost_unit: auto` uses: the standard deviation of `costs` (the critic's local data);
+/// when they are all equal (or fewer than two), the |advantage| of the update, so the clamp still refers to a
+/// cost difference of the problem rather than to 1 in whatever units it has. 1 when both are 0.
+double local_cost_unit(const Vec& costs, double advantage);
 
 /// Reads J̃_θ, r̃_θ and r̃_{θ+z} from a fitted critic (see the mapping above).
 CriticEstimates query_critic(const Surrogate& critic, const Vec& theta, const Vec& perturbed);

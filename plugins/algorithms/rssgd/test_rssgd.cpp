@@ -87,6 +87,7 @@ TEST_CASE("the algorithm's ask/tell steps equal classical weight perturbation un
   Settings s;
   s.sigma = Vec::Constant(3, 0.03);
   s.step = {0.5, 0.01, 0.5};
+  s.cost_unit = 1;  // the paper's literal range
   s.neighborhood.radius = 0.2;
   s.kappa = 0.0;
   s.evaluate_initial = false;
@@ -109,6 +110,102 @@ TEST_CASE("the algorithm's ask/tell steps equal classical weight perturbation un
   CHECK(compared == 40);
   CHECK(alg.updates() == 40);
   CHECK((alg.recommendation().value() - alg.theta()).norm() == 0.0);
+}
+
+namespace {
+
+/// θ after each of `steps` RSSGD updates on J(θ) = scale·|θ − c|² + offset with cost noise sd scale·0.8, a critic
+/// exact in the mean and std; every observation is in the local data (radius 10), whose costs' std is the unit.
+std::vector<Vec> trajectory(double scale, double offset, double cost_unit, int steps, double radius = 10,
+                            double max_step = -1) {
+  const Vec c = (Vec(3) << 0.3, 0.6, 0.5).finished();
+  auto J = [c, scale, offset](const Vec& x) { return scale * (x - c).squaredNorm() + offset; };
+  auto critic = std::make_unique<ExactCritic>(J, [scale](const Vec&) { return 0.8 * scale; });
+  Settings s;
+  s.sigma = Vec::Constant(3, 0.075);
+  s.cost_unit = cost_unit;
+  s.max_step = max_step;
+  s.neighborhood.radius = radius;
+  s.evaluate_initial = false;
+  s.min_fit_points = 2;
+  Dataset history = Dataset::empty(3);
+  for (int i = 0; i < 3; ++i) {
+    const Vec x = Vec::Constant(3, 0.5) + Vec::Constant(3, 0.01 * i);
+    history.add(x, J(x) + 0.8 * scale * (i - 1));
+  }
+  Rssgd alg(s, std::move(critic), Vec::Constant(3, 0.5), 3, history);
+  Rng noise(11);
+  std::vector<Vec> out;
+  for (int k = 0; k < steps; ++k) {
+    const Suggestion sg = alg.ask(1).front();
+    alg.tell({Observation{sg.x, J(sg.x) + 0.8 * scale * noise.normal(), true, {}}});
+    out.push_back(alg.theta());
+  }
+  return out;
+}
+
+double largest_difference(const std::vector<Vec>& a, const std::vector<Vec>& b) {
+  double d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) d = std::max(d, (a[i] - b[i]).lpNorm<Eigen::Infinity>());
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("cost_unit -1 (default): the policy's path is the same whatever the cost's units and offset") {
+  // Section 4.1.2 bounds η/r̃ in the paper's cost units; with the bounds per local cost spread the update is
+  // dimensionless. Tolerance 1e-9: rounding in the std and the products over 40 steps.
+  const std::vector<Vec> base = trajectory(1, 0, -1, 40);
+  CHECK((base.back() - Vec::Constant(3, 0.5)).norm() > 0.05);  // it learns at all
+  for (const auto& [scale, offset] : std::vector<std::pair<double, double>>{{1e-3, 0}, {1e4, 0}, {1e4, 5e5}, {1, -7}}) {
+    CAPTURE(scale);
+    CAPTURE(offset);
+    CHECK(largest_difference(trajectory(scale, offset, -1, 40), base) < 1e-9);
+  }
+  // The paper's literal range (cost_unit 1) depends on the units: the test discriminates.
+  CHECK(largest_difference(trajectory(1e4, 0, 1, 40), trajectory(1, 0, 1, 40)) > 0.1);
+  CHECK(largest_difference(trajectory(1e-3, 0, 1, 40), trajectory(1, 0, 1, 40)) > 0.01);
+}
+
+TEST_CASE("max_step: one update moves θ at most ε (default) or the given length") {
+  // Costs ×1e4 under the paper's literal range (cost_unit 1): η/r̃ is clamped up to 0.01 per unit of cost, and
+  // unlimited updates run to the cube's corners. Limited, every step is at most the ball's radius 0.3.
+  for (const double max_step : {-1.0, 0.05}) {
+    CAPTURE(max_step);
+    const double limit = max_step < 0 ? 0.3 : max_step;
+    const std::vector<Vec> path = trajectory(1e4, 0, 1, 30, 0.3, max_step);
+    Vec before = Vec::Constant(3, 0.5);
+    int limited = 0;
+    for (const Vec& theta : path) {
+      const double step = (theta - before).norm();
+      CHECK(step <= limit * (1 + 1e-12));
+      // A step at the limit (the cube's clamp may shorten it further).
+      if (step >= limit * (1 - 1e-12)) ++limited;
+      before = theta;
+    }
+    CHECK(limited > 0);
+  }
+  // 0: no limit, as the paper: the same run leaves the ball in one step.
+  const std::vector<Vec> free = trajectory(1e4, 0, 1, 30, 0.3, 0);
+  double longest = 0;
+  Vec before = Vec::Constant(3, 0.5);
+  for (const Vec& theta : free) {
+    longest = std::max(longest, (theta - before).norm());
+    before = theta;
+  }
+  CHECK(longest > 0.3);
+}
+
+TEST_CASE("cost_unit: the clamp's range is divided by the unit; -1 takes the local costs' standard deviation") {
+  const StepSize s{0.5, 0.01, 0.5};
+  CHECK(scaled_step(s, 2.0, 1e4) == doctest::Approx(0.5e-4));    // 0.25 clamped to 0.5e-4
+  CHECK(scaled_step(s, 2.0, 1e-2) == doctest::Approx(1.0));      // 0.25 clamped up to 1
+  CHECK(scaled_step(s, 0.0, 4.0) == doctest::Approx(0.125));     // degenerate critic: max / unit
+  // The sample standard deviation (n − 1) by hand: costs 1, 2, 4, mean 7/3.
+  const Vec costs = (Vec(3) << 1.0, 2.0, 4.0).finished();
+  CHECK(local_cost_unit(costs, 3.0) == doctest::Approx(std::sqrt((16.0 / 9 + 1.0 / 9 + 25.0 / 9) / 2)));
+  CHECK(local_cost_unit(Vec::Constant(4, 2.0), -3.0) == 3.0);  // equal costs: |advantage|
+  CHECK(local_cost_unit(Vec::Constant(1, 2.0), 0.0) == 1.0);
 }
 
 TEST_CASE("the mean update points along -grad(J + kappa r) (eq. 16) for kappa in {-1, 0, 1}") {
@@ -239,4 +336,7 @@ TEST_CASE("rssgd is registered with its options and builds its default critic") 
   CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, sigma_diag: [0.1]}", ctx), ConfigError);
   CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, phases: [{steps: 0, kappa: 1}, {kappa: 2}]}", ctx), ConfigError);
   CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, step_min: 0.6}", ctx), ConfigError);
+  CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, cost_unit: 0}", ctx), ConfigError);
+  CHECK_THROWS_AS(r.create<Algorithm>("{type: rssgd, cost_unit: -0.5}", ctx), ConfigError);
+  CHECK(r.create<Algorithm>("{type: rssgd, cost_unit: 250}", ctx));
 }

@@ -813,3 +813,29 @@ TEST_CASE("homoscedastic_member gp: the noise process is still found where the n
   CHECK(declared == "gp");
   CHECK_THROWS_AS(test::registry().create<Surrogate>("{type: vhgp, homoscedastic_member: gpp}", ctx), ConfigError);
 }
+
+TEST_CASE("a large offset of the costs does not change the model (costs of 1e15 + a few)") {
+  // Session 25: the standardization took costs whose spread was under 1e-12 of their mean as constant (scale 1);
+  // 1e15 + y with y spanning ~4 is still known to ~0.1, so a model of it must be the model of y moved by 1e15.
+  // Heteroscedastic data ×100 (spread ~200 against the 1000 that 1e-12 · 1e15 called constant). Tolerances: the mean
+  // within 0.5 (rounding of 1e15 + y: ulp 0.125), the predictive std within 5 %.
+  Dataset base = heteroscedastic_data(40, 1, 8);
+  base.y *= 100;
+  VhgpConfig cfg;  // the declared defaults, with the vhgp's own constant-noise member (the gp's is tested in test_gp)
+  cfg.homoscedastic_member = HomoscedasticMember::Vhgp;
+  VhgpSurrogate reference(1, cfg, fit_optimizer());
+  Rng r0(3);
+  REQUIRE(reference.fit(base, r0).ok);
+  Dataset shifted = base;
+  shifted.y.array() += 1e15;
+  VhgpSurrogate s(1, cfg, fit_optimizer());
+  Rng r1(3);
+  REQUIRE(s.fit(shifted, r1).ok);
+  for (const double x : {0.1, 0.5, 0.9}) {
+    CAPTURE(x);
+    const Prediction p0 = reference.predict(Vec::Constant(1, x), false);
+    const Prediction p = s.predict(Vec::Constant(1, x), false);
+    CHECK(std::abs((p.mean - 1e15) - p0.mean) < 0.5);
+    CHECK(p.total_std() == doctest::Approx(p0.total_std()).epsilon(0.05));
+  }
+}
