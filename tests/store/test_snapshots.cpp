@@ -59,6 +59,10 @@ const Case kCases[] = {
      "{type: bo, initial_points: 4, failure_model: {follow_probe: 1, follow_distance: 0.1, follow_block: 0, "
      "follow_separated: false}}",
      16},
+    // Session 25: random points are drawn in the region's box, which is the unit cube before the region's first
+    // update; a restored trust region rebuilt a box of side 0.8 there (a random phase, initial_points: 0).
+    {"bo_random_phase", "{type: bo, initial_points: 0, phases: [{evaluations: 4, random: true}, {acquisition: ei}]}",
+     10},
     {"cma_es", "{type: cma_es}", 16},
     {"random", "{type: random}", 7},
     {"rssgd", "{type: rssgd, min_local_points: 3, critic: {type: gp}}", 10},

@@ -1,3 +1,5 @@
+#include <sstream>
+
 #include "trust_region.hpp"
 #include "varbo/errors.hpp"
 #include "varbo_test.hpp"
@@ -448,4 +450,52 @@ TEST_CASE("trust_region: an anchor (session fail15) is a point of the fresh atte
   StateMap bad = StateMap::parse(tr.save_state(), "test");
   bad.put_int("anchor", -3);
   CHECK_THROWS_AS(copy.restore_state(bad.text()), InputError);
+}
+
+TEST_CASE("trust_region: a restored state has the very box of the saved region, at every step") {
+  // Session 25 (red team): before its first update the region is the whole unit cube, but a restored state rebuilt
+  // the box from the centre (0.5) and L (0.8), so bo's random points of a resumed run came from [0.1, 0.9]^d and the
+  // run diverged from the uninterrupted one. The same after return_to_incumbent (L changed, the box not yet).
+  TrustRegionOptions o;
+  o.restart_center = "new_points";
+  o.failure_tolerance = 1;
+  o.length_min = 0.05;
+  TrustRegion tr(2, o);
+  Dataset data = Dataset::empty(2);
+  int checked = 0;
+  auto same_after_restore = [&](const char* when) {
+    CAPTURE(when);
+    TrustRegion copy(2, o);
+    copy.restore_state(tr.save_state());
+    CHECK(copy.bounds().lower == tr.bounds().lower);
+    CHECK(copy.bounds().upper == tr.bounds().upper);
+    CHECK(copy.save_state() == tr.save_state());
+    ++checked;
+  };
+  same_after_restore("before any data");
+  CHECK(tr.bounds().lower == Vec::Zero(2));
+  observe(tr, data, (Vec(2) << 0.9, 0.95).finished(), 1.0);
+  same_after_restore("after the first update");
+  for (int k = 0; k < 5; ++k) {
+    observe(tr, data, (Vec(2) << 0.1 * k, 0.1).finished(), 5.0);
+    same_after_restore("failures, a fresh start");
+  }
+  observe(tr, data, (Vec(2) << 0.3, 0.3).finished(), 4.0);
+  tr.return_to_incumbent();
+  same_after_restore("right after return_to_incumbent");
+  observe(tr, data, (Vec(2) << 0.35, 0.3).finished(), 4.5);
+  same_after_restore("after the next update");
+  CHECK(checked == 9);
+  // A state written before the box was stored (no box keys), saved before the first update: the unit cube.
+  TrustRegion fresh(2, o);
+  TrustRegion old(2, o);
+  std::string text = fresh.save_state();
+  REQUIRE(text.find("box_lower") != std::string::npos);
+  std::string without;  // the state's lines but the box's
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("box_", 0) != 0) without += line + "\n";
+  old.restore_state(without);
+  CHECK(old.bounds().lower == fresh.bounds().lower);
+  CHECK(old.bounds().upper == fresh.bounds().upper);
 }

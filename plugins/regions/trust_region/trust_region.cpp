@@ -22,11 +22,15 @@ TrustRegion::TrustRegion(Index dim, TrustRegionOptions o)
                                                                  static_cast<double>(dim) / o.batch_size)));
 }
 
-void TrustRegion::set_box() {
+Box TrustRegion::rebuilt_box() const {
   // The box of side L around the centre, clipped to the unit cube (as TuRBO clips to [0, 1]^d).
-  box_.lower = (center_.array() - 0.5 * length_).max(0.0).matrix();
-  box_.upper = (center_.array() + 0.5 * length_).min(1.0).matrix();
+  Box b = box_;
+  b.lower = (center_.array() - 0.5 * length_).max(0.0).matrix();
+  b.upper = (center_.array() + 0.5 * length_).min(1.0).matrix();
+  return b;
 }
+
+void TrustRegion::set_box() { box_ = rebuilt_box(); }
 
 void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   if (data.size() == 0) return;

@@ -100,6 +100,8 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
 
  private:
   void set_box();
+  /// The box that centre and length give (set_box's).
+  Box rebuilt_box() const;
 
   TrustRegionOptions options_;
   int failure_tolerance_;

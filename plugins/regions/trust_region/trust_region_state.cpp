@@ -19,6 +19,13 @@ std::string TrustRegion::save_state() const {
   if (forced_failures_ > 0) m.put_int("forced_failures", forced_failures_);  // absent when 0: older states unchanged
   if (forced_halvings_ > 0) m.put_int("forced_halvings", forced_halvings_);
   if (anchor_ >= 0) m.put_int("anchor", anchor_);  // absent without one: older states unchanged
+  // The box is usually the one centre and length give (set_box), but not before the first update (the whole unit
+  // cube) nor right after return_to_incumbent (the last box; L changed): bo draws its random points in it, so a
+  // restored region must have this very box (a resumed run drew from [0.1, 0.9]^d where the run drew from [0, 1]^d).
+  if (!(box_.lower == rebuilt_box().lower && box_.upper == rebuilt_box().upper)) {
+    m.put("box_lower", box_.lower);
+    m.put("box_upper", box_.upper);
+  }
   return m.text();
 }
 
@@ -41,7 +48,18 @@ void TrustRegion::restore_state(const std::string& text) {
   anchor_ = m.has("anchor") ? static_cast<Index>(m.integer("anchor")) : -1;
   if (anchor_ < -1) throw InputError("trust_region state: negative anchor");
   if (forced_failures_ < 0 || forced_halvings_ < 0) throw InputError("trust_region state: negative forced failures");
-  set_box();
+  if (m.has("box_lower") || m.has("box_upper")) {
+    Box b = box_;
+    b.lower = m.vec("box_lower");
+    b.upper = m.vec("box_upper");
+    if (b.lower.size() != box_.dim() || b.upper.size() != box_.dim() || !(b.lower.array() <= b.upper.array()).all())
+      throw InputError("trust_region state: the box has the wrong dimension or lower > upper");
+    box_ = b;
+  } else if (seen_ == 0 && restarts_ == 0 && !returned_) {
+    box_ = Box::unit(box_.dim());  // a state saved before the first update by a version that did not store the box
+  } else {
+    set_box();
+  }
 }
 
 }  // namespace varbo
