@@ -1,5 +1,7 @@
 // varbo::Study: ask/tell through the store, replay after reopening, batches with pending trials, bad input; the
 // tests marked "both backends" run on a SQLite file and on a PostgreSQL study (backends.hpp).
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <filesystem>
@@ -342,6 +344,42 @@ TEST_CASE("a process's own ask does not abandon its own pending trial as a silen
   other.set_worker("elsewhere:1");
   CHECK(other.ask(1).size() == 1);
   CHECK(other.store().trial(first[0].id)->state == TrialState::Abandoned);
+}
+
+TEST_CASE("silence is judged when an ask asked for the lock: a long hold of the store abandons no live worker") {
+  // Red team, session 25: a worker stopped inside its transaction (Ctrl-Z, SIGSTOP) kept every heartbeat from being
+  // written on SQLite; the next ask judged the live workers silent for the whole hold and abandoned their trials,
+  // so their θ ran again. Here a third process holds the lock for 3× heartbeat_timeout while an ask waits.
+  const std::string dir = test::temp_folder("study_lock_hold");
+  const std::string db = dir + "/s.db";
+  Study::create_from_yaml(db, "task: {type: branin}\nbudget: 6\nseed: 2\nheartbeat_timeout: 0.3\n"
+                              "algorithm: {type: random}\n");
+  Study live = Study::open(db);
+  live.set_worker("live:1");
+  live.heartbeat();
+  const auto running = live.ask(1).at(0);
+  live.heartbeat();
+  Study holder = Study::open(db);
+  Study asker = Study::open(db);
+  asker.set_worker("asker:2");
+  std::atomic<bool> holding{false};
+  std::thread hold([&] {
+    holder.transaction([&] {
+      holding = true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(900));
+    });
+  });
+  while (!holding) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  std::vector<TrialRecord> asked;
+  std::thread ask([&] { asked = asker.ask(1); });  // waits for the holder's 0.9 s, the live worker beats 0.0 s late
+  ask.join();
+  hold.join();
+  CHECK(asked.size() == 1);
+  CHECK(asker.store().trial(running.id)->state == TrialState::Pending);
+  // A worker that is silent before the ask asks is still abandoned.
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  CHECK(asker.ask(1).size() == 1);
+  CHECK(asker.store().trial(running.id)->state == TrialState::Abandoned);
 }
 
 TEST_CASE("a task's component named like a column or a parameter is not recorded; the cost and the others are") {

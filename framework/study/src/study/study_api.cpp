@@ -220,9 +220,10 @@ std::vector<TrialRecord> Study::ask(Index q) {
   if (q < 1) throw InputError(fmt::format("ask: the batch size must be at least 1, got {}", q));
   Impl& m = *impl_;
   std::vector<TrialRecord> out;
+  const double asked_at = unix_time();  // before any wait for the store's lock (abandon_silent_workers)
   m.store->transaction([&] {
     out.clear();
-    m.abandon_silent_workers();
+    m.abandon_silent_workers(asked_at);
     // The budget first: a spent budget costs no model work.
     std::vector<Vec> pending;
     for (const auto& t : m.store->pending_trials()) pending.push_back(t.x);

@@ -95,9 +95,9 @@ std::unique_ptr<Algorithm> Study::Impl::make_algorithm() const {
   return a;
 }
 
-void Study::Impl::abandon_silent_workers() {
+void Study::Impl::abandon_silent_workers(double asked_at) {
   if (!(config.heartbeat_timeout > 0)) return;
-  const double now = unix_time();
+  const double now = asked_at;
   std::vector<WorkerRecord> silent;
   for (const auto& w : store->workers())
     // Not this process's own: it is asking, so it is alive (a Python loop that sent one heartbeat and then asked
@@ -110,7 +110,7 @@ void Study::Impl::abandon_silent_workers() {
       t.state = TrialState::Abandoned;
       t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id,
                             now - w.heartbeat_at, config.heartbeat_timeout);
-      t.finished_at = now;
+      t.finished_at = unix_time();
       store->update_trial(t);
       log_warn("{}: trial {} {}", store->location(), t.id, t.error);
       dirty = true;

@@ -90,8 +90,11 @@ struct Study::Impl {
 
   /// Pending trials of workers silent for longer than heartbeat_timeout are abandoned (their results will
   /// not come: the worker died, on this machine or another). Trials of processes that never sent a heartbeat
-  /// (`varbo suggest`) are left alone.
-  void abandon_silent_workers();
+  /// (`varbo suggest`) are left alone. Silence is judged at `asked_at`, when this process asked for the store's
+  /// lock, not when it got it: while another process held the lock (a long fit, or one stopped inside its
+  /// transaction by Ctrl-Z or SIGSTOP) no heartbeat could be written on SQLite, and judging after the wait
+  /// abandoned the trials of live workers (red team, session 25: one θ run three times).
+  void abandon_silent_workers(double asked_at);
 
   /// With retry_abandoned: new pending trials at the θ of abandoned trials not retried yet (phase "retry"),
   /// at most `q`. The meta key retried/<id> links an abandoned trial to its retry.
