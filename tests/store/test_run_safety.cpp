@@ -301,6 +301,25 @@ TEST_CASE("a run on a study keeps the trials `varbo suggest` handed out pending;
   fs::remove(dir + "/slow");
   CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress"}, log).exit_code == 0);
   CHECK(open_sqlite_store(out + "/study.db")->trial(0)->state == TrialState::Abandoned);
+
+  // The same run killed on host A and resumed on host B (a shared study): the resumed run holds the run lock, so
+  // the recorded run session's trial is a dead one's; it stayed pending forever and the budget came up one short
+  // (red team, session 25).
+  const std::string out2 = dir + "/killed_elsewhere";
+  std::ofstream(dir + "/slow") << "";
+  const pid_t on_a = test::spawn({"/usr/bin/env", "VARBO_HOST_ID=host-a", V, "-q", "run", cfg, "-o", out2, "--no-progress"},
+                                 dir + "/a.log");
+  for (int i = 0; i < 3000 && !(fs::exists(out2 + "/study.db") && trial_count(out2 + "/study.db") >= 1); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(trial_count(out2 + "/study.db") >= 1);
+  kill(on_a, SIGKILL);
+  test::wait_for(on_a);
+  fs::remove(dir + "/slow");
+  CHECK(test::run({"/usr/bin/env", "VARBO_HOST_ID=host-b", V, "-q", "run", "--resume", out2, "--no-progress"}, log)
+            .exit_code == 0);
+  auto s2 = open_sqlite_store(out2 + "/study.db");
+  CHECK(s2->trial(0)->state == TrialState::Abandoned);
+  CHECK(s2->pending_trials().empty());
   fs::remove_all(dir);
 }
 

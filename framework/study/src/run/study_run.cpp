@@ -243,8 +243,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   const Domain& shown = st.domain();
   const Domain domain = shown;
   // Trials a killed session of this run left pending: their results will never come, and the replay suggests
-  // them again. Only trials of processes on this host that no longer exist are touched, so a study shared
-  // with live external workers keeps their pending trials.
+  // them again. Only trials of earlier run sessions are touched (this run holds the run lock, so they are dead,
+  // on any host), so a study shared with live external workers keeps their pending trials.
   // Only a run's own trials, that is: each run session records its worker id in the study (`run_worker/ID`),
   // and a trial handed out by `varbo suggest` (whose process has ended too, by design) is someone's experiment
   // in progress — abandoning it ran its point again and turned the operator's result into a late one (red team,
@@ -258,8 +258,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     const auto [worker_host, pid] = worker_host_pid(t.worker);
     const bool dead_here =
         worker_host == host && pid > 0 && (kill(static_cast<pid_t>(pid), 0) != 0 || pid == static_cast<long>(getpid()));
-    const bool a_run = !runs_recorded || st.meta("run_worker/" + t.worker).has_value();
-    if (dead_here && a_run) leftovers.insert(t.id);
+    const bool recorded_run = runs_recorded && st.meta("run_worker/" + t.worker).has_value();
+    // A recorded run session's trial is a dead session's, on whatever host it ran: this run holds the study's run
+    // lock, which a live run would hold (a run killed on host A and resumed on host B left its trial pending
+    // forever; red team, session 25). Without the record, only a process of this host known to be gone.
+    if (recorded_run || (!runs_recorded && dead_here)) leftovers.insert(t.id);
     else others_pending.push_back(t.id);
   }
   const std::vector<std::int64_t> interrupted = st.abandon_where(
