@@ -356,3 +356,64 @@ TEST_CASE("a run beside a worker: summary.json and trials.csv hold every result 
   CHECK(cut(dir + "/out/trials.csv") == cut(dir + "/again/trials.csv"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("a nearly full disk: a study file is created whole or not at all; summary.json keeps the last good one") {
+  // Red team, session 25: `study create` on a disk with ~120 KB free linked a study file without its tables (the
+  // close's checkpoint failed silently and the -wal holding the data was removed), "malformed" for good; a resumed
+  // run on a full disk replaced summary.json with an empty file, exit 0. Needs a small tmpfs: root only.
+  if (geteuid() != 0) {
+    MESSAGE("skipped: mounting a small tmpfs needs root");
+    return;
+  }
+  const std::string dir = scratch("full_disk"), mnt = dir + "/mnt";
+  fs::create_directories(mnt);
+  if (std::system(("mount -t tmpfs -o size=300k tmpfs " + mnt + " 2>/dev/null").c_str()) != 0) {
+    MESSAGE("skipped: cannot mount a tmpfs here");
+    return;
+  }
+  struct Unmount {  // also when a REQUIRE ends the case early
+    std::string at;
+    ~Unmount() { [[maybe_unused]] const int rc = std::system(("umount " + at + " 2>/dev/null").c_str()); }
+  } unmount{mnt};
+  const std::string V = VARBO_EXE, cfg = dir + "/q.yaml";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 30\nseed: 1\nalgorithm: {type: random}\n";
+  int created = 0, refused = 0;
+  for (int kb = 140; kb <= 260; kb += 10) {
+    CAPTURE(kb);
+    fs::remove(mnt + "/c.db");
+    REQUIRE(std::system(fmt::format("dd if=/dev/zero of={}/filler bs=1k count={} 2>/dev/null", mnt, kb).c_str()) == 0);
+    const int rc = test::run({V, "-q", "study", "create", mnt + "/c.db", cfg}, dir + "/create.log").exit_code;
+    fs::remove(mnt + "/filler");
+    if (rc == 0) {
+      ++created;
+      CHECK(test::run({V, "-q", "status", mnt + "/c.db"}, dir + "/status.log").exit_code == 0);
+    } else {
+      ++refused;
+      CHECK(rc == 2);
+      CHECK_FALSE(fs::exists(mnt + "/c.db"));
+      CHECK(contains(slurp(dir + "/create.log"), "no study file was created"));
+    }
+    for (const auto& e : fs::directory_iterator(mnt)) {  // no temporary file left behind
+      const std::string name = e.path().filename().string();
+      CHECK((name == "c.db" || name.rfind("c.db", 0) != 0));
+    }
+  }
+  MESSAGE(created << " created whole, " << refused << " refused");
+  CHECK(created > 0);
+  CHECK(refused > 0);
+
+  // summary.json on a full disk: the previous one stays, with a warning.
+  fs::remove(mnt + "/c.db");
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", mnt + "/r", "--study", dir + "/s.db", "--budget", "5", "--no-progress"},
+                    dir + "/run.log")
+              .exit_code == 0);
+  const std::string before = slurp(mnt + "/r/summary.json");
+  REQUIRE(before.size() > 100);
+  [[maybe_unused]] const int filled =  // dd ends with "No space left on device": the disk is full
+      std::system(fmt::format("dd if=/dev/zero of={}/filler bs=512 2>/dev/null", mnt).c_str());
+  CHECK(test::run({V, "run", "--resume", dir + "/s.db", "--budget", "40", "--no-progress"}, dir + "/resume.log")
+            .exit_code == 0);
+  CHECK(slurp(mnt + "/r/summary.json") == before);
+  CHECK(contains(slurp(dir + "/resume.log"), "summary.json: cannot write"));
+  CHECK(open_sqlite_store(dir + "/s.db")->trials().size() == 40);  // the study has every trial
+}

@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "varbo/csv.hpp"
@@ -79,6 +82,11 @@ void RunWriter::trial(const TrialRow& r) {
   if (with_regret_) trials_ << "," << exact(r.regret_best_observed) << "," << exact(r.regret_recommended);
   trials_ << "\n";
   trials_.flush();
+  if (!trials_ && !trials_warned_) {  // a full disk: the study holds the trial; the table does not (said once)
+    log_warn("{}/trials.csv: cannot write ({}); the study file keeps every trial: `varbo export` writes the table",
+             folder_, std::strerror(errno));
+    trials_warned_ = true;
+  }
 }
 
 void RunWriter::model(const ModelSnapshot& s) {
@@ -127,12 +135,28 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   if (s.regret_best_observed) j["regret_best_observed"] = *s.regret_best_observed;
   j["seconds"] = s.seconds;
   const std::string tmp = folder_ + "/summary.json.tmp";
+  bool written = false;
   {
     std::ofstream out(tmp, std::ios::trunc);
     out << j.dump(2) << "\n";
+    out.flush();
+    written = static_cast<bool>(out);
+    out.close();
+    written = written && !out.fail();
   }
   std::error_code ec;
+  // A full disk wrote an empty temporary file, which replaced the good summary.json (and with it the study's name
+  // that guards the folder) with exit 0 (red team, session 25): keep the last complete one and say so.
+  if (!written) {
+    fs::remove(tmp, ec);
+    if (!summary_warned_)
+      log_warn("{}/summary.json: cannot write ({}); the previous one is kept, the study itself holds every trial",
+               folder_, std::strerror(errno));
+    summary_warned_ = true;
+    return;
+  }
   fs::rename(tmp, folder_ + "/summary.json", ec);
+  if (ec) log_warn("{}/summary.json: cannot replace it ({})", folder_, ec.message());
 }
 
 }  // namespace varbo

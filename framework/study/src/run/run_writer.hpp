@@ -41,6 +41,8 @@ class RunWriter {
   std::vector<std::string> components_;
   std::ofstream trials_, model_;
   bool warned_extra_ = false;
+  bool trials_warned_ = false;   // trials.csv could not be written (said once)
+  bool summary_warned_ = false;  // summary.json could not be written (said once)
   bool with_regret_ = false;  ///< trials.csv carries regret_best_observed and regret_recommended
   SharedSpace space_;         ///< typed parameters: θ written as labels and integers
   std::string study_;

@@ -9,6 +9,7 @@
 
 #include <cctype>
 #include <cerrno>
+#include <cstdlib>
 #include <chrono>
 #include <cstring>
 #include <cmath>
@@ -208,6 +209,34 @@ class SqliteStore final : public StudyStore {
     }
   }
   ~SqliteStore() override { sqlite3_close(db_); }
+
+  /// Copies the WAL into the file and empties it, or throws: a new study is published by linking its file alone,
+  /// and the close's own checkpoint fails silently (a full disk left a study file without its tables, linked into
+  /// place, while its data went with the removed -wal; red team, session 25).
+  void checkpoint_into_file() {
+    struct Result {
+      long long busy = -1, log = -1, done = -1;
+    } r;
+    char* err = nullptr;
+    const int rc = sqlite3_exec(
+        db_, "PRAGMA wal_checkpoint(TRUNCATE)",
+        [](void* out, int n, char** values, char**) {
+          auto* res = static_cast<Result*>(out);
+          if (n >= 3 && values[0] && values[1] && values[2]) {
+            res->busy = std::atoll(values[0]);
+            res->log = std::atoll(values[1]);
+            res->done = std::atoll(values[2]);
+          }
+          return 0;
+        },
+        &r, &err);
+    if (rc != SQLITE_OK || r.busy != 0) {
+      const std::string msg = err ? err : (rc != SQLITE_OK ? sqlite3_errmsg(db_) : "the checkpoint was incomplete");
+      sqlite3_free(err);
+      throw InputError(fmt::format("{}: cannot write the new study's file: {}", path_, msg));
+    }
+    sqlite3_free(err);
+  }
 
   const std::string& location() const override { return path_; }
 
@@ -619,6 +648,13 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
     store.transaction([&] {
       for (const auto& [k, v] : meta) store.set_meta(k, v);
     });
+    store.checkpoint_into_file();
+  } catch (const InputError& e) {
+    cleanup();
+    std::string msg = e.what();  // said of the study's name, not of the temporary file's
+    for (std::size_t at = msg.find(tmp); at != std::string::npos; at = msg.find(tmp, at + path.size()))
+      msg.replace(at, tmp.size(), path);
+    throw InputError(msg + "; no study file was created");
   } catch (...) {
     cleanup();
     throw;
