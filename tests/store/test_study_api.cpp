@@ -9,7 +9,10 @@
 
 #include "backends.hpp"
 #include "study_helpers.hpp"
+#include <fmt/format.h>
+
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 #include "varbo/state.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
@@ -380,6 +383,57 @@ TEST_CASE("silence is judged when an ask asked for the lock: a long hold of the 
   std::this_thread::sleep_for(std::chrono::milliseconds(400));
   CHECK(asker.ask(1).size() == 1);
   CHECK(asker.store().trial(running.id)->state == TrialState::Abandoned);
+}
+
+TEST_CASE("a late result of an abandoned and retried trial is kept, marked, and names the retry") {
+  // Red team, session 25: the late result replaced the record of the abandonment (error ""), so status, export and
+  // verify showed nothing although the θ ran twice and the study held one result more than its budget.
+  const std::string dir = test::temp_folder("study_late_result");
+  const std::string db = dir + "/s.db";
+  Study::create_from_yaml(db, "task: {type: branin}\nbudget: 4\nseed: 2\nheartbeat_timeout: 0.2\n"
+                              "retry_abandoned: true\nalgorithm: {type: random}\n");
+  Study slow = Study::open(db);
+  slow.set_worker("slow:1");
+  slow.heartbeat();
+  const auto t = slow.ask(1).at(0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));  // silent beyond the timeout
+  Study other = Study::open(db);
+  other.set_worker("other:2");
+  const auto retry = other.ask(1).at(0);
+  CHECK(retry.phase == "retry");
+  CHECK(retry.x == t.x);
+  REQUIRE(other.store().trial(t.id)->state == TrialState::Abandoned);
+  slow.tell(t.id, 1.5);  // the late result
+  const auto stored = slow.store().trial(t.id);
+  CHECK(stored->state == TrialState::Complete);
+  CHECK(stored->cost == 1.5);
+  CHECK(stored->error.find("late result, after: abandoned: worker slow:1 silent") == 0);
+  CHECK(stored->error.find(fmt::format("run again as trial {}", retry.id)) != std::string::npos);
+}
+
+TEST_CASE("the cost-scale warnings are given once per study, and for points told by hand") {
+  // Red team, session 25: a process-wide once_flag warned only the first study of a Python process, and
+  // tell_point (`varbo observe new`) never checked.
+  const std::string dir = test::temp_folder("study_cost_scale");
+  const std::string log = dir + "/log.txt";
+  set_log_file(log);
+  for (const char* name : {"a.db", "b.db"}) {
+    Study s = Study::create_from_yaml(dir + "/" + name, "task: {type: branin}\nbudget: 6\nseed: 2\nalgorithm: {type: random}\n");
+    const auto t = s.ask(1).at(0);
+    s.tell(t.id, 1e-200);
+    s.tell_point((Vec(2) << 1.0, 2.0).finished(), 1e300);
+    s.tell_point((Vec(2) << 1.5, 2.0).finished(), 1e301);  // once per direction
+  }
+  set_log_file("");
+  const std::string text = test::slurp(log);
+  auto count = [&](const std::string& part) {
+    std::size_t n = 0;
+    for (std::size_t at = text.find(part); at != std::string::npos; at = text.find(part, at + 1)) ++n;
+    return n;
+  };
+  CHECK(count("which underflow below") == 2);
+  CHECK(count("a point told by hand has cost 1e+300") == 2);
+  CHECK(count("which overflow beyond") == 2);
 }
 
 TEST_CASE("a task's component named like a column or a parameter is not recorded; the cost and the others are") {

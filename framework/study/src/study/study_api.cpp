@@ -361,6 +361,7 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
       throw InputError(fmt::format("{}: θ lies outside the domain: {} = {} is not in [{}, {}]; nothing written", where,
                                    m.domain.names[static_cast<std::size_t>(i)], theta[i], box.lower[i], box.upper[i]));
   std::int64_t id = -1;
+  m.check_cost_scale(-1, cost);
   m.store->transaction([&] {
     TrialRecord r;
     r.state = TrialState::Complete;
@@ -384,26 +385,11 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
   TrialRecord t;
   m.store->transaction([&] {
     t = m.pending_trial(id, ev.ok ? "observe" : "fail");
+    const bool late = t.state == TrialState::Abandoned;
+    const std::string abandoned_because = t.error;
     t.state = ev.ok ? TrialState::Complete : TrialState::Failed;
     t.cost = ev.ok ? ev.cost : std::nan("");  // a failed trial has no cost (as Study::fail records it), not 0
-    if (ev.ok && std::abs(ev.cost) > 1e150) {
-      static std::once_flag once;
-      std::call_once(once, [&] {
-        log_warn("{}: trial {} has cost {}: the models work with squared costs (variances), which overflow beyond "
-                 "about 1e154; rescale the cost (e.g. divide by a constant or take its log)",
-                 m.store->location(), id, exact(ev.cost));
-      });
-    }
-    if (ev.ok && ev.cost != 0 && std::abs(ev.cost) < 1e-150) {
-      // The other end: squares underflow to 0, and a study whose costs are all this small had a model with a
-      // zero variance and nonsense recommendations, without a word (red team, session 23).
-      static std::once_flag once;
-      std::call_once(once, [&] {
-        log_warn("{}: trial {} has cost {}: the models work with squared costs (variances), which underflow below "
-                 "about 1e-154; if the costs are all this small, rescale them (e.g. multiply by a constant)",
-                 m.store->location(), id, exact(ev.cost));
-      });
-    }
+    m.check_cost_scale(id, ev.ok ? ev.cost : 0.0);
     // A component named like a parameter or a column of the trials table (a command's answer {"cost": 2,
     // "components": {"cost": 3}}) made a second column of that name in the exports, which csv readers took for
     // the first (the trial's cost read as 3). Tell refuses it; a task's result keeps its cost and loses only that
@@ -420,6 +406,15 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
     }
     t.noiseless_cost = ev.noiseless_cost;
     t.error = ev.error;
+    if (late) {
+      // A late result is kept (it is a real measurement) but marked: it replaced the record of the abandonment, and
+      // with retry_abandoned its θ ran again, so the study holds it twice and one more result than the budget
+      // (red team, session 25). `varbo status` and the exports show this text.
+      const auto retry = m.store->meta(fmt::format("retried/{}", id));
+      t.error = fmt::format("late result, after: {}{}{}", abandoned_because,
+                            retry ? fmt::format("; its θ was run again as trial {}", *retry) : std::string(),
+                            ev.error.empty() ? std::string() : "; " + ev.error);
+    }
     t.finished_at = unix_time();
     t.evaluation_seconds = evaluation_seconds;
     t.finish_seq = m.store->next_finish_seq();

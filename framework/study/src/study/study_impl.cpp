@@ -9,6 +9,7 @@
 #include <ctime>
 #include <filesystem>
 
+#include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/search_space_config.hpp"
@@ -115,6 +116,24 @@ void Study::Impl::abandon_silent_workers(double asked_at) {
       log_warn("{}: trial {} {}", store->location(), t.id, t.error);
       dirty = true;
     }
+  }
+}
+
+void Study::Impl::check_cost_scale(std::int64_t id, double cost) {
+  if (!std::isfinite(cost) || cost == 0) return;
+  const std::string which = id >= 0 ? fmt::format("trial {}", id) : std::string("a point told by hand");
+  if (std::abs(cost) > 1e150 && !warned_huge_cost) {
+    warned_huge_cost = true;
+    log_warn("{}: {} has cost {}: the models work with squared costs (variances), which overflow beyond about 1e154; "
+             "rescale the cost (e.g. divide by a constant or take its log)",
+             store->location(), which, exact(cost));
+  } else if (std::abs(cost) < 1e-150 && !warned_tiny_cost) {
+    // Squares underflow to 0: a study whose costs are all this small had a model with a zero variance and nonsense
+    // recommendations, without a word (red team, session 23).
+    warned_tiny_cost = true;
+    log_warn("{}: {} has cost {}: the models work with squared costs (variances), which underflow below about "
+             "1e-154; if the costs are all this small, rescale them (e.g. multiply by a constant)",
+             store->location(), which, exact(cost));
   }
 }
 

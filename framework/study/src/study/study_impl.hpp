@@ -96,6 +96,13 @@ struct Study::Impl {
   /// abandoned the trials of live workers (red team, session 25: one θ run three times).
   void abandon_silent_workers(double asked_at);
 
+  /// Warns (once per study and direction) about a cost beyond ~1e150 or below ~1e-150 in magnitude: the models
+  /// square costs. `id` < 0: a point told by hand. Per study, not per process: a second study opened by the same
+  /// Python process was never warned (red team, session 25).
+  void check_cost_scale(std::int64_t id, double cost);
+  bool warned_huge_cost = false;
+  bool warned_tiny_cost = false;
+
   /// With retry_abandoned: new pending trials at the θ of abandoned trials not retried yet (phase "retry"),
   /// at most `q`. The meta key retried/<id> links an abandoned trial to its retry.
   std::vector<TrialRecord> retries(Index q);
