@@ -13,16 +13,18 @@ double chi2_quantile(double dof, double p);
 
 struct NearPairNoiseBound {
   double bound;  ///< upper confidence bound on the noise std, in the units of y (+inf: fewer than two points)
-  Index pairs;   ///< the number of nearest pairs that gave it (0: none)
+  Index pairs;   ///< the number of stages (the replicates, then pairs) that gave it (0: none)
 };
 
-/// Matches the points greedily into disjoint pairs, nearest first (Euclidean distance; the pairs depend on X only),
-/// and for each m = 1..M bounds the noise std by U_m = sqrt(S_m / (2 q_m)), S_m the sum of the m nearest pairs'
-/// squared cost differences and q_m the (alpha/M)-quantile of χ²_m. With independent Gaussian noise σ each
-/// difference is N(δ_k, 2σ²), δ_k the cost's own change, so S_m / (2σ²) is a (noncentral) χ²_m and
-/// P(U_m < σ) ≤ alpha/M whatever the δ_k; the minimum over m is below σ with probability at most alpha
-/// (Bonferroni). Exact replicates of a deterministic cost give 0. Cost O(N² log N) for N points (every pair sorted),
-/// small beside a fit's O(N³) likelihood evaluations.
+/// Replicates first: each group of k costs at one θ gives Σ(y − ȳ)²/σ² ~ χ²_{k−1}; then the other points matched
+/// greedily into disjoint pairs, nearest first (Euclidean distance), each difference d giving d²/(2σ²) ~ χ²_1 (a
+/// noncentral one when the cost itself changes between the points: larger, so the bound stays conservative).
+/// U = sqrt(S / q) over the first stages (the replicates, then the m nearest pairs; pairs at one distance enter
+/// together), q the (alpha/M)-quantile of χ² with their degrees of freedom, M the number of U evaluated; the
+/// minimum is below σ with probability at most alpha (Bonferroni). Every choice depends on the points, not on the
+/// rows' order. Exact replicates of a deterministic cost give 0. Cost O(N² log N) for N points, small beside a
+/// fit's O(N³) likelihood evaluations. Valid for noise of one level: where the noise varies, the quietest
+/// near pairs bound it (the gp assumes one level anyway).
 NearPairNoiseBound near_pair_noise_bound(const Mat& X, const Vec& y, double alpha);
 
 }  // namespace varbo::gp

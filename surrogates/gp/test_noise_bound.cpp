@@ -1,6 +1,8 @@
 // The near-pair noise bound (noise_bound.hpp): the χ² quantile against closed-form distribution functions, the
 // bound against a hand computation, its error rate under real noise by simulation, and the gp's use of it.
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "ceres_lbfgs.hpp"
 #include "gp_surrogate.hpp"
@@ -56,6 +58,68 @@ TEST_CASE("near_pair_noise_bound: the nearest disjoint pairs, by hand") {
   CHECK(near_pair_noise_bound(R, (Vec(3) << 5.0, 5.0, 1.0).finished(), alpha).bound == 0.0);
   CHECK(std::isinf(near_pair_noise_bound(Mat::Zero(1, 2), Vec::Ones(1), alpha).bound));
   CHECK_THROWS_AS(near_pair_noise_bound(X, y, 0.0), std::invalid_argument);
+}
+
+TEST_CASE("near_pair_noise_bound: replicates pooled by hand, and the same bound whatever the rows' order") {
+  // Red team, session 25: 20 policies evaluated 3 times each, noise sd 0.01 where x < 0.5 and 0.3 elsewhere; with the
+  // quiet replicates listed first the pairs at distance 0 were taken in row order and the bound (a cap on the gp's
+  // noise) was 0.036, with the rows reversed 0.17.
+  Rng rng(4);
+  const Index groups = 20, reps = 3, n = groups * reps;
+  Mat X(n, 1);
+  Vec y(n);
+  for (Index g = 0; g < groups; ++g)
+    for (Index r = 0; r < reps; ++r) {
+      const double x = (g + 0.5) / groups;
+      X(g * reps + r, 0) = x;
+      y(g * reps + r) = std::sin(6 * x) + (x < 0.5 ? 0.01 : 0.3) * rng.normal();
+    }
+  // By hand: the replicates are one stage, S = Σ_g Σ_r (y − ȳ_g)² with 40 degrees of freedom, tested alone (M = 1).
+  double ss = 0;
+  for (Index g = 0; g < groups; ++g) {
+    const double mean = y.segment(g * reps, reps).mean();
+    ss += (y.segment(g * reps, reps).array() - mean).square().sum();
+  }
+  const double alpha = 0.05;
+  const NearPairNoiseBound b = near_pair_noise_bound(X, y, alpha);
+  CHECK(b.bound == doctest::Approx(std::sqrt(ss / chi2_quantile(40, alpha))).epsilon(1e-12));
+  CHECK(b.pairs == 1);
+  CHECK(b.bound > 0.1);  // the noisy half's replicates count: the pooled sd is ~0.21
+  // Any order of the rows: the same bound, to the last bit.
+  for (int shuffle = 0; shuffle < 5; ++shuffle) {
+    std::vector<Index> perm(static_cast<std::size_t>(n));
+    for (Index i = 0; i < n; ++i) perm[static_cast<std::size_t>(i)] = shuffle == 0 ? n - 1 - i : i;
+    if (shuffle > 0) std::shuffle(perm.begin(), perm.end(), rng.engine());
+    Mat Xp(n, 1);
+    Vec yp(n);
+    for (Index i = 0; i < n; ++i) {
+      Xp(i, 0) = X(perm[static_cast<std::size_t>(i)], 0);
+      yp(i) = y(perm[static_cast<std::size_t>(i)]);
+    }
+    CHECK(near_pair_noise_bound(Xp, yp, alpha).bound == b.bound);
+  }
+  // Random points with a few replicates and ties in distance (a grid): any order, the same bound.
+  Mat G(30, 2);
+  Vec gy(30);
+  for (Index i = 0; i < 30; ++i) {
+    G(i, 0) = 0.1 * static_cast<double>(i % 6);
+    G(i, 1) = 0.1 * static_cast<double>((i / 6) % 4);  // rows 24-29 repeat rows 0-5
+    gy(i) = G(i, 0) + 0.05 * rng.normal();
+  }
+  const double reference = near_pair_noise_bound(G, gy, alpha).bound;
+  CHECK(std::isfinite(reference));
+  for (int shuffle = 0; shuffle < 5; ++shuffle) {
+    std::vector<Index> perm(30);
+    for (Index i = 0; i < 30; ++i) perm[static_cast<std::size_t>(i)] = i;
+    std::shuffle(perm.begin(), perm.end(), rng.engine());
+    Mat Gp(30, 2);
+    Vec gyp(30);
+    for (Index i = 0; i < 30; ++i) {
+      Gp.row(i) = G.row(perm[static_cast<std::size_t>(i)]);
+      gyp(i) = gy(perm[static_cast<std::size_t>(i)]);
+    }
+    CHECK(near_pair_noise_bound(Gp, gyp, alpha).bound == reference);
+  }
 }
 
 TEST_CASE("near_pair_noise_bound: below the true noise at most alpha of the time; near a smooth cost's slope·distance") {
