@@ -84,6 +84,17 @@ TEST_CASE("run folder with trials: a plain run refuses (pointing at --resume and
   CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress", "--budget", "2", "--overwrite"}).exit_code == 0);
   CHECK(trial_count(out + "/study.db") == 2);
   CHECK(csv_rows(out + "/trials.csv") == 2);
+  // The log starts afresh too (it kept the replaced study's lines above the new ones); a resume continues it.
+  auto headers = [&] {
+    std::size_t n = 0;
+    const std::string text = slurp(out + "/log.txt");
+    for (std::size_t at = text.find("] run "); at != std::string::npos; at = text.find("] run ", at + 1)) ++n;
+    return n;
+  };
+  CHECK(headers() == 1);
+  CHECK(contains(slurp(out + "/log.txt"), "budget 2"));
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--budget", "3", "--no-progress"}).exit_code == 0);
+  CHECK(headers() == 2);
   CHECK(test::run({V, "-q", "run", "--resume", out, "--overwrite"}, log).exit_code == 2);  // contradictory
   fs::remove_all(dir);
 }

@@ -282,6 +282,12 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   const std::optional<Optimum> optimum = admissible_optimum(task, st.space(), study.task.info->name);
   RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value(), st.space());
   writer.set_study(study_tag(store_path));
+  // A resumed run continues its log; a fresh one (a new folder, or --overwrite) starts it: the old study's lines
+  // stayed above the new one's, two "run" headers of two studies in one file (red team, session 25).
+  if (!ov.resume) {
+    std::error_code ec;
+    std::filesystem::remove(study.output + "/log.txt", ec);
+  }
   set_log_file(study.output + "/log.txt");
   log_info("run {}: task {}, algorithm {}, budget {}, seed {}, threads {}", study.output, study.task.info->name,
            study.algorithm.info->name, study.budget, study.seed,
