@@ -539,3 +539,29 @@ TEST_CASE("postgresql: a worker started while its server is down waits for it; a
   CHECK(out.find("password authentication failed") != std::string::npos);
   CHECK(out.find("retrying in") == std::string::npos);
 }
+
+TEST_CASE("postgresql: a process waiting for the study's lock says so and names the open transactions; then proceeds") {
+  // Red team, session 25: a worker stopped inside its transaction (Ctrl-Z) held the study's row lock, and every
+  // other writer waited without a word for as long as it lived. Now the wait times out every VARBO_PG_LOCK_WAIT
+  // seconds (10 by default), the waiter names the sessions holding a transaction open and waits again.
+  const std::string dir = test::temp_folder("pg_lock_wait");
+  const std::string url = test::pg_study_url("lock_wait");
+  const std::string name = url.substr(url.find("&study=") + 7);
+  Study::create_from_yaml(url, "task: {type: branin}\nbudget: 5\nseed: 3\nalgorithm: {type: random}\n");
+  pqxx::connection holder(test::pg_base_url());
+  const std::string holder_pid = std::to_string(holder.backendpid());
+  pqxx::work hold(holder);
+  hold.exec_params("SELECT 1 FROM varbo_studies WHERE name = $1 FOR NO KEY UPDATE", name);
+  setenv("VARBO_PG_LOCK_WAIT", "1", 1);  // read by the `varbo suggest` process (this one read it at its start)
+  auto waiter = std::async(std::launch::async, [&] { return varbo_cli({"suggest", url}, dir); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(3500));
+  CHECK(waiter.wait_for(std::chrono::milliseconds(0)) == std::future_status::timeout);  // still waiting
+  hold.commit();
+  const auto [code, out] = waiter.get();
+  unsetenv("VARBO_PG_LOCK_WAIT");
+  CHECK(code == 0);
+  CHECK(out.find("waiting 1 s for the study's lock") != std::string::npos);
+  CHECK(out.find("server session " + holder_pid) != std::string::npos);
+  CHECK(out.find("pg_terminate_backend") != std::string::npos);
+  CHECK(Study::open(url).store().trials().size() == 1);
+}

@@ -104,8 +104,24 @@ CREATE TABLE IF NOT EXISTS varbo_workers (
 );
 )SQL";
 
-// CREATE ... IF NOT EXISTS would print notices; warnings and errors still reach the exceptions.
-constexpr const char* kQuietNotices = "SET client_min_messages TO WARNING";
+// CREATE ... IF NOT EXISTS would print notices; warnings and errors still reach the exceptions. A lock waited for
+// longer than kLockWaitSeconds ends the statement (SQLSTATE 55P03): a transaction waiting for the study's row lock
+// then says who may hold it and waits again, instead of waiting in silence for as long as the holder lives (a
+// process stopped inside its transaction by Ctrl-Z or SIGSTOP, a suspended host: red team, session 25).
+// kLockWaitSeconds is 10, or VARBO_PG_LOCK_WAIT (whole seconds, 1-3600; for tests) when set.
+int lock_wait_seconds() {
+  static const int seconds = [] {
+    const char* env = std::getenv("VARBO_PG_LOCK_WAIT");
+    if (!env || !*env) return 10;
+    char* end = nullptr;
+    const long v = std::strtol(env, &end, 10);
+    return *end == '\0' && v >= 1 && v <= 3600 ? static_cast<int>(v) : 10;
+  }();
+  return seconds;
+}
+const int kLockWaitSeconds = lock_wait_seconds();
+const std::string kQuietNotices =
+    fmt::format("SET client_min_messages TO WARNING; SET lock_timeout = '{}s'", kLockWaitSeconds);
 
 constexpr const char* kColumns =
     "id, state, phase, x, theta, cost, components, noiseless_cost, error, worker, created_at, finished_at, "
@@ -200,6 +216,7 @@ class PostgresStore final : public StudyStore {
       return;
     }
     prefetched_.clear();
+    int waits = 0;  // timed-out waits for the study's lock (kLockWaitSeconds each)
     for (int attempt = 1;; ++attempt) {
       tx_next_finish_seq_.reset();
       try {
@@ -232,6 +249,12 @@ class PostgresStore final : public StudyStore {
                                      "rolled back, nothing of it was written",
                                      location(), cause(e)));
       } catch (const pqxx::sql_error& e) {
+        if (e.sqlstate() == "55P03") {  // lock_timeout: the study's lock is held; say by whom (maybe), wait again
+          ++waits;
+          --attempt;  // waiting for a holder is not a failed attempt
+          if (waits == 1 || waits % std::max(1, 60 / kLockWaitSeconds) == 0) report_lock_wait(waits * kLockWaitSeconds);
+          continue;
+        }
         throw InputError(fmt::format("{}: database error ({}); the transaction was rolled back, nothing of it was "
                                      "written",
                                      location(), cause(e)));
@@ -240,6 +263,29 @@ class PostgresStore final : public StudyStore {
                                      cause(e)));
       }
     }
+  }
+
+  /// Said while a transaction waits for the study's lock: the sessions of this database holding a transaction open
+  /// (one of them holds it), how long, and what ends a stopped holder's hold.
+  void report_lock_wait(int seconds) const {
+    std::string holders;
+    try {
+      pqxx::nontransaction n(*conn_);
+      const pqxx::result r = n.exec(
+          "SELECT pid, application_name, COALESCE(host(client_addr), 'a local socket'), state, "
+          "floor(extract(epoch FROM now() - xact_start))::bigint FROM pg_stat_activity WHERE datname = "
+          "current_database() AND pid <> pg_backend_pid() AND xact_start IS NOT NULL ORDER BY xact_start LIMIT 5");
+      for (const auto& row : r)
+        holders += fmt::format("{}server session {} ('{}', from {}, {}, transaction open {} s)", holders.empty() ? "" : "; ",
+                               row[0].c_str(), row[1].c_str(), row[2].c_str(), row[3].c_str(), row[4].c_str());
+    } catch (const std::exception&) {
+      // Only the message loses detail.
+    }
+    log_warn("{}: waiting {} s for the study's lock, held by another process's transaction{}. A long model fit "
+             "holds it for its duration; a process stopped inside its transaction (Ctrl-Z, SIGSTOP, a suspended or "
+             "disconnected host) holds it until it continues or its session ends: `kill -CONT` it, or end its "
+             "session with SELECT pg_terminate_backend(PID) (its transaction is rolled back, nothing half-written)",
+             location(), seconds, holders.empty() ? std::string() : " (open transactions: " + holders + ")");
   }
 
   std::optional<std::string> meta(const std::string& key) const override {
