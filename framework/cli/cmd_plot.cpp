@@ -11,6 +11,7 @@
 #include "output_guard.hpp"
 #include "component_arg.hpp"
 #include "slice_values.hpp"
+#include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
@@ -272,6 +273,9 @@ Runner add_plot(CLI::App& app) {
     a->kappas = a->kappa_text.empty() ? std::vector<double>{-1.5, 0.0, 1.5}
                                       : decimal_items(a->kappa_text, "--kappa", "-1.5,0,1.5");
     Registry& registry = default_registry();
+    // A run of varbo.minimize has the task `python`: its domain is all an offline command needs (an evaluation, as
+    // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
+    if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);
     const RunFolder run = load_run_folder(a->run, registry);
     if (run.space) {  // typed parameters: a cut along one named parameter (its axes are not encoded coordinates)
       if (a->slice.empty())

@@ -8,6 +8,7 @@
 
 #include "cli_parse.hpp"
 #include "commands.hpp"
+#include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/math.hpp"
@@ -58,6 +59,9 @@ Runner add_rescore(CLI::App& app) {
   return [a]() {
     ThreadLimit limit(a->threads);
     Registry& registry = default_registry();
+    // A run of varbo.minimize has the task `python`: its domain is all an offline command needs (an evaluation, as
+    // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
+    if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);
     const ComponentRun run = load_component_run(a->run, registry);
     OfflineRequest request;
     request.weight_changes = parse_weight_list(a->weights, run.components);

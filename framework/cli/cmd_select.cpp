@@ -9,6 +9,7 @@
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "run_selection.hpp"
+#include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/parallel.hpp"
@@ -64,6 +65,9 @@ Runner add_select(CLI::App& app) {
     std::vector<double> kappas = a->kappas.empty() ? std::vector<double>{2.0, 0.0, -2.0}
                                                    : decimal_items(a->kappas, "--kappa", "2,0,-2");
     Registry& registry = default_registry();
+    // A run of varbo.minimize has the task `python`: its domain is all an offline command needs (an evaluation, as
+    // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
+    if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);
     const RunFolder run = load_run_folder(a->run, registry);
 
     const ResolvedComponent spec = selection_surrogate(run, registry, a->surrogate, a->run);

@@ -130,8 +130,13 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
         w.started_at = w.heartbeat_at = unix_time();
         try {
           (*store)->transaction([&] { (*store)->put_worker(w); });
+          if (std::exchange(*said, false)) log_warn("worker {}: heartbeats resumed", worker);
         } catch (const Error& e) {
-          log_warn("worker {}: heartbeat not recorded: {}", worker, e.what());
+          // Said once per outage, not at every beat (every 0.75 s with heartbeat_timeout 3; red team, session 25).
+          if (!std::exchange(*said, true))
+            log_warn("worker {}: heartbeat not recorded: {}; trying again at every beat", worker, e.what());
+          else
+            log_debug("worker {}: heartbeat not recorded: {}", worker, e.what());
         }
         return true;
       });

@@ -288,3 +288,20 @@ def test_a_result_told_by_another_writer_during_the_run_is_in_the_result_and_sum
     assert r.fun == -100.0 and r.x.tolist() == [0.5]
     assert json.loads((out / "summary.json").read_text())["best_cost"] == -100.0
     assert r.evaluations == 8 and len(read_trials_csv(out / "trials.csv")) == 8
+
+
+def test_offline_commands_read_a_minimize_run(tmp_path):
+    """`varbo select`, `plot` and `rescore` need only the run's domain: a varbo.minimize run (task `python`) was
+    refused ("`varbo run` cannot call it"; red team, session 25)."""
+    res = varbo.minimize(branin, {"budget": 8, "seed": 3, "algorithm": {"type": "bo", "initial_points": 5}},
+                         space=BRANIN_SPACE, output=str(tmp_path / "r"))
+    assert res.evaluations == 8
+    out = json.loads(run_cli("select", tmp_path / "r", "--kappa", "0,1", "--json", "--among-evaluated").stdout)
+    assert out["n"] == 8 and len(out["selections"]) == 2
+    chosen = out["selections"][0]["theta"]
+    assert out["selections"][0]["ok"] and -5 <= chosen["x1"] <= 10 and 0 <= chosen["x2"] <= 15
+    run_cli("plot", tmp_path / "r", "-o", tmp_path / "m.svg")
+    assert (tmp_path / "m.svg").stat().st_size > 1000
+    # rescore re-weights components (none here): it reads the run and selects offline.
+    r = run_cli("rescore", tmp_path / "r", "--kappa", "0", check=False)
+    assert "cannot call it" not in r.stderr

@@ -94,6 +94,7 @@ void VhgpSurrogate::restore_state(const std::string& text) {
   posterior_data_.reset();
   posterior_params_ = Vec();
   params_ = get_params("params");
+  lambda_fitted_ = true;  // a saved model's log Λ is a fit's (a batch then conditions on more points, in silence)
   heteroscedastic_ = get_params("heteroscedastic");
   homoscedastic_ = get_vec(m, "homoscedastic");
   homoscedastic_selected_ = m.boolean("homoscedastic_selected");

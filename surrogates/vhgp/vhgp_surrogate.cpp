@@ -175,6 +175,7 @@ FitReport VhgpSurrogate::condition_at(const Dataset& data, const VhgpParams& par
   posterior_params_ = params.pack();
   scaling_ = s;
   params_ = to_cost(params, s);
+  lambda_fitted_ = true;
   // F in cost units: y = m + s·y_s changes log N(y|·) by −n log s; the KL and tr Σ terms are unit-free.
   bound_ = value.F - static_cast<double>(data.size()) * std::log(s.scale);
   report.ok = true;
@@ -195,9 +196,16 @@ FitReport VhgpSurrogate::condition(const Dataset& data) {
   }
   const Scaling s = scaling_for(data.y);
   const CostParams c = params_ ? *params_ : defaults(s);
-  if (c.log_lambda.size() != 0 && c.log_lambda.size() != data.size())
-    log_warn("vhgp: log_lambda has {} values for {} points; missing ones are set to log(1/2), extra ones dropped",
-             c.log_lambda.size(), data.size());
+  // Said of a log Λ the user gave; a fitted one conditioned on more points is bo's batch (the pending points of a
+  // `suggest --batch`), which warned at every suggestion (red team, session 25).
+  if (c.log_lambda.size() != 0 && c.log_lambda.size() != data.size()) {
+    if (lambda_fitted_)
+      log_debug("vhgp: conditioning on {} points with the {} log Λ of the last fit; the others at log(1/2)",
+                data.size(), c.log_lambda.size());
+    else
+      log_warn("vhgp: log_lambda has {} values for {} points; missing ones are set to log(1/2), extra ones dropped",
+               c.log_lambda.size(), data.size());
+  }
   const VhgpParams model_params = to_model(c, data.size(), s);
   report = condition_at(data, model_params, s, report);
   // The gp member keeps following the data (as a gp would be conditioned); its hyperparameters are its own.
@@ -544,6 +552,7 @@ void VhgpSurrogate::set_state(const std::string& name, const Vec& value) {
   CostParams c = params_ ? *params_ : defaults(scaling_);
   c.log_lambda = value;
   params_ = c;
+  lambda_fitted_ = false;
 }
 
 }  // namespace varbo::vhgp

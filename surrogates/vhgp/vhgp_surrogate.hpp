@@ -150,6 +150,7 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   std::shared_ptr<const Kernel> f_form_, g_form_;  ///< configured with config_.prior (VhgpHyperprior::configured)
   Vec f_scaling_;  ///< output_scaling(f): which log θ_f shift by log(scale) between cost and model units
   std::optional<CostParams> params_;  ///< given or fitted hyperparameters (cost units)
+  bool lambda_fitted_ = false;        ///< params_'s log Λ came from a fit (not given through set_state)
   Vec bound_gradient_;  ///< ∂F at the parameters of the last condition() (model units), for inspection
   Scaling scaling_;
   std::shared_ptr<const VhgpPosterior> posterior_;

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -94,6 +96,29 @@ TEST_CASE("varbo fit: past 500 points and without `restarts:`, one restart, said
   const Fit b = fit(dir, cheap + std::string("restarts: 2\n"), data);
   CHECK_FALSE(contains(b.output, "restart instead"));
   CHECK(contains(b.output, "\"n\": 501"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("varbo fit: θ columns far from unit scale are named with the advice to rescale them") {
+  // Red team, session 25: x in [0, 1000] (sin(6 x / 1000)) was fitted as noise, ok: true, no word; the lengthscale
+  // bounds and priors are for unit-cube coordinates.
+  const std::string dir = test::temp_folder("fit_scale_" + std::to_string(getpid()));
+  std::string wide = "x,z,y\n", unit = "x,z,y\n";
+  for (int i = 0; i < 15; ++i) {
+    const double x = i / 14.0;
+    wide += fmt::format("{},{},{}\n", 1000 * x, 0.5 * x, std::sin(6 * x));
+    unit += fmt::format("{},{},{}\n", x, 0.5 * x, std::sin(6 * x));
+  }
+  const Fit a = fit(dir, "type: gp\n", wide);
+  CHECK(a.exit_code == 0);
+  CHECK(contains(a.output, "column 1 spans 1e+03 (0 … 1000)"));
+  CHECK_FALSE(contains(a.output, "column 2 spans"));
+  CHECK(contains(a.output, "rescale each θ column to [0, 1]"));
+  const Fit b = fit(dir, "type: gp\n", unit);
+  CHECK(b.exit_code == 0);
+  CHECK_FALSE(contains(b.output, "spans"));
+  // Given hyperparameters (no fit): the user chose the lengthscales, nothing to say.
+  CHECK_FALSE(contains(fit(dir, kGp, "x,y\n0,1\n500,2\n1000,1.5\n", {"--no-optimize"}).output, "spans"));
   fs::remove_all(dir);
 }
 

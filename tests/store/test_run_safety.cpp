@@ -428,3 +428,37 @@ TEST_CASE("a nearly full disk: a study file is created whole or not at all; summ
   CHECK(contains(slurp(dir + "/resume.log"), "summary.json: cannot write"));
   CHECK(open_sqlite_store(dir + "/s.db")->trials().size() == 40);  // the study has every trial
 }
+
+TEST_CASE("a study this user cannot write is read (status, export, verify); a change names the permission") {
+  // Red team, session 25: a study owned by another user (file 644) was refused by every command, status included,
+  // as "attempt to write a readonly database". Runs the commands as `nobody`: root only.
+  if (geteuid() != 0 || std::system("command -v runuser >/dev/null 2>&1") != 0) {
+    MESSAGE("skipped: needs root and runuser");
+    return;
+  }
+  const std::string dir = scratch("not_writable");
+  const std::string cfg = dir + "/c.yaml", out = dir + "/r", db = out + "/study.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 6\nseed: 1\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", out, "--budget", "4", "--no-progress"}).exit_code == 0);
+  fs::permissions(db, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+  for (const std::string& p : {dir, out})
+    fs::permissions(p, fs::perms::owner_all | fs::perms::group_read | fs::perms::group_exec | fs::perms::others_read |
+                           fs::perms::others_exec);
+  // Every folder above must let `nobody` through (the temporary folders are 755 under umask 022).
+  const std::vector<std::string> as_nobody = {"/usr/sbin/runuser", "-u", "nobody", "--", V};
+  auto run_as_nobody = [&](std::vector<std::string> args) {
+    std::vector<std::string> all = as_nobody;
+    all.insert(all.end(), args.begin(), args.end());
+    return test::run(all, log).exit_code;
+  };
+  CHECK(run_as_nobody({"status", db}) == 0);
+  CHECK(contains(slurp(log), "4 complete"));
+  CHECK(run_as_nobody({"export", db, "--csv"}) == 0);
+  CHECK(run_as_nobody({"study", "verify", db}) == 0);
+  CHECK(run_as_nobody({"observe", db, "new", "3.5", "--theta", "1,2"}) == 2);
+  CHECK(contains(slurp(log), "not writable by this user"));
+  CHECK(contains(slurp(log), "Permission denied"));
+  CHECK(open_sqlite_store(db)->trials().size() == 4);  // nothing written
+  fs::remove_all(dir);
+}

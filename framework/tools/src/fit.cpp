@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 
@@ -47,6 +49,22 @@ SurrogateFit fit_surrogate(const Registry& registry, const ConfigNode& node, con
   ctx.dim = data.dim();
   ctx.seed = seed;
   out.model = registry.create<Surrogate>(out.component, ctx);
+  if (optimize) {
+    // θ is used as given, but the surrogates' lengthscale bounds and hyperpriors are stated for the unit cube
+    // (lengthscales 0.01–50, prior median 0.5): raw gains or frequencies spanning 1000 were fitted as noise with
+    // ok: true and no word (red team, session 25).
+    std::string far;
+    for (Index j = 0; j < data.dim() && data.size() > 1; ++j) {
+      const double lo = data.X.col(j).minCoeff(), hi = data.X.col(j).maxCoeff(), span = hi - lo;
+      if (std::isfinite(span) && (span > 50 || (span > 0 && span < 1e-2)))
+        far += fmt::format("{}column {} spans {:.3g} ({:.4g} … {:.4g})", far.empty() ? "" : ", ", j + 1, span, lo, hi);
+    }
+    if (!far.empty())
+      log_warn("{}: θ {}: the surrogate's lengthscale bounds and priors are for coordinates in [0, 1] (lengthscales "
+               "0.01–50), so the fit may take the signal for noise or a constant; rescale each θ column to [0, 1] "
+               "first, e.g. (θ − lower) / (upper − lower)",
+               data_name, far);
+  }
   Rng rng(seed);
   try {
     out.report = optimize ? out.model->fit(data, rng) : out.model->condition(data);

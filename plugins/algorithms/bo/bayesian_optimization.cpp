@@ -517,8 +517,9 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   if (res.x.size() != dim_ || !res.x.allFinite()) {
     // Say what was wrong and whose result it was (a third-party optimizer's empty, wrong-length or NaN x read
     // "found no point at trial 4 ()"; red team, session 23).
-    const std::string what = res.x.size() != dim_ ? fmt::format("a point of dimension {}, expected {}", res.x.size(), dim_)
-                                                   : std::string("a point with a non-finite coordinate");
+    const std::string what = res.x.size() == 0 ? std::string("no point")
+                             : res.x.size() != dim_ ? fmt::format("a point of dimension {}, expected {}", res.x.size(), dim_)
+                                                    : std::string("a point with a non-finite coordinate");
     log_warn("bo: acquisition optimization found no point at trial {} ({}: {}{}); choosing at random", k,
              optimizer_name_, what, res.message.empty() ? "" : "; " + res.message);
     s.x = random_point_avoiding_failures(orng);

@@ -1,6 +1,9 @@
 // Tests of the vhgp surrogate: the bound, its gradients and the predictive against the authors' reference
 // numbers (testdata/, copied from shared/reference/vhgp), finite differences, fits, and determinism.
+#include <unistd.h>
+
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -838,4 +841,31 @@ TEST_CASE("a large offset of the costs does not change the model (costs of 1e15 
     CHECK(std::abs((p.mean - 1e15) - p0.mean) < 0.5);
     CHECK(p.total_std() == doctest::Approx(p0.total_std()).epsilon(0.05));
   }
+}
+
+TEST_CASE("conditioning a fitted model on more points (bo's batch) is silent; a given log_lambda of the wrong size warns") {
+  // Red team, session 25: `varbo suggest --batch 3` with a vhgp printed "log_lambda has 9 values for 10 points" at
+  // every suggestion: bo conditions the last fit on the pending points too. That is no user error.
+  const Dataset d = heteroscedastic_data(12, 1, 5);
+  Dataset more = d;
+  more.add(Vec::Constant(1, 0.33), d.y.mean());
+  more.add(Vec::Constant(1, 0.66), d.y.mean());
+  const std::string log =
+      (std::filesystem::temp_directory_path() / ("varbo_vhgp_batch_" + std::to_string(::getpid()) + ".log")).string();
+  std::filesystem::remove(log);
+  set_log_file(log);
+  VhgpSurrogate s(1, VhgpConfig{}, fit_optimizer());
+  Rng rng(2);
+  REQUIRE(s.fit(d, rng).ok);
+  CHECK(s.condition(more).ok);
+  VhgpSurrogate given(1, VhgpConfig{}, fit_optimizer());
+  given.set_state("log_lambda", Vec::Constant(3, -1.0));
+  given.condition(d);
+  set_log_file("");
+  std::stringstream text_stream;
+  text_stream << std::ifstream(log).rdbuf();
+  const std::string text = text_stream.str();
+  std::filesystem::remove(log);
+  CHECK(text.find("log_lambda has 3 values for 12 points") != std::string::npos);
+  CHECK(text.find("for 14 points") == std::string::npos);
 }

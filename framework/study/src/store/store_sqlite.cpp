@@ -37,6 +37,23 @@ bool on_read_only_filesystem(const std::string& path) {
   return statvfs(path.c_str(), &fs) == 0 && (fs.f_flag & ST_RDONLY) != 0;
 }
 
+/// Why this process cannot change the study file at `path` ("" when it can): a read-only file system, or no
+/// permission to write the file or, when its -wal and -shm must be made, its folder. Such a study is still read
+/// (status, export, verify): a study owned by another user was refused by every command as "attempt to write a
+/// readonly database" (red team, session 25).
+std::string read_only_reason(const std::string& path) {
+  if (on_read_only_filesystem(path)) return "on a read-only file system";
+  if (access(path.c_str(), W_OK) != 0)
+    return fmt::format("not writable by this user ({}: {})", path, std::strerror(errno));
+  const std::string folder = std::filesystem::absolute(path).parent_path().string();
+  const bool side_files_writable = access((path + "-wal").c_str(), W_OK) == 0 && access((path + "-shm").c_str(), W_OK) == 0;
+  if (access(folder.c_str(), W_OK) != 0 && !side_files_writable)
+    return fmt::format("not writable by this user (its folder {}, where SQLite keeps the study's -wal and -shm files: "
+                       "{})",
+                       folder, std::strerror(errno));
+  return "";
+}
+
 /// `path` as an SQLite URI filename (RFC 3986 percent-encoding of everything but unreserved characters and '/').
 std::string sqlite_uri(const std::string& path, const char* query) {
   std::string out = "file:";
@@ -181,7 +198,8 @@ class SqliteStore final : public StudyStore {
       db_ = nullptr;
       throw InputError(fmt::format("{}: cannot open the study file: {}", path, msg));
     }
-    if (!create && on_read_only_filesystem(path)) reopen_read_only();
+    if (!create)
+      if (std::string why = read_only_reason(path); !why.empty()) reopen_read_only(why);
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
     try {
       if (create) {
@@ -253,10 +271,9 @@ class SqliteStore final : public StudyStore {
       return;
     }
     if (read_only_)
-      throw InputError(fmt::format("{}: the study is on a read-only file system: it can be read (varbo status, "
-                                   "export, plot, dashboard) but not changed; copy its folder to a writable place "
-                                   "to continue it",
-                                   path_));
+      throw InputError(fmt::format("{}: the study is {}: it can be read (varbo status, export, plot, dashboard) but "
+                                   "not changed; copy its folder to a writable place to continue it",
+                                   path_, read_only_why_));
     begin_immediate();
     depth_ = 1;
     try {
@@ -570,7 +587,8 @@ class SqliteStore final : public StudyStore {
   /// locks, no index: nothing can change it on this mount); with a `-shm` next to it SQLite reads the `-wal` through a
   /// private copy of the index; a `-wal` without its `-shm` cannot be read, which is said rather than showing an
   /// older state of the study.
-  void reopen_read_only() {
+  void reopen_read_only(const std::string& why) {
+    read_only_why_ = why;
     namespace fs = std::filesystem;
     std::error_code ec;
     const auto wal_size = fs::file_size(path_ + "-wal", ec);
@@ -579,20 +597,19 @@ class SqliteStore final : public StudyStore {
     sqlite3_close(db_);
     db_ = nullptr;
     if (wal_has_changes && !has_shm)
-      throw InputError(fmt::format("{}: the study is on a read-only file system and its newest changes are in {}-wal, "
-                                   "which SQLite cannot read there without its {}-shm; copy the folder to a writable "
-                                   "place and open the copy",
-                                   path_, path_, path_));
+      throw InputError(fmt::format("{}: the study is {} and its newest changes are in {}-wal, which SQLite cannot "
+                                   "read without its {}-shm; copy the folder to a writable place and open the copy",
+                                   path_, why, path_, path_));
     const std::string uri = sqlite_uri(path_, has_shm ? "mode=ro" : "immutable=1");
     if (sqlite3_open_v2(uri.c_str(), &db_, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_FULLMUTEX, nullptr) !=
         SQLITE_OK) {
       const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
       sqlite3_close(db_);
       db_ = nullptr;
-      throw InputError(fmt::format("{}: cannot open the study file (read-only file system): {}", path_, msg));
+      throw InputError(fmt::format("{}: cannot open the study file ({}): {}", path_, why, msg));
     }
     read_only_ = true;
-    log_debug("{}: on a read-only file system; opened read-only{}", path_, has_shm ? "" : " (immutable)");
+    log_debug("{}: {}; opened read-only{}", path_, why, has_shm ? "" : " (immutable)");
   }
 
   bool has_table(const std::string& name) const {
@@ -604,7 +621,8 @@ class SqliteStore final : public StudyStore {
   std::string path_;
   sqlite3* db_ = nullptr;
   int depth_ = 0;
-  bool read_only_ = false;  ///< on a read-only file system: reads only (reopen_read_only)
+  bool read_only_ = false;  ///< on a read-only file system or not writable by this user: reads only (reopen_read_only)
+  std::string read_only_why_;
 };
 
 }  // namespace
