@@ -46,6 +46,10 @@ int main(int argc, char** argv) {
   // (no "continue it with" line in log.txt, the run lock left behind). Commands a task runs get the default back
   // (process_tree.cpp resets it before exec).
   std::signal(SIGPIPE, SIG_IGN);
+  // Past `ulimit -f` a write fails with EFBIG, handled as any failed write (the store's error, the evaluated
+  // result printed with the command that records it); the default SIGXFSZ killed varbo silently (exit 153) and
+  // lost that result (red team, session 25).
+  std::signal(SIGXFSZ, SIG_IGN);
   CLI::App app{"varbo " VARBO_VERSION_STRING
                ": sample-efficient, risk-aware and cautious Bayesian optimization\n"
                "Compose an algorithm in YAML, run it, inspect models. See README.md."};

@@ -462,3 +462,21 @@ TEST_CASE("a study this user cannot write is read (status, export, verify); a ch
   CHECK(open_sqlite_store(db)->trials().size() == 4);  // nothing written
   fs::remove_all(dir);
 }
+
+TEST_CASE("past `ulimit -f` a run stops with the store's error (exit 2), not killed by SIGXFSZ; the study resumes") {
+  // Red team, session 25: SIGXFSZ killed varbo silently (exit 153), the evaluated result lost without the usual
+  // hint. Ignored, the write fails with EFBIG and is handled as any failed write.
+  const std::string dir = scratch("file_size_limit");
+  const std::string cfg = dir + "/c.yaml", out = dir + "/r", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 3000\nseed: 1\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  const int rc = test::run({"/bin/bash", "-c", "ulimit -f 100; exec \"$0\" -q run \"$1\" -o \"$2\" --no-progress", V, cfg, out},
+                           log)
+                     .exit_code;
+  CHECK(rc == 2);
+  CHECK(contains(slurp(log), "study.db"));
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--budget", "20", "--no-progress"}).exit_code == 0);
+  CHECK(test::run({V, "-q", "study", "verify", out + "/study.db"}).exit_code == 0);
+  CHECK(trial_count(out + "/study.db") == 20);
+  fs::remove_all(dir);
+}

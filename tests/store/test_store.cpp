@@ -4,6 +4,7 @@
 
 #include <pqxx/pqxx>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,7 +12,9 @@
 #include "backends.hpp"
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 #include "varbo/store.hpp"
+#include "varbo/store_retry.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -317,4 +320,25 @@ TEST_CASE("trial states have stable names") {
   for (TrialState s : {TrialState::Pending, TrialState::Complete, TrialState::Failed, TrialState::Abandoned})
     CHECK(state_from_name(state_name(s)) == s);
   CHECK_THROWS_AS(state_from_name("done"), InputError);
+}
+
+TEST_CASE("retry_while_unreachable keeps trying until its limit, the last attempt at the limit") {
+  // Red team, session 25: the doubled wait that would overshoot the limit ended the retries early: with
+  // `--reconnect-timeout 3` a worker gave up after 1.5 s (attempts at 0, 0.5, 1.5 s).
+  set_log_level(LogLevel::Error);  // the retry warnings
+  int attempts = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  CHECK_THROWS_AS(retry_while_unreachable(1.2, "test", {},
+                                          [&]() -> int {
+                                            ++attempts;
+                                            throw StoreConnectionError("unreachable");
+                                          }),
+                  StoreConnectionError);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  set_log_level(LogLevel::Info);
+  CHECK(seconds >= 1.15);  // waits 0.5 then the 0.7 left (not 0.5 and give up)
+  CHECK(seconds < 3.0);
+  CHECK(attempts == 3);
+  int calls = 0;
+  CHECK(retry_while_unreachable(5.0, "test", {}, [&] { return ++calls == 2 ? 7 : throw StoreConnectionError("once"); }) == 7);
 }
