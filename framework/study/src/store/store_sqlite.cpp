@@ -307,7 +307,9 @@ class SqliteStore final : public StudyStore {
   }
 
   std::vector<TrialRecord> finished_since(std::int64_t seq) const override {
-    return select_trials("WHERE finish_seq >= ? AND state IN ('complete', 'failed') ORDER BY finish_seq", seq);
+    // `+state`: the unary plus keeps SQLite from the state index (every finished trial, then a sort) and on the
+    // finish_seq one (only the trials since `seq`): 0.36 → 0.02 ms at N = 2000, run several times per trial.
+    return select_trials("WHERE finish_seq >= ? AND +state IN ('complete', 'failed') ORDER BY finish_seq", seq);
   }
   std::vector<TrialRecord> pending_trials() const override {
     return select_trials("WHERE state = 'pending' ORDER BY id", std::nullopt);
