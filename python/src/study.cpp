@@ -156,22 +156,33 @@ void bind_study(py::module_& m) {
            })
       .def(
           "select",
-          [](PyStudy& s, double kappa) -> py::object {
+          [](PyStudy& s, const std::vector<double>& kappas) -> py::list {
             // A NaN κ reached the selection's arithmetic as a std::bad_alloc (red-team pass py11).
-            if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
-            auto sel = s.locked([&](Study& st) { return st.select(kappa); });
-            if (!sel) return py::none();
-            py::dict d;
-            d["kappa"] = kappa;
-            d["trial_id"] = sel->trial_id;
-            d["x"] = to_array(sel->theta);
-            d["params"] = params_of(sel->theta, s.names(), s.space());
-            d["mean"] = sel->mean;
-            d["std"] = sel->std;
-            d["value"] = sel->value;
-            return d;
+            for (const double kappa : kappas)
+              if (!std::isfinite(kappa))
+                throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
+            // One fit for every κ (it was one per κ, and varbo.Study.select called this once per κ).
+            const auto sels = s.locked([&](Study& st) { return st.select(kappas); });
+            py::list out;
+            for (std::size_t k = 0; k < sels.size(); ++k) {
+              const auto& sel = sels[k];
+              if (!sel) {
+                out.append(py::none());
+                continue;
+              }
+              py::dict d;
+              d["kappa"] = kappas[k];
+              d["trial_id"] = sel->trial_id;
+              d["x"] = to_array(sel->theta);
+              d["params"] = params_of(sel->theta, s.names(), s.space());
+              d["mean"] = sel->mean;
+              d["std"] = sel->std;
+              d["value"] = sel->value;
+              out.append(d);
+            }
+            return out;
           },
-          py::arg("kappa") = 0.0)
+          py::arg("kappas"))
       .def("heartbeat", [](PyStudy& s, const std::string& state) { s.locked([&](Study& st) { st.heartbeat(state); }); },
            py::arg("state") = "running")
       .def("set_worker", [](PyStudy& s, const std::string& name) { s.locked([&](Study& st) { st.set_worker(name); }); })

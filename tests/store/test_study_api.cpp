@@ -170,6 +170,19 @@ TEST_CASE("best() and select(kappa): a complete trial, value = mean + kappa * st
   // A non-finite kappa is refused before any model work (a NaN reached an allocation sized by it).
   for (double kappa : {std::nan(""), std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()})
     CHECK_THROWS_AS(s.select(kappa), InputError);
+  // A κ sweep on one fit gives what one call per κ gives (the fit is seeded: the same model each time).
+  const std::vector<double> sweep = {-1.0, 0.0, 0.5, 2.0};
+  const auto many = s.select(sweep);
+  REQUIRE(many.size() == sweep.size());
+  for (std::size_t k = 0; k < sweep.size(); ++k) {
+    const auto one = s.select(sweep[k]);
+    REQUIRE(one);
+    REQUIRE(many[k]);
+    CHECK(many[k]->trial_id == one->trial_id);
+    CHECK(many[k]->value == one->value);
+  }
+  CHECK(s.select(std::vector<double>{}).empty());
+  CHECK_THROWS_AS(s.select(std::vector<double>{0.0, std::nan("")}), InputError);
 }
 
 TEST_CASE("bad input: each is an InputError and nothing is written") {

@@ -505,14 +505,18 @@ std::optional<Vec> Study::recommendation() {
   return m.space ? m.space->decode(m.space->admissible(*r)) : from_unit(*r, m.domain.box);
 }
 
-std::optional<Selection> Study::select(double kappa) const {
+std::optional<Selection> Study::select(double kappa) const { return select(std::vector<double>{kappa}).front(); }
+
+std::vector<std::optional<Selection>> Study::select(const std::vector<double>& kappas) const {
   // A NaN κ ordered nothing and reached an allocation sized by it (std::bad_alloc in the Python binding, py11).
-  if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
+  for (const double kappa : kappas)
+    if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
+  std::vector<std::optional<Selection>> out(kappas.size());
   const Impl& m = *impl_;
   std::vector<TrialRecord> done;
   for (const auto& t : m.store->trials())
     if (t.state == TrialState::Complete) done.push_back(t);
-  if (done.empty()) return std::nullopt;
+  if (done.empty() || kappas.empty()) return out;
   const Index d = m.encoded_dim();
   Dataset data = Dataset::empty(d);
   for (const auto& t : done) data.add(t.x, t.cost);
@@ -525,24 +529,29 @@ std::optional<Selection> Study::select(double kappa) const {
   ctx.seed = m.config.seed;
   std::unique_ptr<Surrogate> model = respect_types(m.registry->create<Surrogate>(spec, ctx), m.space);
   Rng rng = Rng(m.config.seed).stream(0x5e1ec7);
-  Selection s;
   if (data.size() >= 2) model->fit(data, rng);
   if (data.size() < 2 || !model->ready()) {
     const auto b = best();
+    Selection s;
     s.trial_id = b->id;
     s.theta = b->theta;
     s.mean = s.value = b->cost;
     log_warn("select: no usable surrogate ({} complete trials); returning the best observed trial", data.size());
-    return s;
+    for (auto& o : out) o = s;
+    return out;
   }
-  const Incumbent inc = find_incumbent(*model, data, kappa);
-  const TrialRecord& t = done[static_cast<std::size_t>(inc.index)];
-  s.trial_id = t.id;
-  s.theta = t.theta;
-  s.mean = inc.mean;
-  s.std = inc.std;
-  s.value = inc.mean + kappa * inc.std;
-  return s;
+  for (std::size_t k = 0; k < kappas.size(); ++k) {
+    const Incumbent inc = find_incumbent(*model, data, kappas[k]);
+    const TrialRecord& t = done[static_cast<std::size_t>(inc.index)];
+    Selection s;
+    s.trial_id = t.id;
+    s.theta = t.theta;
+    s.mean = inc.mean;
+    s.std = inc.std;
+    s.value = inc.mean + kappas[k] * inc.std;
+    out[k] = s;
+  }
+  return out;
 }
 
 std::vector<TrialRecord> Study::trials() const { return impl_->store->trials(); }
