@@ -177,7 +177,11 @@ json fit_json(const DashboardModel& m) {
           {"seed", m.seed},
           {"fit", {{"ok", m.fitted.report.ok}, {"objective", m.fitted.report.objective},
                    {"log_likelihood", m.fitted.report.log_likelihood}, {"message", m.fitted.report.message},
-                   {"seconds", m.fit_seconds}}},
+                   {"seconds", m.fit_seconds},
+                   // Conditioned: the last full fit's hyperparameters on the trials since (until the data grow by a
+                   // quarter); full_fit_complete: the trials of that fit.
+                   {"conditioned", m.full_fit_complete != m.complete},
+                   {"full_fit_complete", m.full_fit_complete}}},
           {"hyperparameters", hp}};
 }
 

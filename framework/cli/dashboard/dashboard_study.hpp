@@ -24,6 +24,7 @@ struct DashboardModel {
   FittedRunModel fitted;
   std::unique_ptr<Optimizer> optimizer;
   std::int64_t complete = 0;  ///< complete trials the model was fitted on (the cache key)
+  std::int64_t full_fit_complete = 0;  ///< complete trials at the last full fit (conditioned since, up to +25 %)
   std::uint64_t seed = 1;
   double fit_seconds = 0;
   /// The point the views cut through: among the evaluated θ, argmin of the posterior mean (κ = 0).
