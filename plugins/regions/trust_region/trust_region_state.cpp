@@ -22,7 +22,8 @@ std::string TrustRegion::save_state() const {
   // The box is usually the one centre and length give (set_box), but not before the first update (the whole unit
   // cube) nor right after return_to_incumbent (the last box; L changed): bo draws its random points in it, so a
   // restored region must have this very box (a resumed run drew from [0.1, 0.9]^d where the run drew from [0, 1]^d).
-  if (!(box_.lower == rebuilt_box().lower && box_.upper == rebuilt_box().upper)) {
+  const Box rebuilt = rebuilt_box();
+  if (!(box_.lower == rebuilt.lower && box_.upper == rebuilt.upper)) {
     m.put("box_lower", box_.lower);
     m.put("box_upper", box_.upper);
   }

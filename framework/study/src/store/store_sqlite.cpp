@@ -232,23 +232,16 @@ class SqliteStore final : public StudyStore {
   /// and the close's own checkpoint fails silently (a full disk left a study file without its tables, linked into
   /// place, while its data went with the removed -wal; red team, session 25).
   void checkpoint_into_file() {
-    struct Result {
-      long long busy = -1, log = -1, done = -1;
-    } r;
+    long long busy = -1;  // the pragma's first column: 1 when the checkpoint could not complete
     char* err = nullptr;
     const int rc = sqlite3_exec(
         db_, "PRAGMA wal_checkpoint(TRUNCATE)",
         [](void* out, int n, char** values, char**) {
-          auto* res = static_cast<Result*>(out);
-          if (n >= 3 && values[0] && values[1] && values[2]) {
-            res->busy = std::atoll(values[0]);
-            res->log = std::atoll(values[1]);
-            res->done = std::atoll(values[2]);
-          }
+          if (n >= 1 && values[0]) *static_cast<long long*>(out) = std::atoll(values[0]);
           return 0;
         },
-        &r, &err);
-    if (rc != SQLITE_OK || r.busy != 0) {
+        &busy, &err);
+    if (rc != SQLITE_OK || busy != 0) {
       const std::string msg = err ? err : (rc != SQLITE_OK ? sqlite3_errmsg(db_) : "the checkpoint was incomplete");
       sqlite3_free(err);
       throw InputError(fmt::format("{}: cannot write the new study's file: {}", path_, msg));
