@@ -81,6 +81,10 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
       Phase p = phase_options().read(po);
       p.epsilon = po.real("epsilon") < 0 ? epsilon : po.real("epsilon");
       if (p.random && po.given("acquisition")) item.fail("a random phase takes no acquisition");
+      if (p.random && po.real("epsilon") > 0)
+        // Accepted in silence before: every point of a random phase is random already.
+        log_warn_once(fmt::format("{}: phase {}: epsilon {} has no effect in a random phase (every point is random)",
+                                  item.child("epsilon").where(), i + 1, po.real("epsilon")));
       if (!p.random)
         p.acquisition = po.given("acquisition") ? std::shared_ptr<Acquisition>(r.create<Acquisition>(po.component("acquisition"), ctx))
                                                 : default_acq;
@@ -97,16 +101,11 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
     Index start = initial_points_;
     for (std::size_t i = 0; i < phases_.size(); ++i) {
       if (budget_ > 0 && start >= budget_) {
-        // Once per process: a command builds the algorithm more than once (checks, then the run).
-        static std::mutex said_mutex;
-        static std::set<std::string> said;
-        const std::string msg = fmt::format(
+        log_warn_once(fmt::format(
             "bo: phase {}{} never runs: the initial design ({} trials) and the phases before it use the whole "
             "budget of {}",
             i + 1, i + 1 < phases_.size() ? fmt::format(" (and the {} after it)", phases_.size() - i - 1) : "",
-            initial_points_, budget_);
-        const std::lock_guard<std::mutex> lock(said_mutex);
-        if (said.insert(msg).second) log_warn("{}", msg);
+            initial_points_, budget_));
         break;
       }
       start += phases_[i].evaluations;
@@ -123,6 +122,12 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   if (ctx.initial_point) initial_point_ = *ctx.initial_point;
   draw_initial_design();
   data_ = Dataset::empty(dim_);
+  if (o.given("recommendation_kappa") && settings.recommendation != RecommendationRule::LowestBoundEvaluated)
+    // Accepted in silence before: a user asking for a risk-averse recommendation got the default rule's.
+    log_warn_once(fmt::format("{}: recommendation_kappa {} has no effect: it is the κ of `recommendation: "
+                              "lowest_bound_evaluated`, and this run's rule is '{}'",
+                              o.node("recommendation_kappa").where(), settings.recommendation_kappa,
+                              o.str("recommendation")));
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
   round_in_model_ = !o.is_set("discrete") || o.str("discrete") == "transform";

@@ -1,5 +1,10 @@
 // Plugin `cma_es`: CMA-ES as an ask/tell algorithm (Hansen 2016 defaults), a baseline for CRBO.
+#include <cmath>
+
+#include <fmt/format.h>
+
 #include "cma_es.hpp"
+#include "varbo/log.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
@@ -43,6 +48,14 @@ VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's d
         } else if (ctx.initial_point) {
           c.x0 = *ctx.initial_point;
         }
+        const Index lambda =
+            c.population > 0 ? c.population : 4 + static_cast<Index>(std::floor(3.0 * std::log(double(ctx.dim))));
+        if (ctx.budget > 0 && lambda >= ctx.budget)
+          // Accepted in silence before: the run was random sampling around x0 under CMA-ES's name.
+          log_warn_once(fmt::format("{}cma_es: the population ({}) is at least the budget ({}): the first "
+                                    "generation uses every trial, so CMA-ES never adapts its distribution",
+                                    o.given("population") ? o.node("population").where() + ": " : std::string(),
+                                    lambda, ctx.budget));
         return std::make_unique<CmaEs>(ctx.dim, c);
       },
       {"search_space:mixed"}));

@@ -15,6 +15,9 @@ void log_message(LogLevel level, std::string_view message);
 /// To the log file only (when one is open): an error the caller reports on stderr itself, which a run's
 /// log.txt must still hold.
 void log_file_message(LogLevel level, std::string_view message);
+/// A warning about the configuration, said once per process on stderr (a command builds its algorithm more than
+/// once: checks, then the run) and once in each log file opened afterwards, so a run's log.txt holds it too.
+void log_warn_once(std::string_view message);
 
 template <class... Args>
 void log_debug(fmt::format_string<Args...> f, Args&&... args) {

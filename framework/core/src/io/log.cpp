@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <fstream>
 #include <mutex>
+#include <set>
+#include <utility>
 
 namespace varbo {
 
@@ -23,6 +25,20 @@ const char* tag(LogLevel l) {
     default: return "";
   }
 }
+std::string& log_file_path() {
+  static std::string p;
+  return p;
+}
+/// With g_mutex held.
+void write_message(LogLevel level, std::string_view message) {
+  auto& f = log_file();
+  if (f.is_open() && level >= LogLevel::Info) {
+    f << "[" << tag(level) << "] " << message << '\n';
+    f.flush();
+  }
+  if (static_cast<int>(level) < g_level.load()) return;
+  std::fprintf(stderr, "[varbo %s] %.*s\n", tag(level), static_cast<int>(message.size()), message.data());
+}
 }  // namespace
 
 void set_log_level(LogLevel level) { g_level = static_cast<int>(level); }
@@ -32,6 +48,7 @@ void set_log_file(const std::string& path) {
   std::lock_guard<std::mutex> lock(g_mutex);
   auto& f = log_file();
   if (f.is_open()) f.close();
+  log_file_path() = path;
   if (!path.empty()) f.open(path, std::ios::app);
 }
 
@@ -46,13 +63,22 @@ void log_file_message(LogLevel level, std::string_view message) {
 
 void log_message(LogLevel level, std::string_view message) {
   std::lock_guard<std::mutex> lock(g_mutex);
-  auto& f = log_file();
-  if (f.is_open() && level >= LogLevel::Info) {
-    f << "[" << tag(level) << "] " << message << '\n';
-    f.flush();
+  write_message(level, message);
+}
+
+void log_warn_once(std::string_view message) {
+  static std::set<std::string> said;                           // on stderr
+  static std::set<std::pair<std::string, std::string>> filed;  // (log file, message)
+  std::lock_guard<std::mutex> lock(g_mutex);
+  const std::string m(message);
+  const bool first = said.insert(m).second;
+  const bool to_file = log_file().is_open() && filed.insert({log_file_path(), m}).second;
+  if (first) {
+    write_message(LogLevel::Warn, message);
+  } else if (to_file) {
+    log_file() << "[" << tag(LogLevel::Warn) << "] " << message << '\n';
+    log_file().flush();
   }
-  if (static_cast<int>(level) < g_level.load()) return;
-  std::fprintf(stderr, "[varbo %s] %.*s\n", tag(level), static_cast<int>(message.size()), message.data());
 }
 
 }  // namespace varbo
