@@ -10,6 +10,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "varbo/away_from_failures.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/math.hpp"
 #include "varbo/space_wrappers.hpp"
@@ -40,47 +41,6 @@ void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain,
   r.theta = space ? space->decode(r.x) : from_unit(r.x, domain.box);
   r.ok = std::isfinite(r.criterion);
 }
-
-// Near the successful trials, away from the failed ones: x is inside when its nearest failed trial is at least
-// kFailureMargin times as far as its nearest successful one, c(x) = min_f ‖x − f‖² − m² min_s ‖x − s‖² ≥ 0
-// (gradient 2 (x − f*) − 2 m² (x − s*)). Around one success s and one failure f that is a ball (Apollonius) holding
-// s and reaching a third of the way towards f. The plain nearest-trial rule (m = 1, the Voronoi cells) was tried
-// first: a success at the edge of the data owns a cell reaching far past the failures beside it (the cliff run of
-// the red team, session 24: the selection came out at x1 = 0.86, where trials fail beyond 0.7). It is intersected
-// with the space's own constraint (typed linear constraints).
-constexpr double kFailureMargin = 2.0;
-
-class AwayFromFailures final : public RegionConstraint {
- public:
-  AwayFromFailures(const RegionConstraint& inner, const Mat& successes, const Mat& failed)
-      : inner_(inner), successes_(successes), failed_(failed) {}
-  const Box& bounds() const override { return inner_.bounds(); }
-  bool has_constraint() const override { return true; }
-  double constraint(const Vec& x, Vec* grad) const override {
-    Index s = 0, f = 0;
-    (successes_.rowwise() - x.transpose()).rowwise().squaredNorm().minCoeff(&s);
-    (failed_.rowwise() - x.transpose()).rowwise().squaredNorm().minCoeff(&f);
-    constexpr double m2 = kFailureMargin * kFailureMargin;
-    const double cell =
-        (failed_.row(f).transpose() - x).squaredNorm() - m2 * (successes_.row(s).transpose() - x).squaredNorm();
-    if (inner_.has_constraint()) {
-      Vec g_inner(x.size());
-      const double c_inner = inner_.constraint(x, grad ? &g_inner : nullptr);
-      if (c_inner < cell) {
-        if (grad) *grad = g_inner;
-        return c_inner;
-      }
-    }
-    if (grad) *grad = 2.0 * (x - failed_.row(f).transpose()) - 2.0 * m2 * (x - successes_.row(s).transpose());
-    return cell;
-  }
-  Mat seeds() const override { return successes_; }
-
- private:
-  const RegionConstraint& inner_;
-  const Mat& successes_;
-  const Mat& failed_;
-};
 
 // One selection per κ; a non-finite κ gets a message, the others `choose`.
 template <class Choose>

@@ -764,7 +764,10 @@ std::optional<Vec> BayesianOptimization::recommendation() const {
   // recommendation model is only conditioned with the latest fitted ones (one O(N³) solve per trial).
   const bool final = budget_ > 0 && told_ >= budget_;
   Rng rrng = rng_.stream(kRecommend, static_cast<std::uint64_t>(told_));
-  return recommender_->recommend(model_ready_ ? surrogate_.get() : nullptr, data_, *region_, *recommend_optimizer_, rrng,
+  Mat failed(static_cast<Index>(failed_.size()), dim_);
+  for (std::size_t i = 0; i < failed_.size(); ++i) failed.row(static_cast<Index>(i)) = failed_[i].transpose();
+  return recommender_->recommend(model_ready_ ? surrogate_.get() : nullptr, data_, failed, *region_,
+                                 *recommend_optimizer_, rrng,
                                  final);
 }
 

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
+#include "varbo/away_from_failures.hpp"
 #include "varbo/space_wrappers.hpp"
 #include "varbo/state.hpp"
 #include "varbo/errors.hpp"
@@ -58,6 +60,13 @@ Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
   Index inc = 0;
   for (Index i = 0; i < data.size(); ++i) {
     p.push_back(model.predict(data.X.row(i).transpose(), false));
+    if (!std::isfinite(p.back().mean)) {
+      // No order among the means: `mean < NaN` never held, and trial 0 was recommended whatever its cost (red
+      // team, session 26).
+      log_warn_once("bo: the recommendation model predicts a non-finite mean at an evaluated θ; the lowest observed "
+                    "cost is recommended instead");
+      return best_observed(data);
+    }
     if (p.back().mean < p[static_cast<std::size_t>(inc)].mean) inc = i;
   }
   const double lowest = p[static_cast<std::size_t>(inc)].mean;
@@ -131,10 +140,12 @@ bool Recommender::prepare_model(const Surrogate& fitted, const Dataset& data, Rn
   return model_->ready() && rep.ok;
 }
 
-Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const RegionConstraint& region,
-                           const Optimizer& optimizer, Rng& rng, bool refit) {
+Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const Mat& failed,
+                           const RegionConstraint& region, const Optimizer& optimizer, Rng& rng, bool refit) {
   if (data.size() == 0) throw std::logic_error("Recommender::recommend without data");
-  if (cached_n_ == data.size() && cached_refit_ == refit && cached_.size() == data.dim()) return cached_;
+  if (cached_n_ == data.size() && cached_failed_ == failed.rows() && cached_refit_ == refit &&
+      cached_.size() == data.dim())
+    return cached_;
   const Vec observed = data.X.row(best_observed(data)).transpose();
   ready_ = false;
   Vec out = observed;
@@ -159,7 +170,12 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const R
       case RecommendationRule::LowestMeanDomain: {
         // Minimize the posterior mean over the search region, started at the evaluated points; the best
         // evaluated point is kept when the optimizer finds nothing lower (it never recommends worse than
-        // the lowest-mean evaluated point under the model).
+        // the lowest-mean evaluated point under the model). With failed trials only near the successful ones
+        // (AwayFromFailures): the mean where trials failed is the model's extrapolation, and the minimum was
+        // recommended between two failures (red team, session 26: 0.81 where every trial beyond 0.7 failed).
+        std::optional<AwayFromFailures> away;
+        if (failed.rows() > 0 && failed.cols() == data.dim()) away.emplace(region, data.X, failed);
+        const RegionConstraint& where = away ? static_cast<const RegionConstraint&>(*away) : region;
         const Vec at_data = data.X.row(find_incumbent(*model_, data, 0.0).index).transpose();
         const Surrogate& m = *model_;
         FunctionRef neg_mean(data.dim(), [&m](const Vec& x, Vec* g) {
@@ -167,17 +183,21 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const R
           if (g) *g = -p.d_mean;
           return -p.mean;
         });
-        const OptimizeResult r = optimizer.maximize(neg_mean, region, data.X, rng);
+        const OptimizeResult r = optimizer.maximize(neg_mean, where, data.X, rng);
         out = at_data;
         if (r.x.size() == data.dim() && r.x.allFinite() && std::isfinite(r.value) &&
-            -r.value < m.predict(at_data, false).mean)
-          out = Box::unit(data.dim()).clamp(r.x);
+            -r.value < m.predict(at_data, false).mean) {
+          const Vec x = Box::unit(data.dim()).clamp(r.x);
+          // An optimizer that ignores constraints (ceres_lbfgs) may leave them: the evaluated point then.
+          if (!away || away->constraint(x, nullptr) >= -1e-9) out = x;
+        }
         break;
       }
       case RecommendationRule::BestObserved: break;
     }
   }
   cached_n_ = data.size();
+  cached_failed_ = failed.rows();
   cached_refit_ = refit;
   cached_ = out;
   return out;

@@ -42,8 +42,9 @@ class Recommender {
   /// hyperparameters and state seed the recommendation model), or nullptr when there is none. With `refit`
   /// the recommendation model's hyperparameters are optimized on all data (the run's final recommendation);
   /// otherwise it is conditioned with the fitted hyperparameters. `region` and `optimizer` serve
-  /// LowestMeanDomain. Results are cached per data size and refit flag.
-  Vec recommend(const Surrogate* fitted, const Dataset& data, const RegionConstraint& region,
+  /// LowestMeanDomain, which keeps away from `failed` (θ of failed trials, unit cube, one per row; may be empty).
+  /// Results are cached per data size, failure count and refit flag.
+  Vec recommend(const Surrogate* fitted, const Dataset& data, const Mat& failed, const RegionConstraint& region,
                 const Optimizer& optimizer, Rng& rng, bool refit);
 
   RecommendationRule rule() const { return rule_; }
@@ -61,6 +62,7 @@ class Recommender {
   std::unique_ptr<Surrogate> model_;
   bool ready_ = false;
   Index cached_n_ = -1;
+  Index cached_failed_ = -1;
   bool cached_refit_ = false;
   Vec cached_;
 };

@@ -243,7 +243,7 @@ TEST_CASE("recommendation: a vhgp's final refit continues its fit schedule from 
     bo::Recommender rec(bo::RecommendationRule::LowestMeanEvaluated, 0.0,
                         test::registry().create<Surrogate>(yaml, ctx));
     Rng rng(9);
-    (void)rec.recommend(run_model.get(), all, region, *optimizer, rng, true);
+    (void)rec.recommend(run_model.get(), all, Mat(0, 1), region, *optimizer, rng, true);
     REQUIRE(rec.model() != nullptr);
     if (!warm) {
       // A fresh model's full fit: no counter reported, the recommendation model refitted from scratch.
@@ -265,5 +265,46 @@ TEST_CASE("recommendation: a vhgp's final refit continues its fit schedule from 
     for (Index i = 0; i < all.size(); ++i)
       CHECK(rec.model()->predict(all.X.row(i).transpose(), false).mean ==
             continued->predict(all.X.row(i).transpose(), false).mean);
+  }
+}
+
+TEST_CASE("recommendation: a model with a non-finite mean at the data recommends the lowest observed cost") {
+  // `mean < NaN` never holds: trial 0 was recommended whatever its cost (red team, session 26).
+  Dataset data = Dataset::empty(1);
+  for (double x : {0.1, 0.2, 0.3, 0.4}) data.add(Vec::Constant(1, x), 0.0);
+  data.y << 5.0, 1.0, 0.2, 3.0;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, (Vec(4) << nan, nan, nan, nan).finished(), 0.1), data) == 2);
+  CHECK(bo::lowest_mean_evaluated(ScriptedModel(data, (Vec(4) << 0.0, 1.0, nan, 3.0).finished(), 0.1), data) == 2);
+}
+
+TEST_CASE("recommendation: lowest_mean_domain keeps away from failed trials") {
+  set_log_level(LogLevel::Error);
+  // A cost falling towards x = 1, where every trial beyond 0.7 fails: the model's mean keeps falling past the last
+  // success, and its minimum over the box lay between the failures (red team, session 26: 0.81). The
+  // recommendation stays within the successes' side of AwayFromFailures (nearest failure ≥ 2× as far as the
+  // nearest success).
+  const auto cost = [](const Vec& x) { return 1.0 - x(0); };
+  for (const std::string rule : {"lowest_mean_domain", "lowest_mean_evaluated"}) {
+    CAPTURE(rule);
+    auto a = make_bo("initial_points: 8, recommendation: " + rule + ", surrogate: {type: gp, restarts: 2}", 1, 8, 3);
+    Mat failed(0, 1);
+    double last_success = 0;
+    std::vector<double> successes;
+    for (int i = 0; i < 8; ++i) {
+      const Suggestion s = a->ask(1).front();
+      const bool ok = s.x(0) <= 0.7;
+      a->tell({Observation{s.x, ok ? cost(s.x) : std::numeric_limits<double>::quiet_NaN(), ok, {}}});
+      if (ok) last_success = std::max(last_success, s.x(0)), successes.push_back(s.x(0));
+      else failed.conservativeResize(failed.rows() + 1, 1), failed(failed.rows() - 1, 0) = s.x(0);
+    }
+    REQUIRE(failed.rows() > 0);
+    REQUIRE(successes.size() >= 2);
+    const Vec r = *a->recommendation();
+    double nearest_success = 1e9, nearest_failure = 1e9;
+    for (double s : successes) nearest_success = std::min(nearest_success, std::abs(r(0) - s));
+    for (Index i = 0; i < failed.rows(); ++i) nearest_failure = std::min(nearest_failure, std::abs(r(0) - failed(i, 0)));
+    CHECK(nearest_failure >= 2.0 * nearest_success - 1e-9);
+    CHECK(r(0) <= 0.7 + 1e-9);
   }
 }
