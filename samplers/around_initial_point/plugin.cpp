@@ -1,4 +1,6 @@
 // libvarbo_sampler_around_initial_point.so: CRBO's initial design, θ0 plus points at distance r0 around it.
+#include <fmt/format.h>
+
 #include "around_initial_point.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
@@ -26,6 +28,12 @@ VARBO_PLUGIN("sampler_around_initial_point", "0.1.0", "Initial design theta0 plu
       "the box. CRBO (crbo.md) uses bo initial_points = ceil(sqrt(d))",
       around_options().specs(),
       Factory<Sampler>([](const Options& o, const BuildContext& ctx) {
+        const double radius = o.real("radius");
+        if (radius < 0 && radius != -1)
+          // Any value in (-1, 0) meant "from lengthscale and gamma" in silence.
+          o.node("radius").fail(fmt::format("expected a radius ≥ 0 (unit cube), or -1 for r0 from lengthscale and "
+                                            "gamma; got {}",
+                                            radius));
         return std::make_unique<sampling::AroundInitialPointSampler>(around_options().read(o), ctx.initial_point);
       })));
 }

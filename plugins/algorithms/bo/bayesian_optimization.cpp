@@ -42,6 +42,11 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   surrogate_ = r.create<Surrogate>(o.component("surrogate"), ctx);
   surrogate_name_ = o.component("surrogate").info->full_name();
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
+  {
+    const auto& provides = o.component("region").info->provides;
+    if (std::find(provides.begin(), provides.end(), "region:constraint") != provides.end())
+      observed_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+  }
   optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
   optimizer_name_ = o.component("acquisition_optimizer").info->full_name();
   // The recommender's own instance: an optimizer may carry state from call to call (hit_and_run's chains), and
@@ -122,7 +127,9 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   if (ctx.initial_point) initial_point_ = *ctx.initial_point;
   draw_initial_design();
   data_ = Dataset::empty(dim_);
-  if (o.given("recommendation_kappa") && settings.recommendation != RecommendationRule::LowestBoundEvaluated)
+  // Not its default: a stored study's configuration is the resolved one, which names every option.
+  if (o.given("recommendation_kappa") && settings.recommendation_kappa != BoSettings{}.recommendation_kappa &&
+      settings.recommendation != RecommendationRule::LowestBoundEvaluated)
     // Accepted in silence before: a user asking for a risk-averse recommendation got the default rule's.
     log_warn_once(fmt::format("{}: recommendation_kappa {} has no effect: it is the κ of `recommendation: "
                               "lowest_bound_evaluated`, and this run's rule is '{}'",
@@ -143,6 +150,7 @@ void BayesianOptimization::set_search_space(SharedSpace space) {
   if (space_->has_constraints()) draw_initial_design();  // inside the constraints now that they are known
   const SharedSpace model_space = round_in_model_ ? space_ : nullptr;
   surrogate_ = respect_types(std::move(surrogate_), model_space);
+  if (observed_model_) observed_model_ = respect_types(std::move(observed_model_), model_space);
   region_ = respect_constraints(std::move(region_), space_);
   recommender_->wrap_model(model_space);
 }
@@ -242,10 +250,19 @@ bool BayesianOptimization::update_feasibility(Index k, bool refit) {
 
 Vec BayesianOptimization::random_point_avoiding_failures(Rng& rng) const {
   if (!feasibility_on_) return random_point(rng);
+  // A θ that failed is never drawn again: where nearly every trial failed, the exclusion threshold follows the low
+  // success rate down (update_feasibility) and a failed θ could pass it.
+  const auto failed_here = [this](const Vec& x) {
+    const Vec e = evaluated_point(x);
+    for (const Vec& f : failed_)
+      if ((evaluated_point(f) - e).lpNorm<Eigen::Infinity>() <= 1e-9) return true;
+    return false;
+  };
   Vec best;
   double best_p = -1;
   for (int i = 0; i < 64; ++i) {
     Vec x = random_point(rng);
+    if (failed_here(x)) continue;
     const double p = feasibility_->probability(evaluated_point(x));
     if (p >= exclusion_threshold_) return x;
     if (p > best_p) {
@@ -253,7 +270,18 @@ Vec BayesianOptimization::random_point_avoiding_failures(Rng& rng) const {
       best = std::move(x);
     }
   }
-  return best;
+  if (best.size() == dim_) return best;
+  // The design sampler may have one point only: around_initial_point gives θ0 first, every time, and a failing θ0
+  // was run again on every remaining trial (red team, session 26). Uniform points of the region then.
+  const Box& box = region_->bounds();
+  for (int i = 0; i < 256; ++i) {
+    const Vec x = box.lower + (box.upper - box.lower).cwiseProduct(rng.uniform_vec(dim_));
+    if (!region_->contains(x) || failed_here(x)) continue;
+    const double p = feasibility_->probability(evaluated_point(x));
+    if (p >= exclusion_threshold_) return x;
+    if (p > best_p) best_p = p, best = x;
+  }
+  return best.size() == dim_ ? best : random_point(rng);
 }
 
 void BayesianOptimization::fit_model(Index k, const Dataset& data) {
@@ -269,6 +297,35 @@ void BayesianOptimization::fit_model(Index k, const Dataset& data) {
   // A failed fit's reason, or what an ok fit reports (the gp's kernel choice with kernel_candidates, a jitter).
   snapshot_.note = rep.message;
 }
+const Surrogate* BayesianOptimization::region_model(Index k, const Dataset& data) {
+  if (!observed_model_ || data.size() <= data_.size()) return surrogate_.get();
+  const std::pair<Index, Index> key{data_.size(), fits_};
+  if (observed_model_key_ == key && observed_model_->ready()) return observed_model_.get();
+  observed_model_key_ = {-1, -1};
+  const Dataset observed = model_data_of(data_);
+  try {
+    // Every hyperparameter but a constant mean, which follows the data it is conditioned on (as the
+    // recommendation model's, recommender.cpp); a per-point state (VHGP's log Λ) for the observed rows, which
+    // come first in the fantasized data.
+    Hyperparameters h;
+    for (const Hyperparameter& p : surrogate_->hyperparameters())
+      if (p.name != "mean") h.push_back(p);
+    observed_model_->set_hyperparameters(h);
+    for (const auto& [name, value] : surrogate_->state())
+      if (name == "log_lambda" && value.size() >= observed.size())
+        observed_model_->set_state(name, Vec(value.head(observed.size())));
+    const FitReport rep = observed_model_->condition(observed);
+    if (rep.ok && observed_model_->ready()) {
+      observed_model_key_ = key;
+      return observed_model_.get();
+    }
+    log_warn("bo: trial {}: the region's model of the observations: {}; using the batch's model", k, rep.report());
+  } catch (const std::exception& e) {
+    log_warn("bo: trial {}: the region's model of the observations: {}; using the batch's model", k, e.what());
+  }
+  return surrogate_.get();
+}
+
 double BayesianOptimization::lie(const Vec& x) const {
   // Ginsbourger, Le Riche & Carraro 2010, "Kriging is well-suited to parallelize optimization", section 3:
   // kriging believer = the posterior mean; constant liar = one constant (min or mean of the observed costs).
@@ -392,7 +449,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     value_stall->set_value_stall(rule);
   }
   force_region_failures(k);
-  region_->update(surrogate_.get(), data, region_rng);
+  {
+    const Surrogate* rmodel = region_model(k, data);
+    // Its seeds (hit-and-run chains start at the data) are observations too.
+    const bool observed_only = rmodel != surrogate_.get();
+    region_->update(rmodel, observed_only ? model_data_of(data_) : data, region_rng);
+  }
   Dataset late_refined;
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0 &&
       final_stretch) {

@@ -75,6 +75,31 @@ TEST_CASE("sample_polish: the result is inside the confidence region and on its 
   CHECK(s.region.constraint(r.x, nullptr) < 1e-3);  // active constraint
 }
 
+TEST_CASE("sample_polish: a sampler's points outside the region's constraint are not candidates") {
+  // A sampler that ignores the constraint (around_initial_point does; a third party's may): its points far outside
+  // C_n, nearest the maximizer, were candidates, and the polish did not always bring the best back inside (3 of 9
+  // CRBO suggestions left the region; red team, session 26). Here every sampler point but one lies outside.
+  struct Outside final : Sampler {
+    Mat sample(const RegionConstraint&, Index n, Rng&) const override {
+      Mat m(n, 2);
+      for (Index i = 0; i < n; ++i) m.row(i) << 0.85 + 0.1 * double(i) / double(n), 0.9;
+      m.row(0) << 0.35, 0.32;  // inside C_n
+      return m;
+    }
+  };
+  CrboSetup s;
+  REQUIRE(!s.region.contains((Vec(2) << 0.9, 0.9).finished()));
+  const auto f = neg_distance((Vec(2) << 0.9, 0.9).finished(), false);  // COBYLA: no gradient to steer back
+  SamplePolishOptions o;
+  o.samples = 50;
+  o.polish = 3;
+  const SamplePolishOptimizer opt(std::make_unique<Outside>(), o);
+  Rng rng(5);
+  const OptimizeResult r = opt.maximize(f, s.region, Mat(0, 2), rng);
+  REQUIRE(r.x.size() == 2);
+  CHECK(s.region.contains(r.x, 1e-9));
+}
+
 TEST_CASE("sample_polish: derivative-free fallback (COBYLA) stays feasible and improves on the samples") {
   CrboSetup s;
   const auto f = neg_distance((Vec(2) << 0.9, 0.9).finished(), false);

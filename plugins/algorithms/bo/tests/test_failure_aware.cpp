@@ -11,6 +11,7 @@
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/function.hpp"
+#include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
@@ -617,4 +618,32 @@ TEST_CASE("boundary_jump: edge probes the box's face past the failure zone once,
   for (std::size_t i = 8; i < j; ++i)
     if (plain[i].phase != "restart") blocked_x1 = std::min(blocked_x1, plain[i].ok ? plain[i].u(0) : 1.0);
   CHECK(blocked_x1 > 0.5);  // the attempt never went past the ball on its own
+}
+
+TEST_CASE("failure-aware bo: a failed initial policy is not run again by the random fallback") {
+  // CRBO's design (around_initial_point) gives θ0 as its first point every time it is asked for one, and the
+  // "fewer than 2 successful trials" fallback drew its random points from it: a θ0 that failed (the robot fell)
+  // was run on every remaining trial (red team, session 26).
+  set_log_level(LogLevel::Error);
+  BuildContext ctx;
+  ctx.dim = 3;
+  ctx.budget = 14;
+  ctx.seed = 2;
+  ctx.initial_point = Vec::Constant(3, 0.5);
+  auto a = test::registry().create<Algorithm>(
+      "{type: bo, initial_design: {type: around_initial_point}, initial_points: 3, "
+      "region: {type: confidence, gamma: 0.6}, acquisition_optimizer: sample_polish}",
+      ctx);
+  // Everything within 0.3 of θ0 (∞-norm, unit cube) fails.
+  const auto fails = [](const Vec& x) { return (x.array() - 0.5).abs().maxCoeff() < 0.3; };
+  std::vector<Vec> failed;
+  for (Index k = 0; k < 14; ++k) {
+    const Suggestion s = a->ask(1).front();
+    CAPTURE(k);
+    for (const Vec& f : failed) CHECK((s.x - f).lpNorm<Eigen::Infinity>() > 1e-9);
+    const bool ok = !fails(s.x);
+    a->tell({Observation{s.x, ok ? (s.x.array() - 0.1).square().sum() : std::nan(""), ok, {}}});
+    if (!ok) failed.push_back(s.x);
+  }
+  CHECK(failed.size() < 10);
 }
