@@ -16,10 +16,15 @@ INDEX=$(find "$PREFIX" -path '*/varbo/plugins/varbo_plugins.index' | head -n 1)
 if [ -z "$INDEX" ] || ! grep -q '^c bo$' "$INDEX"; then cat "$WORK/install.log"; echo "no plugin index installed"; exit 1; fi
 # The Python package installed into the prefix's site-packages layout: it imports from there, loads the installed
 # libvarbo_core (its RPATH) and finds the installed plugins.
-PYTHON=$(sed -n 's/^VARBO_PYTHON_EXECUTABLE:INTERNAL=//p' "$BUILD_DIR/CMakeCache.txt")
+# The interpreter only while the build has the bindings: the cache keeps the entry after -DVARBO_BUILD_PYTHON=OFF.
+PYTHON=""
+if grep -q '^VARBO_BUILD_PYTHON:BOOL=ON$' "$BUILD_DIR/CMakeCache.txt" &&
+   ! grep -q '^VARBO_SANITIZE:BOOL=ON$' "$BUILD_DIR/CMakeCache.txt"; then
+  PYTHON=$(sed -n 's/^VARBO_PYTHON_EXECUTABLE:INTERNAL=//p' "$BUILD_DIR/CMakeCache.txt")
+fi
 if [ -n "$PYTHON" ]; then
   PYPKG=$(find "$PREFIX" -path '*/varbo/__init__.py' -printf '%h\n' | head -n 1)
-  test -n "$PYPKG"
+  if [ -z "$PYPKG" ]; then echo "check_sdk: the install under $PREFIX holds no varbo/__init__.py" >&2; exit 1; fi
   (cd "$WORK" && PYTHONPATH="$(dirname "$PYPKG")" "$PYTHON" -c "
 import varbo
 assert varbo.__file__.startswith('$PREFIX'), varbo.__file__

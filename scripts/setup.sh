@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Installs what is missing (Debian 12 packages), configures and builds varbo incrementally.
-# Safe to re-run: installs nothing that is present, reconfigures only when needed.
-# Environment: BUILD_DIR (default build), BUILD_TYPE (default Release), VARBO_CMAKE_ARGS (extra cmake args).
+# Safe to re-run: installs nothing that is present; configures a new build folder, and reconfigures an existing one
+# when BUILD_TYPE or VARBO_CMAKE_ARGS is given (else cmake's own checks rebuild what changed).
+# Environment: BUILD_DIR (default build), BUILD_TYPE (default Release), VARBO_CMAKE_ARGS (extra cmake args, split
+# at spaces: a value with spaces goes into a cache file given as -C FILE, or to cmake directly).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -26,8 +28,14 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 BUILD_DIR=${BUILD_DIR:-build}
+# Given on an existing build folder, they were ignored in silence (`BUILD_TYPE=Debug ./test.sh` tested Release).
+reconfigure=0
+if [ -n "${BUILD_TYPE+x}" ] || [ -n "${VARBO_CMAKE_ARGS+x}" ]; then reconfigure=1; fi
 BUILD_TYPE=${BUILD_TYPE:-Release}
+read -r -a extra_args <<< "${VARBO_CMAKE_ARGS:-}"
 if [ ! -f "$BUILD_DIR/build.ninja" ]; then
-  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE="$BUILD_TYPE" ${VARBO_CMAKE_ARGS:-}
+  cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE="$BUILD_TYPE" ${extra_args[@]+"${extra_args[@]}"}
+elif [ "$reconfigure" = 1 ]; then
+  cmake -S . -B "$BUILD_DIR" -DCMAKE_BUILD_TYPE="$BUILD_TYPE" ${extra_args[@]+"${extra_args[@]}"}
 fi
 cmake --build "$BUILD_DIR" -j "$(nproc)"

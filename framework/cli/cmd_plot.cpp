@@ -272,7 +272,7 @@ Runner add_plot(CLI::App& app) {
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
     a->kappas = a->kappa_text.empty() ? std::vector<double>{-1.5, 0.0, 1.5}
                                       : decimal_items(a->kappa_text, "--kappa", "-1.5,0,1.5");
-    Registry& registry = default_registry();
+    Registry& registry = run_folder_registry(a->run);  // with the run's own plugins
     // A run of varbo.minimize has the task `python`: its domain is all an offline command needs (an evaluation, as
     // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
     if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);

@@ -13,6 +13,7 @@
 #include "varbo/loader.hpp"
 #include "varbo/math.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/run_folder.hpp"
 #include "varbo/rescore.hpp"
 
 namespace varbo::cli {
@@ -58,7 +59,7 @@ Runner add_rescore(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);
-    Registry& registry = default_registry();
+    Registry& registry = run_folder_registry(a->run);  // with the run's own plugins
     // A run of varbo.minimize has the task `python`: its domain is all an offline command needs (an evaluation, as
     // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
     if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);

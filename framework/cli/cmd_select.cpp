@@ -64,7 +64,7 @@ Runner add_select(CLI::App& app) {
     const auto seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));  // not saturated
     std::vector<double> kappas = a->kappas.empty() ? std::vector<double>{2.0, 0.0, -2.0}
                                                    : decimal_items(a->kappas, "--kappa", "2,0,-2");
-    Registry& registry = default_registry();
+    Registry& registry = run_folder_registry(a->run);  // with the run's own plugins
     // A run of varbo.minimize has the task `python`: its domain is all an offline command needs (an evaluation, as
     // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
     if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);
@@ -94,6 +94,9 @@ Runner add_select(CLI::App& app) {
       std::printf("varbo select %s: %s fitted on %lld of %lld trials (objective %.6g%s)\n", a->run.c_str(),
                   spec.info->full_name().c_str(), static_cast<long long>(run.data.size()),
                   static_cast<long long>(run.trials), rep.objective, rep.ok ? "" : ", FIT FAILED: previous model");
+      // The fit's own note, e.g. the vhgp's "homoscedastic noise selected": κ then trades the mean against the
+      // model's uncertainty only, and a user reading only the table could not know (red team, session 26).
+      if (!rep.message.empty()) std::printf("  fit: %s\n", rep.message.c_str());
       std::printf("  parameters: %s\n", join(run.names).c_str());
       std::printf("  %8s  %-28s %12s %12s %14s\n", "kappa", "theta", "mean E", "std s", "E + kappa*s");
       for (const auto& s : sel) {
@@ -101,17 +104,31 @@ Runner add_select(CLI::App& app) {
           std::printf("  %8.3g  no selection: %s\n", s.kappa, s.message.c_str());
           continue;
         }
+        // An evaluated θ (--among-evaluated) is not far from the data: a high latent sd there is the model's
+        // uncertainty (a noisy point), not an extrapolation.
+        const char* flag = below_observed(s, run) ? "  (below every observed cost)"
+                           : s.relative_latent_std > kExtrapolating
+                               ? (a->among_evaluated ? "  (model uncertain here)" : "  (far from the data)")
+                               : "";
         std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g%s\n", s.kappa, theta_text(s.theta, run.space).c_str(), s.mean, s.std,
-                    s.criterion, s.relative_latent_std > kExtrapolating ? "  (far from the data)" : "");
+                    s.criterion, flag);
       }
     }
-    for (const auto& s : sel)
-      if (s.ok && s.relative_latent_std > kExtrapolating) {
+    const double lowest = run.data.size() > 0 ? run.data.y.minCoeff() : 0.0;
+    for (const auto& s : sel) {
+      if (!s.ok) continue;
+      const char* advice = a->among_evaluated ? "" : "; --among-evaluated chooses among the evaluated θ";
+      if (below_observed(s, run))
+        std::fprintf(stderr,
+                     "varbo select: kappa %g chose a θ whose predicted mean %.6g lies below the lowest observed cost "
+                     "%.6g by more than 2 sd (%.3g): the model extrapolates there%s\n",
+                     s.kappa, s.mean, lowest, s.std, advice);
+      else if (s.relative_latent_std > kExtrapolating && !a->among_evaluated)
         std::fprintf(stderr,
                      "varbo select: kappa %g chose a θ far from the data (latent sd %.2f of the prior's): its E and s "
-                     "are extrapolated; --among-evaluated chooses among the evaluated θ\n",
-                     s.kappa, s.relative_latent_std);
-      }
+                     "are extrapolated%s\n",
+                     s.kappa, s.relative_latent_std, advice);
+    }
     for (const auto& s : sel)
       if (!s.ok) return 1;
     return 0;

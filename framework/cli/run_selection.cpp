@@ -63,6 +63,15 @@ std::vector<RiskSelection> select_on_run(const Surrogate& model, const RunFolder
                                run.failed);
 }
 
+bool below_observed(const RiskSelection& s, const RunFolder& run) {
+  if (!s.ok || run.data.size() == 0) return false;
+  return run.data.y.minCoeff() - s.mean > 2.0 * s.std;
+}
+
+bool extrapolating(const RiskSelection& s, const RunFolder& run) {
+  return s.ok && (s.relative_latent_std > kExtrapolating || below_observed(s, run));
+}
+
 nlohmann::json selection_json(const RiskSelection& s, const RunFolder& run) {
   nlohmann::json e = {{"kappa", s.kappa}, {"ok", s.ok}, {"message", s.message}};
   if (!s.ok) return e;
@@ -74,7 +83,8 @@ nlohmann::json selection_json(const RiskSelection& s, const RunFolder& run) {
   e["std"] = s.std;
   e["criterion"] = s.criterion;
   e["relative_latent_std"] = s.relative_latent_std;
-  e["extrapolating"] = s.relative_latent_std > kExtrapolating;
+  e["below_observed"] = below_observed(s, run);
+  e["extrapolating"] = extrapolating(s, run);
   return e;
 }
 

@@ -47,8 +47,15 @@ std::vector<RiskSelection> select_on_run(const Surrogate& model, const RunFolder
 /// are extrapolations (issue 10 saw predicted means far below the true minimum there).
 inline constexpr double kExtrapolating = 0.5;
 
+/// The predicted mean lies below every observed cost by more than 2 predictive sd: a minimum the data do not
+/// support (a CMA-ES run's gp predicted −6.4 ± 1.5 where no cost can be below −1, while its latent sd was 0.43 of
+/// σ_f; red team, session 26).
+bool below_observed(const RiskSelection& s, const RunFolder& run);
+/// Either sign that E and s are extrapolations: far from the data (kExtrapolating) or below_observed.
+bool extrapolating(const RiskSelection& s, const RunFolder& run);
+
 /// One selection as `varbo select --json` prints it: kappa, ok, message and, when ok, theta (by name), params
-/// (typed studies), mean, std, criterion, relative_latent_std, extrapolating.
+/// (typed studies), mean, std, criterion, relative_latent_std, below_observed, extrapolating.
 nlohmann::json selection_json(const RiskSelection& s, const RunFolder& run);
 
 }  // namespace varbo::cli

@@ -1,6 +1,7 @@
 // SearchSpace (varbo/search_space.hpp): encoding round trips, the rounding transformation, constraint parsing
 // and feasibility, the typed Params view, and the surrogate wrapper's constancy between admissible values.
 #include <cmath>
+#include <set>
 
 #include "varbo/errors.hpp"
 #include "varbo/named_values.hpp"
@@ -264,6 +265,57 @@ TEST_CASE("admissible points satisfy every constraint; an empty feasible set is 
   no_integer.add_constraint(parse_linear_constraint("2*n >= 3", no_integer.parameters()));
   no_integer.add_constraint(parse_linear_constraint("2*n <= 3.5", no_integer.parameters()));
   CHECK_FALSE(no_integer.finalize());
+}
+
+TEST_CASE("an equality written as two inequalities is searched along, not collapsed to one point") {
+  // "a + b <= 1" and "a + b >= 1", as the parser's error for `==` advises: the repair kept 1e-9 inside the relaxed
+  // polytope, which is empty here, and every point fell back to one pooled point (a whole study ran at x = y = 0.5,
+  // even n never changed; red team, session 26).
+  SearchSpace s(std::vector<Parameter>{Parameter{"x", ParameterType::Real, 0, 1, false, {}, 0},
+                                       Parameter{"y", ParameterType::Real, 0, 1, false, {}, 0},
+                                       Parameter{"n", ParameterType::Int, 0, 5, false, {}, 0}});
+  s.add_constraint(parse_linear_constraint("x + y <= 1", s.parameters()));
+  s.add_constraint(parse_linear_constraint("x + y >= 1", s.parameters()));
+  REQUIRE(s.finalize());
+  Rng rng(3);
+  std::set<double> xs, ns;
+  for (int k = 0; k < 50; ++k) {
+    const Vec theta = s.decode(s.admissible(rng.uniform_vec(s.encoded_dim())));
+    std::string why;
+    CHECK_MESSAGE(s.contains(theta, &why), why);
+    CHECK(std::abs(theta[0] + theta[1] - 1.0) < 1e-12);
+    xs.insert(theta[0]);
+    ns.insert(theta[2]);
+  }
+  CHECK(xs.size() >= 40);  // spread along the line (the nearest point of it to each draw)
+  CHECK(ns.size() == 6);   // a parameter in no constraint keeps every value
+}
+
+TEST_CASE("constraint tolerance: relative to the terms at θ, not to the parameters' ranges") {
+  // f1, f2 in [0, 1e9] Hz with f1 − f2 ≥ 1: 1e-9 of the range is 1 Hz, the whole margin, and f1 = f2 was accepted
+  // (red team, session 26). Rounding of a decoded θ (a few ulps of the range) stays accepted.
+  SearchSpace s(std::vector<Parameter>{Parameter{"f1", ParameterType::Real, 0, 1e9, false, {}, 0},
+                                       Parameter{"f2", ParameterType::Real, 0, 1e9, false, {}, 0}});
+  s.add_constraint(parse_linear_constraint("f1 - f2 >= 1", s.parameters()));
+  REQUIRE(s.finalize());
+  std::string why;
+  CHECK_FALSE(s.contains((Vec(2) << 5e8, 5e8).finished(), &why));
+  // By how much, in the user's terms ("gain - 0.5*t1 >= -1 is violated (1.4 > 1)" read the negated row).
+  CHECK(why == "constraint 'f1 - f2 >= 1' is violated by 1");
+  CHECK(s.contains((Vec(2) << 5e8 + 1, 5e8).finished()));
+  CHECK(s.contains((Vec(2) << 1e9, 1e9 - 1 - 1e-6).finished()));  // within the rounding of the range
+  // x, y ≥ 0 with x + y ≤ −1e-12: empty (the range-scaled tolerance accepted x = y = 0).
+  SearchSpace empty(std::vector<Parameter>{Parameter{"x", ParameterType::Real, 0, 1, false, {}, 0},
+                                           Parameter{"y", ParameterType::Real, 0, 1, false, {}, 0}});
+  empty.add_constraint(parse_linear_constraint("x + y <= -1e-12", empty.parameters()));
+  CHECK_FALSE(empty.finalize());
+  // Farads (session 22): a relative tolerance, not an absolute 1e-9.
+  SearchSpace farads(std::vector<Parameter>{Parameter{"c1", ParameterType::Real, 0, 1e-9, false, {}, 0},
+                                            Parameter{"c2", ParameterType::Real, 0, 1e-9, false, {}, 0}});
+  farads.add_constraint(parse_linear_constraint("c1 + c2 <= 1e-10", farads.parameters()));
+  REQUIRE(farads.finalize());
+  CHECK_FALSE(farads.contains((Vec(2) << 1e-10, 1e-10).finished()));
+  CHECK(farads.contains((Vec(2) << 5e-11, 5e-11).finished()));
 }
 
 TEST_CASE("constraints: file:line:col for a bad constraint and for an empty feasible set") {

@@ -13,8 +13,11 @@
 set -euo pipefail
 action=${1:?usage: pg_server.sh start|stop|restart STATE_DIR}
 state=${2:?usage: pg_server.sh start|stop|restart STATE_DIR}
-bindir=$(ls -d /usr/lib/postgresql/*/bin 2>/dev/null | sort -V | tail -1)
-[ -x "$bindir/initdb" ] || { echo "pg_server.sh: PostgreSQL server binaries not found (apt-get install postgresql)" >&2; exit 1; }
+# The newest version whose server is installed: postgresql-client-N alone makes /usr/lib/postgresql/N/bin too.
+bindir=$(ls -d /usr/lib/postgresql/*/bin 2>/dev/null | sort -V | while read -r d; do
+  if [ -x "$d/initdb" ] && [ -x "$d/pg_ctl" ]; then echo "$d"; fi
+done | tail -1) || true
+[ -n "$bindir" ] && [ -x "$bindir/initdb" ] || { echo "pg_server.sh: PostgreSQL server binaries not found (apt-get install postgresql)" >&2; exit 1; }
 
 as_server() {  # run a server command as an unprivileged user when we are root
   if [ "$(id -u)" = 0 ]; then runuser -u nobody -- "$@"; else "$@"; fi

@@ -31,8 +31,10 @@ std::optional<std::string> query_value(const ApiQuery& query, const std::string&
   // `?kappa=1&kappa=2` answered for the first only; a repeated parameter is refused, as the CLI refuses a key
   // given twice (lists are comma-separated: kappa=1,2).
   if (const auto n = query.count(name); n > 1)
-    throw RequestError(400, fmt::format("query parameter '{}' is given {} times; give it once (a list is "
-                                        "comma-separated, e.g. kappa=0,2)",
+    // The list form only where a list is taken (/api/rescore's kappa): /api/select then refused the form this
+    // message suggested (red team, session 26).
+    throw RequestError(400, fmt::format("query parameter '{}' is given {} times; give it once (where a list is "
+                                        "taken, as /api/rescore's kappa, it is comma-separated: kappa=0,2)",
                                         name, n));
   return it->second;
 }

@@ -76,6 +76,10 @@ ComponentRun component_run_from(const RunFolder& rf, const std::string& label) {
     if (rf.component_values.row(i).allFinite()) keep.push_back(i);
   const auto n = static_cast<Index>(keep.size());
   if (n == 0) throw InputError(fmt::format("{}: no successful trials with all components", label));
+  if (n < rf.theta.rows())
+    // They were left out in silence, the 5 best of 8 among them (red team, session 26).
+    log_warn("{}: {} of {} successful trials lack a finite value of some cost component; re-scoring the other {}",
+             label, rf.theta.rows() - n, rf.theta.rows(), n);
   run.theta.resize(n, d);
   run.unit.resize(n, d);
   run.values.resize(n, k);

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "varbo/config.hpp"
@@ -265,19 +266,25 @@ bool SearchSpace::contains(const Vec& theta, std::string* why, double tol) const
     }
   }
   for (const auto& c : constraints_) {
-    // The tolerance is relative to the constraint's own magnitude over the box (its bound and each term at the
-    // far end of its parameter's range), not at least 1: with parameters in farads (c1 + c2 <= 1e-10) an absolute
-    // 1e-9 accepted every violation (red team, session 22).
-    double lhs = 0, scale = std::abs(c.bound);
+    // The tolerance is relative to the constraint's own magnitude at θ (its bound and each term there), not at
+    // least 1: with parameters in farads (c1 + c2 <= 1e-10) an absolute 1e-9 accepted every violation (red team,
+    // session 22); plus a few ulps of each term at the far end of its parameter's range, the rounding of a θ
+    // decoded from the unit cube. The range itself times 1e-9 accepted f1 = f2 = 5e8 Hz for `f1 - f2 >= 1` over
+    // [0, 1e9] and feasible sets that were empty (red team, session 26).
+    constexpr double kRounding = 64 * std::numeric_limits<double>::epsilon();
+    double lhs = 0, scale = std::abs(c.bound), rounding = 0;
     for (const auto& [i, a] : c.terms) {
       lhs += a * theta[static_cast<Index>(i)];
       const Parameter& q = params_[i];
       const double reach = q.type == ParameterType::Fixed ? std::abs(q.value)
                                                            : std::max(std::abs(q.low), std::abs(q.high));
-      scale = std::max({scale, std::abs(a * theta[static_cast<Index>(i)]), std::abs(a) * reach});
+      scale = std::max(scale, std::abs(a * theta[static_cast<Index>(i)]));
+      rounding += kRounding * std::abs(a) * reach;
     }
-    if (lhs > c.bound + tol * (scale > 0 ? scale : 1.0))
-      return no(fmt::format("constraint '{}' is violated ({} > {})", c.text, lhs, c.bound));
+    if (lhs > c.bound + std::max(tol * scale, rounding))
+      // By how much, not "lhs > bound": a `>=` constraint is kept as −lhs <= −bound, and its sides printed
+      // negated read as nonsense ("gain - 0.5*t1 >= -1 is violated (1.4 > 1)").
+      return no(fmt::format("constraint '{}' is violated by {:.6g}", c.text, lhs - c.bound));
   }
   return true;
 }

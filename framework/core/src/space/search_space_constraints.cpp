@@ -137,6 +137,14 @@ Vec SearchSpace::repair(const Vec& y) const {
   const Vec z = dykstra(y, A_, b_.array() - 1e-9);
   Vec r = round_discrete(z);
   if (satisfies_constraints(r)) return r;
+  // An equality written as two inequalities ("a + b <= 1", "a + b >= 1", as the parser's own error advises) has
+  // no interior: the margin made it empty, every repair fell back to one pooled point, and a whole study ran at
+  // it (red team, session 26). The polytope itself then.
+  {
+    const Vec z0 = dykstra(y, A_, b_);
+    const Vec r0 = round_discrete(z0);
+    if (satisfies_constraints(r0)) return r0;
+  }
   // 2. Integers rounded towards the side that lowers every violated row: a relaxed point satisfying a row
   //    still does after rounding its integers in the direction of the row's negative coefficients.
   const Vec viol = (A_ * r - b_).cwiseMax(0.0);

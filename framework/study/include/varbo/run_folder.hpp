@@ -37,6 +37,11 @@ Vec unit_point(const RunFolder& run, const Vec& theta);
 /// Reads `folder`; components are resolved against `registry`. Throws InputError/ConfigError naming the file.
 RunFolder load_run_folder(const std::string& folder, const Registry& registry);
 
+/// The registry to read `folder` with: the process's default one, plus the third-party plugins the run loaded
+/// (`plugin_path:` of its config.resolved.yaml, relative to the folder) — one registry per set of paths, kept for
+/// the process (plugins are never unloaded). Throws ConfigError when a listed path no longer exists.
+Registry& run_folder_registry(const std::string& folder);
+
 /// The surrogate the run's algorithm used (its `surrogate:` option, as resolved), or nullptr when the
 /// algorithm has none (e.g. random search).
 const ResolvedComponent* run_surrogate_spec(const RunFolder& run);

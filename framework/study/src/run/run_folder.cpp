@@ -9,9 +9,12 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
@@ -55,6 +58,28 @@ std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
 
 Vec unit_point(const RunFolder& run, const Vec& theta) {
   return run.space ? run.space->encode(theta) : Vec(Box::unit(theta.size()).clamp(to_unit(theta, run.domain.box)));
+}
+
+Registry& run_folder_registry(const std::string& folder) {
+  const std::string cfg = folder + "/config.resolved.yaml";
+  std::error_code ec;
+  if (!fs::exists(cfg, ec)) return default_registry();  // load_run_folder says what is missing
+  const std::vector<std::string> paths = plugin_paths_of(ConfigNode::load_file(cfg));
+  if (paths.empty()) return default_registry();
+  struct Loaded {
+    Registry registry;
+    PluginLoader loader{registry};
+  };
+  static std::mutex mutex;
+  static std::map<std::vector<std::string>, Loaded*> loaded;
+  const std::lock_guard<std::mutex> lock(mutex);
+  Loaded*& slot = loaded[paths];
+  if (!slot) {
+    auto* fresh = new Loaded();  // intentionally leaked: plugins are never unloaded
+    fresh->loader.load_default(paths);
+    slot = fresh;
+  }
+  return slot->registry;
 }
 
 RunFolder load_run_folder(const std::string& folder, const Registry& registry) {

@@ -21,7 +21,8 @@ namespace varbo {
 static std::string csv_escape(const std::string& s) { return csv_text(s); }
 
 RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
-                     std::vector<std::string> component_names, bool with_regret, SharedSpace space)
+                     std::vector<std::string> component_names, bool with_regret, SharedSpace space,
+                     const std::vector<std::string>& plugin_paths)
     : folder_(folder), components_(std::move(component_names)), with_regret_(with_regret), space_(std::move(space)) {
   std::error_code ec;
   fs::create_directories(folder_, ec);
@@ -29,7 +30,19 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   {
     std::ofstream cfg(folder_ + "/config.resolved.yaml");
     YAML::Emitter em;
-    em << study.resolved();
+    YAML::Node resolved = study.resolved();
+    // Not part of StudyConfig::resolved() (the study's identity): where the plugins are is not what the study is.
+    // Left out, the file named components no varbo process could find (`varbo select` on the run: "unknown task").
+    if (!plugin_paths.empty()) {
+      const fs::path here = fs::absolute(folder_, ec).lexically_normal();
+      YAML::Node list(YAML::NodeType::Sequence);
+      for (const std::string& p : plugin_paths) {
+        const fs::path rel = ec ? fs::path{} : fs::path(p).lexically_relative(here);
+        list.push_back(rel.empty() ? p : rel.string());
+      }
+      resolved["plugin_path"] = list;
+    }
+    em << resolved;
     cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
         << em.c_str() << "\n";
   }

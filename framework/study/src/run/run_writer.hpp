@@ -26,8 +26,11 @@ struct TrialRow {
 
 class RunWriter {
  public:
+  /// `plugin_paths`: the third-party plugins the study loaded (absolute), written into config.resolved.yaml as
+  /// `plugin_path:` relative to the run folder, so the file re-runs and the offline commands find them.
   RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
-            std::vector<std::string> component_names, bool with_regret = false, SharedSpace space = nullptr);
+            std::vector<std::string> component_names, bool with_regret = false, SharedSpace space = nullptr,
+            const std::vector<std::string>& plugin_paths = {});
   void trial(const TrialRow& row);
   void model(const ModelSnapshot& snapshot);
   void summary(const RunSummary& summary, const Domain& domain, const std::optional<Optimum>& optimum);

@@ -69,7 +69,9 @@ std::string RunSummary::report() const {
     s += fmt::format("  recommended     {}{}\n", recommended_params.empty() ? fmt_vec(*recommended_theta) : recommended_params,
                      recommendation_rule.empty() ? std::string() : " (" + recommendation_rule + ")");
   if (regret_recommended) s += fmt::format("  regret of the recommended θ     {:.3e}\n", *regret_recommended);
-  if (regret_best_observed) s += fmt::format("  regret of the best observed θ   {:.3e}\n", *regret_best_observed);
+  // The oracle figure (summary.json's regret_best_observed): the lowest noise-free regret among the evaluated θ,
+  // which under noise need not be the θ of the best observed cost printed above.
+  if (regret_best_observed) s += fmt::format("  lowest regret of an evaluated θ {:.3e}  (oracle: noise-free)\n", *regret_best_observed);
   s += fmt::format("  wall time       {:.2f} s\n", seconds);
   return s;
 }
@@ -280,7 +282,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   }
 
   const std::optional<Optimum> optimum = admissible_optimum(task, st.space(), study.task.info->name);
-  RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value(), st.space());
+  RunWriter writer(study.output, study, shown, task.component_names(), optimum.has_value(), st.space(),
+                   study_detail::stored_plugin_paths(st.store(), store_path));
   writer.set_study(study_tag(store_path));
   // A resumed run continues its log; a fresh one (a new folder, or --overwrite) starts it: the old study's lines
   // stayed above the new one's, two "run" headers of two studies in one file (red team, session 25).

@@ -402,6 +402,11 @@ TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluati
                  m.store->location(), id, name);
         continue;
       }
+      if (!std::isfinite(v) && ev.ok && std::isfinite(ev.cost))
+        // Kept as missing, and said: `varbo rescore` leaves such trials out (red team, session 26).
+        log_warn("{}: trial {}: component '{}' is {} on a successful trial; recorded as missing (a re-weighting with "
+                 "`varbo rescore` leaves the trial out)",
+                 m.store->location(), id, name, v);
       t.components.emplace_back(name, v);
     }
     t.noiseless_cost = ev.noiseless_cost;
