@@ -341,6 +341,34 @@ TEST_CASE("option declarations are checked when the plugin loads") {
   CHECK_THROWS_WITH_AS(r.add(info), doctest::Contains("character other than letters"), PluginLoadError);
 }
 
+TEST_CASE("an option whose declared default fails its own declaration is a load error naming it") {
+  // Accepted before: a default outside its range or choices was reported at the user's configuration, which never
+  // named the option, and a default that is not YAML ended every run using the component in "internal error"
+  // (red team, session 26).
+  const auto with = [](OptionSpec spec) {
+    return make_component<Acquisition>("bad_default", "", {std::move(spec)},
+                                       Factory<Acquisition>([](const Options&, const BuildContext&) {
+                                         return std::unique_ptr<Acquisition>();
+                                       }));
+  };
+  const std::vector<std::pair<OptionSpec, std::string>> bad = {
+      {opt::node("n", "{a: [", ""), "its default '{a: [' is not YAML"},
+      {opt::choice("c", "zz", {"a", "b"}, ""), "its default zz is not one of: a, b"},
+      {opt::real("w", -1, "").at_least(0), "its default -1 is not"},
+      {opt::integer("k", 3, "").at_most(2), "its default 3 is not"},
+      {opt::reals("r", "[1, x]", ""), "its default [1, x] is not"},
+  };
+  for (const auto& [spec, message] : bad) {
+    CAPTURE(spec.name);
+    Registry r;
+    CHECK_THROWS_WITH_AS(r.add(with(spec)), doctest::Contains("acquisition 'bad_default' declares the option '" +
+                                                              spec.name + "': " + message),
+                         PluginLoadError);
+  }
+  Registry r;
+  CHECK_NOTHROW(r.add(with(opt::real("w", 0, "").at_least(0))));
+}
+
 TEST_CASE("only varbo's own libraries in the built-in folder are built-in") {
   // A third-party plugin installed into lib/varbo/plugins (where the SDK's RPATH points) counted as built-in:
   // its `ei` made every default `acquisition: ei` ambiguous.

@@ -92,6 +92,11 @@ class Options {
 /// throw ConfigError with file:line:col, the key path and the expected form. `owner` names the component
 /// in messages. Component options are resolved recursively through `registry` (may be null when none).
 /// `ignored_keys` are keys handled by the caller (e.g. "type").
+/// Why an option's declared default is not a value of its own spec (not YAML, out of range, not a choice), or
+/// empty. The registry refuses such a declaration when the plugin loads: a default that fails its own check was
+/// reported at the user's configuration, which never named the option (red team, session 26).
+std::string option_default_problem(const OptionSpec& spec);
+
 Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& specs, const std::string& owner,
                          const class Registry* registry, const std::vector<std::string>& ignored_keys = {"type"});
 

@@ -272,6 +272,24 @@ static YAML::Node merged_over_default(const YAML::Node& def, const YAML::Node& g
   return out;
 }
 
+std::string option_default_problem(const OptionSpec& s) {
+  if (s.default_yaml.empty()) return {};
+  YAML::Node value;
+  try {
+    value = YAML::Load(s.default_yaml);
+  } catch (const YAML::Exception& e) {
+    return fmt::format("its default '{}' is not YAML ({})", printable(s.default_yaml), e.msg);
+  }
+  // A component is resolved against the registry when a configuration uses it; a node is its owner's to check.
+  if (s.type == OptionType::Component || s.type == OptionType::Node) return {};
+  try {
+    (void)check_value(s, ConfigNode(value, std::make_shared<const std::string>("<default>"), s.name));
+  } catch (const ConfigError&) {
+    return fmt::format("its default {} is not {}", printable(s.default_yaml), s.expected());
+  }
+  return {};
+}
+
 Options validate_options(const ConfigNode& node, const std::vector<OptionSpec>& specs, const std::string& owner,
                          const Registry* registry, const std::vector<std::string>& ignored_keys) {
   Options o;

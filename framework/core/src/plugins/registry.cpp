@@ -109,6 +109,9 @@ void check_option_names(const ComponentInfo& info) {
     if (!seen.insert(o.name).second)
       throw PluginLoadError(fmt::format("{} '{}' declares the option '{}' twice", kind_name(info.kind), info.name,
                                         printable(o.name)));
+    if (const std::string why = option_default_problem(o); !why.empty())
+      throw PluginLoadError(fmt::format("{} '{}' declares the option '{}': {}", kind_name(info.kind), info.name,
+                                        printable(o.name), why));
   }
 }
 }  // namespace
