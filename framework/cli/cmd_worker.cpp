@@ -253,6 +253,12 @@ Runner add_worker(CLI::App& app) {
       Evaluation e;
       try {
         e = task->evaluate(t.theta, rng);
+      } catch (const TaskSetupError& err) {
+        // Not a result of θ (errors.hpp): abandoned, and this worker stops; its trial is suggested again.
+        retrying(reconnect, id, [&] {
+          return study.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, "the task could not run");
+        });
+        throw InputError(fmt::format("trial {}: {}; the trial is abandoned, not failed", t.id, err.what()));
       } catch (const std::exception& err) {  // a failed trial, never a crash (task.hpp)
         e = Evaluation{};
         e.ok = false;

@@ -2,10 +2,13 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
+
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "answer_parser.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/text.hpp"
 
@@ -111,8 +114,21 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
                             : "its supervisor was killed (by the command?); every process carrying the trial's token "
                               "was killed");
   if (!r.exited) return fail("terminated by a signal");
-  if (r.exit_status != 0)
-    return fail(r.exit_status == 127 ? "non-zero exit (127: command not found?)" : "non-zero exit");
+  if (r.exit_status == 126 || r.exit_status == 127) {
+    std::error_code ec;
+    const std::string here = s_.process.working_directory.empty()
+                                 ? std::filesystem::current_path(ec).string()
+                                 : s_.process.working_directory;
+    throw TaskSetupError(abbreviate(
+        printable(fmt::format(
+            "external task: the command could not be run (exit status {}: {}; stderr: '{}') in the working directory "
+            "{}; a relative command or path is looked up there: start varbo in the folder it expects, or give the "
+            "task `workdir:` or an absolute command",
+            r.exit_status, r.exit_status == 127 ? "not found, or could not be started" : "not executable",
+            tail(r.err, 400), here)),
+        2048));
+  }
+  if (r.exit_status != 0) return fail("non-zero exit");
   std::string why;
   const auto answer = parse_answer(r.out, why);
   if (!answer) return fail(why);

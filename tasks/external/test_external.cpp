@@ -228,10 +228,14 @@ TEST_CASE("external task: failures are failed trials with a message") {
     CHECK(contains(e.error, "partial 1.0"));
     CHECK(contains(e.error, "singular matrix"));
   }
-  SUBCASE("command not found") {
-    const Evaluation e = run("/nonexistent/varbo-simulator");
-    CHECK(!e.ok);
-    CHECK(contains(e.error, "exit status 127"));
+  SUBCASE("command not found, or not executable: the task cannot run, a set-up error (not a failed trial)") {
+    // A failed trial would teach the failure model that θ fails (session 26: a relative command run from another
+    // folder recorded ten failures at good points).
+    CHECK_THROWS_WITH_AS(run("/nonexistent/varbo-simulator"),
+                         doctest::Contains("exit status 127: not found"), TaskSetupError);
+    CHECK_THROWS_WITH_AS(run("/nonexistent/varbo-simulator"), doctest::Contains("in the working directory /"),
+                         TaskSetupError);
+    CHECK_THROWS_WITH_AS(run("/dev/null"), doctest::Contains("exit status 126: not executable"), TaskSetupError);
   }
   SUBCASE("killed by a signal") {
     const Evaluation e = run("kill -9 $$");

@@ -25,8 +25,10 @@ template <class S>
 const OptionSet<S>& policy_options() {
   static const OptionSet<S> set{
       opt::integer("features", opt::nested(&S::policy, &PolicyTaskSettings::features),
-                   "random tanh features m; the policy has d = m + 1 parameters")
-          .at_least(1),
+                   "random tanh features m; the policy has d = m + 1 parameters (at most 10^4: features: 1e9 ended "
+                   "in an internal error, bad_alloc)")
+          .at_least(1)
+          .at_most(1e4),
       opt::integer("seed", opt::nested(&S::policy, &PolicyTaskSettings::seed),
                    "seed of the fixed random features (episodes use the trial's stream)")
           .at_least(0),
@@ -45,14 +47,17 @@ const OptionSet<S>& policy_options() {
 const OptionSet<tasks::GpSampleSettings>& gp_sample_options() {
   using S = tasks::GpSampleSettings;
   static const OptionSet<S> set{
-      opt::integer("dim", &S::dim, "dimension d").at_least(1),
+      opt::integer("dim", &S::dim, "dimension d").at_least(1).at_most(1000),
       opt::integer("seed", &S::seed, "seed of the sample (features, optimum search, initial point)").at_least(0),
       opt::real("noise_std", &S::noise_std, "observation noise std (paper: 1e-3)").at_least(0),
-      opt::integer("features", &S::features, "random Fourier features").at_least(1),
+      opt::integer("features", &S::features, "random Fourier features (at most 10^5: a dim × features matrix is held)")
+          .at_least(1)
+          .at_most(1e5),
       opt::real("lengthscale", &S::lengthscale, "Matern lengthscale (user units)").above(0),
       opt::real("start_distance", &S::start_distance, "distance of the initial point from the optimum").at_least(0),
-      opt::integer("search_points", &S::search_points, "dense-search points for the optimum (0 = 20000*d)")
-          .at_least(0)};
+      opt::integer("search_points", &S::search_points, "dense-search points for the optimum (0 = 20000*d; at most 10^7)")
+          .at_least(0)
+          .at_most(1e7)};
   return set;
 }
 }  // namespace

@@ -361,9 +361,8 @@ TEST_CASE("an option whose declared default fails its own declaration is a load 
   for (const auto& [spec, message] : bad) {
     CAPTURE(spec.name);
     Registry r;
-    CHECK_THROWS_WITH_AS(r.add(with(spec)), doctest::Contains("acquisition 'bad_default' declares the option '" +
-                                                              spec.name + "': " + message),
-                         PluginLoadError);
+    const std::string expected = "acquisition 'bad_default' declares the option '" + spec.name + "': " + message;
+    CHECK_THROWS_WITH_AS(r.add(with(spec)), doctest::Contains(expected.c_str()), PluginLoadError);
   }
   Registry r;
   CHECK_NOTHROW(r.add(with(opt::real("w", 0, "").at_least(0))));

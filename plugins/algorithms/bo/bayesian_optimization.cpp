@@ -67,6 +67,13 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   batch_strategy_ = settings.batch_strategy;
   pending_distance_ = settings.pending_distance;
   initial_points_ = settings.initial_points >= 0 ? settings.initial_points : 2 * (dim_ + 1);
+  if (budget_ > 0 && settings.initial_points < 0 && initial_points_ >= budget_)
+    // Said: a study of one 10-choice categorical and one real (d = 11 coordinates) spent its budget of 20 on the
+    // design in silence (red team, session 26).
+    log_warn_once(fmt::format("bo: the default initial design, 2·(d + 1) = {} points for d = {} coordinates (a "
+                              "categorical parameter has one per choice), takes the whole budget of {}: no trial is "
+                              "model-based; give `initial_points:` or a larger budget",
+                              initial_points_, dim_, budget_));
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
   restart_points_ =
       settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;

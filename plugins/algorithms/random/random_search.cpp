@@ -7,6 +7,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/constrained_sampling.hpp"
+#include "varbo/log.hpp"
 
 namespace varbo::random_search {
 
@@ -57,6 +58,7 @@ std::optional<Vec> RandomSearch::point(Index k) {
 std::vector<Suggestion> RandomSearch::ask(Index q) {
   std::vector<Suggestion> out;
   Index passed_pending = 0;  // pending elsewhere: passed over in this process only (no state is saved then)
+  Index repeats = 0;         // evaluated points in a row
   while (static_cast<Index>(out.size()) < q && next_ + skip_ < budget_ + skipped_ + passed_pending) {
     std::optional<Vec> x = point(next_ + skip_);
     ++next_;
@@ -64,8 +66,18 @@ std::vector<Suggestion> RandomSearch::ask(Index q) {
     const std::vector<double> key(x->data(), x->data() + x->size());
     if (told_.count(key)) {
       ++skipped_;  // evaluated already (out of order): never hand a point out twice
+      // A sampler that gives only points evaluated already (around_initial_point with radius 0, an unscrambled
+      // Sobol sequence, which restarts with each block) kept this loop drawing block after block at full CPU,
+      // deaf to Ctrl-C (red team, session 26): a whole block of them ends the search.
+      if (++repeats >= block_) {
+        log_warn("random: sampler '{}' gave {} points in a row that were evaluated already (it repeats its points: "
+                 "an unscrambled sequence restarts with each block of {}); nothing more to suggest",
+                 sampler_name_, repeats, block_);
+        break;
+      }
       continue;
     }
+    repeats = 0;
     if (pending_.count(key)) {
       ++passed_pending;
       continue;

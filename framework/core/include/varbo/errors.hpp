@@ -21,6 +21,11 @@ class UnknownComponentError : public ConfigError { public: using ConfigError::Co
 class NumericalError : public Error { public: using Error::Error; };
 /// Bad data files or command-line input.
 class InputError : public Error { public: using Error::Error; };
+/// A task cannot run at all (its command is not found or not executable: exit status 127 or 126 from the shell): a
+/// problem of the set-up, not a result of θ. Thrown by Task::evaluate; the run or worker stops (exit 2) and the
+/// trial is abandoned, not recorded as failed — ten "failures" at good points taught the failure model to avoid
+/// them when a relative command was run from another folder (red team, session 26).
+class TaskSetupError : public Error { public: using Error::Error; };
 /// An exception that is not varbo's own came out of an algorithm or its components while a study that loads
 /// third-party plugins was asked or told: the message says what was being done and which plugins those are.
 class PluginCodeError : public Error { public: using Error::Error; };

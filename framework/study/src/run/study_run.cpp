@@ -477,6 +477,14 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     if (auto* aware = dynamic_cast<TrialAware*>(&task)) aware->set_next_trial(static_cast<long>(index), static_cast<long>(t.id));
     try {
       evaluation = task.evaluate(t.theta, trng);
+    } catch (const TaskSetupError& e) {
+      // Not a result of θ: the trial is abandoned (suggested again by --resume), the run stops (errors.hpp).
+      retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, {}, [&] {
+        return st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, "the task could not run");
+      });
+      throw InputError(fmt::format("trial {}: {}; the trial is abandoned, not failed (`varbo run --resume {}` "
+                                   "suggests it again once the task can run)",
+                                   trial_label(index, t.id), e.what(), resume_target));
     } catch (const std::exception& e) {
       evaluation = Evaluation{};
       evaluation.ok = false;
@@ -653,6 +661,10 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration", store_path));
   const std::vector<std::string> paths = study_detail::stored_plugin_paths(*store, store_path);
+  if (overrides.budget && *overrides.budget < static_cast<Index>(store->next_finish_seq()))
+    // Accepted before: `status` then showed "budget 5, 0 left" on a study of 33 trials (red team, session 26).
+    throw InputError(fmt::format("--budget {}: the study {} has finished {} trials already; give at least {}",
+                                 *overrides.budget, store_path, store->next_finish_seq(), store->next_finish_seq()));
   RunOverrides ov = overrides;
   if (!url && ov.output && std::filesystem::is_directory(target) && !same_file(*ov.output, target))
     // The run folder holds the study and its outputs together: writing the outputs elsewhere split the run (the

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/search_space_config.hpp"
+#include "varbo/text.hpp"
 
 namespace fs = std::filesystem;
 
@@ -62,6 +64,17 @@ void Study::Impl::init(const StudyConfig& c, const Registry& reg) {
                                   config.task.source.where(), config.task.info->name));
   for (Index i = static_cast<Index>(domain.names.size()); i < d; ++i) domain.names.push_back(fmt::format("x{}", i + 1));
   domain.names.resize(static_cast<std::size_t>(d));
+  // A cost component named like a parameter made two columns of that name in trials.csv, the second all NaN, and
+  // `rescore` then found "no successful trials with all components" (red team, session 26).
+  for (const std::string& c : task->component_names())
+    if (std::find(domain.names.begin(), domain.names.end(), c) != domain.names.end()) {
+      const ConfigNode at = config.task.source.is_map() && config.task.source.has("components")
+                                ? config.task.source.child("components")
+                                : config.task.source;
+      at.fail(fmt::format("cost component '{}' is also the name of a parameter (trials.csv would have two columns "
+                          "of that name); rename one of them",
+                          printable(c)));
+    }
   std::optional<Vec> theta0 = config.initial_point ? config.initial_point : task->initial_point();
   if (theta0) {
     // The study's `initial_point:` is the user's; otherwise the task's own (Task::initial_point) is its plugin's
