@@ -52,10 +52,17 @@ std::vector<KernelCandidate> read_candidates(const ConfigNode& list, const Optio
   if (!list.is_sequence() || list.size() < 2)
     list.fail("gp: expected a list of at least two kernels, e.g. [matern52_ard, se_ard]");
   std::vector<KernelCandidate> out;
-  std::vector<std::string> first_names;
+  std::vector<std::string> first_names, seen;
   for (std::size_t i = 0; i < list.size(); ++i) {
     const ConfigNode item = list.item(i);
     const ResolvedComponent k = registry.resolve(Kind::Kernel, item);
+    // The same kernel twice was fitted twice, for nothing (red team, session 26).
+    YAML::Emitter em;
+    em << YAML::Flow << k.resolved();
+    const std::string text = em.c_str();
+    if (std::find(seen.begin(), seen.end(), text) != seen.end())
+      item.fail("gp: kernel_candidates lists " + text + " twice; each candidate once");
+    seen.push_back(text);
     KernelCandidate c;
     c.name = k.info ? k.info->name : "kernel " + std::to_string(i);
     c.make = maker(k);

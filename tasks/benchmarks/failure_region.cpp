@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <vector>
+
 #include "varbo/option_set.hpp"
 
 namespace varbo::tasks {
@@ -52,6 +54,13 @@ std::optional<FailureRegion> parse_failure_region(const Options& o, Index dim) {
     return Vec(Eigen::Map<const Vec>(v.data(), dim));
   };
   FailureRegion r = failure_region_option_set().read(fo);
+  // The other shape's keys were ignored in silence (a ball given lower/upper ran as the default ball; red team,
+  // session 26).
+  for (const char* key : r.shape == FailureRegion::Shape::Ball ? std::vector<const char*>{"lower", "upper"}
+                                                               : std::vector<const char*>{"center", "radius"})
+    if (fo.given(key))
+      fo.node(key).fail(fmt::format("'{}' belongs to the other shape; a {} takes {}", key, fo.str("shape"),
+                                    r.shape == FailureRegion::Shape::Ball ? "center and radius" : "lower and upper"));
   if (r.shape == FailureRegion::Shape::Ball) {
     r.center = vec("center");
     if (!(r.radius > 0)) node.fail("failure_region: a ball needs radius > 0");
