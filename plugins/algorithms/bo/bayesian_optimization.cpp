@@ -311,16 +311,8 @@ const Surrogate* BayesianOptimization::region_model(Index k, const Dataset& data
   observed_model_key_ = {-1, -1};
   const Dataset observed = model_data_of(data_);
   try {
-    // Every hyperparameter but a constant mean, which follows the data it is conditioned on (as the
-    // recommendation model's, recommender.cpp); a per-point state (VHGP's log Λ) for the observed rows, which
-    // come first in the fantasized data.
-    Hyperparameters h;
-    for (const Hyperparameter& p : surrogate_->hyperparameters())
-      if (p.name != "mean") h.push_back(p);
-    observed_model_->set_hyperparameters(h);
-    for (const auto& [name, value] : surrogate_->state())
-      if (name == "log_lambda" && value.size() >= observed.size())
-        observed_model_->set_state(name, Vec(value.head(observed.size())));
+    // The observed rows come first in the fantasized data (recommender.hpp).
+    take_fitted_hyperparameters(*surrogate_, *observed_model_, observed.size());
     const FitReport rep = observed_model_->condition(observed);
     if (rep.ok && observed_model_->ready()) {
       observed_model_key_ = key;

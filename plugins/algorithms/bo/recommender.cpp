@@ -86,6 +86,31 @@ Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
   return best;
 }
 
+void take_fitted_hyperparameters(const Surrogate& fitted, Surrogate& target, Index n) {
+  // Every hyperparameter but a constant mean, which follows the data it is conditioned on (setting it
+  // would fix it, e.g. the gp's `mean`, at the mean of the previous N − 1 costs).
+  Hyperparameters h;
+  for (const Hyperparameter& p : fitted.hyperparameters())
+    if (p.name != "mean") h.push_back(p);
+  target.set_hyperparameters(h);
+  // Per-point state (VHGP's variational log Λ) covers the points of the latest fit; a point added since
+  // starts at the median of the others, a neutral value the conditioning (or refit) then uses.
+  for (auto [name, value] : fitted.state()) {
+    if (name != "log_lambda") continue;
+    if (value.size() == 0) continue;
+    if (value.size() != n) {
+      Vec v(n);
+      const Index keep = std::min(value.size(), n);
+      Vec sorted = value;
+      std::sort(sorted.begin(), sorted.end());
+      v.setConstant(sorted[sorted.size() / 2]);
+      v.head(keep) = value.head(keep);
+      value = v;
+    }
+    target.set_state(name, value);
+  }
+}
+
 bool Recommender::prepare_model(const Surrogate& fitted, const Dataset& data, Rng& rng, bool refit) {
   // A surrogate that reports its full-fit counter (the vhgp's "last_full_fit_n", `warm_final_refit`) continues
   // its own fit schedule for the final refit: the recommendation model starts from the run model's exact
@@ -109,28 +134,7 @@ bool Recommender::prepare_model(const Surrogate& fitted, const Dataset& data, Rn
     }
   }
   try {
-    // Every hyperparameter but a constant mean, which follows the data it is conditioned on (setting it
-    // would fix it, e.g. the gp's `mean`, at the mean of the previous N − 1 costs).
-    Hyperparameters h;
-    for (const Hyperparameter& p : fitted.hyperparameters())
-      if (p.name != "mean") h.push_back(p);
-    model_->set_hyperparameters(h);
-    // Per-point state (VHGP's variational log Λ) covers the points of the latest fit; a point added since
-    // starts at the median of the others, a neutral value the conditioning (or refit) then uses.
-    for (auto [name, value] : fitted.state()) {
-      if (name != "log_lambda") continue;
-      if (value.size() == 0) continue;
-      if (value.size() != data.size()) {
-        Vec v(data.size());
-        const Index keep = std::min(value.size(), data.size());
-        Vec sorted = value;
-        std::sort(sorted.begin(), sorted.end());
-        v.setConstant(sorted[sorted.size() / 2]);
-        v.head(keep) = value.head(keep);
-        value = v;
-      }
-      model_->set_state(name, value);
-    }
+    take_fitted_hyperparameters(fitted, *model_, data.size());
   } catch (const std::exception& e) {
     log_warn("bo: recommendation model: {}", e.what());
     return false;

@@ -32,6 +32,10 @@ Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data);
 /// standard deviation (the recommendation and failure_model.repeat_distance use this test; needs ≥ 2 costs).
 bool treats_cost_as_deterministic(double noise_std, const Vec& y);
 
+/// Sets `target` up to be conditioned on `n` points with `fitted`'s hyperparameters: all but a constant mean, and
+/// VHGP's per-point log Λ for the first n points (the latest fit's, new points at their median).
+void take_fitted_hyperparameters(const Surrogate& fitted, Surrogate& target, Index n);
+
 class Recommender {
  public:
   /// `model` is a second instance of the run's surrogate: it is conditioned (or refitted) on all data and
