@@ -282,6 +282,23 @@ TEST_CASE("schema version: a store written by a newer varbo is a clear error nam
   }
 }
 
+TEST_CASE("schema version: a damaged version entry ('2abc', ' 2', '') is a corrupt store, not version 2") {
+  const std::string dir = test::temp_folder("store_schema_text");
+  for (const auto backend : test::all_backends()) {
+    CAPTURE(test::backend_name(backend));
+    int k = 0;
+    for (const std::string bad : {"2abc", " 2", "", "2.0", "0x2"}) {
+      CAPTURE(bad);
+      const std::string file = test::study_address(backend, dir, "damaged" + std::to_string(k++));
+      create_store(file);
+      set_schema_version(file, bad);
+      const std::string msg = open_error(file);  // stoi read "2abc" and " 2" as 2 and opened the store
+      CHECK(msg.find("corrupt varbo study") != std::string::npos);
+      CHECK(msg.find("schema_version '" + bad + "'") != std::string::npos);
+    }
+  }
+}
+
 TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing file, a folder, existing file on "
           "create") {
   const std::string dir = test::temp_folder("store_foreign");

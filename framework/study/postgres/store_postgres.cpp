@@ -719,12 +719,7 @@ class PostgresStore final : public StudyStore {
       throw InputError(fmt::format("{}: not a varbo study (meta 'format' is '{}', expected '{}')", location(),
                                    format.value_or(""), kFormat));
     const auto v = meta("schema_version");
-    int version = 0;
-    try {
-      version = v ? std::stoi(*v) : 0;
-    } catch (const std::exception&) {
-      version = 0;
-    }
+    const int version = store_codec::schema_version_of(v);
     if (version < 1)
       throw InputError(fmt::format("{}: corrupt varbo study (schema_version '{}')", location(), v.value_or("")));
     if (version > kSchemaVersion)

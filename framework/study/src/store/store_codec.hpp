@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <vector>
 #include <string>
 
@@ -40,6 +41,16 @@ inline bool read_number_array(const std::string& s, Vec& out) {
   }
   out = Eigen::Map<const Vec>(values.data(), static_cast<Index>(values.size()));
   return true;
+}
+
+/// The store's `schema_version` meta entry: a whole decimal number, or 0 (corrupt) for anything else — stoi read
+/// "2abc" as 2 and opened a store whose meta table had been damaged.
+inline int schema_version_of(const std::optional<std::string>& text) {
+  if (!text || text->empty()) return 0;
+  int v = 0;
+  const char* const end = text->data() + text->size();
+  const auto [next, ec] = std::from_chars(text->data(), end, v);
+  return ec == std::errc() && next == end ? v : 0;
 }
 
 inline Vec text_vec(const std::string& s, const std::string& where) {

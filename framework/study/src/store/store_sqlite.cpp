@@ -552,12 +552,7 @@ class SqliteStore final : public StudyStore {
       throw InputError(fmt::format("{}: not a varbo study store (meta 'format' is '{}', expected '{}')", path_, format,
                                    kFormat));
     const auto v = meta("schema_version");
-    int version = 0;
-    try {
-      version = v ? std::stoi(*v) : 0;
-    } catch (const std::exception&) {
-      version = 0;
-    }
+    const int version = store_codec::schema_version_of(v);
     if (version < 1)
       throw InputError(fmt::format("{}: corrupt varbo study store (schema_version '{}')", path_, v.value_or("")));
     if (version > kSchemaVersion)
@@ -569,7 +564,7 @@ class SqliteStore final : public StudyStore {
   /// A version-1 store gains the algorithm_states table (older varbo versions then refuse it as newer).
   void upgrade() {
     const auto v = meta("schema_version");
-    if (v && std::stoi(*v) >= kSchemaVersion && has_table("algorithm_states") && has_table("workers")) return;
+    if (store_codec::schema_version_of(v) >= kSchemaVersion && has_table("algorithm_states") && has_table("workers")) return;
     transaction([&] {
       exec(kAlgorithmStates);
       set_meta("schema_version", std::to_string(kSchemaVersion));
