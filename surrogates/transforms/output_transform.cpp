@@ -126,7 +126,12 @@ void OutputTransform::fit(const Vec& y) {
   Vec sorted = y;
   std::sort(sorted.data(), sorted.data() + n);
   const double median = 0.5 * (sorted((n - 1) / 2) + sorted(n / 2));
-  scale_ = median - shift_ > 1e-12 * sd ? median - shift_ : sd;
+  // "Tie" is judged against the values themselves, not the sd: a heavy tail (costs 1e-3 … 1e12) has an sd of ~1e11
+  // that swallowed a median − min of 0.008, which then scaled by the sd and predicted −5e8 at costs of 0.001.
+  const double spread = median - shift_;
+  scale_ = spread > 1e-12 * std::max({std::abs(shift_), std::abs(median), std::numeric_limits<double>::min()})
+               ? spread
+               : sd;
   const Vec u = (y.array() - shift_) / scale_;
   lambda_ = fit_yeo_johnson_lambda(u, kLambdaMin, kLambdaMax);
 }
@@ -154,9 +159,12 @@ double OutputTransform::inverse(double z) const {
 
 double OutputTransform::inverse_derivative(double z) const {
   if (type_ == OutputTransformType::None) return 1.0;
-  const double u = yeo_johnson_inverse(z, lambda_, cap_);
-  const double uc = std::clamp(u, -cap_, cap_);  // the linear continuation has the slope at the cap
-  return scale_ / yeo_johnson_derivative(uc, lambda_);
+  double u = yeo_johnson_inverse(z, lambda_, cap_);
+  // The linear continuation (λ < 0 above the cap, λ > 2 below it; yeo_johnson_inverse) has the slope at the cap;
+  // elsewhere ψ⁻¹ is exact whatever |u| (clamping there too gave a 2e5× too small variance past u = 1e6).
+  if (u > cap_ && lambda_ < 0) u = cap_;
+  if (u < -cap_ && lambda_ > 2) u = -cap_;
+  return scale_ / yeo_johnson_derivative(u, lambda_);
 }
 
 double OutputTransform::inverse_second_derivative(double z) const {

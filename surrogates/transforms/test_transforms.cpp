@@ -186,6 +186,40 @@ TEST_CASE("fitted λ: Brent's maximum agrees with a brute-force grid over an ind
   CHECK(std::abs(t.lambda() - 1.0) < 0.35);
 }
 
+TEST_CASE("fit: a heavy tail keeps the median scale; past the cap the inverse's slope is still exact for λ in [0, 2]") {
+  // Costs 1e-3 · 10^(15 x⁴) on 15 points: 0.001 … 1e12, no ties. The scale is median − min (0.0077), as the docs
+  // say; the sd (~2.6e11) was taken before because the tie test compared median − min with 1e-12·sd.
+  Vec y(15);
+  for (Index i = 0; i < y.size(); ++i) {
+    const double x = static_cast<double>(i) / 14.0;
+    y(i) = 1e-3 * std::pow(10.0, 15.0 * x * x * x * x);
+  }
+  Vec sorted = y;
+  std::sort(sorted.data(), sorted.data() + sorted.size());
+  OutputTransform t(OutputTransformType::YeoJohnson);
+  t.fit(y);
+  CHECK(t.shift() == sorted(0));
+  CHECK(t.scale() == doctest::Approx(sorted(7) - sorted(0)).epsilon(1e-15));
+  for (Index i = 0; i < y.size(); ++i) CHECK(t.inverse(t.forward(y(i))) == doctest::Approx(y(i)).epsilon(1e-9));
+  // Exact ties at the best for half the costs still fall back to the sd.
+  Vec tied = Vec::Constant(9, 2.0);
+  tied.tail(4) << 3.0, 5.0, 9.0, 17.0;
+  OutputTransform u(OutputTransformType::YeoJohnson);
+  u.fit(tied);
+  CHECK(u.scale() == doctest::Approx(std::sqrt((tied.array() - tied.mean()).square().sum() / 8.0)));
+  // u far beyond the cap (1e6): λ in [0, 2] has no linear continuation, so dy/dz is 1/ψ'(u) at the true u.
+  for (double lambda : {0.0, 0.3, 1.0, 1.8}) {
+    t.set(0.0, 1.0, lambda);
+    for (double uu : {2e6, 1e9, -3e7}) {
+      const double z = yeo_johnson(uu, lambda);
+      auto inv = [&t](double x) { return t.inverse(x); };
+      CHECK(t.inverse(z) == doctest::Approx(uu).epsilon(1e-9));
+      CHECK(t.inverse_derivative(z) == doctest::Approx(central_difference(inv, z)).epsilon(1e-6));
+      CHECK(t.inverse_derivative(z) == doctest::Approx(1.0 / yeo_johnson_derivative(uu, lambda)).epsilon(1e-12));
+    }
+  }
+}
+
 TEST_CASE("fit: invariant to affine changes of the cost units; degenerate data give the identity warping") {
   Rng rng(3);
   Vec y(30);
