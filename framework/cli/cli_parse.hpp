@@ -54,7 +54,10 @@ inline std::vector<std::string> list_items(const std::vector<std::string>& given
     std::size_t start = 0;
     while (true) {
       const std::size_t comma = text.find(',', start);
-      const std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      std::string item = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      // "a, b" names b, as the CSV header "a, b" does (spaces around a cell are not part of it).
+      const auto b = item.find_first_not_of(" \t");
+      item = b == std::string::npos ? std::string() : item.substr(b, item.find_last_not_of(" \t") - b + 1);
       if (item.empty())
         throw InputError(fmt::format("{}: an empty item in '{}'; expected a comma-separated list such as {}", flag,
                                      text, example));

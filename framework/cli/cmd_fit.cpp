@@ -58,15 +58,22 @@ BackgroundTicker progress_line(std::string what) {
   });
 }
 
+/// 0, 1, 2, … or 1, 2, 3, …: the column a spreadsheet or pandas adds.
+bool is_row_number(const Vec& v) {
+  if (v.size() == 0 || !(v(0) == 0 || v(0) == 1)) return false;
+  for (Index r = 1; r < v.size(); ++r)
+    if (v(r) != v(r - 1) + 1) return false;
+  return true;
+}
+
 }  // namespace
 
 Runner add_fit(CLI::App& app) {
   auto* cmd = app.add_subcommand("fit", "Fit a surrogate to a CSV of θ columns and a 'y' column; print JSON");
   struct Args {
-    std::string surrogate, data, predict;
+    std::string surrogate, data, predict, target = "y", seed = "1";
     std::vector<std::string> columns;
     bool no_optimize = false;
-    long long seed = 1;
     int threads = 0;
   };
   auto a = std::make_shared<Args>();
@@ -78,23 +85,35 @@ Runner add_fit(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--predict", a->predict, "CSV of points (same θ columns) to predict at")->check(CLI::ExistingFile);
-  cmd->add_option("--columns", a->columns, "θ columns to use (default: every column but y, i and index)")
+  cmd->add_option("--columns", a->columns,
+                  "θ columns to use; other columns may hold text (default: every column but the target, and a row "
+                  "number named i or index)")
       ->type_name("NAME[,NAME...]");
+  cmd->add_option("--target", a->target, "the column of costs (default y; e.g. cost for a trials.csv)");
   cmd->add_flag("--no-optimize", a->no_optimize, "keep the hyperparameters given in the YAML; only condition");
   cmd->add_option("--seed", a->seed, "random seed for restarts");
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   return [a]() {
     ThreadLimit limit(a->threads);
     const ConfigNode node = component_arg(a->surrogate, "surrogate", "--surrogate");
-    const CsvTable data = read_csv(a->data);
-    const Index ycol = data.column("y");
-    if (ycol < 0) throw InputError(fmt::format("{}: no column named 'y' (the costs)", a->data));
+    const auto seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));  // not saturated
+    const std::string& target = a->target;
+    const std::vector<std::string> chosen =
+        a->columns.empty() ? std::vector<std::string>{} : list_items(a->columns, "--columns", "x1,x2");
+    // With --columns only the columns used are read as numbers: notes, dates or a trials table's text may sit beside.
+    const CsvTable data = read_csv(a->data, [&](const std::string& name) {
+      return chosen.empty() || name == target || std::find(chosen.begin(), chosen.end(), name) != chosen.end();
+    });
+    const Index ycol = data.column(target);
+    if (ycol < 0)
+      throw InputError(fmt::format("{}: no column named '{}' (the costs{})", a->data, target,
+                                   target == "y" ? "; name another with --target" : ", from --target"));
     std::vector<Index> xcols;
     std::vector<std::string> xnames;
-    if (!a->columns.empty()) {
-      for (const auto& name : list_items(a->columns, "--columns", "x1,x2")) {
-        if (name == "y")
-          throw InputError(fmt::format("--columns: 'y' is the target (the costs) and cannot also be a θ column"));
+    if (!chosen.empty()) {
+      for (const auto& name : chosen) {
+        if (name == target)
+          throw InputError(fmt::format("--columns: '{}' is the target (the costs) and cannot also be a θ column", name));
         if (std::find(xnames.begin(), xnames.end(), name) != xnames.end())
           throw InputError(fmt::format("--columns: '{}' is named twice", name));
         const Index c = data.column(name);
@@ -103,13 +122,20 @@ Runner add_fit(CLI::App& app) {
         xnames.push_back(name);
       }
     } else {
-      for (Index c = 0; c < static_cast<Index>(data.columns.size()); ++c)
-        if (c != ycol && data.columns[c] != "i" && data.columns[c] != "index") {
-          xcols.push_back(c);
-          xnames.push_back(data.columns[c]);
+      for (Index c = 0; c < static_cast<Index>(data.columns.size()); ++c) {
+        if (c == ycol) continue;
+        const std::string& name = data.columns[static_cast<std::size_t>(c)];
+        // A row number (0, 1, 2, … or 1, 2, 3, …) is not a coordinate; a gain named i (a PID's) is one.
+        if ((name == "i" || name == "index") && is_row_number(data.values.col(c))) {
+          std::fprintf(stderr, "varbo fit: column '%s' holds row numbers: not a θ column (name it in --columns to use it)\n",
+                       name.c_str());
+          continue;
         }
+        xcols.push_back(c);
+        xnames.push_back(name);
+      }
     }
-    if (xcols.empty()) throw InputError(fmt::format("{}: no θ columns besides 'y'", a->data));
+    if (xcols.empty()) throw InputError(fmt::format("{}: no θ columns besides '{}'", a->data, target));
     if (data.values.rows() == 0)
       throw InputError(fmt::format("{}: no data rows after the header; a model needs at least one (θ, y) row", a->data));
     std::vector<Index> used = xcols;
@@ -129,7 +155,7 @@ Runner add_fit(CLI::App& app) {
     {
       const BackgroundTicker progress = progress_line(fmt::format(
           "{} on {} points × {} dimensions", registry.resolve(Kind::Surrogate, node).info->name, ds.size(), ds.dim()));
-      fitted = fit_surrogate(registry, node, ds, static_cast<std::uint64_t>(a->seed), !a->no_optimize, a->data);
+      fitted = fit_surrogate(registry, node, ds, seed, !a->no_optimize, a->data);
     }
     const ResolvedComponent& rc = fitted.component;
     const FitReport& rep = fitted.report;
@@ -137,6 +163,8 @@ Runner add_fit(CLI::App& app) {
 
     nlohmann::json j;
     j["surrogate"] = rc.info->full_name();
+    j["columns"] = xnames;  // the order of every per-dimension value below (lengthscales, x)
+    j["target"] = target;
     j["n"] = ds.size();
     j["dim"] = ds.dim();
     j["optimized"] = rep.optimized;
@@ -148,7 +176,9 @@ Runner add_fit(CLI::App& app) {
     for (const auto& h : model->hyperparameters()) j["hyperparameters"][h.name] = h.value;
     for (const auto& [name, v] : model->state()) j["state"][name] = std::vector<double>(v.data(), v.data() + v.size());
     if (!a->predict.empty()) {
-      const CsvTable pts = read_csv(a->predict);
+      const CsvTable pts = read_csv(a->predict, [&](const std::string& name) {
+        return std::find(xnames.begin(), xnames.end(), name) != xnames.end();
+      });
       std::vector<Index> pcols;
       for (const auto& name : xnames) {
         const Index c = pts.column(name);

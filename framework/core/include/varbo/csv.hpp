@@ -1,5 +1,6 @@
 #pragma once
 // Numeric CSV tables with a header row (data for `varbo fit`, points to predict at).
+#include <functional>
 #include <string>
 #include <vector>
 #include "varbo/types.hpp"
@@ -15,8 +16,9 @@ struct CsvTable {
 
 /// Reads a CSV file of numbers with one header line (cells split by split_csv_line, surrounding spaces dropped). Errors name the file, line and column: a cell that is not
 /// a decimal number (parse_decimal; nan and inf are read, for the caller to judge), a row of the wrong width, a
-/// column name given twice or empty.
-CsvTable read_csv(const std::string& filename);
+/// column name given twice or empty. Lines may end in \n, \r\n or a lone \r (old Mac files). When `used` is given,
+/// only the columns it accepts are read as numbers; the others (notes, dates, a trials table's text) are NaN.
+CsvTable read_csv(const std::string& filename, const std::function<bool(const std::string&)>& used = {});
 
 /// One CSV line split into cells with RFC 4180 quoting ("a,""b""" is one cell a,"b"); a trailing \r is dropped.
 /// For run-folder tables such as trials.csv, whose `error` column may hold commas and quotes.

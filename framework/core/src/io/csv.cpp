@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
@@ -60,7 +61,27 @@ std::string separator_hint(const std::string& line) {
 
 }  // namespace
 
-CsvTable read_csv(const std::string& filename) {
+namespace {
+/// One line ending in \n, \r\n or a lone \r: a file saved with old Mac line endings was one line, and its
+/// error ("no column named 'y'") said nothing of why.
+bool next_line(std::istream& in, std::string& line) {
+  line.clear();
+  int c;
+  bool any = false;
+  while ((c = in.get()) != std::char_traits<char>::eof()) {
+    any = true;
+    if (c == '\n') return true;
+    if (c == '\r') {
+      if (in.peek() == '\n') in.get();
+      return true;
+    }
+    line += static_cast<char>(c);
+  }
+  return any;
+}
+}  // namespace
+
+CsvTable read_csv(const std::string& filename, const std::function<bool(const std::string&)>& used) {
   // Only a regular file: a FIFO would block forever, /dev/zero would fill memory with one endless line.
   std::error_code ec;
   const auto st = std::filesystem::status(filename, ec);
@@ -72,7 +93,8 @@ CsvTable read_csv(const std::string& filename) {
   std::string line;
   int lineno = 0;
   std::vector<std::vector<double>> rows;
-  while (std::getline(in, line)) {
+  std::vector<bool> numeric;
+  while (next_line(in, line)) {
     ++lineno;
     // A UTF-8 byte order mark (spreadsheets write one) is not part of the first column's name.
     if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
@@ -102,6 +124,7 @@ CsvTable read_csv(const std::string& filename) {
                                          filename, lineno, cells[c], k + 1, c + 1));
       }
       t.columns = cells;
+      for (const auto& name : t.columns) numeric.push_back(!used || used(name));
       continue;
     }
     if (cells.size() != t.columns.size())
@@ -109,6 +132,10 @@ CsvTable read_csv(const std::string& filename) {
                                    lineno, t.columns.size(), cells.size(), separator_hint(line)));
     std::vector<double> row;
     for (std::size_t c = 0; c < cells.size(); ++c) {
+      if (!numeric[c]) {
+        row.push_back(std::numeric_limits<double>::quiet_NaN());
+        continue;
+      }
       const std::optional<double> v = parse_decimal(cells[c]);
       if (!v)
         throw InputError(fmt::format("{}:{}: column '{}': expected a decimal number, got '{}'", filename, lineno,
