@@ -34,6 +34,10 @@ double parse_number(const std::string& text, const std::string& where) {
   return *v;
 }
 
+/// The fits logged in model.yaml, the warm start of an offline refit. Only a start: a file that cannot be read (cut
+/// short by a kill or a full disk while appended) or an entry that is not numbers is said and skipped, the refit
+/// then starts from the defaults; it blocked `select`, `plot` and `rescore` (and a value written as "inf" by older
+/// versions was an internal error).
 std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
   std::vector<Hyperparameters> out;
   if (!fs::exists(file)) return out;
@@ -41,14 +45,29 @@ std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
   try {
     root = YAML::LoadFile(file);
   } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}: cannot parse: {}", file, e.what()));
+    log_warn("{}: cannot parse ({}); the model is fitted from its defaults, without the run's last hyperparameters",
+             file, e.what());
+    return out;
   }
   if (!root.IsSequence()) return out;  // only the header comment: no fit happened
   for (const auto& entry : root) {
     Hyperparameters h;
-    const YAML::Node hp = entry["hyperparameters"];
-    if (hp && hp.IsMap())
-      for (const auto& kv : hp) h.push_back({kv.first.as<std::string>(), kv.second.as<double>()});
+    try {
+      const YAML::Node hp = entry["hyperparameters"];
+      if (hp && hp.IsMap())
+        for (const auto& kv : hp) {
+          double v = 0;
+          const std::string text = kv.second.IsScalar() ? kv.second.Scalar() : "";
+          if (text == "inf" || text == "-inf" || text == "nan" || text == "-nan")  // written so before .inf
+            v = std::strtod(text.c_str(), nullptr);
+          else
+            v = kv.second.as<double>();
+          h.push_back({kv.first.as<std::string>(), v});
+        }
+    } catch (const YAML::Exception& e) {
+      log_warn("{}: fit {} is not a map of numbers ({}); skipped", file, out.size() + 1, e.what());
+      continue;
+    }
     out.push_back(std::move(h));
   }
   return out;

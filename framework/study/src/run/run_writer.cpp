@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -102,8 +103,17 @@ void RunWriter::trial(const TrialRow& r) {
   }
 }
 
+namespace {
+/// A number of model.yaml as YAML reads it: .inf / -.inf / .nan, not "inf" (a string to a YAML reader).
+std::string yaml_number(double v) {
+  if (std::isnan(v)) return ".nan";
+  if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
+  return exact(v);
+}
+}  // namespace
+
 void RunWriter::model(const ModelSnapshot& s) {
-  model_ << "- iteration: " << s.iteration << "\n  objective: " << exact(s.objective) << "\n";
+  model_ << "- iteration: " << s.iteration << "\n  objective: " << yaml_number(s.objective) << "\n";
   if (!s.note.empty()) model_ << "  note: \"" << s.note << "\"\n";
   if (!s.region_state.empty()) {
     std::string r = s.region_state;  // YAML double-quoted scalar: escape backslashes and quotes
@@ -112,7 +122,7 @@ void RunWriter::model(const ModelSnapshot& s) {
     model_ << "  region: \"" << r << "\"\n";
   }
   model_ << "  hyperparameters:\n";
-  for (const auto& h : s.hyperparameters) model_ << "    \"" << h.name << "\": " << exact(h.value) << "\n";
+  for (const auto& h : s.hyperparameters) model_ << "    \"" << h.name << "\": " << yaml_number(h.value) << "\n";
   model_.flush();
 }
 
