@@ -90,6 +90,11 @@ Settings settings_from(const Options& o, Index dim) {
   const double eps = o.real("epsilon");
   s.neighborhood.radius = eps > 0 ? eps : 3.5 * s.sigma.maxCoeff();  // paper: ε = 3.5σ
   s.neighborhood.min_points = s.min_fit_points;
+  // k nearest below the fit's minimum never made an update: every trial perturbed θ0, in silence.
+  if (s.neighborhood.k_nearest > 0 && s.neighborhood.k_nearest < s.min_fit_points)
+    o.node("neighbors").fail(fmt::format("expected 0 (the ε-ball) or at least min_local_points ({}): the critic is "
+                                         "fitted on at least that many observations, so with {} no update is ever made",
+                                         s.min_fit_points, s.neighborhood.k_nearest));
   if (o.is_set("phases")) {
     ConfigNode list = o.node("phases");
     if (!list.is_sequence() || list.size() == 0) list.fail("expected a non-empty list of {steps: n, kappa: k}");
@@ -141,7 +146,7 @@ std::vector<Suggestion> Rssgd::ask(Index q) {
     Suggestion s;
     s.fit_seconds = j == 0 ? last_fit_seconds_ : 0.0;
     Pending p;
-    if (s_.evaluate_initial && !asked_initial_) {
+    if (s_.evaluate_initial && !asked_initial_ && !initial_elsewhere_) {
       asked_initial_ = true;
       p.x = theta_;
       p.initial = true;
@@ -149,7 +154,9 @@ std::vector<Suggestion> Rssgd::ask(Index q) {
     } else {
       // Algorithm 3, step (a): z ~ N(0, diag(σ²)). A perturbation leaving the cube is clamped; tell() uses the
       // executed z = x − θ, so the update stays consistent with what was observed.
-      Rng zr = rng_.stream(kPerturb, static_cast<std::uint64_t>(perturbations_++));
+      // Draws handed out by other processes of the study (set_pending) are not repeated: their stream indices
+      // are the next ones of the state this process and they share.
+      Rng zr = rng_.stream(kPerturb, static_cast<std::uint64_t>(perturbations_++ + pending_elsewhere_));
       const Vec z = s_.sigma.cwiseProduct(zr.normal_vec(d));
       p.x = Box::unit(d).clamp(theta_ + z);
       s.phase = "rssgd";
@@ -160,6 +167,18 @@ std::vector<Suggestion> Rssgd::ask(Index q) {
   }
   last_fit_seconds_ = 0;
   return out;
+}
+
+void Rssgd::set_pending(const std::vector<Vec>& pending) {
+  initial_elsewhere_ = false;
+  pending_elsewhere_ = 0;
+  for (const Vec& p : pending) {
+    const bool is_theta0 = p.size() == theta_.size() && (p - theta_).cwiseAbs().maxCoeff() <= 1e-12;
+    if (s_.evaluate_initial && !asked_initial_ && !initial_elsewhere_ && is_theta0)
+      initial_elsewhere_ = true;
+    else
+      ++pending_elsewhere_;
+  }
 }
 
 void Rssgd::tell(const std::vector<Observation>& observations) {

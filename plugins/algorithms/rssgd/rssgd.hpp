@@ -46,6 +46,9 @@ class Rssgd final : public Algorithm, public AlgorithmState {
         Dataset history = Dataset{});
   std::vector<Suggestion> ask(Index q) override;
   void tell(const std::vector<Observation>& observations) override;
+  /// Points handed out by other processes of a study and not yet finished: θ0 and perturbation draws are not
+  /// handed out again (each worker of a study ran θ0, then one perturbation each three times; red team, session 27).
+  void set_pending(const std::vector<Vec>& pending) override;
   std::optional<Vec> recommendation() const override { return theta_; }
   const Surrogate* model() const override { return critic_ready_ ? critic_.get() : nullptr; }
   std::optional<ModelSnapshot> snapshot() const override;
@@ -76,6 +79,8 @@ class Rssgd final : public Algorithm, public AlgorithmState {
   Dataset data_;
   std::deque<Pending> pending_;
   bool asked_initial_ = false;
+  bool initial_elsewhere_ = false;  ///< θ0 is pending in another process (set_pending)
+  Index pending_elsewhere_ = 0;     ///< perturbations pending in other processes: their stream indices are skipped
   Index perturbations_ = 0;  ///< perturbations asked (stream index of z)
   Index steps_ = 0;          ///< perturbations told (κ schedule position)
   Index updates_ = 0;        ///< updates applied

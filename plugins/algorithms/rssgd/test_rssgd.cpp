@@ -322,6 +322,36 @@ TEST_CASE("the first trial executes theta0, later trials perturb it with the con
   set_log_level(LogLevel::Info);
 }
 
+TEST_CASE("points pending in other processes (set_pending) are not handed out again; nothing pending changes nothing") {
+  Settings s;
+  s.sigma = Vec::Constant(2, 0.1);
+  const Vec start = Vec::Constant(2, 0.5);
+  auto make = [&] {
+    return Rssgd(s, std::make_unique<ExactCritic>([](const Vec&) { return 0.0; }, [](const Vec&) { return 1.0; }),
+                 start, 4);
+  };
+  // What three processes sharing one study state would each ask with what the others hold pending.
+  Rssgd a = make(), b = make(), c = make();
+  const Vec p0 = a.ask(1).front().x;  // θ0
+  b.set_pending({p0});
+  const Vec p1 = b.ask(1).front().x;
+  c.set_pending({p0, p1});
+  const Vec p2 = c.ask(1).front().x;
+  CHECK((p0 - start).norm() == 0.0);
+  CHECK((p1 - start).norm() > 0.0);  // θ0 was given out: a perturbation (before: θ0 three times)
+  CHECK((p2 - start).norm() > 0.0);
+  CHECK((p2 - p1).norm() > 0.0);
+  // The draws are the serial run's next ones: one process asking three times in a row gives the same points.
+  Rssgd serial = make();
+  CHECK((serial.ask(1).front().x - p0).norm() == 0.0);
+  CHECK((serial.ask(1).front().x - p1).norm() == 0.0);
+  CHECK((serial.ask(1).front().x - p2).norm() == 0.0);
+  // set_pending({}) is the serial algorithm.
+  Rssgd d = make(), e = make();
+  d.set_pending({});
+  for (int k = 0; k < 3; ++k) CHECK((d.ask(1).front().x - e.ask(1).front().x).norm() == 0.0);
+}
+
 TEST_CASE("rssgd is registered with its options and builds its default critic") {
   Registry& r = test::registry();
   const ComponentInfo* info = r.try_find(Kind::Algorithm, "rssgd");
