@@ -222,11 +222,10 @@ Vec BayesianOptimization::random_point(Rng& rng) const {
   return m.row(0).transpose();
 }
 
-bool BayesianOptimization::update_feasibility(Index k, bool refit) {
-  if (!failure_settings_.active(static_cast<Index>(failed_.size()))) return feasibility_on_ = false;
-  if (!refit && feasibility_on_) return true;
+bool BayesianOptimization::fit_feasibility(FeasibilityModel& model) const {
   // Successes (the real data, not batch fantasies) and failures, in one design matrix.
   const Index n = data_.size(), m = static_cast<Index>(failed_.size());
+  if (n + m == 0) return false;
   Mat X(n + m, dim_);
   std::vector<bool> success(static_cast<std::size_t>(n + m), true);
   if (n > 0) X.topRows(n) = data_.X;
@@ -239,10 +238,17 @@ bool BayesianOptimization::update_feasibility(Index k, bool refit) {
   // of the domain estimates the feasible share of it, while later trials are concentrated by the optimizer where
   // it is good (and feasible), so counting them would make unexplored regions look safer than they are.
   if (design_told_ > 0)
-    feasibility_->set_prior_success_rate((static_cast<double>(design_told_ - design_failed_) + 1.0) /
-                                         (static_cast<double>(design_told_) + 2.0));
+    model.set_prior_success_rate((static_cast<double>(design_told_ - design_failed_) + 1.0) /
+                                 (static_cast<double>(design_told_) + 2.0));
+  return model.fit(X, success, ell);
+}
+
+bool BayesianOptimization::update_feasibility(Index k, bool refit) {
+  if (!failure_settings_.active(static_cast<Index>(failed_.size()))) return feasibility_on_ = false;
+  if (!refit && feasibility_on_) return true;
+  const Index n = data_.size(), m = static_cast<Index>(failed_.size());
   const bool was_on = feasibility_on_;
-  feasibility_on_ = n + m > 0 && feasibility_->fit(X, success, ell);
+  feasibility_on_ = n + m > 0 && fit_feasibility(*feasibility_);
   // Never stricter than 0.8 × the probability of success where nothing is known (the smoothed success rate):
   // in a study where most trials fail, unexplored regions stay open while failed neighbourhoods are excluded.
   if (feasibility_on_)
@@ -827,9 +833,22 @@ std::optional<Vec> BayesianOptimization::recommendation() const {
   Rng rrng = rng_.stream(kRecommend, static_cast<std::uint64_t>(told_));
   Mat failed(static_cast<Index>(failed_.size()), dim_);
   for (std::size_t i = 0; i < failed_.size(); ++i) failed.row(static_cast<Index>(i)) = failed_[i].transpose();
+  // LowestMeanDomain with failed trials: the failure model's classifier fitted on every trial (the run's own was
+  // fitted at the last ask, without the latest result), so the recommendation stays where success is likely.
+  std::optional<FeasibilityModel> odds_model;
+  SuccessOdds odds;
+  if (recommender_->rule() == RecommendationRule::LowestMeanDomain && !failed_.empty() &&
+      failure_settings_.active(static_cast<Index>(failed_.size()))) {
+    odds_model.emplace(dim_);
+    odds_model->set_ard(failure_settings_.lengthscales == "ard");
+    if (fit_feasibility(*odds_model)) {
+      const FeasibilityModel& f = *odds_model;
+      odds.probability = [&f](const Vec& x, Vec* grad) { return f.probability(x, grad); };
+      odds.cap = failure_settings_.refine_min_probability;
+    }
+  }
   return recommender_->recommend(model_ready_ ? surrogate_.get() : nullptr, data_, failed, *region_,
-                                 *recommend_optimizer_, rrng,
-                                 final);
+                                 *recommend_optimizer_, rrng, final, odds);
 }
 
 std::optional<ModelSnapshot> BayesianOptimization::snapshot() const {

@@ -125,6 +125,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Failure awareness (failure_aware.hpp): fit the classifier on successes and failures (when `refit` or not
   /// yet fitted); true when the acquisition is to be weighted.
   bool update_feasibility(Index evaluation, bool refit);
+  /// Fits `model` on every successful and failed trial told so far (with the design's success rate as the prior).
+  bool fit_feasibility(FeasibilityModel& model) const;
   /// A random point; with the failure model on, the first of up to 64 draws with P(success) ≥ min_probability
   /// (else the likeliest draw), so random and ε-random trials avoid known failure regions too.
   Vec random_point_avoiding_failures(Rng& rng) const;

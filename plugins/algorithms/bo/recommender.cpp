@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <optional>
 
 #include "varbo/away_from_failures.hpp"
@@ -144,8 +145,38 @@ bool Recommender::prepare_model(const Surrogate& fitted, const Dataset& data, Rn
   return model_->ready() && rep.ok;
 }
 
+namespace {
+/// `inner` ∩ {P(success | x) ≥ level}: c(x) = min(inner's c(x), P(x) − level).
+class LikelyToSucceed final : public RegionConstraint {
+ public:
+  LikelyToSucceed(const RegionConstraint& inner, const SuccessOdds& odds, double level)
+      : inner_(inner), odds_(odds), level_(level) {}
+  const Box& bounds() const override { return inner_.bounds(); }
+  bool has_constraint() const override { return true; }
+  double constraint(const Vec& x, Vec* grad) const override {
+    Vec gp;
+    const double c = odds_.probability(x, grad ? &gp : nullptr) - level_;
+    if (!inner_.has_constraint()) {
+      if (grad) *grad = gp;
+      return c;
+    }
+    Vec gi;
+    const double ci = inner_.constraint(x, grad ? &gi : nullptr);
+    if (grad) *grad = ci < c ? gi : gp;
+    return std::min(ci, c);
+  }
+  Mat seeds() const override { return inner_.seeds(); }
+
+ private:
+  const RegionConstraint& inner_;
+  const SuccessOdds& odds_;
+  double level_;
+};
+}  // namespace
+
 Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const Mat& failed,
-                           const RegionConstraint& region, const Optimizer& optimizer, Rng& rng, bool refit) {
+                           const RegionConstraint& region, const Optimizer& optimizer, Rng& rng, bool refit,
+                           const SuccessOdds& success) {
   if (data.size() == 0) throw std::logic_error("Recommender::recommend without data");
   if (cached_n_ == data.size() && cached_failed_ == failed.rows() && cached_refit_ == refit &&
       cached_.size() == data.dim())
@@ -177,10 +208,19 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const M
         // the lowest-mean evaluated point under the model). With failed trials only near the successful ones
         // (AwayFromFailures): the mean where trials failed is the model's extrapolation, and the minimum was
         // recommended between two failures (red team, session 26: 0.81 where every trial beyond 0.7 failed).
+        // The distance rule alone lets the minimum sit on its edge, which crosses a failure boundary where no failed
+        // trial is close (a third of the way to the nearest failure, further beside it): with the failure model's
+        // classifier the recommendation must also be as likely to succeed as the evaluated point it replaces, up to
+        // refine_min_probability (red team, session 27: 0.708 recommended where every trial past 0.7 failed).
         std::optional<AwayFromFailures> away;
         if (failed.rows() > 0 && failed.cols() == data.dim()) away.emplace(region, data.X, failed);
-        const RegionConstraint& where = away ? static_cast<const RegionConstraint&>(*away) : region;
         const Vec at_data = data.X.row(find_incumbent(*model_, data, 0.0).index).transpose();
+        std::optional<LikelyToSucceed> likely;
+        if (away && success)
+          likely.emplace(*away, success, std::min(success.cap, success.probability(at_data, nullptr)));
+        const RegionConstraint& where = likely ? static_cast<const RegionConstraint&>(*likely)
+                                        : away ? static_cast<const RegionConstraint&>(*away)
+                                               : region;
         const Surrogate& m = *model_;
         FunctionRef neg_mean(data.dim(), [&m](const Vec& x, Vec* g) {
           const Prediction p = m.predict(x, g != nullptr);
@@ -193,7 +233,7 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const M
             -r.value < m.predict(at_data, false).mean) {
           const Vec x = Box::unit(data.dim()).clamp(r.x);
           // An optimizer that ignores constraints (ceres_lbfgs) may leave them: the evaluated point then.
-          if (!away || away->constraint(x, nullptr) >= -1e-9) out = x;
+          if (!away || where.constraint(x, nullptr) >= -1e-9) out = x;
         }
         break;
       }

@@ -2,6 +2,7 @@
 // What a BO run recommends: the θ a user deploys after the last trial. It is chosen on a model conditioned on
 // *all* observations (the fitted model of the last ask() saw N − 1 of them, and the last point still carries
 // the optimistic prediction that got it chosen), by one of the rules users expect.
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -36,6 +37,14 @@ bool treats_cost_as_deterministic(double noise_std, const Vec& y);
 /// VHGP's per-point log Λ for the first n points (the latest fit's, new points at their median).
 void take_fitted_hyperparameters(const Surrogate& fitted, Surrogate& target, Index n);
 
+/// P(success | x) with its gradient (the failure model's classifier fitted on every trial), and the level a
+/// LowestMeanDomain recommendation must reach: min(cap, P at the evaluated point it would replace). Empty: no model.
+struct SuccessOdds {
+  std::function<double(const Vec& x, Vec* grad)> probability;
+  double cap = 0.8;
+  explicit operator bool() const { return static_cast<bool>(probability); }
+};
+
 class Recommender {
  public:
   /// `model` is a second instance of the run's surrogate: it is conditioned (or refitted) on all data and
@@ -49,7 +58,7 @@ class Recommender {
   /// LowestMeanDomain, which keeps away from `failed` (θ of failed trials, unit cube, one per row; may be empty).
   /// Results are cached per data size, failure count and refit flag.
   Vec recommend(const Surrogate* fitted, const Dataset& data, const Mat& failed, const RegionConstraint& region,
-                const Optimizer& optimizer, Rng& rng, bool refit);
+                const Optimizer& optimizer, Rng& rng, bool refit, const SuccessOdds& success = {});
 
   RecommendationRule rule() const { return rule_; }
   /// Wraps the recommendation model so that it sees integers and categories rounded (varbo/space_wrappers.hpp);

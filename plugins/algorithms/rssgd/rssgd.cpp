@@ -283,6 +283,12 @@ Dataset read_history(const std::string& file, Index dim) {
     for (Index i = 0; i < dim; ++i) x[i] = t.values(r, cols[static_cast<std::size_t>(i)]);
     const double y = t.values(r, cost);
     if (!x.allFinite() || !std::isfinite(y)) continue;  // failed trials carry no information
+    // θ in user units (trials.csv's columns have the same names) read as unit-cube points was accepted in silence.
+    for (Index i = 0; i < dim; ++i)
+      if (x[i] < -1e-9 || x[i] > 1 + 1e-9)
+        throw InputError(fmt::format("{}:{}: x{} = {} is outside the unit cube [0, 1]: a history holds θ in the unit "
+                                     "cube (as `varbo rescore --continue` writes it), not in the parameters' units",
+                                     file, t.lines[static_cast<std::size_t>(r)], i + 1, x[i]));
     out.add(x, y);
   }
   return out;
