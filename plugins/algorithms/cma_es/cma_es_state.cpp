@@ -67,6 +67,11 @@ void CmaEs::restore_state(const std::string& text, const std::vector<Observation
   if (x.size() != n || static_cast<std::size_t>(asked.size()) != n || static_cast<std::size_t>(told.size()) != n ||
       static_cast<std::size_t>(cost.size()) != n)
     throw InputError("cma_es state: inconsistent population");
+  // Every vector of d coordinates (a saved row of another length was read past its end: SIGSEGV on resume).
+  if (best_x_.size() != d_) throw InputError("cma_es state: best_x of the wrong size");
+  for (std::size_t i = 0; i < n; ++i)
+    if (z[i].size() != d_ || x[i].size() != d_)
+      throw InputError(fmt::format("cma_es state: population member {} of the wrong size", i));
   pop_.assign(n, Candidate{});
   for (std::size_t i = 0; i < n; ++i) {
     pop_[i].z = z[i];

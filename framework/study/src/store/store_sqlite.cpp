@@ -20,6 +20,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/store.hpp"
+#include "varbo/text.hpp"
 #include "store_codec.hpp"
 
 namespace varbo {
@@ -156,9 +157,24 @@ class Statement {
     fail("step");
   }
   double real(int c) const {
-    return sqlite3_column_type(stmt_, c) == SQLITE_NULL ? std::nan("") : sqlite3_column_double(stmt_, c);
+    const int type = sqlite3_column_type(stmt_, c);
+    if (type == SQLITE_NULL) return std::nan("");
+    // A number column holding text ("1,5" typed by hand in the sqlite3 shell) read as its numeric prefix or 0:
+    // a cost of 0 became the study's best trial.
+    if (type != SQLITE_INTEGER && type != SQLITE_FLOAT) {
+      const auto* p = sqlite3_column_text(stmt_, c);
+      throw InputError(fmt::format("{}: corrupt study: column '{}' holds '{}' where a number is stored{}", file_,
+                                   sqlite3_column_name(stmt_, c), p ? safe_text(reinterpret_cast<const char*>(p), 40) : "",
+                                   row_hint()));
+    }
+    return sqlite3_column_double(stmt_, c);
   }
   std::int64_t integer(int c) const { return sqlite3_column_int64(stmt_, c); }
+  /// " (id N)" when the row's first column is its id (a trial's): where a corrupt cell is.
+  std::string row_hint() const {
+    const char* first = sqlite3_column_name(stmt_, 0);
+    return first && std::string(first) == "id" ? fmt::format(" (id {})", sqlite3_column_int64(stmt_, 0)) : "";
+  }
   std::string text(int c) const {
     const auto* p = sqlite3_column_text(stmt_, c);
     return p ? std::string(reinterpret_cast<const char*>(p)) : std::string();

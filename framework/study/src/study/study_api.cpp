@@ -226,7 +226,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
     m.abandon_silent_workers(asked_at);
     // The budget first: a spent budget costs no model work.
     std::vector<Vec> pending;
-    for (const auto& t : m.store->pending_trials()) pending.push_back(t.x);
+    for (const auto& t : m.checked(m.store->pending_trials())) pending.push_back(t.x);
     const Index remaining =
         m.config.budget - static_cast<Index>(m.store->next_finish_seq()) - static_cast<Index>(pending.size());
     if (remaining <= 0) return;
@@ -481,7 +481,7 @@ std::vector<std::int64_t> Study::abandon_where(const std::function<bool(const Tr
 
 std::optional<TrialRecord> Study::best() const {
   std::optional<TrialRecord> b;
-  for (const auto& t : impl_->store->trials())
+  for (const auto& t : impl_->checked(impl_->store->trials()))
     if (t.state == TrialState::Complete && (!b || t.cost < b->cost)) b = t;
   return b;
 }
@@ -519,7 +519,7 @@ std::vector<std::optional<Selection>> Study::select(const std::vector<double>& k
   std::vector<std::optional<Selection>> out(kappas.size());
   const Impl& m = *impl_;
   std::vector<TrialRecord> done;
-  for (const auto& t : m.store->trials())
+  for (const auto& t : m.checked(m.store->trials()))
     if (t.state == TrialState::Complete) done.push_back(t);
   if (done.empty() || kappas.empty()) return out;
   const Index d = m.encoded_dim();
@@ -559,7 +559,7 @@ std::vector<std::optional<Selection>> Study::select(const std::vector<double>& k
   return out;
 }
 
-std::vector<TrialRecord> Study::trials() const { return impl_->store->trials(); }
+std::vector<TrialRecord> Study::trials() const { return impl_->checked(impl_->store->trials()); }
 const StudyConfig& Study::config() const { return impl_->config; }
 const Domain& Study::domain() const { return impl_->domain; }
 const SharedSpace& Study::space() const { return impl_->space; }

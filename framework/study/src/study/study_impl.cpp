@@ -202,4 +202,14 @@ std::vector<std::pair<std::string, std::string>> Study::Impl::meta_entries(const
   return out;
 }
 
+std::vector<TrialRecord> Study::Impl::checked(std::vector<TrialRecord> trials) const {
+  const Index d = encoded_dim(), p = theta_dim();
+  for (const TrialRecord& t : trials)
+    if (t.x.size() != d || t.theta.size() != p)
+      throw InputError(fmt::format("{}: trial {}: corrupt row: theta has {} values and x {}, expected {} and {} (the "
+                                   "study's parameters); was the study file edited?",
+                                   store->location(), t.id, t.theta.size(), t.x.size(), p, d));
+  return trials;
+}
+
 }  // namespace varbo

@@ -85,6 +85,10 @@ struct Study::Impl {
   }
   Vec theta_of(const Vec& x) const { return space ? space->decode(x) : from_unit(x, domain.box); }
   Index encoded_dim() const { return space ? space->encoded_dim() : domain.box.dim(); }
+  Index theta_dim() const { return space ? static_cast<Index>(space->size()) : domain.box.dim(); }
+  /// `trials` after checking that every trial's x and θ have the study's sizes: a row edited by hand (a θ of three
+  /// values in a 2-parameter study) crashed `varbo status` and ended `--resume` in an internal error.
+  std::vector<TrialRecord> checked(std::vector<TrialRecord> trials) const;
 
   std::unique_ptr<Algorithm> make_algorithm() const;
 

@@ -50,7 +50,7 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
   dirty = false;
   auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
   if (!resumable) return std::nullopt;
-  std::vector<TrialRecord> finished = store->finished_since(0);
+  std::vector<TrialRecord> finished = checked(store->finished_since(0));
   const std::vector<AlgorithmSnapshot> states = store->algorithm_states();
   std::int64_t reach = 0;
   const AlgorithmSnapshot* best = best_state(states, finished, reach);
@@ -72,7 +72,7 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
 
 std::vector<TrialRecord> Study::Impl::untold(std::optional<std::vector<TrialRecord>>&& all) const {
   const auto told = static_cast<std::int64_t>(told_ids.size());
-  if (!all) return store->finished_since(told);
+  if (!all) return checked(store->finished_since(told));
   // finished_since(told): those with finish_seq >= told, `all` being sorted by finish_seq.
   all->erase(all->begin(), std::partition_point(all->begin(), all->end(),
                                                 [&](const TrialRecord& t) { return t.finish_seq < told; }));
