@@ -47,7 +47,12 @@ double AugmentedExpectedImprovement::evaluate(const Vec& x, Vec* grad) const {
   double factor = 1, n = 0;
   if (noise_factor_) {
     n = p.noise_var();  // σ_ε² = E[exp(g)] = exp(μ_g + σ_g²/2)
-    factor = n > 0 && std::isfinite(n) ? 1 - std::sqrt(n / (s2 + n)) : 1.0;
+    // n = +inf (exp overflowed): every observation there is noise, factor 0 — it was 1, the noise-free maximum.
+    factor = std::isnan(n) ? n : std::isinf(n) ? 0.0 : n > 0 ? 1 - std::sqrt(n / (s2 + n)) : 1.0;
+  }
+  if (std::isnan(p.mean) || std::isnan(p.latent_var) || std::isnan(factor)) {  // no information: skipped
+    if (grad) grad->setConstant(d, std::numeric_limits<double>::quiet_NaN());
+    return std::numeric_limits<double>::quiet_NaN();
   }
   if (grad) {
     const Vec d_mean = field(p.d_mean), d_s2 = field(p.d_latent_var);

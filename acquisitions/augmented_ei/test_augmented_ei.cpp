@@ -123,3 +123,32 @@ TEST_CASE("the plugin registers aei with validated options") {
   CHECK_THROWS_AS(reg.create<Acquisition>("{type: aei, c: -1}", ctx), ConfigError);
   CHECK_THROWS_AS(reg.create<Acquisition>("{type: aei, kappa: 1}", ctx), ConfigError);
 }
+
+TEST_CASE("aei: overflowed noise scores 0, a NaN prediction NaN (before: the noise-free maximum)") {
+  // Noise sd 1 at the evaluated point, log-noise mean at x: 710 overflows exp (n = +inf), NaN is no prediction.
+  double log_noise = 0;
+  double latent = 0.04;
+  FakeSurrogate model([&](const Vec& x, bool) {
+    Prediction p;
+    p.mean = x[0] < 0.5 ? 0.0 : -0.1;
+    p.latent_var = x[0] < 0.5 ? 0.04 : latent;
+    p.log_noise_mean = x[0] < 0.5 ? 0.0 : log_noise;
+    return p;
+  });
+  Dataset data = Dataset::empty(2);
+  data.add(Vec{{0.2, 0.2}}, 0.0);
+  AugmentedExpectedImprovement aei(1.0, true);
+  aei.prepare({&model, &data, 0, nullptr});
+  const Vec x{{0.8, 0.8}};
+  log_noise = 700;
+  CHECK(aei.evaluate(x, nullptr) == doctest::Approx(0.0).scale(1e-12));
+  log_noise = 710;  // exp overflows
+  CHECK(aei.evaluate(x, nullptr) == 0.0);
+  log_noise = std::numeric_limits<double>::quiet_NaN();
+  CHECK(std::isnan(aei.evaluate(x, nullptr)));
+  log_noise = -2;
+  latent = std::numeric_limits<double>::quiet_NaN();
+  Vec grad;
+  CHECK(std::isnan(aei.evaluate(x, &grad)));
+  CHECK(grad.size() == 2);
+}

@@ -71,7 +71,8 @@ class ConfidenceBound final : public Acquisition {
   const Surrogate* model_ = nullptr;
 };
 
-/// Expected risk improvement (eq. 12): the EI integrand with u = (μ_best − a* + κ(s_best − s*) + ξσ_f)/v,
+/// Expected risk improvement (eq. 12): the EI integrand with u = (μ_best − a* + κ(s_best − s*) − ξσ_f)/v (ξ > 0
+/// asks for more improvement, as in EI),
 /// where (μ_best, s_best) is the evaluated point minimizing E + κ·s. ERI(κ = 0) = EI.
 class ExpectedRiskImprovement final : public Acquisition {
  public:
@@ -86,7 +87,7 @@ class ExpectedRiskImprovement final : public Acquisition {
   const GaussHermite& rule_;  ///< cached: gauss_hermite() takes a lock
   const Surrogate* model_ = nullptr;
   Target target_;
-  double margin_ = 0;  ///< μ_best + κ s_best + ξσ_f
+  double margin_ = 0;  ///< μ_best + κ s_best − ξσ_f
 };
 
 /// The incumbent under the model (Kuindersma 2013, Alg. 2): lowest E + κ·s over the evaluated points.

@@ -45,8 +45,18 @@ IntegrandValue probability_integrand(double delta, double v) {
 
 double expect_over_log_noise(const Prediction& pred, double delta, const Vec* d_delta, const GaussHermite& gh,
                              Integrand integrand, Vec* grad) {
+  // A NaN anywhere in the predictive is no information, not certainty: std::max(NaN, 0) and !(v > 0) turned a
+  // NaN variance into "no spread", i.e. EI = the full improvement and PI = 1 (red team, session 27). NaN lets
+  // the acquisition optimizers skip the point, as they do for cb and eri.
+  if (std::isnan(delta) || std::isnan(pred.latent_var) || std::isnan(pred.log_noise_mean) ||
+      std::isnan(pred.log_noise_var)) {
+    if (grad) grad->setConstant(d_delta ? d_delta->size() : 0, std::numeric_limits<double>::quiet_NaN());
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   const double c2 = std::max(pred.latent_var, 0.0);
-  if (!(pred.log_noise_var > 0)) {
+  // Below 1e-20 the log-noise spread changes nothing a double can hold, and the quadrature's ∂/∂σ*² cancels
+  // catastrophically (t_k/√(2σ*²) summed over symmetric nodes: −1e133 at σ*² = 1e-300): the homoscedastic form.
+  if (!(pred.log_noise_var > 1e-20)) {
     // Homoscedastic special case: y* ~ N(a*, c*² + e^μ*), no quadrature.
     const double v = std::sqrt(c2 + std::exp(pred.log_noise_mean));
     const IntegrandValue F = integrand(delta, v);

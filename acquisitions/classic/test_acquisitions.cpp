@@ -361,3 +361,32 @@ TEST_CASE("a surrogate that leaves the log-noise gradients empty (plain GP) is h
     CHECK(gc.max_rel_error < 1e-6);
   }
 }
+
+TEST_CASE("a NaN in the predictive gives NaN (skipped by the optimizers), not certainty; a tiny log-noise spread "
+          "has a finite gradient") {
+  const Vec d_delta = Vec{{-1.0, 0.5}};
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // Before: NaN latent or log-noise mean read as "no spread": EI = the full improvement (0.1), PI = 1.
+  for (const Prediction& base : {fixed(-0.1, nan, -4.0, 0.0), fixed(-0.1, 0.01, nan, 0.0), fixed(-0.1, 0.01, -4.0, nan),
+                                 fixed(-0.1, nan, -4.0, 0.3)}) {
+    Prediction p = base;
+    p.d_mean = p.d_latent_var = p.d_log_noise_mean = p.d_log_noise_var = Vec::Zero(2);
+    Vec grad;
+    CHECK(std::isnan(expect_over_log_noise(p, 0.1, &d_delta, gauss_hermite(45), improvement_integrand, &grad)));
+    CHECK(grad.size() == 2);
+    CHECK(std::isnan(expect_over_log_noise(p, 0.1, &d_delta, gauss_hermite(45), probability_integrand, nullptr)));
+  }
+  // σ*² = 1e-100: ∂EI/∂σ*² was −1.1e33 (cancellation over the nodes); the value is the σ*² → 0 limit and the
+  // gradient stays of the order of the one at σ*² = 1e-4 (|∂EI/∂σ*²| ≈ 0.01 here).
+  Prediction t = fixed(0.0, 0.01, -3.0, 1e-100);
+  t.d_mean = t.d_latent_var = t.d_log_noise_mean = Vec::Zero(2);
+  t.d_log_noise_var = Vec::Ones(2);
+  Vec grad;
+  const double e = expect_over_log_noise(t, 0.05, &d_delta, gauss_hermite(45), improvement_integrand, &grad);
+  Prediction z = t;
+  z.log_noise_var = 0.0;
+  CHECK(e == doctest::Approx(expect_over_log_noise(z, 0.05, &d_delta, gauss_hermite(45), improvement_integrand, nullptr))
+                 .epsilon(1e-14));
+  CHECK(grad.allFinite());
+  CHECK(grad.cwiseAbs().maxCoeff() < 1.0);
+}

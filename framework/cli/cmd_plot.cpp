@@ -140,6 +140,11 @@ svg::Figure plot_2d(const RunFolder& run, const Registry& registry, const PlotAr
   } else {
     spec = registry.resolve(Kind::Surrogate, component_arg(a.vhgp, "surrogate", "--vhgp"));
   }
+  // An SVG cell per grid point: 400² made a 23 MB file, the allowed 2000² ~575 MB, beyond what a browser opens.
+  if (a.grid > 200)
+    throw InputError(fmt::format("--grid {}: at most 200 points per axis for a 2-D picture (one SVG cell each: 200² "
+                                 "is ~6 MB)",
+                                 a.grid));
   const Fitted m = fit(run, registry, spec, seed);
   const int n = a.grid > 0 ? a.grid : 40;
   const Box& box = run.domain.box;
@@ -254,7 +259,7 @@ Runner add_plot(CLI::App& app) {
       ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--surrogate", a->surrogate, "2-D and --slice: model to draw (default: the run's surrogate)");
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
-  cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D)")->check(CLI::Range(2, 2000));
+  cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D; at most 200 in 2-D)")->check(CLI::Range(2, 2000));
   cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")->capture_default_str();
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--slice", a->slice,

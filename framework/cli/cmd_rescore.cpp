@@ -98,9 +98,16 @@ Runner add_rescore(CLI::App& app) {
     std::printf("local model: %s on %ld trials within eps = %.4g; at the learned policy J~ %.6g r~ %.6g\n",
                 settings.critic.info->name.c_str(), static_cast<long>(model.data.size()), settings.radius, at.mean,
                 at.total_std());
-    for (const auto& s : sel)
+    if (!model.fit.message.empty()) std::printf("  fit: %s\n", model.fit.message.c_str());
+    for (const auto& s : sel) {
       std::printf("kappa %-6g J~ %-10.6g r~ %-10.6g J~+kappa*r~ %-10.6g theta %s\n", s.kappa, s.mean, s.std,
                   s.mean + s.kappa * s.std, vec_text(s.theta).c_str());
+      // As `varbo select` says it: a selection where the local model extrapolates is not a prediction to trust.
+      if (s.below_observed)
+        std::printf("  (kappa %g: J~ is more than 2 r~ below every local cost: the model extrapolates)\n", s.kappa);
+      if (s.far_from_data)
+        std::printf("  (kappa %g: far from the data: the latent std is over half the signal std)\n", s.kappa);
+    }
 
     std::optional<Vec> continued;
     if (a->continue_steps > 0) {

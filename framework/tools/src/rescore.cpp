@@ -230,6 +230,12 @@ std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec&
                                              const OfflineSelectionSettings& settings, const Registry& registry,
                                              LocalModel* model_out) {
   const Index d = run.unit.cols();
+  // Weights that overflow the costs (energy=1e160) printed -nan and inf and exited 0; the models square costs.
+  for (Index i = 0; i < costs.size(); ++i)
+    if (!std::isfinite(costs[i]) || std::abs(costs[i]) > 1e150)
+      throw InputError(fmt::format("rescore: a re-scored cost is {} (at most 1e150 in magnitude: the models square "
+                                   "it); use smaller weights",
+                                   costs[i]));
   Dataset all = Dataset::empty(d);
   for (Index i = 0; i < run.unit.rows(); ++i) all.add(run.unit.row(i).transpose(), costs[i]);
   // Local data: the ε-ball around the learned policy (at least min_points nearest).
@@ -251,6 +257,7 @@ std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec&
   if (!m.critic->ready())
     throw NumericalError(fmt::format("rescore: the local model could not be fitted on {} trials: {}", local.size(),
                                      m.fit.message));
+  if (!m.fit.ok) log_warn("rescore: the local model's fit: {}", m.fit.report());
   auto optimizer = registry.create<Optimizer>(settings.optimizer, ctx);
   const BallRegion ball(centre, settings.radius);
   std::vector<OfflineSelection> out;
@@ -268,7 +275,11 @@ std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec&
     // Never worse than the centre itself under the criterion (a local search can only improve on it).
     if (f.value(centre, nullptr) > f.value(x, nullptr)) x = centre;
     const Prediction p = m.critic->predict(x, false);
-    out.push_back({kappas[k], x, from_unit(x, run.domain.box), p.mean, p.total_std()});
+    OfflineSelection sel{kappas[k], x, from_unit(x, run.domain.box), p.mean, p.total_std()};
+    sel.below_observed = local.y.minCoeff() - p.mean > 2.0 * p.total_std();
+    const double sv = m.critic->signal_variance();
+    sel.far_from_data = sv > 0 && std::sqrt(std::max(p.latent_var, 0.0) / sv) > 0.5;
+    out.push_back(std::move(sel));
   }
   if (model_out) *model_out = std::move(m);
   return out;

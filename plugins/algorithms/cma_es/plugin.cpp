@@ -39,6 +39,15 @@ VARBO_PLUGIN("cma_es", "0.1.0", "CMA-ES ask/tell algorithm with the tutorial's d
         if (ctx.dim <= 0) throw ConfigError("algorithm 'cma_es' needs the problem dimension (got 0)");
         CmaEsOptions c = cma_es_options().read(o);
         c.seed = ctx.seed;
+        // λ = 1 ran as λ = 2 in silence; a step below ~1e-9 of the cube made every generation degenerate and each
+        // restart repeated it: the whole budget at one point (red team, session 27).
+        if (c.population == 1)
+          o.node("population").fail("expected 0 (the default 4 + floor(3 ln d)) or at least 2: CMA-ES ranks the "
+                                    "candidates of a generation against each other");
+        if (c.sigma0 < 1e-9)
+          o.node("sigma0").fail(fmt::format("expected at least 1e-9 (the unit cube's width is 1), got {:g}: a step "
+                                            "that small cannot move the mean",
+                                            c.sigma0));
         if (o.is_set("x0")) {
           const std::vector<double> v = o.reals("x0");
           if (static_cast<Index>(v.size()) != ctx.dim)

@@ -85,6 +85,10 @@ struct OfflineSelection {
   Vec theta;         ///< user units
   double mean = 0;   ///< J̃ at the selection
   double std = 0;    ///< r̃ at the selection
+  /// J̃ more than 2 r̃ below every local cost, or the latent std over half the signal std: J̃ and r̃ there are the
+  /// model's extrapolation (the same flags as `varbo select`).
+  bool below_observed = false;
+  bool far_from_data = false;
 };
 
 struct OfflineSelectionSettings {
