@@ -209,6 +209,10 @@ std::vector<TrialRecord> Study::Impl::checked(std::vector<TrialRecord> trials) c
       throw InputError(fmt::format("{}: trial {}: corrupt row: theta has {} values and x {}, expected {} and {} (the "
                                    "study's parameters); was the study file edited?",
                                    store->location(), t.id, t.theta.size(), t.x.size(), p, d));
+    else if (t.state == TrialState::Complete && !std::isfinite(t.cost))  // observe refuses it: edited by hand
+      throw InputError(fmt::format("{}: trial {}: corrupt row: a complete trial without a finite cost (a failed "
+                                   "trial's state is 'failed'); was the study file edited?",
+                                   store->location(), t.id));
   return trials;
 }
 

@@ -76,10 +76,14 @@ VerifyReport Study::verify() {
       const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
                         (m.trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
       if (!same) {
+        const std::string replayed = s.empty() ? std::string("nothing") : join_numbers(m.theta_of(m.trial_x(s[0].x)));
         rep.divergence = fmt::format(
-            "trial {} (result {} in finish order): the replay suggests {} instead of the stored {}", t.id, i,
-            s.empty() ? std::string("nothing") : join_numbers(m.theta_of(m.trial_x(s[0].x))),
+            "trial {} (result {} in finish order): the replay suggests {} instead of the stored {}", t.id, i, replayed,
             join_numbers(t.theta));
+        // Equal in user units, different where they are compared (the unit cube): say both, not "[a, b] instead of [a, b]".
+        if (!s.empty() && replayed == join_numbers(t.theta))
+          rep.divergence += fmt::format(" (in the unit cube: {} against the stored {})", join_numbers(m.trial_x(s[0].x)),
+                                        join_numbers(t.x));
         return rep;
       }
     }
