@@ -150,6 +150,19 @@ Runner add_fit(CLI::App& app) {
                                    "which underflows below about 1e-154; rescale the column",
                                    a->data, top));
 
+    // Identical rows (θ and y) are exact replicates of a deterministic cost to the noise models (the gp's noise
+    // bound from replicates is then 0): a row pasted twice into noisy data forced the noise to its floor in silence.
+    for (Index r = 1; r < ds.size(); ++r)
+      for (Index q = 0; q < r; ++q)
+        if (ds.y(r) == ds.y(q) && ds.X.row(r) == ds.X.row(q)) {
+          std::fprintf(stderr,
+                       "varbo fit: %s: lines %d and %d are identical (θ and y): to a model, exact replicates of a "
+                       "deterministic cost (the noise goes to its floor); drop duplicated rows if they are copies\n",
+                       a->data.c_str(), data.lines[static_cast<std::size_t>(q)], data.lines[static_cast<std::size_t>(r)]);
+          r = ds.size();  // once
+          break;
+        }
+
     Registry& registry = default_registry();
     SurrogateFit fitted;
     {
