@@ -192,8 +192,16 @@ void Rssgd::tell(const std::vector<Observation>& observations) {
       p.initial = true;  // not one of ours: data only
     }
     if (!o.ok || !std::isfinite(o.cost)) {
+      // A failed perturbation counts in the update as a cost worse than any seen (cma_es ranks it last): θ moves
+      // away from the direction that failed. Without an update θ stayed where every perturbation failed until
+      // stop_after_failures ended the run (red team, session 27). Not added to the critic's data.
+      if (!p.initial && data_.size() > 0 && o.x.size() == theta_.size() && o.x.allFinite()) {
+        log_warn("rssgd: step {}: a failed trial counts in the update as a cost above every one seen", steps_);
+        update_from(o, p, true);
+      } else {
+        log_warn("rssgd: a failed trial gives no update (no successful trial yet)");
+      }
       if (!p.initial) ++steps_;
-      log_warn("rssgd: a failed trial gives no update");
       continue;
     }
     if (o.x.size() != theta_.size())
@@ -205,7 +213,7 @@ void Rssgd::tell(const std::vector<Observation>& observations) {
   }
 }
 
-void Rssgd::update_from(const Observation& o, const Pending&) {
+void Rssgd::update_from(const Observation& o, const Pending&, bool failed) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<Index> local = local_indices(data_.X, theta_, s_.neighborhood);
   if (static_cast<Index>(local.size()) < s_.min_fit_points) {
@@ -226,9 +234,15 @@ void Rssgd::update_from(const Observation& o, const Pending&) {
   // Algorithm 3, steps (d)-(e), with the executed perturbation.
   const Vec z = o.x - theta_;
   const CriticEstimates est = query_critic(*critic_, theta_, o.x);
+  // A failure's cost: above the worst seen and above the critic's estimate at θ by the costs' range (or r̃ when
+  // they have none), so its advantage is positive and the step leads away from z whatever the critic extrapolates.
+  const double range = data_.y.maxCoeff() - data_.y.minCoeff();
+  const double cost = failed ? std::max(data_.y.maxCoeff(), est.mean_at_theta) +
+                                   (range > 0 ? range : std::max(est.std_at_theta, 1e-12))
+                             : o.cost;
   const double kappa = kappa_at(steps_);
-  const double unit = s_.cost_unit > 0 ? s_.cost_unit : local_cost_unit(ld.y, advantage_of(o.cost, est, kappa));
-  Vec delta = risk_sensitive_update(z, o.cost, est, kappa, s_.step, unit);
+  const double unit = s_.cost_unit > 0 ? s_.cost_unit : local_cost_unit(ld.y, advantage_of(cost, est, kappa));
+  Vec delta = risk_sensitive_update(z, cost, est, kappa, s_.step, unit);
   if (!delta.allFinite()) {
     log_warn("rssgd: non-finite update at step {} (critic J~ {}, r~ {}); skipped", steps_, est.mean_at_theta,
              est.std_at_theta);

@@ -70,7 +70,9 @@ class Rssgd final : public Algorithm, public AlgorithmState {
     Vec x;
     bool initial = false;
   };
-  void update_from(const Observation& o, const Pending& p);
+  /// One update from the observation (Algorithm 3, steps d–e); `failed`: a failed trial at o.x, counted as a cost
+  /// above every one seen.
+  void update_from(const Observation& o, const Pending& p, bool failed = false);
 
   Settings s_;
   std::unique_ptr<Surrogate> critic_;

@@ -313,13 +313,38 @@ TEST_CASE("the first trial executes theta0, later trials perturb it with the con
   for (int i = 0; i < n; ++i) {
     const Suggestion sg = alg.ask(1).front();
     sq += (sg.x - start).cwiseAbs2();
-    alg.tell({Observation{sg.x, std::nan(""), false, {}}});  // failed trials: no update, θ stays
+    alg.tell({Observation{sg.x, std::nan(""), false, {}}});  // failed: no update (one data point < min_local_points)
   }
   CHECK((alg.theta() - start).norm() == 0.0);
   // Sample stds within 5% of the configured ones (standard error of a std with n = 2000: 1.6%).
   CHECK(std::sqrt(sq[0] / n) == doctest::Approx(0.01).epsilon(0.05));
   CHECK(std::sqrt(sq[1] / n) == doctest::Approx(0.1).epsilon(0.05));
   set_log_level(LogLevel::Info);
+}
+
+TEST_CASE("a failed perturbation counts as the worst cost seen: θ moves away from the side where trials fail") {
+  // Every trial with x0 > 0.5 fails; elsewhere the cost is flat (0), so only the failures can move θ. Before, a failed
+  // trial gave no update and θ stayed at the boundary; now each failure pushes θ along −z (Δθ ∝ −(worst − J̃) z).
+  Settings s;
+  s.sigma = Vec::Constant(2, 0.05);
+  s.evaluate_initial = false;
+  auto critic = std::make_unique<ExactCritic>([](const Vec&) { return 0.0; }, [](const Vec&) { return 1.0; });
+  Dataset history = Dataset::empty(2);
+  for (const Vec& h : {Vec{{0.45, 0.5}}, Vec{{0.48, 0.45}}, Vec{{0.47, 0.55}}, Vec{{0.6, 0.5}}})
+    history.add(h, h(0) > 0.5 ? 4.0 : 0.0);  // the worst cost seen: 4
+  Rssgd alg(s, std::move(critic), Vec::Constant(2, 0.5), 11, history);
+  set_log_level(LogLevel::Error);
+  int failed = 0;
+  for (int i = 0; i < 30; ++i) {
+    const Suggestion sg = alg.ask(1).front();
+    const bool fails = sg.x(0) > 0.5;
+    failed += fails;
+    alg.tell({Observation{sg.x, fails ? std::nan("") : 0.0, !fails, {}}});
+  }
+  set_log_level(LogLevel::Info);
+  REQUIRE(failed > 0);
+  CHECK(alg.updates() >= failed);  // every failure made an update
+  CHECK(alg.theta()(0) < 0.5 - 0.05);  // away from the failing side, by at least one σ
 }
 
 TEST_CASE("points pending in other processes (set_pending) are not handed out again; nothing pending changes nothing") {
