@@ -160,6 +160,14 @@ if [ -d examples/embedding ]; then
   cmake -S examples/embedding -B "$WORK/embedding" -G Ninja -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/embed.log"
   cmake --build "$WORK/embedding" >> "$WORK/embed.log"
   (cd "$WORK" && "$WORK/embedding/varbo_embedding_example")
+  # A host built for a newer CPU (AVX2: Eigen's 32-byte alignment unless varbo::core pins it) crashed in ~TrialRecord.
+  if grep -qw avx2 /proc/cpuinfo 2>/dev/null; then
+    cmake -S examples/embedding -B "$WORK/embedding_avx2" -G Ninja -DCMAKE_PREFIX_PATH="$PREFIX" \
+      -DCMAKE_CXX_FLAGS=-march=x86-64-v3 > "$WORK/embed_avx2.log"
+    cmake --build "$WORK/embedding_avx2" >> "$WORK/embed_avx2.log"
+    rm -f "$WORK"/embedding_example.db*
+    (cd "$WORK" && "$WORK/embedding_avx2/varbo_embedding_example")
+  fi
 fi
 echo "SDK check passed (prefix $PREFIX)"
 rm -rf "$WORK"

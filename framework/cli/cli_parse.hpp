@@ -32,6 +32,21 @@ inline long long integer_flag(const std::string& text, const char* flag, long lo
   return v;
 }
 
+/// CLI11 check for whole-number options (--threads, --grid, --port, ...): decimal digits only, in [lo, hi]. CLI11's
+/// own checks took 0x10 as 16, saturated 1e23 to 2^63 − 1 and said "not in range 0.000000 to 1797693…" (309 digits).
+inline CLI::Validator integer_in(long long lo, long long hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& text) {
+        const std::string expected = fmt::format("expected a whole number in [{}, {}], got '{}'", lo, hi, text);
+        const std::size_t start = !text.empty() && text[0] == '-' ? 1 : 0;
+        if (text.size() == start || text.find_first_not_of("0123456789", start) != std::string::npos) return expected;
+        errno = 0;
+        const long long v = std::strtoll(text.c_str(), nullptr, 10);
+        return errno == ERANGE || v < lo || v > hi ? expected : std::string();
+      },
+      fmt::format("INT in [{}, {}]", lo, hi));
+}
+
 /// CLI11 check for numeric options (--kappa, --epsilon): decimal notation only, as for COST ("0x10" is refused),
 /// and finite (`--kappa nan` printed "no selection" and exited 1).
 inline CLI::Validator decimal_number() {

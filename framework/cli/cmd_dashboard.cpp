@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdio>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "dashboard/dashboard_server.hpp"
 #include "varbo/errors.hpp"
@@ -27,19 +28,20 @@ Runner add_dashboard(CLI::App& app) {
   auto a = std::make_shared<Args>();
   cmd->add_option("study", a->study, "study file, run folder (its study.db) or postgresql://...?study=NAME URL")
       ->required();
-  cmd->add_option("--port", a->port, "TCP port (0: any free port, printed)")->capture_default_str()->check(CLI::Range(0, 65535));
+  cmd->add_option("--port", a->port, "TCP port (0: any free port, printed)")->capture_default_str()->check(integer_in(0, 65535));
   cmd->add_option("--host", a->host,
                   "address to listen on; the default serves this machine only (another address exposes the study "
                   "to the network: the dashboard has no authentication)")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "seed of the model fit and the κ search (as `varbo select --seed`)")
-      ->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads of the model work (0 = all)")->check(CLI::NonNegativeNumber);
+      ->capture_default_str()
+      ->check(integer_in(0, 9223372036854775807LL));
+  cmd->add_option("--threads", a->threads, "worker threads of the model work (0 = all)")->check(integer_in(0, 2147483647));
   cmd->add_option("--nice", a->nice,
                   "lower the server's CPU priority by this much (0: unchanged), so that its model fits never slow a "
                   "study running on the same machine")
       ->capture_default_str()
-      ->check(CLI::Range(0, 19));
+      ->check(integer_in(0, 19));
   return [a]() {
     ThreadLimit limit(a->threads);
     errno = 0;

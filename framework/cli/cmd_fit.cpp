@@ -92,7 +92,7 @@ Runner add_fit(CLI::App& app) {
   cmd->add_option("--target", a->target, "the column of costs (default y; e.g. cost for a trials.csv)");
   cmd->add_flag("--no-optimize", a->no_optimize, "keep the hyperparameters given in the YAML; only condition");
   cmd->add_option("--seed", a->seed, "random seed for restarts");
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(integer_in(0, 2147483647));
   return [a]() {
     ThreadLimit limit(a->threads);
     const ConfigNode node = component_arg(a->surrogate, "surrogate", "--surrogate");

@@ -259,9 +259,11 @@ Runner add_plot(CLI::App& app) {
       ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--surrogate", a->surrogate, "2-D and --slice: model to draw (default: the run's surrogate)");
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s) for the selections");
-  cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D; at most 200 in 2-D)")->check(CLI::Range(2, 2000));
-  cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--grid", a->grid, "grid points per axis (default 400 in 1-D, 40 in 2-D; at most 200 in 2-D)")->check(integer_in(2, 2000));
+  cmd->add_option("--seed", a->seed, "random seed of the fits and the optimizer")
+      ->capture_default_str()
+      ->check(integer_in(0, 9223372036854775807LL));
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(integer_in(0, 2147483647));
   cmd->add_option("--slice", a->slice,
                   "typed parameters: draw the model along this parameter, the others at the best trial");
   return [a, gp_opt, vh_opt]() {

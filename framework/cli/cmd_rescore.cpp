@@ -45,18 +45,18 @@ Runner add_rescore(CLI::App& app) {
       ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)")
       ->check(decimal_number())
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::PositiveNumber);  // after decimal_number(): its message for anything not a number
   cmd->add_option("--critic", a->critic, "local model as YAML, e.g. '{type: vhgp, restarts: 8}' (default: the run's)");
   cmd->add_option("--continue", a->continue_steps,
                   "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(integer_in(0, 1000000));
   cmd->add_option("--rollouts", a->rollouts,
                   "evaluate the initial, learned and selected policies (and the continued one) with M fresh "
                   "rollouts under the new weights (new trials: not offline)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(integer_in(0, 1000000));
   cmd->add_option("--seed", a->seed, "seed of the fit, the continuation and the rollouts (default: the run's)")
-      ->check(CLI::NonNegativeNumber);
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(CLI::NonNegativeNumber);
+      ->check(integer_in(0, 9223372036854775807));
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(integer_in(0, 2147483647));
   return [a]() {
     ThreadLimit limit(a->threads);
     Registry& registry = run_folder_registry(a->run);  // with the run's own plugins

@@ -39,7 +39,7 @@ Runner add_run(CLI::App& app) {
       ->excludes(resume);
   cmd->add_option("--study", a->study,
                   "study file of the run (default: <output>/study.db); an existing one is continued");
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all cores); overrides the file")->check(integer_in(0, 2147483647));
   auto* seed = cmd->add_option("--seed", a->seed, "random seed (an integer >= 0); overrides the file");
   auto* budget = cmd->add_option("--budget", a->budget, "number of evaluations (an integer >= 1); overrides the file");
   auto* output = cmd->add_option("-o,--output", a->output, "run folder; overrides the file");

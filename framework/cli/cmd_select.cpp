@@ -54,7 +54,7 @@ Runner add_select(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "random seed of the fit and the optimizer (same seed, same answer)")
       ->capture_default_str();
-  cmd->add_option("--threads", a->threads, "worker threads (0 = all); the result does not depend on it")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--threads", a->threads, "worker threads (0 = all); the result does not depend on it")->check(integer_in(0, 2147483647));
   cmd->add_flag("--json", a->json, "print JSON instead of a table");
   cmd->add_flag("--among-evaluated", a->among_evaluated,
                 "choose among the evaluated θ only (default: minimize over the whole domain, where a model far "

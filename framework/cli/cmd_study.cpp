@@ -97,7 +97,7 @@ Runner add_suggest(CLI::App& app) {
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_option("--batch", a->batch, "number of distinct trials to suggest (they account for pending ones)")
-      ->check(CLI::Range(1LL, 100000LL));
+      ->check(integer_in(1, 100000));
   cmd->add_flag("--json", a->json, "print JSON: [{\"id\": 3, \"theta\": [...], \"names\": [...], \"phase\": ...}]");
   cmd->add_option("--worker", a->worker, "name recorded for these trials (default host:pid)");
   return [a]() {

@@ -166,7 +166,7 @@ Runner add_worker(CLI::App& app) {
                   "the last line of stdout (default: the study's command, when its task is external; its other "
                   "settings — input, timeout, grace, workdir — apply either way)");
   cmd->add_option("--max-trials", a->max_trials, "stop after this many trials (0 = until the budget is used)")
-      ->check(CLI::Range(0LL, 1000000000LL));
+      ->check(integer_in(0, 1000000000));
   cmd->add_option("--host-id", a->host_id, "the host part of this worker's id (default $VARBO_HOST_ID, else the host "
                                            "name); workers are told apart by host:pid:nonce");
   cmd->add_option("--reconnect-timeout", a->reconnect,

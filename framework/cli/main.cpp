@@ -5,6 +5,7 @@
 #include <csignal>
 #include <cerrno>
 #include <cstdio>
+#include <filesystem>
 #include <cstring>
 #include <string>
 #include <map>
@@ -109,6 +110,11 @@ int main(int argc, char** argv) {
     return 128 + e.signal();  // as a shell reports a process killed by that signal
   } catch (const varbo::Error& e) {
     std::fprintf(stderr, "varbo: error: %s\n", e.what());
+    return 2;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A path the system refuses (a symlink loop, a name too long, a folder that cannot be searched) is the user's
+    // to fix, not a bug: it ended in "internal error", exit 3 (fuzzing, session 27).
+    std::fprintf(stderr, "varbo: error: %s: %s\n", e.path1().string().c_str(), e.code().message().c_str());
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "varbo: internal error: %s\n", e.what());

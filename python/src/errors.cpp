@@ -2,7 +2,9 @@
 // file, line, column and key path its message starts with ("file:line:col: key 'a.b': ..."). Interrupted (a stop
 // signal during a run) is a KeyboardInterrupt. Every other C++ exception becomes a RuntimeError (pybind11's
 // default), so none escapes as a crash.
+#include <filesystem>
 #include <regex>
+#include <string>
 
 #include "common.hpp"
 #include "varbo/errors.hpp"
@@ -76,6 +78,8 @@ void bind_errors(py::module_& m) {
       raise_located(g_config_error, e.what());
     } catch (const InputError& e) {
       raise_located(g_input_error, e.what());
+    } catch (const TaskSetupError& e) {  // the task cannot run at all (exit 126/127): bad input, as before
+      PyErr_SetString(g_input_error, e.what());
     } catch (const PluginLoadError& e) {
       PyErr_SetString(g_plugin_error, e.what());
     } catch (const NumericalError& e) {
@@ -84,6 +88,10 @@ void bind_errors(py::module_& m) {
       PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
     } catch (const Error& e) {
       PyErr_SetString(g_error, e.what());
+    } catch (const std::filesystem::filesystem_error& e) {
+      // A path the system refuses (symlink loop, name too long): bad input, not a RuntimeError.
+      const std::string msg = e.path1().string() + ": " + e.code().message();
+      PyErr_SetString(g_input_error, msg.c_str());
     }
   });
 }

@@ -35,6 +35,15 @@ GpSurrogate::GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const O
   ensure_dim(dim);
 }
 
+namespace {
+/// A Dataset assembled by hand (the SDK's own loop) with X.rows() ≠ y.size() was read past its end (red team,
+/// session 27).
+void check_shape(const Dataset& data) {
+  if (data.X.rows() != data.y.size())
+    throw InputError(fmt::format("gp: the data have {} points in X but {} costs in y", data.X.rows(), data.y.size()));
+}
+}  // namespace
+
 void GpSurrogate::ensure_dim(Index d) {
   if (kernel_ && kernel_->dim() == d) return;
   dim_ = d;
@@ -203,6 +212,7 @@ FitReport GpSurrogate::report_for(const Posterior& post, const Vec& p) const {
 
 FitReport GpSurrogate::condition(const Dataset& data) {
   const auto t0 = std::chrono::steady_clock::now();
+  check_shape(data);
   ensure_dim(data.dim());
   const Standardization s = standardization(data.y);
   const Vec p = log_params(s.scale);
@@ -291,6 +301,7 @@ Restarts<OptimizeResult> GpSurrogate::run_restarts_for(const Dataset& data, cons
 
 FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   const auto t0 = std::chrono::steady_clock::now();
+  check_shape(data);
   ensure_dim(data.dim());
   if (data.size() == 0) return condition(data);
   const Index n = data.size();
@@ -397,6 +408,8 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
 Prediction GpSurrogate::predict(const Vec& x, bool with_gradient) const {
   Prediction pr;
   const Index d = x.size();
+  if (dim_ > 0 && d != dim_)  // a point of another dimension gave a number in silence
+    throw InputError(fmt::format("gp: predict at a point of dimension {}, the model's is {}", d, dim_));
   if (!posterior_ || posterior_->X.rows() == 0) {
     // Prior: the constant mean and σ_f² everywhere.
     pr.mean = mean_;

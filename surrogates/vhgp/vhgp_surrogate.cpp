@@ -8,6 +8,7 @@
 
 #include "homoscedastic_init.hpp"
 #include "varbo/errors.hpp"
+#include <fmt/format.h>
 #include "varbo/log.hpp"
 #include "varbo/restarts.hpp"
 #include "vhgp_restarts.hpp"
@@ -186,6 +187,8 @@ FitReport VhgpSurrogate::condition_at(const Dataset& data, const VhgpParams& par
 }
 
 FitReport VhgpSurrogate::condition(const Dataset& data) {
+  if (data.X.rows() != data.y.size())
+    throw InputError(fmt::format("vhgp: the data have {} points in X but {} costs in y", data.X.rows(), data.y.size()));
   const auto t0 = std::chrono::steady_clock::now();
   FitReport report;
   if (data.size() == 0 || data.dim() != dim_) {
@@ -223,6 +226,8 @@ FitReport VhgpSurrogate::condition(const Dataset& data) {
 }
 
 FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
+  if (data.X.rows() != data.y.size())
+    throw InputError(fmt::format("vhgp: the data have {} points in X but {} costs in y", data.X.rows(), data.y.size()));
   const auto t0 = std::chrono::steady_clock::now();
   FitReport report;
   report.optimized = true;
@@ -451,6 +456,8 @@ LatentPrediction VhgpSurrogate::predict_latent(const Vec& x, bool with_gradient)
 }
 
 Prediction VhgpSurrogate::predict(const Vec& x, bool with_gradient) const {
+  if (dim_ > 0 && x.size() != dim_)
+    throw InputError(fmt::format("vhgp: predict at a point of dimension {}, the model's is {}", x.size(), dim_));
   if (gp_selected_ && gp_member_ && gp_member_->ready()) return gp_member_->predict(x, with_gradient);
   const LatentPrediction l = predict_latent(x, with_gradient);
   const double s = scaling_.scale, s2 = s * s, log_s2 = 2.0 * std::log(s);

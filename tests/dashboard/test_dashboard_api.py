@@ -148,10 +148,18 @@ def main():
         check(status == 400 and "<script>alert(1)</script>" in body["error"], "an echoed name stays a JSON string")
         line, body = raw_request(d.url, b"GARBAGE\r\n\r\n")
         check(" 400 " in line + " ", f"malformed request line: {line}")
-        line, body = raw_request(d.url, b"POST /api/summary HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")
+        line, body = raw_request(d.url, b"POST /api/summary HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")
         check(line.split()[1].startswith("4") and "error" in json.loads(body), f"POST refused: {line} {body}")
         status, _, page = d.get("/")
         check(status == 200 and "varbo dashboard" in page and "innerHTML" not in page, "the page, without innerHTML")
+        # DNS rebinding (red team, session 27): a loopback dashboard answers loopback names only.
+        for host, code in [("attacker.example", "403"), ("attacker.example:80", "403"), ("127.0.0.1.evil.com", "403"),
+                           ("localhost", "200"), ("LOCALHOST:1", "200"), ("[::1]:5", "200"), ("127.0.0.2", "200")]:
+            line, body = raw_request(d.url, f"GET /api/summary HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+                                     .encode())
+            check(line.split()[1] == code, f"Host {host}: {line}")
+            if code == "403":
+                check("serves this machine only" in json.loads(body)["error"], f"Host {host}: {body}")
 
     # RSSGD's re-weighting equals `varbo rescore` (the same library call) on an rssgd run of the gantry task, whose
     # trials.csv holds the tracking / sway / energy components.
@@ -222,12 +230,12 @@ def dash11_hostile(varbo, folder):
             os.remove(os.path.join(folder, f))
     with Dashboard(varbo, folder) as d:
         for method in ("POST", "PUT", "DELETE", "OPTIONS", "PATCH"):
-            line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: x\r\nContent-Length: 0\r\n"
+            line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 0\r\n"
                                             "Connection: close\r\n\r\n".encode())
             check(" 405 " in line and "read-only" in json.loads(body)["error"], f"{method}: {line} {body}")
         # Without a body (no Content-Length, as `curl -X POST` sends it): httplib answered 400 before routing.
         for method in ("POST", "PUT", "PATCH"):
-            line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n"
+            line, body = raw_request(d.url, f"{method} /api/summary HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"
                                      .encode())
             check(" 405 " in line and "read-only" in json.loads(body)["error"], f"{method} without a body: {line} {body}")
         # The first '=' splits name and value (cpp-httplib kept the text after the last one).
@@ -240,7 +248,7 @@ def dash11_hostile(varbo, folder):
         for path in ("/../../etc/passwd", "/%2e%2e%2f%2e%2e%2fetc%2fpasswd", "/api/summary%00.html"):
             status, body, raw = d.get(path)
             check(status == 404 and "root:" not in raw, f"{path}: {status}")
-        line, _ = raw_request(d.url, b"GET /api/summary?x=" + b"a" * 20000 + b" HTTP/1.1\r\nHost: x\r\n\r\n")
+        line, _ = raw_request(d.url, b"GET /api/summary?x=" + b"a" * 20000 + b" HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
         check(" 414 " in line, f"long URL: {line}")
         # 20 idle connections and 10 slow clients (one byte a second) do not stall a request.
         idle = [socket.create_connection(("127.0.0.1", int(d.url.rsplit(":", 1)[1])), timeout=5) for _ in range(20)]
@@ -248,7 +256,7 @@ def dash11_hostile(varbo, folder):
 
         def slow():
             with socket.create_connection(("127.0.0.1", int(d.url.rsplit(":", 1)[1])), timeout=30) as s:
-                s.sendall(b"GET /api/summary HTTP/1.1\r\nHost: x\r\n")
+                s.sendall(b"GET /api/summary HTTP/1.1\r\nHost: 127.0.0.1\r\n")
                 while not stop.is_set():
                     s.sendall(b"X")
                     time.sleep(0.5)

@@ -8,11 +8,13 @@
 #include <poll.h>
 
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <thread>
 
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -82,6 +84,24 @@ ApiQuery parse_query(const std::string& target) {
   return query;
 }
 
+namespace {
+/// "127.0.0.1", "localhost", "::1", "[::1]" and the rest of 127.0.0.0/8: names that only reach this machine.
+bool is_loopback_host(std::string h) {
+  for (char& c : h) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (h == "localhost" || h == "::1" || h == "[::1]") return true;
+  return h.rfind("127.", 0) == 0 && h.find_first_not_of("0123456789.") == std::string::npos;
+}
+/// The name of a Host header without its port: "[::1]:8080" → "[::1]", "localhost:80" → "localhost".
+std::string host_name_of(const std::string& header) {
+  if (!header.empty() && header[0] == '[') {
+    const auto close = header.find(']');
+    return close == std::string::npos ? header : header.substr(0, close + 1);
+  }
+  const auto colon = header.rfind(':');
+  return colon == std::string::npos ? header : header.substr(0, colon);
+}
+}  // namespace
+
 void serve(const DashboardHttp& http) {
   const std::string& host = http.host;
   const int port = http.port;
@@ -96,6 +116,20 @@ void serve(const DashboardHttp& http) {
                                "default-src 'none'; script-src 'unsafe-inline'; style-src 'unsafe-inline'; "
                                "connect-src 'self'; img-src 'self' data:"},
                               {"Referrer-Policy", "no-referrer"}});
+  // DNS rebinding: a web page whose name resolves to 127.0.0.1 reads this port as its own origin, so a
+  // loopback-only dashboard answers only requests addressed to a loopback name (red team, session 27: any Host
+  // was served, the study readable from any site the researcher visited). Served to the network (--host 0.0.0.0,
+  // ::, an interface address), the names are the user's to choose and no Host is refused.
+  if (is_loopback_host(host))
+    server.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
+      const std::string name = host_name_of(req.get_header_value("Host"));
+      if (name.empty() || is_loopback_host(name)) return httplib::Server::HandlerResponse::Unhandled;
+      json_reply(res, 403,
+                 error_body(fmt::format("Host '{}' refused: this dashboard serves this machine only (open it as "
+                                        "http://127.0.0.1:PORT/ or http://localhost:PORT/)",
+                                        safe_text(name, 80))));
+      return httplib::Server::HandlerResponse::Handled;
+    });
   server.Get("/", [](const httplib::Request&, httplib::Response& res) {
     res.set_header("Cache-Control", "no-store");
     res.set_content(reinterpret_cast<const char*>(kDashboardPage), sizeof(kDashboardPage) - 1, "text/html; charset=utf-8");

@@ -167,12 +167,17 @@ std::shared_ptr<const DashboardModel> DashboardStudy::model() {
   const auto all = trials();
   const auto complete = static_cast<std::int64_t>(
       std::count_if(all.begin(), all.end(), [](const TrialRecord& t) { return t.state == TrialState::Complete; }));
-  if (model_ && model_->complete == complete) return model_;
+  // Failed trials count too: the selections keep away from them (it served the model of before 3 new failures,
+  // choosing a θ right beside two of them; red team, session 27).
+  const auto failed = static_cast<std::int64_t>(
+      std::count_if(all.begin(), all.end(), [](const TrialRecord& t) { return t.state == TrialState::Failed; }));
+  if (model_ && model_->complete == complete && model_->failed == failed) return model_;
   if (complete < 2)
     throw InputError(fmt::format("{}: {} complete trial(s); a model needs at least 2", address_, complete));
   auto m = std::make_shared<DashboardModel>();
   m->run = run_view(all, snapshots());
   m->complete = complete;
+  m->failed = failed;
   m->seed = seed_;
   const std::shared_ptr<const Study> study = this->study();  // kept alive while the fit uses its registry
   const Registry& registry = study->registry();

@@ -23,7 +23,8 @@ struct DashboardModel {
   RunFolder run;
   FittedRunModel fitted;
   std::unique_ptr<Optimizer> optimizer;
-  std::int64_t complete = 0;  ///< complete trials the model was fitted on (the cache key)
+  std::int64_t complete = 0;  ///< complete trials the model was fitted on (the cache key, with `failed`)
+  std::int64_t failed = 0;    ///< failed trials when it was made (the selections keep away from them)
   std::int64_t full_fit_complete = 0;  ///< complete trials at the last full fit (conditioned since, up to +25 %)
   std::uint64_t seed = 1;
   double fit_seconds = 0;

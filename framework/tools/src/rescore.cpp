@@ -96,7 +96,8 @@ ComponentRun component_run_from(const RunFolder& rf, const std::string& label) {
 }
 
 void read_run_summary(ComponentRun& run, const std::string& summary) {
-  if (!fs::exists(summary)) return;
+  std::error_code ec;
+  if (!fs::exists(summary, ec)) return;
   try {
     std::ifstream s(summary);
     const nlohmann::json j = nlohmann::json::parse(s);
@@ -105,6 +106,16 @@ void read_run_summary(ComponentRun& run, const std::string& summary) {
   } catch (const nlohmann::json::exception& e) {
     throw InputError(fmt::format("{}: {}", summary, e.what()));
   }
+  // A summary.json of another run (a study file's folder holds any) or a damaged one: a θ of the wrong size was
+  // read past its end (SIGSEGV in the dashboard, made-up numbers), one outside the domain used as the centre.
+  const Index d = run.domain.box.dim();
+  for (auto* v : {&run.recommended, &run.best})
+    if (*v && ((*v)->size() != d || !(*v)->allFinite() || !run.domain.box.contains(**v, 1e-9))) {
+      log_warn("{}: {} has {} values{}, not a point of this run's {} parameters; ignored", summary,
+               v == &run.recommended ? "recommended_theta" : "best_theta", (*v)->size(),
+               (*v)->size() == d ? " outside the domain" : "", d);
+      v->reset();
+    }
 }
 
 ComponentRun load_component_run(const std::string& folder, const Registry& registry) {
@@ -126,7 +137,11 @@ OfflineAnswer rescore_offline(const ComponentRun& run, const OfflineRequest& req
   if (request.critic) a.settings.critic = *request.critic;
   if (request.seed) a.settings.seed = *request.seed;
   a.learned_is_recommended = run.recommended.has_value();
-  a.learned = run.recommended ? *run.recommended : (run.best ? *run.best : Vec(run.theta.row(0).transpose()));
+  // Without summary.json (a study file, a worker's study) the best trial is the lowest recorded cost, as the docs
+  // say ("else the best"): it was the first successful trial.
+  Index lowest = 0;
+  if (run.cost.size() > 0) run.cost.minCoeff(&lowest);
+  a.learned = run.recommended ? *run.recommended : (run.best ? *run.best : Vec(run.theta.row(lowest).transpose()));
   a.centre = to_unit(a.learned, run.domain.box);
   a.selections = select_offline(run, a.costs, a.centre, request.kappas, a.settings, registry, &a.model);
   return a;

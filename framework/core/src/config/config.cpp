@@ -1,6 +1,7 @@
 #include "varbo/config.hpp"
 
 #include <fmt/format.h>
+#include <yaml-cpp/eventhandler.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -170,19 +171,47 @@ void resolve_merge_keys(YAML::Node n, const std::string& name, int depth, WalkBu
 
 }  // namespace
 
+namespace {
+/// Counts the documents the parser starts and where the second one starts; builds nothing.
+class DocumentStarts final : public YAML::EventHandler {
+ public:
+  int count = 0;
+  YAML::Mark second;
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    if (++count == 2) second = mark;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+}  // namespace
+
 static ConfigNode parse_impl(const std::string& text, const std::string& name) {
   auto file = std::make_shared<const std::string>(name);
-  std::vector<YAML::Node> docs;
+  YAML::Node root;
   try {
-    docs = YAML::LoadAll(text);
+    // At most two documents are looked at: yaml-cpp 0.7's LoadAll never ends on a stray ',' after the document
+    // (`{type: gp},` as a flag, a trailing comma in a file: each call returns another empty document), growing
+    // ~200 MB/s until bad_alloc (red team, session 27; jbeder/yaml-cpp#1040).
+    std::stringstream in(text);
+    YAML::Parser parser(in);
+    DocumentStarts starts;
+    for (int i = 0; i < 2 && parser.HandleNextDocument(starts); ++i) {
+    }
+    if (starts.count > 1)
+      throw ConfigError(fmt::format("{}: a second YAML document (after '---', or text after the end of the first "
+                                    "such as a stray ','); a configuration holds one",
+                                    at(name, starts.second)));
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw ConfigError(fmt::format("{}:{}:{}: YAML syntax error: {}", name, e.mark.line + 1, e.mark.column + 1,
                                   e.msg));
   }
-  if (docs.size() > 1)
-    throw ConfigError(fmt::format("{}: a second YAML document (after '---'); a configuration file holds one",
-                                  at(name, docs[1].Mark())));
-  YAML::Node root = docs.empty() ? YAML::Node() : docs[0];
   WalkBudget merging, checking;
   resolve_merge_keys(root, name, 0, merging);
   check_structure(root, name, 0, checking);

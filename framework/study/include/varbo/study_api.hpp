@@ -45,6 +45,11 @@ struct VerifyReport {
   std::string divergence;
 };
 
+/// A study in a store, driven by ask/tell. Threads: one Study object is used by one thread at a time (its calls
+/// are not serialized: two threads sharing one crashed or corrupted the store). Several Study objects on one store —
+/// in threads or processes — are the supported way to work in parallel; the store serializes them. A moved-from
+/// Study throws std::logic_error on use. Study::transaction: when its body throws, the store rolls back and the next
+/// call rebuilds the algorithm from the store (results told inside the body are forgotten).
 class Study {
  public:
   /// Creates a new study file from a YAML study configuration (the same file `varbo run` takes).
@@ -150,6 +155,7 @@ class Study {
 
  private:
   explicit Study(std::unique_ptr<Impl> impl);
+  Impl& live() const;  ///< the Impl; std::logic_error on a moved-from Study
   std::unique_ptr<Impl> impl_;
 };
 

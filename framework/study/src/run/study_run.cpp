@@ -482,9 +482,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, {}, [&] {
         return st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, "the task could not run");
       });
-      throw InputError(fmt::format("trial {}: {}; the trial is abandoned, not failed (`varbo run --resume {}` "
-                                   "suggests it again once the task can run)",
-                                   trial_label(index, t.id), e.what(), resume_target));
+      // Kept a TaskSetupError: an embedding host catches it to reconnect the robot (it became an InputError).
+      throw TaskSetupError(fmt::format("trial {}: {}; the trial is abandoned, not failed (`varbo run --resume {}` "
+                                       "suggests it again once the task can run)",
+                                       trial_label(index, t.id), e.what(), resume_target));
     } catch (const std::exception& e) {
       evaluation = Evaluation{};
       evaluation.ok = false;
@@ -687,6 +688,13 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
     else ov.output = parent.string();
   }
   store.reset();
+  // `--resume RUN --study OTHER` continued RUN's own study and left OTHER untouched, in silence (fuzzing, session 27).
+  std::error_code same_ec;
+  if (ov.store && !ov.store->empty() && *ov.store != store_path &&
+      !std::filesystem::equivalent(*ov.store, store_path, same_ec))
+    throw InputError(fmt::format("--study {} conflicts with --resume {}: a resumed run continues its own study ({}); "
+                                 "to continue the study file, resume it: --resume {}",
+                                 *ov.store, target, store_path, *ov.store));
   ov.store = store_path;
   ov.resume = true;
   ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");

@@ -103,6 +103,11 @@ bool study_detail::usable_recommendation(const Vec& r, Index dim, const std::str
 }
 
 Study::Study(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Study::Impl& Study::live() const {
+  // A moved-from Study (its Impl moved away) crashed on any call (red team, session 27).
+  if (!impl_) throw std::logic_error("varbo::Study used after it was moved from");
+  return *impl_;
+}
 Study::Study(Study&&) noexcept = default;
 Study& Study::operator=(Study&&) noexcept = default;
 Study::~Study() = default;
@@ -218,7 +223,7 @@ void Study::validate(const StudyConfig& config, const Registry& registry) {
 
 std::vector<TrialRecord> Study::ask(Index q) {
   if (q < 1) throw InputError(fmt::format("ask: the batch size must be at least 1, got {}", q));
-  Impl& m = *impl_;
+  Impl& m = live();
   std::vector<TrialRecord> out;
   const double asked_at = unix_time();  // before any wait for the store's lock (abandon_silent_workers)
   m.store->transaction([&] {
@@ -337,7 +342,7 @@ void check_result(const std::string& where, double cost, const Components& compo
 }  // namespace
 
 void Study::tell(std::int64_t id, double cost, const Components& components) {
-  check_result(fmt::format("{}: trial {}", impl_->store->location(), id), cost, components, impl_->domain.names);
+  check_result(fmt::format("{}: trial {}", live().store->location(), id), cost, components, live().domain.names);
   Evaluation e;
   e.cost = cost;
   e.components = components;
@@ -346,7 +351,7 @@ void Study::tell(std::int64_t id, double cost, const Components& components) {
 
 
 std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& components) {
-  Impl& m = *impl_;
+  Impl& m = live();
   const std::string where = m.store->location();
   check_result(where + ": new trial", cost, components, m.domain.names);
   const Box& box = m.domain.box;
@@ -380,7 +385,7 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
 }
 
 TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluation_seconds) {
-  Impl& m = *impl_;
+  Impl& m = live();
   std::int64_t seq = -1;
   TrialRecord t;
   m.store->transaction([&] {
@@ -454,7 +459,7 @@ void Study::fail(std::int64_t id, const std::string& reason) {
 std::vector<std::int64_t> Study::abandon(double older_than_seconds, const std::string& reason) {
   if (!std::isfinite(older_than_seconds) || older_than_seconds < 0)
     throw InputError(fmt::format("{}: abandon: the age must be a finite number of seconds ≥ 0, got {}; nothing written",
-                                 impl_->store->location(), older_than_seconds));
+                                 live().store->location(), older_than_seconds));
   const double cutoff = unix_time() - older_than_seconds;
   return abandon_where(
       [&](const TrialRecord& t) { return older_than_seconds <= 0 || t.created_at <= cutoff; }, reason);
@@ -462,7 +467,7 @@ std::vector<std::int64_t> Study::abandon(double older_than_seconds, const std::s
 
 std::vector<std::int64_t> Study::abandon_where(const std::function<bool(const TrialRecord&)>& which,
                                                const std::string& reason) {
-  Impl& m = *impl_;
+  Impl& m = live();
   std::vector<std::int64_t> ids;
   m.store->transaction([&] {
     ids.clear();
@@ -481,13 +486,13 @@ std::vector<std::int64_t> Study::abandon_where(const std::function<bool(const Tr
 
 std::optional<TrialRecord> Study::best() const {
   std::optional<TrialRecord> b;
-  for (const auto& t : impl_->checked(impl_->store->trials()))
+  for (const auto& t : live().checked(live().store->trials()))
     if (t.state == TrialState::Complete && (!b || t.cost < b->cost)) b = t;
   return b;
 }
 
 std::optional<Vec> Study::recommendation() {
-  Impl& m = *impl_;
+  Impl& m = live();
   if (m.store->next_finish_seq() == 0) return std::nullopt;
   m.store->transaction([&] {
     try {
@@ -517,7 +522,7 @@ std::vector<std::optional<Selection>> Study::select(const std::vector<double>& k
   for (const double kappa : kappas)
     if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
   std::vector<std::optional<Selection>> out(kappas.size());
-  const Impl& m = *impl_;
+  const Impl& m = live();
   std::vector<TrialRecord> done;
   for (const auto& t : m.checked(m.store->trials()))
     if (t.state == TrialState::Complete) done.push_back(t);
@@ -559,28 +564,41 @@ std::vector<std::optional<Selection>> Study::select(const std::vector<double>& k
   return out;
 }
 
-std::vector<TrialRecord> Study::trials() const { return impl_->checked(impl_->store->trials()); }
-const StudyConfig& Study::config() const { return impl_->config; }
-const Domain& Study::domain() const { return impl_->domain; }
-const SharedSpace& Study::space() const { return impl_->space; }
+std::vector<TrialRecord> Study::trials() const { return live().checked(live().store->trials()); }
+const StudyConfig& Study::config() const { return live().config; }
+const Domain& Study::domain() const { return live().domain; }
+const SharedSpace& Study::space() const { return live().space; }
 Params Study::params(const Vec& theta) const {
-  const Domain& d = impl_->domain;
-  return impl_->space ? impl_->space->params(theta) : SearchSpace::from_box(d.box, d.names).params(theta);
+  const Domain& d = live().domain;
+  if (theta.size() != live().theta_dim())  // a θ of another size was padded with defaults in silence
+    throw InputError(fmt::format("params: θ has {} values, expected {} (one per parameter)", theta.size(),
+                                 live().theta_dim()));
+  return live().space ? live().space->params(theta) : SearchSpace::from_box(d.box, d.names).params(theta);
 }
-StudyStore& Study::store() { return *impl_->store; }
-void Study::transaction(const std::function<void()>& body) { impl_->store->transaction(body); }
-std::optional<std::string> Study::meta(const std::string& key) const { return impl_->store->meta(key); }
+StudyStore& Study::store() { return *live().store; }
+void Study::transaction(const std::function<void()>& body) {
+  Impl& m = live();
+  try {
+    m.store->transaction(body);
+  } catch (...) {
+    // Rolled back: results the body told are gone from the store, but the live algorithm was told them; the next
+    // call rebuilds it from the store (it kept a phantom result: recommendations and saved states diverged).
+    m.dirty = true;
+    throw;
+  }
+}
+std::optional<std::string> Study::meta(const std::string& key) const { return live().store->meta(key); }
 void Study::set_meta(const std::string& key, const std::string& value) {
-  impl_->store->transaction([&] { impl_->store->set_meta(key, value); });
+  live().store->transaction([&] { live().store->set_meta(key, value); });
 }
 void Study::add_model_snapshot(const StoredSnapshot& snapshot) {
-  impl_->store->transaction([&] { impl_->store->add_snapshot(snapshot); });
+  live().store->transaction([&] { live().store->add_snapshot(snapshot); });
 }
-std::vector<StoredSnapshot> Study::model_snapshots() const { return impl_->store->snapshots(); }
-const Algorithm* Study::algorithm() const { return impl_->alg.get(); }
-Task& Study::task() { return *impl_->task; }
-void Study::set_worker(const std::string& name) { impl_->worker = name; }
-const Registry& Study::registry() const { return *impl_->registry; }
+std::vector<StoredSnapshot> Study::model_snapshots() const { return live().store->snapshots(); }
+const Algorithm* Study::algorithm() const { return live().alg.get(); }
+Task& Study::task() { return *live().task; }
+void Study::set_worker(const std::string& name) { live().worker = name; }
+const Registry& Study::registry() const { return *live().registry; }
 
 void Study::heartbeat(const std::string& state) {
   // Only these two mean something to the liveness check (study_impl.cpp): another word ("banana", "Running")
@@ -588,7 +606,7 @@ void Study::heartbeat(const std::string& state) {
   if (state != "running" && state != "stopped")
     throw InputError(fmt::format("heartbeat: state '{}': expected running or stopped; nothing written",
                                  safe_text(state, 100)));
-  Impl& m = *impl_;
+  Impl& m = live();
   WorkerRecord w;
   w.id = m.worker;
   const auto [host, pid] = worker_host_pid(m.worker);
@@ -598,7 +616,7 @@ void Study::heartbeat(const std::string& state) {
   w.state = state;
   m.store->transaction([&] { m.store->put_worker(w); });
 }
-Index Study::replay_mismatches() const { return impl_->mismatches; }
-Index Study::replayed() const { return impl_->replayed; }
+Index Study::replay_mismatches() const { return live().mismatches; }
+Index Study::replayed() const { return live().replayed; }
 
 }  // namespace varbo

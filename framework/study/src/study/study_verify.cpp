@@ -31,7 +31,7 @@ std::string first_difference(const std::string& stored, const std::string& repla
 }  // namespace
 
 VerifyReport Study::verify() {
-  Impl& m = *impl_;
+  Impl& m = live();
   VerifyReport rep;
   std::unique_ptr<Algorithm> alg = m.make_algorithm();
   const auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
