@@ -102,7 +102,9 @@ bool study_detail::usable_recommendation(const Vec& r, Index dim, const std::str
   return false;
 }
 
-Study::Study(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Study::Study(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
+  if (impl_ && impl_->store) impl_->note_file();
+}
 Study::Impl& Study::live() const {
   // A moved-from Study (its Impl moved away) crashed on any call (red team, session 27).
   if (!impl_) throw std::logic_error("varbo::Study used after it was moved from");
@@ -224,6 +226,7 @@ void Study::validate(const StudyConfig& config, const Registry& registry) {
 std::vector<TrialRecord> Study::ask(Index q) {
   if (q < 1) throw InputError(fmt::format("ask: the batch size must be at least 1, got {}", q));
   Impl& m = live();
+  m.check_file();
   std::vector<TrialRecord> out;
   const double asked_at = unix_time();  // before any wait for the store's lock (abandon_silent_workers)
   m.store->transaction([&] {
@@ -352,6 +355,7 @@ void Study::tell(std::int64_t id, double cost, const Components& components) {
 
 std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& components) {
   Impl& m = live();
+  m.check_file();
   const std::string where = m.store->location();
   check_result(where + ": new trial", cost, components, m.domain.names);
   const Box& box = m.domain.box;
@@ -386,6 +390,7 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
 
 TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluation_seconds) {
   Impl& m = live();
+  m.check_file();
   std::int64_t seq = -1;
   TrialRecord t;
   m.store->transaction([&] {
@@ -468,6 +473,7 @@ std::vector<std::int64_t> Study::abandon(double older_than_seconds, const std::s
 std::vector<std::int64_t> Study::abandon_where(const std::function<bool(const TrialRecord&)>& which,
                                                const std::string& reason) {
   Impl& m = live();
+  m.check_file();
   std::vector<std::int64_t> ids;
   m.store->transaction([&] {
     ids.clear();

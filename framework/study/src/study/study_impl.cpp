@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sys/stat.h>
 #include <ctime>
 #include <filesystem>
 
@@ -214,6 +215,32 @@ std::vector<TrialRecord> Study::Impl::checked(std::vector<TrialRecord> trials) c
                                    "trial's state is 'failed'); was the study file edited?",
                                    store->location(), t.id));
   return trials;
+}
+
+namespace {
+std::optional<std::pair<std::uint64_t, std::uint64_t>> file_identity(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  return std::make_pair(static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino));
+}
+}  // namespace
+
+void Study::Impl::note_file() {
+  const std::string& where = store->location();
+  if (where.find("://") != std::string::npos) return;
+  std::error_code ec;
+  const auto absolute = std::filesystem::absolute(where, ec);
+  file_path = ec ? where : absolute.string();
+  file_id = file_identity(file_path);
+}
+
+void Study::Impl::check_file() const {
+  if (!file_id) return;
+  const auto now = file_identity(file_path);
+  if (now == file_id) return;
+  throw InputError(fmt::format("{}: the study file was {} after this Study opened it; nothing written (results told "
+                               "now would be lost): open the study again",
+                               store->location(), now ? "replaced by another file" : "deleted or moved"));
 }
 
 }  // namespace varbo
