@@ -29,6 +29,12 @@ void hint_non_finite_numbers(int argc, char** argv) {
                    "varbo: '%s' is read as an option, not as a number: a cost must be a finite number (a trial "
                    "that gave no cost is recorded with `varbo fail STORE ID`)\n",
                    argv[i]);
+    // "-.5" (CLI11 takes "-0.5" as a number, not "-.5"): said with the way out, not only "cost is required".
+    else if (t.size() >= 3 && t[0] == '-' && t[1] == '.' && std::isdigit(static_cast<unsigned char>(t[2])))
+      std::fprintf(stderr,
+                   "varbo: '%s' is read as an option, not as a number: write -0%s, or put -- before it "
+                   "(varbo observe STORE ID -- %s)\n",
+                   argv[i], argv[i] + 1, argv[i]);
   }
 }
 
