@@ -43,10 +43,6 @@ std::unique_ptr<Optimizer> make_selection_optimizer(const RunFolder& run, const 
 std::vector<RiskSelection> select_on_run(const Surrogate& model, const RunFolder& run, const std::vector<double>& kappas,
                                          const Optimizer& optimizer, std::uint64_t seed, bool among_evaluated);
 
-/// A selection whose latent sd is more than this share of σ_f lies where the model knows little: its E and s
-/// are extrapolations (issue 10 saw predicted means far below the true minimum there).
-inline constexpr double kExtrapolating = 0.5;
-
 /// The predicted mean lies below every observed cost by more than 2 predictive sd: a minimum the data do not
 /// support (a CMA-ES run's gp predicted −6.4 ± 1.5 where no cost can be below −1, while its latent sd was 0.43 of
 /// σ_f; red team, session 26).

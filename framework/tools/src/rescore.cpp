@@ -292,8 +292,7 @@ std::vector<OfflineSelection> select_offline(const ComponentRun& run, const Vec&
     const Prediction p = m.critic->predict(x, false);
     OfflineSelection sel{kappas[k], x, from_unit(x, run.domain.box), p.mean, p.total_std()};
     sel.below_observed = local.y.minCoeff() - p.mean > 2.0 * p.total_std();
-    const double sv = m.critic->signal_variance();
-    sel.far_from_data = sv > 0 && std::sqrt(std::max(p.latent_var, 0.0) / sv) > 0.5;
+    sel.far_from_data = relative_latent_std(*m.critic, p) > kExtrapolating;
     out.push_back(std::move(sel));
   }
   if (model_out) *model_out = std::move(m);

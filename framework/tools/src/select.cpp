@@ -29,6 +29,10 @@ double NegativeConfidenceBound::value(const Vec& x, Vec* grad) const {
   return -(p.mean + kappa_ * s);
 }
 
+double relative_latent_std(const Surrogate& model, const Prediction& p) {
+  return std::sqrt(std::max(0.0, p.latent_var) / std::max(model.signal_variance(), 1e-300));
+}
+
 namespace {
 // Fills the selection for κ at x (unit cube) from the model's prediction there.
 void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain, const Vec& x, const Prediction& p,
@@ -37,7 +41,7 @@ void describe_at(RiskSelection& r, const Surrogate& model, const Domain& domain,
   r.mean = p.mean;
   r.std = p.total_std();
   r.criterion = r.mean + r.kappa * r.std;
-  r.relative_latent_std = std::sqrt(std::max(0.0, p.latent_var) / std::max(model.signal_variance(), 1e-300));
+  r.relative_latent_std = relative_latent_std(model, p);
   r.theta = space ? space->decode(r.x) : from_unit(r.x, domain.box);
   r.ok = std::isfinite(r.criterion);
 }

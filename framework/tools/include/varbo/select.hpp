@@ -27,6 +27,13 @@ struct RiskSelection {
   std::string message;
 };
 
+/// sd of the latent cost at a prediction relative to σ_f (RiskSelection::relative_latent_std).
+double relative_latent_std(const Surrogate& model, const Prediction& p);
+/// A selection whose latent sd is more than this share of σ_f lies where the model knows little: its E and s
+/// are extrapolations (issue 10 saw predicted means far below the true minimum there). `varbo select`, `varbo
+/// rescore` and the dashboard flag it.
+inline constexpr double kExtrapolating = 0.5;
+
 /// The utility −(E[y] + κ·s) to maximize (eq. 20), with its analytic gradient (unit-cube coordinates); the one
 /// implementation behind `varbo select` and `varbo rescore` (RiskObjective). A model that gives no gradient
 /// where one is asked for is a NumericalError (a zero gradient would stop a gradient search at its start).
