@@ -5,10 +5,12 @@
 #include <map>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <optional>
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include "cli_parse.hpp"
@@ -143,7 +145,18 @@ Runner add_suggest(CLI::App& app) {
         std::printf("%s  (%s)\n", line.c_str(), t.phase.c_str());
       }
     }
-    std::fflush(stdout);
+    if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+      // Nobody received θ (`> /dev/full`, a closed pipe): the trials would stay pending until abandoned by hand,
+      // with their points held back from every other suggestion (red team, session 27). main() reports the error.
+      const int err = errno;
+      std::set<std::int64_t> asked;
+      for (const auto& t : trials) asked.insert(t.id);
+      const auto ids = s.abandon_where([&](const TrialRecord& p) { return asked.count(p.id) > 0; },
+                                       "the suggestion could not be printed");
+      std::fprintf(stderr, "varbo: %s: standard output could not be written; the %zu trial(s) suggested were abandoned\n",
+                   printable(a->store).c_str(), ids.size());
+      errno = err;
+    }
     opened.reset();  // closing the store: SQLite checkpoints its write-ahead log into the file
     log_debug("suggest: store closed: process CPU {:.2f} ms", 1e3 * static_cast<double>(std::clock()) / CLOCKS_PER_SEC);
     return 0;

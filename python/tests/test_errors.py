@@ -105,6 +105,14 @@ def test_redteam_paths_and_configs(tmp_path):
     assert not os.path.exists(tmp_path / "a.db") and not os.path.exists(tmp_path / "b.db")
     with pytest.raises(TypeError, match="Study.create"):
         varbo.Study(None)
+    # A NUL cut the path in C++: a study of another name was created (session 27).
+    with pytest.raises(varbo.InputError, match="NUL"):
+        varbo.Study.create(str(tmp_path / "c.db\0x"), _RT_CFG)
+    with pytest.raises(varbo.InputError, match="NUL"):
+        varbo.minimize(lambda x: x[0], [(0, 1)], budget=1, output=str(tmp_path / "run\0x"))
+    assert not os.path.exists(tmp_path / "c.db") and not os.path.exists(tmp_path / "run")
+    with pytest.raises(varbo.InputError, match="in-memory"):  # SQLite's name, not a file: refused
+        varbo.Study.create(":memory:", _RT_CFG)
 
 
 def test_redteam_ask_tell_types(rt_study):

@@ -176,7 +176,7 @@ class Study:
         configuration a ConfigError naming file:line:col and the key."""
         location = _checks.path(path_or_url, "Study.create: path_or_url")
         if is_path(config):
-            return cls(_varbo._Study.create_from_file(location, os.fspath(config)))
+            return cls(_varbo._Study.create_from_file(location, _checks.path(config, "Study.create: config")))
         if isinstance(config, Mapping) and "parameters" in config and "task" not in config:
             # Typed parameters alone: the task `python` takes them as the domain, evaluated by the caller (ask/tell).
             config = dict(config, task={"type": "python"})

@@ -73,6 +73,8 @@ def path(v: Any, what: str) -> str:
         p = os.fsdecode(p)
     if not p:
         raise _input_error(f"{what}: the path is empty")
+    if "\0" in p:  # C++ would read the path only up to it: a study or folder of another name (red team, session 27)
+        raise _input_error(f"{what}: the path {p!r:.80} contains a NUL character")
     return p
 
 

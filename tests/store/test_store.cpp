@@ -331,6 +331,17 @@ TEST_CASE("foreign files: not SQLite, someone else's SQLite database, missing fi
   CHECK(open_error(run_folder).find("this run folder's study is " + run_folder + "/study.db") != std::string::npos);
 
   CHECK_THROWS_WITH_AS(create_sqlite_store(other), doctest::Contains("exists already"), InputError);
+
+  // Names SQLite reads as an in-memory database or a URI: refused, and no file of that name is made.
+  const auto cwd = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  CHECK_THROWS_WITH_AS(create_store(":memory:", {}), doctest::Contains("in-memory database"), InputError);
+  CHECK_THROWS_WITH_AS(open_store("file:x.db?mode=memory"), doctest::Contains("a URI"), InputError);
+  CHECK_THROWS_WITH_AS(create_store("", {}), doctest::Contains("empty"), InputError);
+  CHECK_FALSE(std::filesystem::exists(dir + "/:memory:"));
+  create_store("./:memory:", {});  // the way out the message names
+  CHECK(std::filesystem::exists(dir + "/:memory:"));
+  std::filesystem::current_path(cwd);
 }
 
 TEST_CASE("trial states have stable names") {

@@ -107,14 +107,33 @@ PostgresAddress parse_postgres_address(const std::string& url) {
   return a;
 }
 
+namespace {
+
+/// SQLite gives ":memory:" and "file:" names meanings of their own (an in-memory database, a URI with options)
+/// where SQLite reads them as such, and a file of that very name where it does not: `create(":memory:")` wrote a
+/// file called ":memory:" (red team, session 27). A study must be a file another process can open, so both are
+/// refused with the way to name such a file on purpose.
+void check_sqlite_path(const std::string& address) {
+  if (address.empty()) throw InputError("the study address is empty; give a file path (e.g. study.db) or a postgresql:// URL");
+  if (address == ":memory:" || starts_with(address, "file:"))
+    throw InputError(fmt::format("{}: SQLite reads this name as {}; a study is a file other processes can open: give "
+                                 "a file path (./{} if you mean a file of this name) or a postgresql:// URL",
+                                 printable(address), address == ":memory:" ? "an in-memory database" : "a URI",
+                                 printable(address)));
+}
+
+}  // namespace
+
 std::unique_ptr<StudyStore> create_store(const std::string& address,
                                          const std::vector<std::pair<std::string, std::string>>& meta) {
   if (is_database_url(address)) return create_postgres_store(address, meta);
+  check_sqlite_path(address);
   return create_sqlite_store(address, meta);
 }
 
 std::unique_ptr<StudyStore> open_store(const std::string& address) {
   if (is_database_url(address)) return open_postgres_store(address);
+  check_sqlite_path(address);
   return open_sqlite_store(address);
 }
 
