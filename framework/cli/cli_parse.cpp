@@ -39,4 +39,16 @@ std::pair<std::string, double> parse_component(const std::string& text) {
   return {name, parse_number(text.substr(eq + 1), fmt::format("--component {}", name))};
 }
 
+void refuse_empty_values(const CLI::App& app) {
+  for (const CLI::Option* opt : app.get_options()) {
+    // Not given, a flag (no value), or a positional argument (the command's own check names what it expects).
+    if (opt->count() == 0 || opt->get_type_size_max() == 0 || !opt->nonpositional()) continue;
+    for (const std::string& value : opt->results())
+      if (value.empty())
+        throw InputError(fmt::format("{}: an empty value; give a value (`varbo {} --help`) or leave the option out",
+                                     opt->get_name(), app.get_name()));
+  }
+  for (const CLI::App* sub : app.get_subcommands()) refuse_empty_values(*sub);
+}
+
 }  // namespace varbo::cli

@@ -97,4 +97,7 @@ inline std::vector<double> decimal_items(const std::vector<std::string>& given, 
 }
 /// "name=value".
 std::pair<std::string, double> parse_component(const std::string& text);
+/// An option given an empty value (`--timeout ''`, `--worker=`) was read as "not given": the study's 600 s timeout
+/// ran where the user meant to set one. Throws InputError naming the first such option of a parsed command.
+void refuse_empty_values(const CLI::App& app);
 }  // namespace varbo::cli

@@ -43,8 +43,6 @@ Runner add_dashboard(CLI::App& app) {
       ->capture_default_str()
       ->check(integer_in(0, 19));
   return [a]() {
-    // An unset shell variable: it bound [::1] only and printed "http://:PORT/".
-    if (a->host.empty()) throw InputError("--host: empty; give an address such as 127.0.0.1 (the default) or 0.0.0.0");
     ThreadLimit limit(a->threads);
     errno = 0;
     if (a->nice > 0 && ::nice(a->nice) == -1 && errno != 0) log_warn("dashboard: could not lower the CPU priority");

@@ -10,6 +10,7 @@
 #include <string>
 #include <map>
 
+#include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
@@ -98,6 +99,7 @@ int main(int argc, char** argv) {
   if (verbose) varbo::set_log_level(varbo::LogLevel::Debug);
   if (quiet) varbo::set_log_level(varbo::LogLevel::Warn);
   try {
+    varbo::cli::refuse_empty_values(app);
     for (auto& [sub, run] : runners)
       if (sub->parsed()) {
         const int rc = run();
