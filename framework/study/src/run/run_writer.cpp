@@ -64,7 +64,7 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
 
 void RunWriter::trial(const TrialRow& r) {
   const TrialRecord& t = r.trial;
-  trials_ << r.index << "," << t.phase;
+  trials_ << r.index << "," << csv_escape(t.phase);  // a plugin's phase text may hold ',', '"' or a newline
   for (Index i = 0; i < t.theta.size(); ++i)  // labels for categories, integers as integers
     trials_ << "," << (space_ ? csv_escape(space_->format_value(static_cast<std::size_t>(i), t.theta[i])) : exact(t.theta[i]));
   trials_ << "," << (r.ok() ? exact(t.cost) : std::string("nan")) << "," << (r.ok() ? 1 : 0);

@@ -331,7 +331,28 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     }
     return std::nullopt;
   };
-  auto recommend = [&]() {
+  // The recommendation and the model snapshot are extras of a result: a throw from the algorithm's (perhaps a
+  // plugin's) code there rolled the result's commit back — the trial pending, exit 3, and the same on every
+  // resume (red team, session 28). Said once per kind; the result is recorded without it. A lost connection is
+  // still the store's to retry.
+  std::set<std::string> extra_failure_said;
+  auto extra = [&](const char* what, const auto& f) {
+    std::string why;
+    try {
+      f();
+      return;
+    } catch (const StoreConnectionError&) {
+      throw;
+    } catch (const std::exception& e) {
+      why = safe_text(e.what(), 300);
+    } catch (...) {
+      why = "it threw something that is not a std::exception";
+    }
+    if (!extra_failure_said.insert(what).second) return log_debug("algorithm '{}': {} failed: {}", study.algorithm.info->full_name(), what, why);
+    log_warn("algorithm '{}': {} failed ({}); the trial's result is recorded without it (said once)",
+             study.algorithm.info->full_name(), what, why);
+  };
+  auto recommend_unguarded = [&]() {
     const Algorithm* a = st.algorithm();
     if (!a) {
       const std::optional<Vec> theta = st.recommendation();
@@ -352,6 +373,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     const std::optional<double> v = noiseless(*summary.recommended_theta);
     if (v && std::isfinite(*v)) summary.regret_recommended = *v - optimum->cost;
   };
+  auto recommend = [&]() { extra("its recommendation", recommend_unguarded); };
   // Per-row regret of the recommendation, kept in the store so a resumed run rewrites trials.csv exactly.
   auto regret_key = [](Index row) { return fmt::format("regret_recommended/{}", row); };
 
@@ -544,7 +566,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     try {
     st.transaction([&] {
       row.trial = st.record(t.id, evaluation, evaluation_seconds);
-      if (const Algorithm* a = st.algorithm()) snap = a->snapshot();
+      if (const Algorithm* a = st.algorithm()) extra("its model snapshot", [&] { snap = a->snapshot(); });
       new_snapshot = snap && snap->iteration != last_snapshot;
       if (new_snapshot) st.add_model_snapshot(StoredSnapshot{index + 1, *snap});
       summary.regret_recommended.reset();

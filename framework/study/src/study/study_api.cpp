@@ -95,7 +95,15 @@ bool study_detail::adopt_current_resolution(const std::string& store_path, const
 }
 
 bool study_detail::usable_recommendation(const Vec& r, Index dim, const std::string& algorithm, bool say) {
-  if (r.size() == dim && r.allFinite()) return true;
+  if (r.size() == dim && r.allFinite()) {
+    if (Box::unit(dim).contains(r, 1e-9)) return true;
+    // [17, 17] for a task box of [-1, 1] was reported as the recommendation, with its regret (red team, session 28).
+    if (say)
+      log_warn("algorithm '{}' recommended a point outside the unit cube (a coordinate {} is not in [0, 1]); no "
+               "recommendation",
+               algorithm, exact(r.minCoeff() < 0 ? r.minCoeff() : r.maxCoeff()));
+    return false;
+  }
   if (say)
     log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation", algorithm,
              r.size(), r.allFinite() ? "" : " with a non-finite coordinate", dim);

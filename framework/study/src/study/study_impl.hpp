@@ -78,6 +78,7 @@ struct Study::Impl {
   /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
   /// saved only when the live algorithm is further.
   std::int64_t saved_reach = -1;
+  bool save_failure_said = false;  ///< a state that cannot be saved is said once per process, not per result
 
   // --- the study (study_impl.cpp) ---
 
@@ -151,6 +152,7 @@ struct Study::Impl {
   /// The caller makes sure the live algorithm is in a canonical state: told every finished result in finish
   /// order, nothing pending, and at most one serial ask(1) since (the trial `asked_for`).
   void save_state(std::optional<std::int64_t> asked_for = std::nullopt);
+  void say_state_not_saved(std::int64_t told, const std::string& why);
   /// Whether save_state(asked_for) would write a state: a transaction is opened for it only then.
   bool state_to_save(std::optional<std::int64_t> asked_for = std::nullopt) const;
 

@@ -9,6 +9,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/state.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -110,9 +111,22 @@ void Study::Impl::save_state(std::optional<std::int64_t> asked_for) {
     store->add_algorithm_state(s);
     saved_reach = reach;
   } catch (const std::exception& e) {
-    log_warn("{}: the algorithm state after {} result(s) was not saved ({}); the next process replays instead",
-             store->location(), told, e.what());
+    say_state_not_saved(told, safe_text(e.what(), 300));
+  } catch (...) {  // a plugin's `throw 8;` ended every run with exit 3 (red team, session 28)
+    say_state_not_saved(told, "it threw something that is not a std::exception");
   }
+}
+
+void Study::Impl::say_state_not_saved(std::int64_t told, const std::string& why) {
+  saved_reach = std::max<std::int64_t>(saved_reach, told);  // not retried for the same results
+  if (save_failure_said) {
+    log_debug("{}: the algorithm state after {} result(s) was not saved ({})", store->location(), told, why);
+    return;
+  }
+  save_failure_said = true;
+  log_warn("{}: the algorithm state after {} result(s) was not saved ({}); the next process replays the study "
+           "instead (said once)",
+           store->location(), told, why);
 }
 
 void Study::Impl::replay_one(const TrialRecord& t) {
