@@ -13,6 +13,7 @@
 #include "transformed_surrogate.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/option_set.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo::gp {
 
@@ -32,7 +33,7 @@ void check_range(const Options& o, const std::string& lo, const std::string& hi)
 // shows (and reads back) as 0.01.
 BoundOption<GpSettings> prior_median(std::string name, LogNormalPrior HyperPriors::*prior, std::string doc) {
   const std::string key = name;
-  const double median = std::stod(fmt::format("{:.15g}", std::exp((GpSettings{}.priors.*prior).mean)));
+  const double median = strtod_c(fmt::format("{:.15g}", std::exp((GpSettings{}.priors.*prior).mean)).c_str(), nullptr);
   return {opt::real(std::move(name), median, std::move(doc)).above(0),
           [key, prior](const Options& o, GpSettings& s) { (s.priors.*prior).mean = std::log(o.real(key)); }};
 }

@@ -1,4 +1,5 @@
 #include "hyperparameter_map.hpp"
+#include "varbo/numbers.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,14 +10,10 @@ namespace {
 
 double finite_number(const ConfigNode& n) {
   if (!n.is_scalar()) n.fail("expected a number");
-  double v = 0;
-  try {
-    v = n.yaml().as<double>();
-  } catch (const YAML::Exception&) {
-    n.fail("expected a number, got '" + n.scalar() + "'");
-  }
-  if (!std::isfinite(v)) n.fail("expected a finite number");
-  return v;
+  const std::optional<double> v = parse_decimal(n.scalar());  // the C locale's '.', whatever the host's locale
+  if (!v) n.fail("expected a number, got '" + n.scalar() + "'");
+  if (!std::isfinite(*v)) n.fail("expected a finite number");
+  return *v;
 }
 
 bool contains(const std::vector<std::string>& v, const std::string& s) { return std::find(v.begin(), v.end(), s) != v.end(); }

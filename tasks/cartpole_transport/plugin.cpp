@@ -6,6 +6,7 @@
 #include "transport_task.hpp"
 #include "varbo/option_set.hpp"
 #include "varbo/plugin.hpp"
+#include "varbo/numbers.hpp"
 
 namespace {
 using namespace varbo;
@@ -19,11 +20,7 @@ std::map<std::string, double> parse_weights(const ConfigNode& node) {
   for (const auto& key : node.keys()) {
     if (!w.count(key)) node.child(key).fail(fmt::format("unknown cost component '{}' (expected tracking, sway or energy)", key));
     const ConfigNode v = node.child(key);
-    double x = NAN;
-    try {
-      x = v.is_scalar() ? std::stod(v.scalar()) : NAN;
-    } catch (const std::exception&) {
-    }
+    const double x = v.is_scalar() ? parse_decimal(v.scalar()).value_or(NAN) : NAN;
     if (!std::isfinite(x) || x < 0) v.fail("expected a finite weight >= 0");
     w[key] = x;
   }

@@ -152,7 +152,7 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
     // A decimal number that overflows (1e400) reads as nothing above: say so rather than "not a number".
     errno = 0;
     char* end = nullptr;
-    const double big = std::strtod(last.c_str(), &end);
+    const double big = strtod_c(last.c_str(), &end);
     if (end != nullptr && *end == '\0' && errno == ERANGE && std::isinf(big) &&
         last.find_first_of("xX") == std::string::npos) {
       why = fmt::format("the cost '{}' is beyond the range of a double (about ±1.8e308)", abbreviate(last, 512));

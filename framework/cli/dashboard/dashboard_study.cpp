@@ -14,6 +14,7 @@
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/state.hpp"
+#include "varbo/numbers.hpp"
 
 namespace fs = std::filesystem;
 
@@ -106,7 +107,7 @@ std::optional<double> DashboardStudy::regret_recommended(std::int64_t row) const
   std::lock_guard<std::mutex> lock(store_mutex_);
   if (auto it = regret_cache_.find(row); it != regret_cache_.end()) return it->second;
   std::optional<double> v;
-  if (auto text = study_->meta(fmt::format("regret_recommended/{}", row))) v = std::strtod(text->c_str(), nullptr);
+  if (auto text = study_->meta(fmt::format("regret_recommended/{}", row))) v = strtod_c(text->c_str(), nullptr);
   if (v) regret_cache_[row] = v;  // a row without a value yet may get one once `varbo run` writes it
   return v;
 }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "varbo/log.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo::detail {
 
@@ -29,7 +30,7 @@ double keep_seconds() {
   const char* e = std::getenv("VARBO_PG_KEEP_SECONDS");
   if (!e || !*e) return kDefaultKeepSeconds;
   char* end = nullptr;
-  const double v = std::strtod(e, &end);
+  const double v = strtod_c(e, &end);
   if (end != e && *end == '\0' && std::isfinite(v) && v >= 0) return v;
   static std::once_flag warned;
   std::call_once(warned, [&] {

@@ -23,6 +23,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/store.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo {
 
@@ -131,7 +132,7 @@ constexpr const char* kColumns =
 /// Doubles travel as text: the shortest representation that reads back bit-identical (fmt's "{}"), NaN as
 /// '' (stored NULL, as SQLite stores it). The server prints float8 shortest-exact as well (PostgreSQL ≥ 12).
 std::string num(double v) { return std::isnan(v) ? std::string() : fmt::format("{}", v); }
-double to_double(const pqxx::field& f) { return f.is_null() ? std::nan("") : std::strtod(f.c_str(), nullptr); }
+double to_double(const pqxx::field& f) { return f.is_null() ? std::nan("") : strtod_c(f.c_str(), nullptr); }
 std::int64_t to_int(const pqxx::field& f) { return f.is_null() ? 0 : std::strtoll(f.c_str(), nullptr, 10); }
 std::string to_text(const pqxx::field& f) { return f.is_null() ? std::string() : std::string(f.c_str()); }
 

@@ -13,4 +13,10 @@ namespace varbo {
 /// hexadecimal, no blanks, no overflow (1e999); an underflow reads as the nearest representable value.
 std::optional<double> parse_decimal(const std::string& text);
 
+/// std::strtod as in the "C" locale, whatever the process's LC_NUMERIC: a host that calls setlocale (a Qt, GTK or
+/// ROS GUI, Python's locale.setlocale) with a decimal-comma locale made strtod stop at the '.', so "0.01" read as 0
+/// and every plugin default, configuration real and saved state was refused or cut (red team, session 28).
+/// Every number varbo reads goes through this or parse_decimal.
+double strtod_c(const char* text, char** end);
+
 }  // namespace varbo

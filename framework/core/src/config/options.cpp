@@ -367,9 +367,23 @@ const YAML::Node& Options::value(const std::string& name) const {
 
 bool Options::boolean(const std::string& name) const { return value(name).as<bool>(); }
 long Options::integer(const std::string& name) const { return value(name).as<long>(); }
-double Options::real(const std::string& name) const { return value(name).as<double>(); }
+// Read by varbo's own number rule, not yaml-cpp's stream: that one follows the global C++ locale, where a host's
+// std::locale::global(de_DE) made '.' a thousands separator.
+static double yaml_real(const YAML::Node& n) {
+  double v = 0;
+  if (n.IsScalar() && parse_real(n.Scalar(), v)) return v;
+  return n.as<double>();
+}
+
+double Options::real(const std::string& name) const { return yaml_real(value(name)); }
 std::string Options::str(const std::string& name) const { return value(name).as<std::string>(); }
-std::vector<double> Options::reals(const std::string& name) const { return value(name).as<std::vector<double>>(); }
+std::vector<double> Options::reals(const std::string& name) const {
+  const YAML::Node& n = value(name);
+  if (!n.IsSequence()) return n.as<std::vector<double>>();
+  std::vector<double> out;
+  for (const auto& e : n) out.push_back(yaml_real(e));
+  return out;
+}
 
 const ResolvedComponent& Options::component(const std::string& name) const {
   auto it = components_.find(name);

@@ -16,6 +16,7 @@
 
 #include "state_reader.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo {
 
@@ -31,7 +32,7 @@ bool read_number(const YAML::Node& n, double& out) {
   if (s.empty()) return false;
   char* end = nullptr;
   errno = 0;
-  out = std::strtod(s.c_str(), &end);  // reads "nan", "inf", "-inf" too: a state may hold them
+  out = strtod_c(s.c_str(), &end);  // reads "nan", "inf", "-inf" too: a state may hold them
   return end == s.c_str() + s.size();
 }
 
@@ -61,7 +62,7 @@ bool read_numbers(const YAML::Node& n, Vec& out) {
         continue;
       }
       char* end = nullptr;
-      const double v = std::strtod(p, &end);
+      const double v = strtod_c(p, &end);
       if (end == p || (*end != ' ' && *end != '\0')) return false;
       values.push_back(v);
       p = end;

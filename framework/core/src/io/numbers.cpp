@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <locale.h>
 
 namespace varbo {
 
@@ -38,12 +39,18 @@ bool decimal_syntax(const std::string& s) {
 }
 }  // namespace
 
+double strtod_c(const char* text, char** end) {
+  static const locale_t c_locale = newlocale(LC_NUMERIC_MASK, "C", static_cast<locale_t>(nullptr));
+  if (!c_locale) return std::strtod(text, end);  // out of memory at the first call: the process's locale
+  return strtod_l(text, end, c_locale);
+}
+
 std::optional<double> parse_decimal(const std::string& text) {
   const std::size_t sign = !text.empty() && (text[0] == '+' || text[0] == '-') ? 1 : 0;
   if (!decimal_syntax(text) && !non_finite_word(text.substr(sign))) return std::nullopt;
   errno = 0;
   char* end = nullptr;
-  const double v = std::strtod(text.c_str(), &end);
+  const double v = strtod_c(text.c_str(), &end);
   if (end != text.c_str() + text.size()) return std::nullopt;
   if (errno == ERANGE && std::isinf(v)) return std::nullopt;  // overflow, not a typed "inf"
   return v;

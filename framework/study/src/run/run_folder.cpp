@@ -59,7 +59,9 @@ std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
           double v = 0;
           const std::string text = kv.second.IsScalar() ? kv.second.Scalar() : "";
           if (text == "inf" || text == "-inf" || text == "nan" || text == "-nan")  // written so before .inf
-            v = std::strtod(text.c_str(), nullptr);
+            v = strtod_c(text.c_str(), nullptr);
+          else if (const auto d = parse_decimal(text))  // the C locale's '.', whatever the host's locale
+            v = *d;
           else
             v = kv.second.as<double>();
           h.push_back({kv.first.as<std::string>(), v});

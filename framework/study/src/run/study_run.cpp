@@ -33,6 +33,7 @@
 #include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo/text.hpp"
+#include "varbo/numbers.hpp"
 
 namespace varbo {
 
@@ -429,7 +430,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       row.trial = t;
       account(row);
       if (optimum)
-        if (auto v = st.meta(regret_key(row.index))) row.regret_recommended = std::strtod(v->c_str(), nullptr);
+        if (auto v = st.meta(regret_key(row.index))) row.regret_recommended = strtod_c(v->c_str(), nullptr);
       writer.trial(row);
     }
     if (!done.empty()) recommend();
