@@ -103,7 +103,13 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
     return e;
   };
   if (r.interrupted) return fail(fmt::format("varbo was asked to stop ({})", signal_name(r.interrupted)));
-  if (!r.started) return fail("the process could not be started");
+  if (!r.started)  // no θ was evaluated: a failed trial would spend budget and teach the failure model a lie
+    throw TaskSetupError(abbreviate(
+        printable(fmt::format("external task: the command could not be started ({}); nothing was evaluated. Check "
+                              "the machine's limits (`ulimit -u` processes, `ulimit -n` open files), memory and "
+                              "the task's containment, then continue the study",
+                              r.error)),
+        2048));
   if (r.timed_out) return fail(fmt::format("no answer within the timeout of {} s", s_.process.timeout_seconds));
   if (r.output_held)
     return fail("its stdout was kept open by a process it started outside its process tree; the answer may be "

@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -236,6 +237,27 @@ TEST_CASE("external task: failures are failed trials with a message") {
     CHECK_THROWS_WITH_AS(run("/nonexistent/varbo-simulator"), doctest::Contains("in the working directory /"),
                          TaskSetupError);
     CHECK_THROWS_WITH_AS(run("/dev/null"), doctest::Contains("exit status 126: not executable"), TaskSetupError);
+  }
+  SUBCASE("a command that cannot be started (no file descriptors left): a set-up error, not a failed trial") {
+    // `ulimit -n 17` (or -u for fork) made every trial a failure: budget spent, the failure model taught a lie.
+    rlimit old{};
+    REQUIRE(getrlimit(RLIMIT_NOFILE, &old) == 0);
+    const int lowest_free = dup(0);  // a limit at the lowest free descriptor: no new one can be opened
+    REQUIRE(lowest_free >= 0);
+    close(lowest_free);
+    rlimit low = old;
+    low.rlim_cur = static_cast<rlim_t>(lowest_free);
+    REQUIRE(setrlimit(RLIMIT_NOFILE, &low) == 0);
+    std::string what;
+    try {
+      what = "no exception: " + run("echo 1").error;  // (said when the test fails)
+    } catch (const TaskSetupError& e) {
+      what = e.what();
+    }
+    setrlimit(RLIMIT_NOFILE, &old);
+    CAPTURE(what);
+    CHECK(contains(what, "could not be started"));
+    CHECK(contains(what, "Too many open files"));
   }
   SUBCASE("killed by a signal") {
     const Evaluation e = run("kill -9 $$");

@@ -44,6 +44,30 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
       throw InputError(fmt::format("{}: the lock file is a symbolic link; a lock file must be a plain file (remove "
                                    "the link)",
                                    lock_path));
+    if (fd < 0 && errno == EACCES) {
+      // The file of another user's run (root's `--resume` in a user's folder), left by a kill: it blocked the
+      // folder's owner for good ("cannot create the lock file: Permission denied", red team, session 28). Locked
+      // by nobody, it is stale: removed (the folder is ours to write), and the loop makes our own.
+      struct stat st {};
+      const bool have_stat = ::stat(lock_path.c_str(), &st) == 0;
+      const int ro = ::open(lock_path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+      if (ro >= 0) {
+        const bool free = flock(ro, LOCK_EX | LOCK_NB) == 0;
+        const int err = errno;
+        const bool removed = free && ::unlink(lock_path.c_str()) == 0;
+        ::close(ro);
+        if (removed) continue;
+        if (!free && err == EWOULDBLOCK) {
+          std::string owner = owner_of(lock_path);
+          throw InputError(fmt::format("{} is in use by another run ({}); wait for it to end or stop it; only one "
+                                       "run may drive a study (lock file {})",
+                                       what, owner.empty() ? "another user's process" : owner, lock_path));
+        }
+      }
+      throw InputError(fmt::format("{}: the lock file {}is not writable by this user; if no varbo runs on this "
+                                   "folder it is stale: remove it",
+                                   lock_path, have_stat ? fmt::format("(owned by uid {}) ", st.st_uid) : ""));
+    }
     if (fd < 0)
       throw InputError(fmt::format("{}: cannot create the lock file: {}", lock_path, std::strerror(errno)));
     struct stat kind {};
