@@ -19,6 +19,9 @@ std::string printable(std::string_view text);
 /// for a user to paste: a PostgreSQL URL holds '&', which split `varbo observe URL 2 0.5` into two commands.
 std::string shell_word(std::string_view text);
 
+/// Offset of the first byte of `s` that does not start a well-formed UTF-8 sequence (RFC 3629), or npos.
+std::size_t invalid_utf8_at(std::string_view s);
+
 /// printable(abbreviate(text, keep)): what to keep of a message of unknown size and content.
 inline std::string safe_text(std::string_view text, std::size_t keep = 1024) {
   return printable(abbreviate(text, keep));

@@ -13,6 +13,7 @@
 #include "../io/utf8.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -53,16 +54,6 @@ struct WalkBudget {
                                     at(name, n.Mark()), kMaxValues));
   }
 };
-
-/// Offset of the first byte of `s` that does not start a well-formed UTF-8 sequence (RFC 3629), or npos.
-std::size_t invalid_utf8_at(const std::string& s) {
-  for (std::size_t i = 0; i < s.size();) {
-    const std::size_t n = detail::utf8_length(s, i);
-    if (n == 0) return i;
-    i += n;
-  }
-  return std::string::npos;
-}
 
 /// YAML text is Unicode; a Latin-1 'é' (0xE9) from an old editor would reach names, trials.csv and the store as a
 /// stray byte. yaml-cpp passes such bytes through, so every key and value is checked (after yaml-cpp has decoded a

@@ -87,4 +87,13 @@ std::string printable(std::string_view text) {
   return out;
 }
 
+std::size_t invalid_utf8_at(std::string_view s) {
+  for (std::size_t i = 0; i < s.size();) {
+    const std::size_t n = detail::utf8_length(s, i);
+    if (n == 0) return i;
+    i += n;
+  }
+  return std::string::npos;
+}
+
 }  // namespace varbo

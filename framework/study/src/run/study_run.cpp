@@ -196,6 +196,17 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
                                  "(Python: varbo.Study with a URL)",
                                  study.output));
 
+  // The run folder's path is kept in the study's YAML configuration and in summary.json, which are UTF-8: a
+  // Latin-1 'é' in it ended the run with exit 3 at the summary and made the study unreadable (red team, session 28).
+  {
+    std::error_code ec;
+    const std::string where = std::filesystem::absolute(study.output, ec).string();
+    if (const std::size_t at = invalid_utf8_at(where); at != std::string::npos)
+      throw InputError(fmt::format("{}: the run folder's path is not UTF-8 text (byte 0x{:02X} at offset {}); the "
+                                   "study records it in its configuration, which is UTF-8: use a folder whose path "
+                                   "is UTF-8 (e.g. convmv, or another -o)",
+                                   printable(where), static_cast<unsigned char>(where[at]), at));
+  }
   // The study store: every trial is committed there before it appears in trials.csv, so a killed run can be
   // continued with --resume (docs/studies.md).
   const bool own_store = !ov.store;  // <output>/study.db, not a study file given with --study
