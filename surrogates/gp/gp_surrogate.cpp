@@ -440,6 +440,16 @@ Prediction GpSurrogate::predict(const Vec& x, bool with_gradient) const {
   return pr;
 }
 
+double GpSurrogate::predict_mean(const Vec& x) const {
+  // predict()'s mean, computed the same way (bit for bit: the recommendation compares these), without v = L⁻¹k.
+  if (dim_ > 0 && x.size() != dim_)
+    throw InputError(fmt::format("gp: predict at a point of dimension {}, the model's is {}", x.size(), dim_));
+  if (!posterior_ || posterior_->X.rows() == 0) return mean_;
+  const Posterior& post = *posterior_;
+  const Vec k = post.kernel->cross_vec(x, post.X);
+  return post.stdz.shift + post.stdz.scale * (post.mean + k.dot(post.alpha));
+}
+
 double GpSurrogate::signal_variance() const {
   if (!kernel_) return std::exp(2.0 * settings_.priors.signal_std.mean);
   // k(c, c) at the centre c of the cube in natural units (σ_f² for a stationary kernel).

@@ -83,13 +83,14 @@ inline constexpr double kSeArdMinNoiseStd = 1e-7;
 /// (docs/defaults.md, "Session se15" and "Session 17").
 inline constexpr double kSeArdNoiseTestLevel = 1e-3;
 
-class GpSurrogate final : public Surrogate, public ComponentState {
+class GpSurrogate final : public Surrogate, public ComponentState, public MeanPrediction {
  public:
   GpSurrogate(Index dim, GpSettings settings, std::shared_ptr<const Optimizer> fit_optimizer);
 
   FitReport fit(const Dataset& data, Rng& rng) override;
   FitReport condition(const Dataset& data) override;
   Prediction predict(const Vec& x, bool with_gradient) const override;
+  double predict_mean(const Vec& x) const override;
   double signal_variance() const override;
   Hyperparameters hyperparameters() const override;
   void set_hyperparameters(const Hyperparameters& values) override;

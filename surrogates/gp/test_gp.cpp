@@ -302,6 +302,26 @@ Dataset se_prior_sample(Rng& rng, double noise_sd) {
 
 }  // namespace
 
+TEST_CASE("predict_mean is predict()'s mean bit for bit, and the prior mean before any data") {
+  // The recommendation compares these means (MeanPrediction); a different rounding could change a recommended θ.
+  const Dataset data = branin_like(25, 4);
+  for (KernelType type : kTypes) {
+    CAPTURE(kernels::kernel_type_name(type));
+    GpSurrogate gp(2, settings_for(type), lbfgs());
+    CHECK(gp.predict_mean(Vec::Constant(2, 0.3)) == gp.predict(Vec::Constant(2, 0.3), false).mean);
+    Rng rng(5);
+    REQUIRE(gp.fit(data, rng).ok);
+    const Surrogate& as_surrogate = gp;
+    Rng pts(6);
+    for (int t = 0; t < 20; ++t) {
+      const Vec x = t < 10 ? Vec(data.X.row(t).transpose()) : pts.uniform_vec(2);
+      CHECK(gp.predict_mean(x) == gp.predict(x, false).mean);
+      CHECK(posterior_mean(as_surrogate, x) == gp.predict(x, true).mean);
+    }
+    CHECK_THROWS_AS(gp.predict_mean(Vec::Zero(3)), InputError);
+  }
+}
+
 TEST_CASE("fit recovers the lengthscales of data drawn from the prior") {
   // y ~ GP(0, SE with ℓ = (0.15, 0.6), σ_f = 2) + N(0, 0.05²) at 150 uniform points, shifted by 10.
   Rng rng(7);

@@ -455,6 +455,13 @@ LatentPrediction VhgpSurrogate::predict_latent(const Vec& x, bool with_gradient)
   return posterior_->predict(x, with_gradient);
 }
 
+double VhgpSurrogate::predict_mean(const Vec& x) const {
+  if (dim_ > 0 && x.size() != dim_)
+    throw InputError(fmt::format("vhgp: predict at a point of dimension {}, the model's is {}", x.size(), dim_));
+  if (gp_selected_ && gp_member_ && gp_member_->ready()) return gp_member_->predict_mean(x);
+  return predict(x, false).mean;
+}
+
 Prediction VhgpSurrogate::predict(const Vec& x, bool with_gradient) const {
   if (dim_ > 0 && x.size() != dim_)
     throw InputError(fmt::format("vhgp: predict at a point of dimension {}, the model's is {}", x.size(), dim_));

@@ -74,7 +74,7 @@ struct VhgpConfig {
   VhgpHyperprior prior;
 };
 
-class VhgpSurrogate final : public Surrogate, public ComponentState {
+class VhgpSurrogate final : public Surrogate, public ComponentState, public MeanPrediction {
  public:
   /// `gp_optimizer`: the gp member's fit optimizer (homoscedastic_member: gp; the `gp` component's default
   /// fit_optimizer in the plugin); null: `fit_optimizer`.
@@ -84,6 +84,8 @@ class VhgpSurrogate final : public Surrogate, public ComponentState {
   FitReport fit(const Dataset& data, Rng& rng) override;
   FitReport condition(const Dataset& data) override;
   Prediction predict(const Vec& x, bool with_gradient) const override;
+  /// The gp member's mean alone when it is the selected model; else predict()'s.
+  double predict_mean(const Vec& x) const override;
   double signal_variance() const override;
   Hyperparameters hyperparameters() const override;
   void set_hyperparameters(const Hyperparameters& values) override;

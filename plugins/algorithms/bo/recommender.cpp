@@ -55,23 +55,23 @@ bool treats_cost_as_deterministic(double noise_std, const Vec& y) {
 
 Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
   if (data.size() == 0) throw std::logic_error("lowest_mean_evaluated without data");
-  // One prediction per point: the means, the lowest (first on ties, as find_incumbent) and its noise.
-  std::vector<Prediction> p;
-  p.reserve(static_cast<std::size_t>(data.size()));
+  // The mean at every point (the mean alone where the model offers it: this runs after every trial), the lowest
+  // (first on ties, as find_incumbent) and its noise.
+  Vec mean(data.size());
   Index inc = 0;
   for (Index i = 0; i < data.size(); ++i) {
-    p.push_back(model.predict(data.X.row(i).transpose(), false));
-    if (!std::isfinite(p.back().mean)) {
+    mean[i] = posterior_mean(model, data.X.row(i).transpose());
+    if (!std::isfinite(mean[i])) {
       // No order among the means: `mean < NaN` never held, and trial 0 was recommended whatever its cost (red
       // team, session 26).
       log_warn_once("bo: the recommendation model predicts a non-finite mean at an evaluated θ; the lowest observed "
                     "cost is recommended instead");
       return best_observed(data);
     }
-    if (p.back().mean < p[static_cast<std::size_t>(inc)].mean) inc = i;
+    if (mean[i] < mean[inc]) inc = i;
   }
-  const double lowest = p[static_cast<std::size_t>(inc)].mean;
-  const double noise_std = std::sqrt(p[static_cast<std::size_t>(inc)].noise_var());
+  const double lowest = mean[inc];
+  const double noise_std = std::sqrt(model.predict(data.X.row(inc).transpose(), false).noise_var());
   // A model whose noise is at most 1e-5 of the costs' spread treats the cost as deterministic: every
   // observation is then the cost itself (up to that noise), and the means at the data differ from the observations
   // only by misfit (μ_i − y_i = −σ_n²α_i) and rounding (cond(K + σ_n²I) ~ 1e16 at such a noise): with SE-ARD on
@@ -83,7 +83,7 @@ Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data) {
   Index best = inc;
   if (!(tol > 0) || !std::isfinite(tol)) return best;
   for (Index i = 0; i < data.size(); ++i)
-    if (data.y(i) < data.y(best) && p[static_cast<std::size_t>(i)].mean <= lowest + tol) best = i;
+    if (data.y(i) < data.y(best) && mean[i] <= lowest + tol) best = i;
   return best;
 }
 

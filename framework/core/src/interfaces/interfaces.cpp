@@ -20,6 +20,12 @@ namespace varbo {
 
 DifferentiableFunction::~DifferentiableFunction() = default;
 Surrogate::~Surrogate() = default;
+MeanPrediction::~MeanPrediction() = default;
+
+double posterior_mean(const Surrogate& model, const Vec& x) {
+  if (const auto* m = dynamic_cast<const MeanPrediction*>(&model)) return m->predict_mean(x);
+  return model.predict(x, false).mean;
+}
 Acquisition::~Acquisition() = default;
 RegionConstraint::~RegionConstraint() = default;
 FreshStartRegion::~FreshStartRegion() = default;
