@@ -597,7 +597,17 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       const bool landed = stored && stored->finish_seq >= 0 &&
                           (evaluation.ok ? stored->state == TrialState::Complete && stored->cost == evaluation.cost
                                          : stored->state == TrialState::Failed);
-      if (!landed) throw;
+      const bool by_another = !landed && stored && stored->finish_seq >= 0 &&
+                              (stored->state == TrialState::Complete || stored->state == TrialState::Failed);
+      if (!landed && !by_another) throw;
+      if (by_another)
+        // An operator's `varbo fail STUDY ID --reason "robot fell"` (or `observe`) while the trial ran: theirs
+        // stands, as with `varbo worker`; the run exited 2 here and told them to record the trial again (red
+        // team, session 28).
+        log_warn("trial {}: already recorded as {} by another process while it ran; that record stands, this "
+                 "run's result ({}) is not stored",
+                 t.id, stored->state == TrialState::Complete ? "complete, cost " + exact(stored->cost) : "failed",
+                 evaluation.ok ? "cost " + exact(evaluation.cost) : "failed");
       row.trial = *stored;
       summary.regret_recommended.reset();
       recommend();
