@@ -114,6 +114,19 @@ std::optional<std::string> other_studys_folder(const std::string& folder, const 
   return same ? std::nullopt : std::optional<std::string>(other);
 }
 
+/// True when `folder` is `store_path`'s own run folder: the study file inside it, its summary.json naming the
+/// study, or the folder the study recorded as its run folder.
+bool this_studys_folder(const std::string& folder, const std::string& store_path, const StudyStore& store) {
+  namespace fs = std::filesystem;
+  if (same_file((fs::path(folder) / "study.db").string(), store_path)) return true;
+  if (const auto out = store.meta(store_key::kOutput); out && same_file(*out, folder)) return true;
+  std::ifstream in(fs::path(folder) / "summary.json");
+  if (!in) return false;
+  nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  return !j.is_discarded() && j.is_object() && j.contains("study") && j["study"].is_string() &&
+         !other_studys_folder(folder, store_path);
+}
+
 void refuse_other_studys_folder(const std::string& folder, const std::string& store_path, const RunOverrides& ov) {
   const auto other = other_studys_folder(folder, store_path);
   if (!other) return;
@@ -725,10 +738,16 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
     const fs::path parent = fs::absolute(store_path).parent_path();
     if (url) ov.output = store->meta(store_key::kOutput).value_or("runs/resumed");
     else if (fs::is_directory(target)) ov.output = target;
-    else if ((fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) &&
-             !other_studys_folder(parent.string(), store_path))
+    else if (this_studys_folder(parent.string(), store_path, *store))
       ov.output = parent.string();
     else if (auto out = store->meta(store_key::kOutput)) ov.output = *out;  // a study file kept apart (--study)
+    else if (fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv"))
+      // A study made by `varbo study create` beside files of the user's own (a trials.csv of hand-tuned rows): the
+      // run took the folder as its run folder and replaced them in silence (red team, session 28).
+      throw InputError(fmt::format("--resume {}: the study has no run folder yet, and the folder it is in holds a "
+                                   "trials.csv or config.resolved.yaml this study did not write; give the run "
+                                   "folder with -o DIR",
+                                   target));
     else ov.output = parent.string();
   }
   store.reset();
