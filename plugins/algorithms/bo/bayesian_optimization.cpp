@@ -41,6 +41,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   design_sampler_ = r.create<Sampler>(o.component("initial_design"), ctx);
   surrogate_ = r.create<Surrogate>(o.component("surrogate"), ctx);
   surrogate_name_ = o.component("surrogate").info->full_name();
+  design_sampler_name_ = o.component("initial_design").info->full_name();
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
   {
     const auto& provides = o.component("region").info->provides;
@@ -74,7 +75,22 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                               "categorical parameter has one per choice), takes the whole budget of {}: no trial is "
                               "model-based; give `initial_points:` or a larger budget",
                               initial_points_, dim_, budget_));
+  if (budget_ > 0 && settings.initial_points > budget_)
+    log_warn_once(fmt::format("bo: initial_points {} is more than the budget of {}: the design is cut to {} points "
+                              "and no trial is model-based",
+                              settings.initial_points, budget_, budget_));
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
+  // The design is drawn whole, up front: 1e9 points ended in std::bad_alloc, exit 3, or the kernel's OOM killer
+  // (red team, session 28). 5e7 coordinates are 400 MB; no model-based search starts after such a design.
+  constexpr double kMaxDesignValues = 5e7;
+  if (static_cast<double>(initial_points_) * static_cast<double>(dim_) > kMaxDesignValues)
+    o.node("initial_points")
+        .fail(fmt::format("{} points × {} coordinates is more than bo draws as a design ({:g} values); for a search "
+                          "by design points alone use `algorithm: random` (it draws them one by one)",
+                          initial_points_, dim_, kMaxDesignValues));
+  if (settings.restart_points > initial_points_)
+    log_warn_once(fmt::format("bo: restart_points {} is more than initial_points ({}): each fresh start draws {}",
+                              settings.restart_points, initial_points_, initial_points_));
   restart_points_ =
       settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
   restart_away_ = settings.restart_design == "away";
@@ -213,12 +229,16 @@ void BayesianOptimization::draw_initial_design() {
 }
 
 Mat BayesianOptimization::design_sample(Index n, Rng& rng) const {
-  return sample_unit_cube(*design_sampler_, space_, dim_, n, rng);
+  return check_sampler_outputs(sample_unit_cube(*design_sampler_, space_, dim_, n, rng), design_sampler_name_, n,
+                               dim_, false);
 }
 
 Vec BayesianOptimization::random_point(Rng& rng) const {
-  Mat m = design_sampler_->sample(*region_, 1, rng);
-  if (m.rows() == 0) m = design_sampler_->sample(BoxRegion(Box::unit(dim_)), 1, rng);
+  // The region may hold no point the sampler finds (fewer_ok); the unit cube always does.
+  Mat m = check_sampler_outputs(design_sampler_->sample(*region_, 1, rng), design_sampler_name_, 1, dim_, true);
+  if (m.rows() == 0)
+    m = check_sampler_outputs(design_sampler_->sample(BoxRegion(Box::unit(dim_)), 1, rng), design_sampler_name_, 1,
+                              dim_, false);
   return m.row(0).transpose();
 }
 

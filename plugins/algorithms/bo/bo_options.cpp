@@ -87,7 +87,8 @@ const OptionSet<BoSettings>& bo_options() {
                    "of all the data, the final refinement begins at once (else in the last refine_last trials)"),
       replicate_design_option(),
       opt::integer("restart_points", &BoSettings::restart_points,
-                   "design size of each fresh start of the region (-1 = initial_points)")
+                   "design size of each fresh start of the region (-1 = initial_points; at most initial_points; 0 = "
+                   "a fresh start draws no design: the model's search goes on in the new region)")
           .at_least(-1),
       opt::choice("restart_design", &BoSettings::restart_design, {"lhs", "away"},
                   "a fresh start's design: a new Latin hypercube (lhs), or the one of 16 whose nearest point to the "

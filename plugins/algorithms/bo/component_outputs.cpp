@@ -53,4 +53,20 @@ void check_acquisition_outputs(const Acquisition& acquisition, const std::string
                                          acquisition_name, grad.size(), dim));
 }
 
+Mat check_sampler_outputs(Mat m, const std::string& sampler_name, Index n, Index dim, bool fewer_ok) {
+  std::string bad;
+  if (m.rows() > n || (!fewer_ok && m.rows() < n))
+    bad = fmt::format("{} points when asked for {}", m.rows(), n);
+  else if (m.rows() > 0 && m.cols() != dim)
+    bad = fmt::format("points of dimension {}, expected {}", m.cols(), dim);
+  else if (!m.allFinite())
+    bad = "a point with a non-finite coordinate";
+  else if (m.size() > 0 && (m.minCoeff() < -1e-9 || m.maxCoeff() > 1 + 1e-9))
+    bad = "a point outside the unit cube";
+  if (!bad.empty())
+    throw std::runtime_error(
+        fmt::format("sampler '{}' returned {}; its sample() is wrong", sampler_name, bad));
+  return m;
+}
+
 }  // namespace varbo::bo

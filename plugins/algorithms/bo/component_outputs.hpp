@@ -5,6 +5,7 @@
 // never a message naming the component. One extra prediction per trial costs nothing beside a fit.
 #include <string>
 #include "varbo/acquisition.hpp"
+#include "varbo/types.hpp"
 #include "varbo/surrogate.hpp"
 
 namespace varbo::bo {
@@ -23,5 +24,11 @@ std::string unusable_prediction(const Prediction& p);
 /// acquisition declares none). Throws std::runtime_error naming `acquisition_name`.
 void check_acquisition_outputs(const Acquisition& acquisition, const std::string& acquisition_name, const Vec& x,
                                Index dim);
+
+/// The points a sampler returned for a request of `n` in dimension `dim`: at most n rows (fewer only where
+/// `fewer_ok`: a region it finds no point in), `dim` columns, finite, in the unit cube (to 1e-9). A third-party
+/// sampler returning 0 rows crashed bo (SIGSEGV), one returning more rows grew the initial design in silence (red
+/// team, session 28). Throws std::runtime_error naming `sampler_name`; returns `m`.
+Mat check_sampler_outputs(Mat m, const std::string& sampler_name, Index n, Index dim, bool fewer_ok);
 
 }  // namespace varbo::bo
