@@ -312,7 +312,9 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   writer.set_study(study_tag(store_path));
   // A resumed run continues its log; a fresh one (a new folder, or --overwrite) starts it: the old study's lines
   // stayed above the new one's, two "run" headers of two studies in one file (red team, session 25).
-  if (!ov.resume) {
+  // A study continued with `--study FILE` (it holds trials already) is not a fresh run: its log was deleted (red
+  // team, session 28).
+  if (!ov.resume && st.store().trials().empty()) {
     std::error_code ec;
     std::filesystem::remove(study.output + "/log.txt", ec);
   }

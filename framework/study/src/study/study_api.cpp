@@ -213,14 +213,30 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
   // The budget is not part of the identity (`--resume --budget 40` continues the study), but the stored
   // configuration must say the budget now in force: `varbo status` and a later `varbo suggest` read it (they showed
   // "budget 30, 0 left" after a run resumed to 33).
+  const Index finished = static_cast<Index>(impl->store->next_finish_seq());
+  if (impl->config.budget < finished)
+    // Refused by `--resume --budget` only: `--study FILE --budget 2` (or a config's budget) on 4 finished trials
+    // ran, and `varbo status` showed "4 complete (budget 2)" (red team, session 28).
+    throw InputError(fmt::format("{}: budget {} is below the {} trials the study has finished; give at least {}",
+                                 store_path, impl->config.budget, finished, finished));
+  // So are the other operational keys: a run given `stop_after_failures: 2` stopped after two failures, and the
+  // `--resume` its message advised ran with the stored 10 (red team, session 28). What runs now is recorded.
   if (const auto text = impl->store->meta(store_key::kConfig)) {
     YAML::Node n = YAML::Load(*text);
-    if (n.IsMap() && n["budget"] && n["budget"].as<Index>() != impl->config.budget) {
-      log_info("{}: budget {} (was {}), recorded in the study", store_path, impl->config.budget, n["budget"].as<Index>());
-      n["budget"] = impl->config.budget;
+    bool changed = false;
+    auto record = [&](const char* key, const YAML::Node& now) {
+      if (!n.IsMap() || !n[key] || !n[key].IsScalar() || n[key].Scalar() == now.Scalar()) return;
+      log_info("{}: {} {} (was {}), recorded in the study", store_path, key, now.Scalar(), n[key].Scalar());
+      n[key] = now;
+      changed = true;
+    };
+    record("budget", YAML::Node(impl->config.budget));
+    record("stop_after_failures", YAML::Node(impl->config.stop_after_failures));
+    record("heartbeat_timeout", YAML::Node(exact(impl->config.heartbeat_timeout)));
+    record("retry_abandoned", YAML::Node(impl->config.retry_abandoned ? "true" : "false"));
+    if (changed)
       impl->store->transaction(
           [&] { impl->store->set_meta(store_key::kConfig, "# varbo study configuration (resolved)\n" + emit(n)); });
-    }
   }
   return Study(std::move(impl));
 }
