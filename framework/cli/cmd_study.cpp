@@ -19,6 +19,8 @@
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/named_values.hpp"
+#include "varbo/run_lock.hpp"
+#include "varbo/store.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo/text.hpp"
 
@@ -237,6 +239,19 @@ Runner add_fail(CLI::App& app) {
   };
 }
 
+namespace {
+/// Whether a `varbo run` holds the run lock of the study at `url` (its session's advisory lock); a server that
+/// cannot be asked counts as holding it (nothing is abandoned on a guess).
+bool database_run_is_live(const std::string& url) {
+  try {
+    DatabaseRunLock::acquire(url);  // released at once
+    return false;
+  } catch (const InputError&) {
+    return true;
+  }
+}
+}  // namespace
+
 Runner add_abandon(CLI::App& app) {
   auto* cmd = app.add_subcommand("abandon", "Abandon pending trials (their points may be suggested again): those "
                                             "named by --id, else every pending trial whose worker is not alive");
@@ -276,18 +291,27 @@ Runner add_abandon(CLI::App& app) {
     std::map<std::string, double> beat;
     for (const auto& w : s.store().workers())
       if (w.state == "running") beat[w.id] = w.heartbeat_at;
+    // A `varbo run` has no heartbeat row: it holds the study's run lock while it lives, and records its worker id
+    // (`run_worker/ID`). Its in-flight trial was abandoned and, with a worker helping, ran twice on the rig (red
+    // team, session 28).
+    const std::string location = a->store;
+    const bool run_live = is_database_url(location) ? database_run_is_live(location)
+                                                    : RunLock::held(location + ".lock");
     std::vector<std::string> spared;
     auto live = [&](const TrialRecord& t) {
+      if (t.worker.empty()) return false;
+      if (run_live && s.store().meta("run_worker/" + t.worker)) return true;
       const auto it = beat.find(t.worker);
-      return !t.worker.empty() && it != beat.end() && (window <= 0 || now - it->second < window);
+      return it != beat.end() && (window <= 0 || now - it->second < window);
     };
     const auto ids = s.abandon_where(
         [&](const TrialRecord& t) {
           if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), t.id) == wanted.end()) return false;
           if (older_than > 0 && now - t.created_at <= older_than) return false;
           if (!a->include_live && live(t)) {
-            spared.push_back(fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id, printable(t.worker),
-                                         now - beat[t.worker]));
+            spared.push_back(beat.count(t.worker) ? fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id,
+                                                                printable(t.worker), now - beat[t.worker])
+                                                  : fmt::format("{} (the live `varbo run` {})", t.id, printable(t.worker)));
             return false;
           }
           return true;

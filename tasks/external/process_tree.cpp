@@ -164,8 +164,9 @@ const char* errno_text(int e) {
     case EACCES: return "Permission denied";
     case ELOOP: return "Too many levels of symbolic links";
     case ENAMETOOLONG: return "File name too long";
-    case E2BIG: return "Argument list too long (the command is longer than the 128 KiB the kernel accepts in "
-                       "one argument: put it in a script)";
+    case E2BIG: return "Argument list too long (the kernel takes at most 128 KiB in one argument and ~2 MiB in "
+                       "all: a long command belongs in a script, and θ with thousands of values on stdin, "
+                       "`input: json`, not `input: args`)";
     case ENOMEM: return "Cannot allocate memory";
     case ENOEXEC: return "Exec format error";
     case ETXTBSY: return "Text file busy";

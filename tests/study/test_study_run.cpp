@@ -6,6 +6,7 @@
 #include "study_helpers.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
+#include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -246,4 +247,48 @@ TEST_CASE("noise-free runs: the recommended theta is never worse than the best o
       CHECK(*s.regret_recommended - *s.regret_best_observed <= noise);
     }
   }
+}
+
+namespace {
+double g_shifting_upper = 1.0;  // the bound a research plugin reads from a constant or an environment variable
+class ShiftingBox final : public Task {
+ public:
+  Domain domain() const override {
+    return Domain{Box{Vec::Constant(2, -1.0), Vec::Constant(2, g_shifting_upper)}, {"a", "b"}};
+  }
+  Evaluation evaluate(const Vec& theta, Rng&) override {
+    Evaluation e;
+    e.cost = theta.squaredNorm();
+    return e;
+  }
+};
+}  // namespace
+
+TEST_CASE("a task whose domain changed since the study was created is refused, not continued on moved points") {
+  // Stored points are unit-cube coordinates: with the upper bound moved from 1 to 5, θ = 0.775 read as 4.33 in
+  // silence (red team, session 28).
+  Registry reg;
+  PluginLoader(reg).load_default();
+  reg.add(make_component<Task>("shifting_box", "test task", {}, Factory<Task>([](const Options&, const BuildContext&) {
+                                 return std::make_unique<ShiftingBox>();
+                               })));
+  const std::string dir = test::temp_folder("shifting_box"), db = dir + "/s.db";
+  auto config = [&] {
+    return parse_study(ConfigNode::parse("task: shifting_box\nbudget: 6\nalgorithm: random\n", "shift.yaml"), reg);
+  };
+  g_shifting_upper = 1.0;
+  {
+    Study s = Study::attach(db, config(), reg);
+    for (int i = 0; i < 2; ++i) {
+      const auto t = s.ask().at(0);
+      s.tell(t.id, t.theta.squaredNorm());
+    }
+  }
+  CHECK_NOTHROW(Study::attach(db, config(), reg));  // the same domain: continued
+  g_shifting_upper = 5.0;
+  CHECK_THROWS_WITH_AS(Study::attach(db, config(), reg),
+                       doctest::Contains("now has the parameters a in [-1, 5]; b in [-1, 5]; the study was created "
+                                         "with a in [-1, 1]; b in [-1, 1]"),
+                       InputError);
+  g_shifting_upper = 1.0;
 }

@@ -672,7 +672,7 @@ class PostgresStore final : public StudyStore {
       const auto study_and_meta = [&] {
         return n.exec_params(
             "SELECT m.key, m.value FROM varbo_studies s LEFT JOIN varbo_meta m ON m.study = s.name AND m.key IN "
-            "('format', 'schema_version', 'config', 'plugin_paths', 'identity') WHERE s.name = $1",
+            "('format', 'schema_version', 'config', 'plugin_paths', 'identity', 'domain') WHERE s.name = $1",
             address_.study);
       };
       pqxx::result r;
@@ -688,7 +688,7 @@ class PostgresStore final : public StudyStore {
       }
       prefetched_.clear();
       for (const char* k : {"format", "schema_version", store_key::kConfig, store_key::kPluginPaths,
-                            store_key::kIdentity})
+                            store_key::kIdentity, store_key::kDomain})
         prefetched_[k] = std::nullopt;
       for (const auto& row : r)
         if (!row[0].is_null()) prefetched_[to_text(row[0])] = to_text(row[1]);

@@ -15,6 +15,8 @@ class RunLock {
   static RunLock acquire(const std::string& lock_path, const std::string& what);
   /// The owner line written in a held lock file ("" when unreadable).
   static std::string owner_of(const std::string& lock_path);
+  /// Whether a process holds the lock on `lock_path` now (a live `varbo run`); takes nothing.
+  static bool held(const std::string& lock_path);
 
   RunLock(RunLock&& other) noexcept;
   RunLock& operator=(RunLock&& other) noexcept;

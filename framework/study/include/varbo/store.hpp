@@ -164,6 +164,7 @@ inline constexpr const char* kConfig = "config";          ///< resolved YAML of 
 inline constexpr const char* kIdentity = "identity";      ///< what must match to continue the study
 inline constexpr const char* kPluginPaths = "plugin_paths";///< extra plugin paths, one per line
 inline constexpr const char* kOutput = "output";          ///< run folder of `varbo run`, if any
+inline constexpr const char* kDomain = "domain";          ///< the task's parameters and bounds at creation
 }  // namespace store_key
 
 /// The host part of worker names: $VARBO_HOST_ID when set (e.g. to tell apart containers that share a host

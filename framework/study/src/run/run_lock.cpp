@@ -32,6 +32,14 @@ std::string RunLock::owner_of(const std::string& lock_path) {
   return line;
 }
 
+bool RunLock::held(const std::string& lock_path) {
+  const int fd = ::open(lock_path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+  if (fd < 0) return false;  // no lock file: no run
+  const bool busy = flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // releases the shared lock if it was taken
+  return busy;
+}
+
 RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) {
   // The holder removes the file when it ends; a process that opened the old file just before must not take
   // a lock on a removed inode, hence the check that the locked file is still the one at `lock_path`.

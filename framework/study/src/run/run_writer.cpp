@@ -29,7 +29,9 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   fs::create_directories(folder_, ec);
   if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", folder_, ec.message()));
   {
-    std::ofstream cfg(folder_ + "/config.resolved.yaml");
+    // Written aside and renamed into place, as trials.csv and model.yaml (publish()): a reader (`varbo select`,
+    // `plot`, a backup) during a `--resume` saw these files empty or torn (red team, session 28).
+    std::ofstream cfg(folder_ + "/config.resolved.yaml.tmp", std::ios::trunc);
     YAML::Emitter em;
     YAML::Node resolved = study.resolved();
     // Not part of StudyConfig::resolved() (the study's identity): where the plugins are is not what the study is.
@@ -46,8 +48,11 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
     em << resolved;
     cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
         << em.c_str() << "\n";
+    cfg.close();
+    fs::rename(folder_ + "/config.resolved.yaml.tmp", folder_ + "/config.resolved.yaml", ec);
+    if (ec || !cfg) throw InputError(fmt::format("{}/config.resolved.yaml: cannot write: {}", folder_, ec.message()));
   }
-  trials_.open(folder_ + "/trials.csv", std::ios::trunc);
+  trials_.open(folder_ + "/trials.csv.tmp", std::ios::trunc);
   if (!trials_) throw InputError(fmt::format("{}/trials.csv: cannot write", folder_));
   trials_ << "index,phase";
   for (const auto& n : domain.names) trials_ << "," << csv_escape(n);
@@ -57,9 +62,29 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   if (with_regret_) trials_ << ",regret_best_observed,regret_recommended";
   trials_ << "\n";
   trials_.flush();
-  model_.open(folder_ + "/model.yaml", std::ios::trunc);
+  model_.open(folder_ + "/model.yaml.tmp", std::ios::trunc);
   model_ << "# hyperparameters after each fit\n";
   model_.flush();
+}
+
+void RunWriter::publish() {
+  if (published_) return;
+  published_ = true;
+  trials_.flush();
+  model_.flush();
+  // The streams stay open on the renamed files: later rows are appended to what readers now see.
+  for (const char* name : {"trials.csv", "model.yaml"}) {
+    std::error_code ec;
+    fs::rename(folder_ + "/" + name + ".tmp", folder_ + "/" + name, ec);
+    if (ec) log_warn("{}/{}: cannot write: {}", folder_, name, ec.message());
+  }
+}
+
+RunWriter::~RunWriter() {
+  if (published_) return;
+  // Never published (the run stopped while rewriting them): the files of before stay as they were.
+  std::error_code ec;
+  for (const char* name : {"trials.csv.tmp", "model.yaml.tmp"}) fs::remove(folder_ + "/" + name, ec);
 }
 
 void RunWriter::trial(const TrialRow& r) {

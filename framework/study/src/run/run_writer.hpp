@@ -31,6 +31,12 @@ class RunWriter {
   RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
             std::vector<std::string> component_names, bool with_regret = false, SharedSpace space = nullptr,
             const std::vector<std::string>& plugin_paths = {});
+  ~RunWriter();
+  RunWriter(const RunWriter&) = delete;
+  RunWriter& operator=(const RunWriter&) = delete;
+  /// trials.csv and model.yaml are written aside (.tmp) until this call renames them into place: a resumed run
+  /// rewrites every earlier row first, and a reader saw the files empty or half-written meanwhile.
+  void publish();
   void trial(const TrialRow& row);
   void model(const ModelSnapshot& snapshot);
   void summary(const RunSummary& summary, const Domain& domain, const std::optional<Optimum>& optimum);
@@ -43,6 +49,7 @@ class RunWriter {
   std::string folder_;
   std::vector<std::string> components_;
   std::ofstream trials_, model_;
+  bool published_ = false;
   bool warned_extra_ = false;
   bool trials_warned_ = false;   // trials.csv could not be written (said once)
   bool summary_warned_ = false;  // summary.json could not be written (said once)

@@ -178,7 +178,18 @@ namespace {
 /// could never reach 0 (2.0 where the constrained optimum was reached; red team, session 24). Left out then, said
 /// once; likewise when typed parameters or constraints restrict a task whose minimizers are not given.
 std::optional<Optimum> admissible_optimum(Task& task, const SharedSpace& space, const std::string& task_name) {
-  std::optional<Optimum> optimum = task.optimum();
+  std::optional<Optimum> optimum;
+  try {  // a third-party task's optimum() throwing ended the run as an "internal error" (red team, session 28)
+    optimum = task.optimum();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    log_warn("task '{}': its known optimum could not be read ({}); no regret figures", task_name, safe_text(e.what(), 300));
+  } catch (...) {
+    log_warn("task '{}': its known optimum could not be read (it threw something that is not a std::exception); no "
+             "regret figures",
+             task_name);
+  }
   if (!optimum || !space) return optimum;
   std::string why;
   for (const Vec& theta : optimum->thetas)
@@ -465,6 +476,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       last_snapshot = s.snapshot.iteration;
     }
     accounted_seq = static_cast<std::int64_t>(done.size());
+    writer.publish();
     if (!done.empty())
       log_info("resuming {}: {} finished trials read from {}{}", study.output, done.size(), store_path,
                interrupted.empty() ? std::string() : fmt::format(", {} interrupted trial(s) suggested again",
@@ -743,7 +755,8 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
     else if (this_studys_folder(parent.string(), store_path, *store))
       ov.output = parent.string();
     else if (auto out = store->meta(store_key::kOutput)) ov.output = *out;  // a study file kept apart (--study)
-    else if (fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv"))
+    else if ((fs::exists(parent / "config.resolved.yaml") || fs::exists(parent / "trials.csv")) &&
+             !other_studys_folder(parent.string(), store_path))  // (another study's folder: refused by run_study)
       // A study made by `varbo study create` beside files of the user's own (a trials.csv of hand-tuned rows): the
       // run took the folder as its run folder and replaced them in silence (red team, session 28).
       throw InputError(fmt::format("--resume {}: the study has no run folder yet, and the folder it is in holds a "

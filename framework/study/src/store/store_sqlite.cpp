@@ -5,6 +5,7 @@
 #include <sqlite3.h>
 
 #include <sys/statvfs.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cctype>
@@ -689,7 +690,20 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
   if (rc != 0)
     throw InputError(fmt::format("{}: cannot create the study file: {}", path,
                                  err == EEXIST ? "a file with this name exists already" : std::strerror(err)));
-  return std::make_unique<SqliteStore>(path, false);
+  try {
+    return std::make_unique<SqliteStore>(path, false);
+  } catch (const InputError& e) {
+    // Made but unusable (`umask 777` gave it mode 000): it was left behind, and a retry said "exists already"
+    // (red team, session 28). It is ours, just linked: removed.
+    std::error_code ec;
+    fs::remove(path, ec);
+    const mode_t mask = ::umask(0);  // read, and put back at once
+    ::umask(mask);
+    throw InputError(fmt::format("{}; no study file was created{}", e.what(),
+                                 (mask & 0600) != 0 ? " (the process's umask leaves the file's owner no read/write "
+                                                      "permission: check `umask`)"
+                                                    : ""));
+  }
 }
 
 std::unique_ptr<StudyStore> open_sqlite_store(const std::string& path) {

@@ -186,6 +186,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
       remember_identity(*registry, *text, *identity);
   }
   impl->store = std::move(store);
+  impl->check_domain_unchanged();
   log_cpu("configuration checked against the stored identity");
   return Study(std::move(impl));
 }
@@ -199,6 +200,7 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
     return Study(std::move(impl));
   }
   impl->store = open_store(store_path);
+  impl->check_domain_unchanged();
   const std::string stored = impl->store->meta(store_key::kIdentity).value_or("");
   if (stored != identity)
     throw InputError(fmt::format(
