@@ -111,6 +111,8 @@ def test_redteam_paths_and_configs(tmp_path):
     with pytest.raises(varbo.InputError, match="NUL"):
         varbo.minimize(lambda x: x[0], [(0, 1)], budget=1, output=str(tmp_path / "run\0x"))
     assert not os.path.exists(tmp_path / "c.db") and not os.path.exists(tmp_path / "run")
+    with pytest.raises(varbo.InputError, match="not UTF-8"):  # was pybind11's "incompatible function arguments"
+        varbo.Study.create(os.fsdecode(os.fsencode(str(tmp_path)) + b"/lat\xe9in.db"), _RT_CFG)
     with pytest.raises(varbo.InputError, match="in-memory"):  # SQLite's name, not a file: refused
         varbo.Study.create(":memory:", _RT_CFG)
 

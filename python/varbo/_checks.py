@@ -73,6 +73,11 @@ def path(v: Any, what: str) -> str:
         p = os.fsdecode(p)
     if not p:
         raise _input_error(f"{what}: the path is empty")
+    try:
+        p.encode("utf-8")
+    except UnicodeEncodeError:  # bytes that are not UTF-8 (os.fsdecode's surrogates): pybind11's raw TypeError
+        raise _input_error(f"{what}: the path {p!r:.80} is not UTF-8 text; the study records its paths as UTF-8: "
+                           f"rename the file or folder") from None
     if "\0" in p:  # C++ would read the path only up to it: a study or folder of another name (red team, session 27)
         raise _input_error(f"{what}: the path {p!r:.80} contains a NUL character")
     return p

@@ -19,6 +19,9 @@
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/text.hpp"
+#include "varbo/store.hpp"
+#include "varbo/study_api.hpp"
+#include "../study/study_impl.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -104,6 +107,30 @@ Registry& run_folder_registry(const std::string& folder) {
   }
   return slot->registry;
 }
+
+namespace {
+/// select/plot/rescore read trials.csv and config.resolved.yaml, which a run writes; results recorded since (an
+/// `observe`, a worker) and a hand-edited config were used in silence: a new best trial left out, θ chosen in
+/// bounds the study never had (red team, session 28). Said, when the folder's study.db can be read.
+void warn_if_behind_its_study(const RunFolder& run) {
+  const std::string db = run.folder + "/study.db";
+  if (!fs::exists(db)) return;
+  try {
+    const std::unique_ptr<StudyStore> store = open_store(db);
+    const auto finished = static_cast<Index>(store->next_finish_seq());
+    if (finished > run.trials)
+      log_warn("{}: its study holds {} finished trials, trials.csv {}: results recorded since the run wrote it are "
+               "not used here; `varbo run --resume {}` rewrites the folder",
+               run.folder, finished, run.trials, shell_word(run.folder));
+    if (const auto identity = store->meta(store_key::kIdentity); identity && *identity != study_identity(run.study))
+      log_warn("{}/config.resolved.yaml differs from the study's configuration ({}): an edit of that file changes "
+               "nothing of the study, and what is computed here follows the file",
+               run.folder, study_detail::first_difference(*identity, study_identity(run.study)));
+  } catch (const std::exception& e) {
+    log_debug("{}: not compared with its study: {}", run.folder, e.what());
+  }
+}
+}  // namespace
 
 RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   RunFolder run;
@@ -225,6 +252,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   for (std::size_t i = 0; i < failed_thetas.size(); ++i)
     run.failed.row(static_cast<Index>(i)) = unit_point(run, failed_thetas[i]).transpose();
   run.fits = read_model_yaml(folder + "/model.yaml");
+  warn_if_behind_its_study(run);
   return run;
 }
 

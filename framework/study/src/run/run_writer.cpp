@@ -49,8 +49,13 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
     cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
         << em.c_str() << "\n";
     cfg.close();
-    fs::rename(folder_ + "/config.resolved.yaml.tmp", folder_ + "/config.resolved.yaml", ec);
-    if (ec || !cfg) throw InputError(fmt::format("{}/config.resolved.yaml: cannot write: {}", folder_, ec.message()));
+    // A full disk (the run folder apart from the study): the run goes on, its files of before kept.
+    if (cfg) fs::rename(folder_ + "/config.resolved.yaml.tmp", folder_ + "/config.resolved.yaml", ec);
+    if (!cfg || ec) {
+      log_warn("{}/config.resolved.yaml: cannot write{}; the previous one, if any, is kept", folder_,
+               ec ? ": " + ec.message() : std::string());
+      fs::remove(folder_ + "/config.resolved.yaml.tmp", ec);
+    }
   }
   trials_.open(folder_ + "/trials.csv.tmp", std::ios::trunc);
   if (!trials_) throw InputError(fmt::format("{}/trials.csv: cannot write", folder_));
@@ -72,11 +77,16 @@ void RunWriter::publish() {
   published_ = true;
   trials_.flush();
   model_.flush();
-  // The streams stay open on the renamed files: later rows are appended to what readers now see.
-  for (const char* name : {"trials.csv", "model.yaml"}) {
+  // The streams stay open on the renamed files: later rows are appended to what readers now see. One that could
+  // not be written whole (a full disk) does not replace the complete file of before.
+  for (auto [name, stream] : {std::pair<const char*, std::ofstream*>{"trials.csv", &trials_}, {"model.yaml", &model_}}) {
     std::error_code ec;
-    fs::rename(folder_ + "/" + name + ".tmp", folder_ + "/" + name, ec);
-    if (ec) log_warn("{}/{}: cannot write: {}", folder_, name, ec.message());
+    if (*stream) fs::rename(folder_ + "/" + name + ".tmp", folder_ + "/" + name, ec);
+    if (!*stream || ec) {
+      log_warn("{}/{}: cannot write{}; the previous one, if any, is kept", folder_, name,
+               ec ? ": " + ec.message() : std::string());
+      fs::remove(folder_ + "/" + name + ".tmp", ec);
+    }
   }
 }
 

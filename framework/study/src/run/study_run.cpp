@@ -137,10 +137,20 @@ void refuse_other_studys_folder(const std::string& folder, const std::string& st
 }
 
 /// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
-void refuse_to_replace(const std::string& folder, const std::string& store_path, const RunOverrides& ov) {
+void refuse_to_replace(const std::string& folder, const std::string& store_path, const RunOverrides& ov,
+                       const std::string& identity_now) {
   std::size_t n = 0;
+  std::string differs;
   try {
-    n = open_sqlite_store(store_path)->trials().size();
+    const auto store = open_sqlite_store(store_path);
+    n = store->trials().size();
+    // An edited configuration re-run on its folder: the advice to resume was followed and the edits (bounds, a
+    // budget) were dropped in silence (red team, session 28). Said, with where it differs.
+    if (const auto stored = store->meta(store_key::kIdentity); stored && *stored != identity_now)
+      differs = fmt::format(". The configuration given differs from the study's ({}): a resumed run continues the "
+                            "study as it was created (a budget is raised with --budget); a changed configuration "
+                            "is a new study, in another folder (-o)",
+                            study_detail::first_difference(*stored, identity_now));
   } catch (const Error& e) {
     throw InputError(fmt::format("{}: the run folder holds a study file that cannot be read ({}); move it away, or "
                                  "{} to replace it",
@@ -148,9 +158,9 @@ void refuse_to_replace(const std::string& folder, const std::string& store_path,
   }
   if (n == 0) return;
   throw InputError(fmt::format("{}: this run folder holds a study with {} trial(s) ({}); continue it with {}, or "
-                               "{} to replace it (its trials are lost)",
+                               "{} to replace it (its trials are lost){}",
                                folder, n, store_path, fmt::format(fmt::runtime(ov.resume_hint), folder),
-                               ov.overwrite_hint));
+                               ov.overwrite_hint, differs));
 }
 
 }  // namespace
@@ -267,7 +277,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   if (!own_store && !same_file(folder_store, store_path))
     locks.push_back(RunLock::acquire(folder_store + ".lock", fmt::format("the run folder {}", study.output)));
   if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
-    if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov);
+    if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov, study_identity(study));
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
   } else if (!ov.resume && ov.overwrite) {
     remove_store_files(store_path);  // no study file, but maybe its leftover -wal, which creating would refuse

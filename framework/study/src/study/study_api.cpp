@@ -57,14 +57,43 @@ std::string study_identity(const StudyConfig& c) {
 }
 
 namespace {
-/// The first line where two texts differ, as "stored 'a' vs now 'b'".
-std::string first_difference(const std::string& stored, const std::string& now) {
+/// "task.upper" for line i of an emitted YAML block: the keys of the lines above it with less indentation. A
+/// difference in a list showed as "stored '    - 1' vs now '    - 5'", naming no key (red team, session 28).
+std::string key_path(const std::vector<std::string>& lines, std::size_t i) {
+  auto indent = [](const std::string& l) { return l.find_first_not_of(' '); };
+  std::vector<std::string> keys;
+  std::size_t level = i < lines.size() ? indent(lines[i]) : 0;
+  if (i < lines.size()) {
+    const std::string& own = lines[i];
+    const auto colon = own.find(':');
+    if (colon != std::string::npos && own.compare(level, 2, "- ") != 0) keys.push_back(own.substr(level, colon - level));
+  }
+  for (std::size_t j = std::min(i, lines.size()); j-- > 0 && level > 0;) {
+    const std::size_t in = indent(lines[j]);
+    if (in == std::string::npos || in >= level) continue;
+    const auto colon = lines[j].find(':');
+    if (colon == std::string::npos) continue;
+    std::string key = lines[j].substr(in, colon - in);
+    if (key.rfind("- ", 0) == 0) key = key.substr(2);
+    keys.insert(keys.begin(), key);
+    level = in;
+  }
+  std::string out;
+  for (const auto& k : keys) out += (out.empty() ? "" : ".") + k;
+  return out;
+}
+}  // namespace
+
+/// The first line where two texts differ, as "at task.upper: stored 'a' vs now 'b'".
+std::string study_detail::first_difference(const std::string& stored, const std::string& now) {
   const auto a = lines_of(stored), b = lines_of(now);
   std::size_t i = 0;
   while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
-  return fmt::format("stored '{}' vs now '{}'", i < a.size() ? a[i] : "<end>", i < b.size() ? b[i] : "<end>");
+  const std::string where = key_path(i < a.size() ? a : b, i);
+  return fmt::format("{}stored '{}' vs now '{}'", where.empty() ? "" : "at " + where + ": ",
+                     i < a.size() ? a[i] : "<end>", i < b.size() ? b[i] : "<end>");
 }
-}  // namespace
+using study_detail::first_difference;
 
 bool study_detail::adopt_current_resolution(const std::string& store_path, const StudyConfig& config,
                                             const Registry& registry) {

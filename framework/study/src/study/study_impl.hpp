@@ -45,6 +45,9 @@ bool usable_recommendation(const Vec& r, Index dim, const std::string& algorithm
 
 bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config, const Registry& registry);
 
+/// The first line where two emitted YAML texts differ, with its key path: "at task.upper: stored 'a' vs now 'b'".
+std::string first_difference(const std::string& stored, const std::string& now);
+
 }  // namespace study_detail
 
 struct Study::Impl {
