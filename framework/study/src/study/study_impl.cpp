@@ -55,53 +55,55 @@ void Study::Impl::init(const StudyConfig& c, const Registry& reg) {
   tctx.seed = config.seed;
   task = reg.create<Task>(config.task, tctx);
   // A third-party task's domain(), component_names() or initial_point() throwing was "internal error" (exit 3),
-  // naming no task or plugin (red team, session 28); varbo's own errors (the checks below) pass unchanged.
+  // naming no task or plugin (red team, session 28); varbo's own errors (set_up_task's checks) pass unchanged.
   detail::in_plugin_code(reg,
                          fmt::format("setting up task '{}' (its domain, cost components and initial point)",
                                      config.task.info ? config.task.info->full_name() : std::string("?")),
-                         [&] {
-    init_space();
-    const Index d = domain.box.dim();
-    if (d < 1)
-      throw ConfigError(fmt::format("{}: task '{}' has no parameters{}", config.task.source.where(), config.task.info->name,
-                                    dynamic_cast<SpaceAware*>(task.get())
-                                        ? ": give its dim, lower/upper or names, or declare the study's `parameters:`"
-                                        : ""));
-    if (!space && !(domain.box.upper.array() > domain.box.lower.array()).all())
-      throw ConfigError(fmt::format("{}: task '{}' has an empty domain (every upper bound must exceed its lower bound)",
-                                    config.task.source.where(), config.task.info->name));
-    for (Index i = static_cast<Index>(domain.names.size()); i < d; ++i) domain.names.push_back(fmt::format("x{}", i + 1));
-    domain.names.resize(static_cast<std::size_t>(d));
-    // A cost component named like a parameter made two columns of that name in trials.csv, the second all NaN, and
-    // `rescore` then found "no successful trials with all components" (red team, session 26).
-    for (const std::string& c : task->component_names())
-      if (std::find(domain.names.begin(), domain.names.end(), c) != domain.names.end()) {
-        const ConfigNode at = config.task.source.is_map() && config.task.source.has("components")
-                                  ? config.task.source.child("components")
-                                  : config.task.source;
-        at.fail(fmt::format("cost component '{}' is also the name of a parameter (trials.csv would have two columns "
-                            "of that name); rename one of them",
-                            printable(c)));
-      }
-    std::optional<Vec> theta0 = config.initial_point ? config.initial_point : task->initial_point();
-    if (theta0) {
-      // The study's `initial_point:` is the user's; otherwise the task's own (Task::initial_point) is its plugin's
-      // mistake, reported at the task and naming its library (it was blamed on a key the config does not have).
-      const bool from_config = config.initial_point.has_value();
-      auto bad = [&](const std::string& what) {
-        if (from_config) config.source.child("initial_point").fail(what);
-        config.task.source.fail(fmt::format("task '{}'{}: its own initial point (Task::initial_point): {}",
-                                            config.task.info->name,
-                                            config.task.info->library.empty() ? "" : " (" + config.task.info->library + ")",
-                                            what));
-      };
-      if (theta0->size() != d) bad(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
-      std::string why;
-      if (space && !space->contains(*theta0, &why)) bad("the initial point is not admissible: " + why);
-      if (!domain.box.contains(*theta0)) bad("the initial point lies outside the task's domain");
-      initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
+                         [&] { set_up_task(); });
+}
+
+void Study::Impl::set_up_task() {
+  init_space();
+  const Index d = domain.box.dim();
+  if (d < 1)
+    throw ConfigError(fmt::format("{}: task '{}' has no parameters{}", config.task.source.where(), config.task.info->name,
+                                  dynamic_cast<SpaceAware*>(task.get())
+                                      ? ": give its dim, lower/upper or names, or declare the study's `parameters:`"
+                                      : ""));
+  if (!space && !(domain.box.upper.array() > domain.box.lower.array()).all())
+    throw ConfigError(fmt::format("{}: task '{}' has an empty domain (every upper bound must exceed its lower bound)",
+                                  config.task.source.where(), config.task.info->name));
+  for (Index i = static_cast<Index>(domain.names.size()); i < d; ++i) domain.names.push_back(fmt::format("x{}", i + 1));
+  domain.names.resize(static_cast<std::size_t>(d));
+  // A cost component named like a parameter made two columns of that name in trials.csv, the second all NaN, and
+  // `rescore` then found "no successful trials with all components" (red team, session 26).
+  for (const std::string& c : task->component_names())
+    if (std::find(domain.names.begin(), domain.names.end(), c) != domain.names.end()) {
+      const ConfigNode at = config.task.source.is_map() && config.task.source.has("components")
+                                ? config.task.source.child("components")
+                                : config.task.source;
+      at.fail(fmt::format("cost component '{}' is also the name of a parameter (trials.csv would have two columns "
+                          "of that name); rename one of them",
+                          printable(c)));
     }
-                         });
+  std::optional<Vec> theta0 = config.initial_point ? config.initial_point : task->initial_point();
+  if (theta0) {
+    // The study's `initial_point:` is the user's; otherwise the task's own (Task::initial_point) is its plugin's
+    // mistake, reported at the task and naming its library (it was blamed on a key the config does not have).
+    const bool from_config = config.initial_point.has_value();
+    auto bad = [&](const std::string& what) {
+      if (from_config) config.source.child("initial_point").fail(what);
+      config.task.source.fail(fmt::format("task '{}'{}: its own initial point (Task::initial_point): {}",
+                                          config.task.info->name,
+                                          config.task.info->library.empty() ? "" : " (" + config.task.info->library + ")",
+                                          what));
+    };
+    if (theta0->size() != d) bad(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
+    std::string why;
+    if (space && !space->contains(*theta0, &why)) bad("the initial point is not admissible: " + why);
+    if (!domain.box.contains(*theta0)) bad("the initial point lies outside the task's domain");
+    initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
+  }
 }
 
 void Study::Impl::init_space() { space = resolve_study_space(config, *task, domain); }

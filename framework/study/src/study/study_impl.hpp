@@ -156,6 +156,8 @@ struct Study::Impl {
   /// order, nothing pending, and at most one serial ask(1) since (the trial `asked_for`).
   void save_state(std::optional<std::int64_t> asked_for = std::nullopt);
   void say_state_not_saved(std::int64_t told, const std::string& why);
+  /// The task's domain, names, cost components and initial point, checked (init(), as plugin code).
+  void set_up_task();
   /// The task's parameters and bounds as recorded at creation (store_key::kDomain) and compared at every open.
   std::string domain_text() const;
   /// Throws InputError when the task's domain differs from the one recorded at the study's creation.
