@@ -12,6 +12,7 @@
 #include "noise_bound.hpp"
 #include "varbo/config.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/text.hpp"
 #include "varbo/log.hpp"
 #include "varbo/restarts.hpp"
 
@@ -293,6 +294,9 @@ Restarts<OptimizeResult> GpSurrogate::run_restarts_for(const Dataset& data, cons
         } catch (const std::exception& e) {
           res.success = false;
           res.message = e.what();
+        } catch (...) {  // as a std::exception: a failed restart (it stopped the run, red team, session 28)
+          res.success = false;
+          res.message = "the fit optimizer threw something that is not a std::exception";
         }
         return res;
       },
@@ -330,6 +334,7 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
   Index failed = 0;
   std::size_t chosen = previous;
   std::string scores;  // "matern52_ard -12.3, se_ard -10.1": the fit objective of each candidate
+  std::string first_failure;  // why the first failed restart failed (said when every restart fails)
   // Per candidate the best restart's log-parameters and objective (−∞: every restart or the posterior failed).
   std::vector<Vec> params;
   std::vector<double> values;
@@ -337,6 +342,8 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     if (choose) select_kernel(c);
     const Restarts<OptimizeResult> run = run_restarts_for(data, s, restarts, rng, base);
     failed += run.failed;
+    for (const OptimizeResult& r : run.results)
+      if (first_failure.empty() && !r.success && !r.message.empty()) first_failure = r.message;
     double value = -std::numeric_limits<double>::infinity();
     Vec x;
     if (run.best >= 0) {
@@ -395,7 +402,11 @@ FitReport GpSurrogate::fit(const Dataset& data, Rng& rng) {
     // Keep the last good hyperparameters; condition them on the new data when that still works.
     rep = condition(data);
     rep.ok = false;
-    rep.message = "every restart failed; kept the previous hyperparameters" +
+    // The reason was dropped: a fit optimizer's own exception read only "every restart failed" (red team,
+    // session 28).
+    rep.message = "every restart failed" +
+                  (first_failure.empty() ? std::string() : " (the first: " + safe_text(first_failure, 300) + ")") +
+                  "; kept the previous hyperparameters" +
                   (rep.message.empty() ? std::string() : " (" + rep.message + ")");
     log_warn("gp: {}", rep.message);
   }

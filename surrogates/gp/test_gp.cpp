@@ -63,6 +63,19 @@ class FailingOptimizer final : public Optimizer {
   }
 };
 
+/// A fit optimizer that throws: a std::exception, or (int_throw) an int.
+class ThrowingOptimizer final : public Optimizer {
+ public:
+  explicit ThrowingOptimizer(bool int_throw) : int_throw_(int_throw) {}
+  OptimizeResult maximize(const DifferentiableFunction&, const RegionConstraint&, const Mat&, Rng&) const override {
+    if (int_throw_) throw 7;
+    throw std::runtime_error("solver licence expired");
+  }
+
+ private:
+  bool int_throw_;
+};
+
 const KernelType kTypes[] = {KernelType::SquaredExponential, KernelType::Matern52};
 
 }  // namespace
@@ -454,6 +467,18 @@ TEST_CASE("all restarts failing keeps the previous hyperparameters and reports o
   CHECK(gp.ready());  // conditioned with the kept hyperparameters
   CHECK(hp(gp, "lengthscale[0]") == doctest::Approx(0.3));
   CHECK(hp(gp, "signal_std") == doctest::Approx(50.0));
+  // A throwing fit optimizer: the same, and the report says why (it said only "every restart failed"; an int
+  // thrown stopped the run).
+  for (const bool int_throw : {false, true}) {
+    GpSurrogate thrown(2, settings_for(KernelType::Matern52, 3), std::make_shared<ThrowingOptimizer>(int_throw));
+    thrown.set_hyperparameters({{"lengthscale[0]", 0.3}, {"lengthscale[1]", 0.4}, {"signal_std", 50.0}});
+    Rng r2(14);
+    const FitReport t = thrown.fit(data, r2);
+    CHECK_FALSE(t.ok);
+    CHECK(t.restarts_failed == 3);
+    CHECK(t.message.find(int_throw ? "not a std::exception" : "(the first: solver licence expired)") !=
+          std::string::npos);
+  }
 }
 
 TEST_CASE("set_hyperparameters rejects unknown names and non-positive scales") {

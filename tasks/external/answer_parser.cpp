@@ -109,7 +109,10 @@ std::string last_nonempty_line(const std::string& text) {
 }
 
 std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& why) {
-  const std::string last = last_nonempty_line(stdout_text);
+  std::string last = last_nonempty_line(stdout_text);
+  // A UTF-8 byte-order mark (a Windows editor's, a PowerShell script's) before the number: invisible in the
+  // message "the last line '1.5' is not a number" (red team, session 28). It is not part of the answer.
+  if (last.rfind("\xEF\xBB\xBF", 0) == 0) last.erase(0, 3);
   if (last.empty()) {
     why = "no output on stdout";
     return std::nullopt;
@@ -158,6 +161,16 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
       why = fmt::format("the cost '{}' is beyond the range of a double (about ±1.8e308)", abbreviate(last, 512));
       return std::nullopt;
     }
+  }
+  std::string with_point = last;
+  double ignored = 0;
+  if (std::count(last.begin(), last.end(), ',') == 1 && (std::replace(with_point.begin(), with_point.end(), ',', '.'),
+                                                          parse_number(with_point, ignored))) {
+    // A program printing in a decimal-comma locale (printf under LC_NUMERIC=de_DE): never read as 1 or 15.
+    why = fmt::format("the last line '{}' is not a number: write the decimal point as '.' ({}); a program printing "
+                      "in a decimal-comma locale can run with LC_NUMERIC=C",
+                      abbreviate(last, 512), with_point);
+    return std::nullopt;
   }
   why = fmt::format("the last line '{}' is not a number", abbreviate(last, 512));
   return std::nullopt;

@@ -61,6 +61,16 @@ double seconds_of(const std::function<void()>& f) {
 }  // namespace
 
 TEST_CASE("parse_answer") {
+  SUBCASE("a byte-order mark before the number is not part of it; a decimal comma is refused with the fix") {
+    std::string why;
+    const auto a = parse_answer("\xEF\xBB\xBF" "1.5\n", why);
+    REQUIRE(a);
+    CHECK(a->cost == 1.5);
+    CHECK_FALSE(parse_answer("1,5\n", why));
+    CHECK(contains(why, "write the decimal point as '.' (1.5)"));
+    CHECK_FALSE(parse_answer("1,5,6\n", why));
+    CHECK_FALSE(contains(why, "decimal point"));
+  }
   std::string why;
   SUBCASE("plain number on the last non-empty line") {
     auto a = parse_answer("starting\nresult follows\n  -1.5e-3  \n\n", why);

@@ -8,6 +8,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/store.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -40,10 +41,20 @@ std::string host_id() {
 
 std::string default_worker_name() { return fmt::format("{}:{}", host_id(), static_cast<long>(getpid())); }
 
+namespace {
+const char* host_origin(const std::string& given) {
+  if (!given.empty()) return "";
+  const char* env = std::getenv("VARBO_HOST_ID");
+  return env && *env ? " (from $VARBO_HOST_ID)" : " (the machine's host name)";
+}
+}  // namespace
+
 std::string new_worker_id(const std::string& host_in) {
   const std::string host = host_in.empty() ? host_id() : host_in;
   if (host.find(':') != std::string::npos || host.find_first_of(" \t\n") != std::string::npos)
-    throw InputError(fmt::format("host id '{}': expected a name without ':' or spaces", host));
+    throw InputError(fmt::format("host id '{}'{}: expected a name without ':' or spaces; give one with --host-id or "
+                                 "$VARBO_HOST_ID",
+                                 printable(host), host_origin(host_in)));
   std::random_device rd;
   const std::uint64_t nonce = (static_cast<std::uint64_t>(rd()) << 32) ^ rd();
   return fmt::format("{}:{}:{:016x}", host, static_cast<long>(getpid()), nonce);

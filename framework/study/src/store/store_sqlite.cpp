@@ -213,7 +213,15 @@ class SqliteStore final : public StudyStore {
       const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
       sqlite3_close(db_);
       db_ = nullptr;
-      throw InputError(fmt::format("{}: cannot open the study file: {}", path, msg));
+      // SQLite's own limit (SQLITE_MAX_PATHNAME 512, with room for "-journal"/"-wal"): "unable to open database
+      // file" alone gave no reason in a deep folder (red team, session 28).
+      std::error_code ec;
+      const std::size_t length = std::filesystem::absolute(path, ec).string().size();
+      throw InputError(fmt::format("{}: cannot open the study file: {}{}", path, msg,
+                                   length > 480 ? fmt::format(" (its absolute path is {} bytes; SQLite opens paths of "
+                                                              "at most ~500: use a shorter folder)",
+                                                              length)
+                                                : ""));
     }
     if (!create)
       if (std::string why = read_only_reason(path); !why.empty()) reopen_read_only(why);

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <new>
 
 #include "study_impl.hpp"
 #include "varbo/errors.hpp"
@@ -58,11 +59,21 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
   saved_reach = std::max(saved_reach, reach);
   if (!best) return finished;
   const auto m = static_cast<std::size_t>(best->finished);
+  // Whatever a (plugin's) restore_state throws, the replay can rebuild the algorithm: a std::stod's
+  // invalid_argument made every resume fail (red team, session 28).
+  std::string why;
   try {
     resumable->restore_state(best->state, observations_of(finished, m));
-  } catch (const Error& e) {
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    why = safe_text(e.what(), 300);
+  } catch (...) {
+    why = "it threw something that is not a std::exception";
+  }
+  if (!why.empty()) {
     log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
-             store->location(), m, e.what());
+             store->location(), m, why);
     alg = make_algorithm();
     return finished;
   }
