@@ -42,6 +42,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   surrogate_ = r.create<Surrogate>(o.component("surrogate"), ctx);
   surrogate_name_ = o.component("surrogate").info->full_name();
   design_sampler_name_ = o.component("initial_design").info->full_name();
+  region_name_ = o.component("region").info->full_name();
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
   {
     const auto& provides = o.component("region").info->provides;
@@ -479,6 +480,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     // Its seeds (hit-and-run chains start at the data) are observations too.
     const bool observed_only = rmodel != surrogate_.get();
     region_->update(rmodel, observed_only ? model_data_of(data_) : data, region_rng);
+    check_region_outputs(*region_, region_name_, dim_);
   }
   Dataset late_refined;
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0 &&
@@ -491,6 +493,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     model_data = late_refined.size() >= 2 ? &late_refined : &data;
     fit_model(k, *model_data);
     region_->update(surrogate_.get(), data, region_rng);
+    check_region_outputs(*region_, region_name_, dim_);
   }
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0) {
     begin_fresh_attempt(k, fresh_region->fresh_starts(), data);

@@ -153,6 +153,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::unique_ptr<Surrogate> surrogate_;
   std::string surrogate_name_;  ///< plugin/name, for messages about what it returns (component_outputs.hpp)
   std::string design_sampler_name_;  ///< plugin/name of initial_design, for messages about what it returns
+  std::string region_name_;          ///< plugin/name of region, for messages about its bounds
   std::string optimizer_name_;  ///< the acquisition optimizer's plugin/name, likewise
   std::string refine_acquisition_name_;
   std::unique_ptr<RegionConstraint> region_;

@@ -69,4 +69,19 @@ Mat check_sampler_outputs(Mat m, const std::string& sampler_name, Index n, Index
   return m;
 }
 
+void check_region_outputs(const RegionConstraint& region, const std::string& region_name, Index dim) {
+  const Box& b = region.bounds();
+  std::string bad;
+  if (b.lower.size() != dim || b.upper.size() != dim)
+    bad = fmt::format("bounds of dimension {} and {}, expected {}", b.lower.size(), b.upper.size(), dim);
+  else if (!b.lower.allFinite() || !b.upper.allFinite())
+    bad = "bounds with a non-finite coordinate";
+  else if ((b.lower.array() > b.upper.array()).any())
+    bad = "bounds whose lower corner exceeds the upper one";
+  else if (dim > 0 && (b.lower.minCoeff() < -1e-9 || b.upper.maxCoeff() > 1 + 1e-9))
+    bad = "bounds outside the unit cube";
+  if (!bad.empty())
+    throw std::runtime_error(fmt::format("region '{}' returned {}; its bounds() is wrong", region_name, bad));
+}
+
 }  // namespace varbo::bo

@@ -5,6 +5,7 @@
 // never a message naming the component. One extra prediction per trial costs nothing beside a fit.
 #include <string>
 #include "varbo/acquisition.hpp"
+#include "varbo/region.hpp"
 #include "varbo/types.hpp"
 #include "varbo/surrogate.hpp"
 
@@ -30,5 +31,10 @@ void check_acquisition_outputs(const Acquisition& acquisition, const std::string
 /// sampler returning 0 rows crashed bo (SIGSEGV), one returning more rows grew the initial design in silence (red
 /// team, session 28). Throws std::runtime_error naming `sampler_name`; returns `m`.
 Mat check_sampler_outputs(Mat m, const std::string& sampler_name, Index n, Index dim, bool fewer_ok);
+
+/// A region's bounds() after its update: dimension `dim`, finite, lower <= upper, inside the unit cube (to 1e-9).
+/// A third-party region's bad box was blamed on the surrogate ("gp: predict at a point of dimension 3") or the
+/// optimizer, and an inverted one was used in silence (red team, session 28). Throws std::runtime_error naming it.
+void check_region_outputs(const RegionConstraint& region, const std::string& region_name, Index dim);
 
 }  // namespace varbo::bo
