@@ -19,6 +19,7 @@
 #include "run_writer.hpp"
 #include "../store/store_url.hpp"
 #include "../study/stored_plugin_paths.hpp"
+#include "../study/plugin_code.hpp"
 #include "../study/study_impl.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
@@ -188,18 +189,10 @@ namespace {
 /// could never reach 0 (2.0 where the constrained optimum was reached; red team, session 24). Left out then, said
 /// once; likewise when typed parameters or constraints restrict a task whose minimizers are not given.
 std::optional<Optimum> admissible_optimum(Task& task, const SharedSpace& space, const std::string& task_name) {
+  // A third-party task's optimum() throwing ended the run as an "internal error" (red team, session 28).
   std::optional<Optimum> optimum;
-  try {  // a third-party task's optimum() throwing ended the run as an "internal error" (red team, session 28)
-    optimum = task.optimum();
-  } catch (const Error&) {
-    throw;
-  } catch (const std::exception& e) {
-    log_warn("task '{}': its known optimum could not be read ({}); no regret figures", task_name, safe_text(e.what(), 300));
-  } catch (...) {
-    log_warn("task '{}': its known optimum could not be read (it threw something that is not a std::exception); no "
-             "regret figures",
-             task_name);
-  }
+  if (const std::string why = detail::what_it_threw<Error>([&] { optimum = task.optimum(); }); !why.empty())
+    log_warn("task '{}': its known optimum could not be read ({}); no regret figures", task_name, why);
   if (!optimum || !space) return optimum;
   std::string why;
   for (const Vec& theta : optimum->thetas)
@@ -385,17 +378,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // still the store's to retry.
   std::set<std::string> extra_failure_said;
   auto extra = [&](const char* what, const auto& f) {
-    std::string why;
-    try {
-      f();
-      return;
-    } catch (const StoreConnectionError&) {
-      throw;
-    } catch (const std::exception& e) {
-      why = safe_text(e.what(), 300);
-    } catch (...) {
-      why = "it threw something that is not a std::exception";
-    }
+    const std::string why = detail::what_it_threw<StoreConnectionError>(f);
+    if (why.empty()) return;
     if (!extra_failure_said.insert(what).second) return log_debug("algorithm '{}': {} failed: {}", study.algorithm.info->full_name(), what, why);
     log_warn("algorithm '{}': {} failed ({}); the trial's result is recorded without it (said once)",
              study.algorithm.info->full_name(), what, why);

@@ -56,4 +56,36 @@ decltype(auto) in_plugin_code(const Registry& registry, const std::string& doing
   }
 }
 
+/// Rethrows `thrown` when it is a T; else nothing.
+template <class T>
+void rethrow_if(const std::exception_ptr& thrown) {
+  try {
+    std::rethrow_exception(thrown);
+  } catch (const T&) {
+    throw;
+  } catch (...) {
+  }
+}
+
+/// Runs `f`; "" when it returns, else what it threw: a std::exception's message (bounded, printable) or a note that
+/// it threw something else. Exceptions of the types `Pass...` propagate (a lost store connection, std::bad_alloc).
+/// For the calls whose failure costs only an extra (a snapshot, a saved state, a recommendation), never a result.
+template <class... Pass, class F>
+std::string what_it_threw(F&& f) {
+  try {
+    f();
+    return {};
+  } catch (...) {
+    const std::exception_ptr thrown = std::current_exception();
+    (rethrow_if<Pass>(thrown), ...);
+    try {
+      std::rethrow_exception(thrown);
+    } catch (const std::exception& e) {
+      return safe_text(e.what(), 300);
+    } catch (...) {
+      return "it threw something that is not a std::exception";
+    }
+  }
+}
+
 }  // namespace varbo::detail

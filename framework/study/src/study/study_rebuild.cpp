@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <new>
 
+#include "plugin_code.hpp"
 #include "study_impl.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -61,16 +62,8 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
   const auto m = static_cast<std::size_t>(best->finished);
   // Whatever a (plugin's) restore_state throws, the replay can rebuild the algorithm: a std::stod's
   // invalid_argument made every resume fail (red team, session 28).
-  std::string why;
-  try {
-    resumable->restore_state(best->state, observations_of(finished, m));
-  } catch (const std::bad_alloc&) {
-    throw;
-  } catch (const std::exception& e) {
-    why = safe_text(e.what(), 300);
-  } catch (...) {
-    why = "it threw something that is not a std::exception";
-  }
+  const std::string why = detail::what_it_threw<std::bad_alloc>(
+      [&] { resumable->restore_state(best->state, observations_of(finished, m)); });
   if (!why.empty()) {
     log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
              store->location(), m, why);
@@ -110,8 +103,9 @@ void Study::Impl::save_state(std::optional<std::int64_t> asked_for) {
   auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
   const auto told = static_cast<std::int64_t>(told_ids.size());
   const std::int64_t reach = told + (asked_for ? 1 : 0);
-  // A state that cannot be saved costs the next process a replay, never this suggestion or result.
-  try {
+  // A state that cannot be saved costs the next process a replay, never this suggestion or result (a plugin's
+  // `throw 8;` ended every run with exit 3; red team, session 28).
+  const std::string why = detail::what_it_threw([&] {
     const std::optional<std::string> text = resumable->save_state();
     if (!text) return;
     AlgorithmSnapshot s;
@@ -121,11 +115,8 @@ void Study::Impl::save_state(std::optional<std::int64_t> asked_for) {
     s.created_at = unix_time();
     store->add_algorithm_state(s);
     saved_reach = reach;
-  } catch (const std::exception& e) {
-    say_state_not_saved(told, safe_text(e.what(), 300));
-  } catch (...) {  // a plugin's `throw 8;` ended every run with exit 3 (red team, session 28)
-    say_state_not_saved(told, "it threw something that is not a std::exception");
-  }
+  });
+  if (!why.empty()) say_state_not_saved(told, why);
 }
 
 void Study::Impl::say_state_not_saved(std::int64_t told, const std::string& why) {
