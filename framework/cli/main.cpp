@@ -15,6 +15,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
+#include "varbo/plugin.hpp"
 #include "varbo/version.hpp"
 
 namespace {
@@ -62,6 +63,11 @@ int main(int argc, char** argv) {
                ": sample-efficient, risk-aware and cautious Bayesian optimization\n"
                "Compose an algorithm in YAML, run it, inspect models. See README.md."};
   app.require_subcommand(1);
+  // A bug report and a third-party plugin build need both: the release, and the fingerprint a plugin must match
+  // to be loaded (plugin.hpp, VARBO_BUILD_FINGERPRINT).
+  app.set_version_flag("-V,--version", [] {
+    return std::string("varbo " VARBO_VERSION_STRING "\nplugin build fingerprint: ") + varbo::host_fingerprint();
+  });
   bool verbose = false, quiet = false;
   app.add_flag("-v,--verbose", verbose, "debug logging");
   app.add_flag("-q,--quiet", quiet, "warnings and errors only (before the subcommand: `varbo -q run ...`; the "
