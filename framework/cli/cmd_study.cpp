@@ -304,14 +304,26 @@ Runner add_abandon(CLI::App& app) {
       const auto it = beat.find(t.worker);
       return it != beat.end() && (window <= 0 || now - it->second < window);
     };
+    auto holder = [&](const TrialRecord& t) {
+      return beat.count(t.worker) ? fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id, printable(t.worker),
+                                                now - beat[t.worker])
+                                  : fmt::format("{} (the live `varbo run` {})", t.id, printable(t.worker));
+    };
+    // A trial named by --id is what the user asked for: sparing it in silence and exiting 0 told a script it was
+    // abandoned (red team, session 28).
+    if (!a->include_live)
+      for (const auto id : wanted)
+        if (const auto t = s.store().trial(id); t && live(*t))
+          throw InputError(fmt::format("{}: trial {} is held by a live worker: {}; --include-live abandons it anyway "
+                                       "(its point may then be suggested again; a late result is still recorded); "
+                                       "nothing written",
+                                       s.store().location(), id, holder(*t)));
     const auto ids = s.abandon_where(
         [&](const TrialRecord& t) {
           if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), t.id) == wanted.end()) return false;
           if (older_than > 0 && now - t.created_at <= older_than) return false;
           if (!a->include_live && live(t)) {
-            spared.push_back(beat.count(t.worker) ? fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id,
-                                                                printable(t.worker), now - beat[t.worker])
-                                                  : fmt::format("{} (the live `varbo run` {})", t.id, printable(t.worker)));
+            spared.push_back(holder(t));
             return false;
           }
           return true;
