@@ -534,9 +534,21 @@ class SqliteStore final : public StudyStore {
       if ((rc != SQLITE_BUSY && rc != SQLITE_LOCKED) || attempt >= kBeginAttempts)
         throw InputError(fmt::format("{}: cannot start a transaction after {} attempts: {}", path_, attempt,
                                      sqlite3_errmsg(db_)));
-      log_debug("{}: store busy, retrying (attempt {})", path_, attempt);
+      say_still_waiting(attempt);
       std::this_thread::sleep_for(std::chrono::milliseconds(10 * attempt));
     }
+  }
+
+  // Each failed attempt has waited kBusyTimeoutMs: a process holding a write transaction (an `sqlite3` shell left
+  // in BEGIN, a backup, a stalled writer) kept every command silent for up to 10 min (red team, session 28).
+  void say_still_waiting(int attempt) const {
+    if (attempt != 1 && attempt % 6 != 0) return;
+    const std::string text = fmt::format(
+        "{}: waiting for the study's write lock, held by another process (a varbo command fitting its model, an "
+        "open `sqlite3` shell, a backup); waited {} s so far, giving up after ~{} min",
+        path_, attempt * kBusyTimeoutMs / 1000, kBeginAttempts * kBusyTimeoutMs / 60000);
+    if (attempt == 1) log_info("{}", text);
+    else log_warn("{}", text);
   }
 
   void commit() {
@@ -545,6 +557,7 @@ class SqliteStore final : public StudyStore {
       if (rc == SQLITE_OK) return;
       if (rc != SQLITE_BUSY || attempt >= kBeginAttempts)
         throw InputError(fmt::format("{}: commit failed: {}", path_, sqlite3_errmsg(db_)));
+      say_still_waiting(attempt);
       std::this_thread::sleep_for(std::chrono::milliseconds(10 * attempt));
     }
   }
