@@ -53,6 +53,23 @@ Vec theta_from_params(const Study& s, const std::vector<std::string>& words) {
   }
   return theta_of_named(space, values, "--param");
 }
+
+/// θ of `observe/fail STUDY new`: --theta v1,v2,... or --param name=value ..., exactly one of them.
+Vec manual_theta(const Study& s, const std::string& theta, const std::vector<std::string>& params, const char* verb) {
+  if (!theta.empty() && !params.empty())
+    throw InputError(fmt::format("{} new: give either --theta or --param, not both", verb));
+  if (!params.empty()) return theta_from_params(s, params);
+  if (theta.empty())
+    throw InputError(fmt::format("{} new: give the evaluated point with --theta v1,v2,... or --param name=value ...",
+                                 verb));
+  std::vector<double> v;
+  for (std::size_t start = 0; start <= theta.size();) {
+    const std::size_t comma = std::min(theta.find(',', start), theta.size());
+    v.push_back(parse_number(theta.substr(start, comma - start), "--theta"));
+    start = comma + 1;
+  }
+  return Eigen::Map<const Vec>(v.data(), static_cast<Index>(v.size()));
+}
 }  // namespace
 
 Runner add_study(CLI::App& app) {
@@ -182,31 +199,13 @@ Runner add_observe(CLI::App& app) {
   cmd->add_option("--param", a->params,
                   "with ID 'new': one parameter of the θ evaluated, name=value (a label for a category; repeatable)");
   return [a]() {
-    if (a->id == "new" && !a->params.empty()) {
-      if (!a->theta.empty()) throw InputError("observe new: give either --theta or --param, not both");
-      const double cost = parse_number(a->cost, "COST");
-      const Components comps = parse_components(a->components);
-      Study s = Study::open(a->store);
-      const Vec theta = theta_from_params(s, a->params);
-      const auto id = s.tell_point(theta, cost, comps);
-      std::printf("trial %lld: cost %s recorded at the given parameters\n", static_cast<long long>(id), exact(cost).c_str());
-      return 0;
-    }
     if (a->id == "new") {
-      if (a->theta.empty())
-        throw InputError("observe new: give the evaluated point with --theta v1,v2,... or --param name=value ...");
-      std::vector<double> v;
-      std::size_t start = 0;
-      while (start <= a->theta.size()) {
-        const std::size_t comma = std::min(a->theta.find(',', start), a->theta.size());
-        v.push_back(parse_number(a->theta.substr(start, comma - start), "--theta"));
-        start = comma + 1;
-      }
       const double cost = parse_number(a->cost, "COST");
       const Components comps = parse_components(a->components);
       Study s = Study::open(a->store);
-      const auto id = s.tell_point(Eigen::Map<const Vec>(v.data(), static_cast<Index>(v.size())), cost, comps);
-      std::printf("trial %lld: cost %s recorded at the given θ\n", static_cast<long long>(id), exact(cost).c_str());
+      const auto id = s.tell_point(manual_theta(s, a->theta, a->params, "observe"), cost, comps);
+      std::printf("trial %lld: cost %s recorded at the given %s\n", static_cast<long long>(id), exact(cost).c_str(),
+                  a->params.empty() ? "θ" : "parameters");
       return 0;
     }
     if (!a->theta.empty()) throw InputError("observe: --theta goes with ID 'new' (a point no suggestion produced)");
@@ -222,15 +221,31 @@ Runner add_observe(CLI::App& app) {
 }
 
 Runner add_fail(CLI::App& app) {
-  auto* cmd = app.add_subcommand("fail", "Record that a pending trial failed (it counts against the budget)");
+  auto* cmd = app.add_subcommand("fail", "Record that a pending trial failed (it counts against the budget), or that "
+                                         "a θ you tried yourself failed (ID 'new' with --theta or --param)");
   struct Args {
-    std::string store, id, reason = "failed";
+    std::string store, id, reason = "failed", theta;
+    std::vector<std::string> params;
   };
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
-  cmd->add_option("id", a->id, "trial id")->required();
+  cmd->add_option("id", a->id, "trial id, or 'new' with --theta or --param")->required();
   cmd->add_option("--reason", a->reason, "why it failed (stored with the trial)");
+  cmd->add_option("--theta", a->theta, "with ID 'new': the θ that failed, user units, comma-separated (e.g. 0.5,2)");
+  cmd->add_option("--param", a->params,
+                  "with ID 'new': one parameter of the θ that failed, name=value (a label for a category; repeatable)");
   return [a]() {
+    // A θ tried by hand that made the robot fall: bo's failure model should learn of it as of a suggested one
+    // (docs/failures.md); before, only `observe new` existed and the failure could not be recorded.
+    if (a->id == "new") {
+      Study s = Study::open(a->store);
+      const auto id = s.fail_point(manual_theta(s, a->theta, a->params, "fail"), a->reason);
+      std::printf("trial %lld: failed (%s), recorded at the given %s\n", static_cast<long long>(id),
+                  a->reason.c_str(), a->params.empty() ? "θ" : "parameters");
+      return 0;
+    }
+    if (!a->theta.empty() || !a->params.empty())
+      throw InputError("fail: --theta and --param go with ID 'new' (a point no suggestion produced)");
     const std::int64_t id = parse_id(a->id);
     Study s = Study::open(a->store);
     s.fail(id, a->reason);

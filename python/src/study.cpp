@@ -122,6 +122,21 @@ void bind_study(py::module_& m) {
           },
           py::arg("params"), py::arg("cost"), py::arg("components") = py::none())
       .def(
+          "fail_point",
+          [](PyStudy& s, const py::object& theta, const std::string& reason) {
+            const Vec v = to_vec(theta, "fail_point: θ");
+            return s.locked([&](Study& st) { return st.fail_point(v, reason); });
+          },
+          py::arg("theta"), py::arg("reason") = "failed")
+      .def(
+          "fail_params",
+          [](PyStudy& s, const py::object& params, const std::string& reason) {
+            const Domain& dom = s.study().domain();
+            const Vec v = theta_of_mapping(params, s.space(), dom.box, dom.names, "fail_params");
+            return s.locked([&](Study& st) { return st.fail_point(v, reason); });
+          },
+          py::arg("params"), py::arg("reason") = "failed")
+      .def(
           "fail",
           [](PyStudy& s, std::int64_t id, const std::string& reason) {
             s.locked([&](Study& st) { st.fail(id, reason); });

@@ -108,6 +108,26 @@ def test_fail_and_budget(tmp_path):
     assert t[0].state == "failed" and t[0].error == "robot fell" and t[0].cost is None
 
 
+def test_fail_point_records_a_hand_tried_failure(tmp_path):
+    s = varbo.Study.create(tmp_path / "s.db", CONFIG)
+    i = s.fail_point({"x1": 1.0, "x2": 2.0}, "robot fell")
+    j = s.fail_point(np.array([3.0, 4.0]))
+    t = s.trials(as_frame=False)
+    assert (t[i].state, t[i].phase, t[i].error, t[i].cost) == ("failed", "manual", "robot fell", None)
+    assert t[i].params == {"x1": 1.0, "x2": 2.0}
+    assert (t[j].state, t[j].error) == ("failed", "failed")
+    with pytest.raises(varbo.InputError, match="outside the domain"):
+        s.fail_point([100.0, 2.0], "x")
+    with pytest.raises(varbo.InputError, match="x3"):
+        s.fail_point({"x1": 1.0, "x2": 2.0, "x3": 1.0})
+    with pytest.raises(TypeError):
+        s.fail_point([1.0, 2.0], 5)
+    assert len(s.trials(as_frame=False)) == 2  # nothing written by the refused calls
+    # the CLI reads the same record
+    out = run_cli("export", str(tmp_path / "s.db"), "--csv").stdout
+    assert "manual" in out and "robot fell" in out
+
+
 def test_recommendation_matches_the_run_summary(tmp_path):
     # What `varbo run` writes to summary.json, asked of the finished study opened afresh (the algorithm is rebuilt).
     cfg = tmp_path / "c.yaml"

@@ -92,6 +92,16 @@ def _trial_id(trial_or_id: Union[Trial, int], study: Optional["Study"] = None) -
     raise TypeError(f"expected a Trial or a trial id (int), got {type(trial_or_id).__name__}")
 
 
+def _reason(reason: Any, where: str) -> str:
+    if reason is None:
+        return "failed"  # not the text "None"
+    if not isinstance(reason, str):
+        raise TypeError(f"{where}: reason: expected a str, got {type(reason).__name__}")
+    # A reason that is not valid UTF-8 (os.fsdecode of a device name) is kept with escapes; it raised
+    # pybind11's "incompatible function arguments" (red team, session 23).
+    return reason.encode("utf-8", "backslashreplace").decode("utf-8")
+
+
 def _components(components: Any) -> Optional[Dict[str, Any]]:
     if components is None:
         return None
@@ -208,15 +218,19 @@ class Study:
     def fail(self, trial_or_id: Union[Trial, int], reason: str = "failed") -> None:
         """Marks a pending trial failed (it counts against the budget; bo learns where trials fail)."""
         i = _trial_id(trial_or_id, self)
-        if reason is None:
-            reason = "failed"  # not the text "None"
-        elif not isinstance(reason, str):
-            raise TypeError(f"fail: reason: expected a str, got {type(reason).__name__}")
-        # A reason that is not valid UTF-8 (os.fsdecode of a device name) is kept with escapes; it raised
-        # pybind11's "incompatible function arguments" (red team, session 23).
-        reason = reason.encode("utf-8", "backslashreplace").decode("utf-8")
+        reason = _reason(reason, "fail")
         self._check_file()
         self._impl.fail(i, reason)
+
+    def fail_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], reason: str = "failed") -> int:
+        """Records that a point no suggestion produced failed, e.g. a hand-tried policy on which the robot fell
+        (phase "manual", as ``varbo fail STUDY new``): bo's failure model learns of it as of any failed trial.
+        ``x`` as for ``tell_point``; returns the trial id."""
+        reason = _reason(reason, "fail_point")
+        self._check_file()
+        if isinstance(x, Mapping):
+            return self._impl.fail_params(dict(x), reason)
+        return self._impl.fail_point(_checks.float_array(x, "fail_point: x"), reason)
 
     def tell_point(self, x: Union[Mapping[str, Any], Sequence[float], np.ndarray], cost: float,
                    components: Optional[Mapping[str, float]] = None) -> int:

@@ -232,6 +232,45 @@ TEST_CASE("bad input: each is an InputError and nothing is written") {
   }
 }
 
+TEST_CASE("a θ tried by hand that failed (fail_point, `varbo fail new`) is a failed trial the algorithm is told of") {
+  // Before session 29 only `observe new` existed: a hand-tried policy on which the robot fell could not be told
+  // to bo's failure model.
+  const std::string dir = test::temp_folder("fail_point");
+  const std::string yaml = "task: {type: branin}\nbudget: 12\nseed: 4\nalgorithm: {type: bo, initial_points: 4}\n";
+  Vec fell;
+  auto next_after_design = [&](const std::string& name, bool with_failure) {
+    Study s = Study::create_from_yaml(dir + "/" + name, yaml);
+    for (const auto& t : s.ask(4)) s.tell(t.id, 10.0 + t.theta.sum());
+    if (with_failure) {
+      CHECK_THROWS_WITH_AS(s.fail_point((Vec(2) << -2.0, 70.0).finished(), "x"),
+                           doctest::Contains("outside the domain: x2 = 70"), InputError);
+      CHECK(s.trials().size() == 4);  // nothing written
+      const auto id = s.fail_point(fell, "robot fell");
+      const auto t = s.store().trial(id);
+      REQUIRE(t);
+      CHECK(t->state == TrialState::Failed);
+      CHECK(t->phase == "manual");
+      CHECK(t->error == "robot fell");
+      CHECK(std::isnan(t->cost));
+      CHECK(t->theta.isApprox(fell));
+    }
+    const auto next = s.ask(1);
+    REQUIRE(next.size() == 1);
+    if (with_failure) {  // a replay tells the algorithm the same: the study verifies
+      const VerifyReport r = s.verify();
+      CHECK(r.divergence.empty());
+      CHECK(r.replayed == 5);
+    }
+    return next[0].theta;
+  };
+  // The robot fell at the very point bo would suggest next: told of it, bo suggests another.
+  fell = next_after_design("plain.db", false);
+  const Vec with = next_after_design("fell.db", true);
+  CAPTURE(fell.transpose());
+  CAPTURE(with.transpose());
+  CHECK((with - fell).norm() > 0.1);
+}
+
 TEST_CASE("a store from a different configuration is refused; abandoned trials take late results") {
   const std::string dir = test::temp_folder("study_identity");
   for (const auto backend : test::all_backends()) {  // both backends

@@ -83,6 +83,10 @@ class Study {
   /// complete trial (phase "manual"). θ must have the study's dimension and lie in its domain, else InputError
   /// with nothing written. Returns its id.
   std::int64_t tell_point(const Vec& theta, double cost, const Components& components = {});
+  /// Records that a θ (user units) no suggestion produced failed, e.g. a hand-tried policy on which the robot
+  /// fell, as a new failed trial (phase "manual"): bo's failure model learns of it as of any failed trial.
+  /// Checked as tell_point; returns its id.
+  std::int64_t fail_point(const Vec& theta, const std::string& reason);
   /// Records a result with everything `varbo run` knows (noiseless cost, timings, failure); returns the trial
   /// as stored.
   TrialRecord record(std::int64_t id, const Evaluation& evaluation, double evaluation_seconds);
@@ -156,6 +160,7 @@ class Study {
  private:
   explicit Study(std::unique_ptr<Impl> impl);
   Impl& live() const;  ///< the Impl; std::logic_error on a moved-from Study
+  std::int64_t add_manual_trial(const Vec& theta, const Evaluation& evaluation);  ///< tell_point, fail_point
   std::unique_ptr<Impl> impl_;
 };
 

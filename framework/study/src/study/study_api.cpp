@@ -408,32 +408,41 @@ void Study::tell(std::int64_t id, double cost, const Components& components) {
 }
 
 
-std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& components) {
-  Impl& m = live();
-  m.check_file();
-  const std::string where = m.store->location();
-  check_result(where + ": new trial", cost, components, m.domain.names);
-  const Box& box = m.domain.box;
+namespace {
+/// θ (user units) of a trial no suggestion produced, checked against the study's domain: its unit-cube point.
+Vec manual_point(const Domain& domain, const SearchSpace* space, const Vec& theta, const std::string& where) {
+  const Box& box = domain.box;
   std::string why;
-  if (m.space && !m.space->contains(theta, &why))
+  if (space && !space->contains(theta, &why))
     throw InputError(fmt::format("{}: θ is not admissible: {}; nothing written", where, why));
   if (theta.size() != box.dim())
     throw InputError(fmt::format("{}: θ has {} values, the study has {} parameters ({}); nothing written", where,
-                                 theta.size(), box.dim(), join(m.domain.names)));
+                                 theta.size(), box.dim(), join(domain.names)));
   for (Index i = 0; i < theta.size(); ++i)
     if (!std::isfinite(theta[i]) || theta[i] < box.lower[i] || theta[i] > box.upper[i])
       throw InputError(fmt::format("{}: θ lies outside the domain: {} = {} is not in [{}, {}]; nothing written", where,
-                                   m.domain.names[static_cast<std::size_t>(i)], theta[i], box.lower[i], box.upper[i]));
+                                   domain.names[static_cast<std::size_t>(i)], theta[i], box.lower[i], box.upper[i]));
+  return space ? space->encode(theta) : Vec(Box::unit(box.dim()).clamp(to_unit(theta, box)));
+}
+}  // namespace
+
+std::int64_t Study::add_manual_trial(const Vec& theta, const Evaluation& ev) {
+  Impl& m = live();
+  m.check_file();
+  const std::string where = m.store->location();
+  if (ev.ok) check_result(where + ": new trial", ev.cost, ev.components, m.domain.names);
+  const Vec x = manual_point(m.domain, m.space.get(), theta, where);
   std::int64_t id = -1;
-  m.check_cost_scale(-1, cost);
+  if (ev.ok) m.check_cost_scale(-1, ev.cost);
   m.store->transaction([&] {
     TrialRecord r;
-    r.state = TrialState::Complete;
+    r.state = ev.ok ? TrialState::Complete : TrialState::Failed;
     r.phase = "manual";
     r.theta = theta;
-    r.x = m.space ? m.space->encode(theta) : Vec(Box::unit(box.dim()).clamp(to_unit(theta, box)));
-    r.cost = cost;
-    r.components = components;
+    r.x = x;
+    r.cost = ev.ok ? ev.cost : std::nan("");
+    r.components = ev.components;
+    r.error = ev.error;
     r.worker = m.worker;
     r.created_at = r.finished_at = unix_time();
     r.batch_size = 0;  // not suggested: a replay need not reproduce it
@@ -441,6 +450,21 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
     id = m.store->add_trial(r);
   });
   return id;
+}
+
+std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& components) {
+  Evaluation e;
+  e.cost = cost;
+  e.components = components;
+  return add_manual_trial(theta, e);
+}
+
+std::int64_t Study::fail_point(const Vec& theta, const std::string& reason) {
+  Evaluation e;
+  e.ok = false;
+  e.cost = std::nan("");
+  e.error = reason.empty() ? std::string("failed") : reason;
+  return add_manual_trial(theta, e);
 }
 
 TrialRecord Study::record(std::int64_t id, const Evaluation& ev, double evaluation_seconds) {
