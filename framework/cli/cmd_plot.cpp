@@ -246,6 +246,14 @@ svg::Figure plot_slice(const RunFolder& run, const Registry& registry, const Plo
   return fig;
 }
 
+/// Writes the SVG and prints where, unless it went to standard output itself (`-o -`, `-o /dev/stdout`).
+void save_plot(const svg::Figure& fig, const std::string& out) {
+  refuse_to_write_over_a_study(out, "-o");
+  const bool to_stdout = is_standard_output(out);
+  write_output(out, fig.render(), "the SVG file");
+  if (!to_stdout) std::printf("%s\n", out.c_str());
+}
+
 }  // namespace
 
 Runner add_plot(CLI::App& app) {
@@ -254,7 +262,7 @@ Runner add_plot(CLI::App& app) {
   auto* gp_opt = cmd->add_option("--gp", a->gp, "1-D: the homoscedastic surrogate (inline YAML or file)");
   auto* vh_opt = cmd->add_option("--vhgp", a->vhgp, "1-D: the heteroscedastic surrogate (inline YAML or file)");
   cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
-  cmd->add_option("-o,--output", a->output, "SVG file (default: RUN_DIR/model.svg)");
+  cmd->add_option("-o,--output", a->output, "SVG file, or - for standard output (default: RUN_DIR/model.svg)");
   cmd->add_option("--kappa", a->kappa_text, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
       ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--surrogate", a->surrogate, "2-D and --slice: model to draw (default: the run's surrogate)");
@@ -292,9 +300,7 @@ Runner add_plot(CLI::App& app) {
       refuse_pair("a --slice plot draws one model");
       const svg::Figure fig = plot_slice(run, registry, *a);
       const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
-      refuse_to_write_over_a_study(out, "-o");
-      fig.save(out);
-      std::printf("%s\n", out.c_str());
+      save_plot(fig, out);
       return 0;
     }
     if (!a->slice.empty()) throw InputError("--slice: for runs with typed parameters (`parameters:`, docs/search_space.md)");
@@ -308,9 +314,7 @@ Runner add_plot(CLI::App& app) {
     const svg::Figure fig = d == 1 ? plot_1d(run, registry, *a, gp_opt->count() > 0, vh_opt->count() > 0)
                                    : plot_2d(run, registry, *a);
     const std::string out = a->output.empty() ? a->run + "/model.svg" : a->output;
-    refuse_to_write_over_a_study(out, "-o");
-    fig.save(out);
-    std::printf("%s\n", out.c_str());
+    save_plot(fig, out);
     return 0;
   };
 }

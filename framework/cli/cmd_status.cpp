@@ -115,7 +115,7 @@ Runner add_export(CLI::App& app) {
   auto a = std::make_shared<Args>();
   cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
   cmd->add_flag("--csv", a->csv, "CSV with a header row (the only format so far)")->required();
-  cmd->add_option("-o,--output", a->output, "file to write (default: standard output)");
+  cmd->add_option("-o,--output", a->output, "file to write, - for standard output (the default)");
   return [a]() {
     Study s = Study::open(study_of(a->store), read_only_components);
     const auto trials = s.trials();
@@ -148,11 +148,7 @@ Runner add_export(CLI::App& app) {
       std::fwrite(out.data(), 1, out.size(), stdout);
     } else {
       refuse_to_write_over_a_study(a->output, "-o");
-      std::ofstream f(a->output, std::ios::trunc);
-      if (!f) throw InputError(fmt::format("{}: cannot write", a->output));
-      f << out;
-      f.close();  // the buffered tail is written here: `-o /dev/full` exited 0 with nothing written
-      if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", a->output));
+      write_output(a->output, out, "the export");
     }
     return 0;
   };

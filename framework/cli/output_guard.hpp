@@ -2,7 +2,10 @@
 // An output file named on the command line (`export -o`, `plot -o`) must not be a study: a typo (`-o gait.db` for
 // `-o gait.csv`) replaced the study file with a CSV and lost every trial, with exit 0 (session 20).
 #include <fmt/format.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -15,6 +18,11 @@ namespace varbo::cli {
 /// journal beside one (`-wal`, `-shm`, `-journal`): writing there would destroy it.
 inline void refuse_to_write_over_a_study(const std::string& output, const std::string& option) {
   const auto is_sqlite = [](const std::string& path) {
+    // Only a regular file can hold a study. Opening anything else to read its header blocked for good: `-o
+    // /dev/stdout | head` opened the read end of varbo's own output pipe, a FIFO or a terminal waited for input
+    // (red team, session 29).
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;
     std::ifstream in(path, std::ios::binary);
     char head[16] = {};
     return in.read(head, sizeof head) && std::memcmp(head, "SQLite format 3", 16) == 0;
@@ -31,6 +39,29 @@ inline void refuse_to_write_over_a_study(const std::string& output, const std::s
     throw InputError(fmt::format("{} {}: is {} study file; writing there would destroy its trials. Name another "
                                  "file (e.g. trials.csv, model.svg)",
                                  option, output, base != output ? "part of the" : "a"));
+}
+
+/// Whether `output` names standard output: "-", or a path to the very file it writes to (`/dev/stdout`,
+/// `/proc/self/fd/1`). A command then writes its data there and prints nothing else: `plot -o /dev/stdout >
+/// m.svg` printed the file's name over the SVG's first bytes (red team, session 29).
+inline bool is_standard_output(const std::string& output) {
+  if (output == "-") return true;
+  struct stat named {}, out {};
+  return ::stat(output.c_str(), &named) == 0 && ::fstat(STDOUT_FILENO, &out) == 0 && named.st_dev == out.st_dev &&
+         named.st_ino == out.st_ino;
+}
+
+/// Writes `text` to the file `output` names, or to standard output for "-"; throws InputError on failure.
+inline void write_output(const std::string& output, const std::string& text, const char* what) {
+  if (output == "-") {
+    std::fwrite(text.data(), 1, text.size(), stdout);  // main() checks the write of standard output
+    return;
+  }
+  std::ofstream f(output, std::ios::trunc);
+  if (!f) throw InputError(fmt::format("{}: cannot write {}", output, what));
+  f << text;
+  f.close();  // the buffered tail is written here: `-o /dev/full` exited 0 with nothing written
+  if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", output));
 }
 
 }  // namespace varbo::cli

@@ -101,3 +101,33 @@ TEST_CASE("CLI: a process on a SQLite study loads no PostgreSQL library; a postg
   CHECK(pg.find("libpq") != std::string::npos);
   CHECK(pg.find("study=gait: cannot connect to the database server") != std::string::npos);
 }
+
+TEST_CASE("CLI: export -o and plot -o to standard output, a pipe or a FIFO write there (no hang, no stray line)") {
+  // Red team, session 29: the check that an output file is no study opened the path to read its header, which
+  // for `-o /dev/stdout | head` was the read end of varbo's own output pipe: the command hung for good. And
+  // `plot -o /dev/stdout > m.svg` printed the file's name over the SVG's first bytes.
+  const std::string dir = test::temp_folder("cli_output_streams");
+  const std::string cfg = dir + "/cfg.yaml", run = dir + "/r", db = run + "/study.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 6\nseed: 4\nalgorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", run, "--no-progress"}, log).exit_code == 0);
+  auto sh = [&](const std::string& script) {
+    return test::run({"/bin/bash", "-c", "cd \"$1\" && " + script, "bash", dir}, log).exit_code;
+  };
+  const std::string v = "'" + V + "'";
+  CHECK(sh("timeout 20 " + v + " export r/study.db --csv -o /dev/stdout | head -1 > first.txt; "
+           "exit ${PIPESTATUS[0]}") == 0);
+  CHECK(slurp(dir + "/first.txt").rfind("id,state,phase,x1,x2,cost", 0) == 0);
+  CHECK(sh("timeout 20 " + v + " export r/study.db --csv -o - > dash.csv") == 0);
+  CHECK(test::read_rows(dir + "/dash.csv").size() == 7);  // header + 6 trials
+  CHECK_FALSE(std::filesystem::exists(dir + "/-"));
+  CHECK(sh("mkfifo ff && (cat ff > from_fifo.csv &) && timeout 20 " + v + " export r/study.db --csv -o ff") == 0);
+  CHECK(sh("for i in $(seq 50); do [ -s from_fifo.csv ] && break; sleep 0.1; done; [ -s from_fifo.csv ]") == 0);
+  CHECK(sh("timeout 60 " + v + " plot r -o /dev/stdout > m.svg") == 0);
+  CHECK(slurp(dir + "/m.svg").rfind("<svg xmlns=", 0) == 0);
+  CHECK(sh("timeout 60 " + v + " plot r -o - > n.svg") == 0);
+  CHECK(slurp(dir + "/n.svg") == slurp(dir + "/m.svg"));
+  // A file keeps its line naming where the SVG went.
+  CHECK(sh(v + " plot r -o x.svg > where.txt") == 0);
+  CHECK(slurp(dir + "/where.txt") == "x.svg\n");
+}

@@ -323,12 +323,4 @@ std::string Figure::render() const {
   return s + "</svg>\n";
 }
 
-void Figure::save(const std::string& path) const {
-  std::ofstream out(path, std::ios::trunc);
-  if (!out) throw InputError(fmt::format("{}: cannot write the SVG file", path));
-  out << render();
-  out.close();  // the buffered tail is written here; a failure then (a full disk) must not pass unseen
-  if (!out) throw InputError(fmt::format("{}: write failed", path));
-}
-
 }  // namespace varbo::svg

@@ -68,8 +68,6 @@ class Figure {
   /// Adds a panel at (left, top) of size width × height, in pixels.
   Panel& panel(double left, double top, double width, double height, Range x, Range y);
   std::string render() const;
-  /// Writes render() to `path`; throws InputError when the file cannot be written.
-  void save(const std::string& path) const;
 
  private:
   double width_, height_;
