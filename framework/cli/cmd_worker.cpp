@@ -52,7 +52,8 @@ void install_stop_handlers() {
   sigemptyset(&sa.sa_mask);
   for (int s : kStopSignals) sigaddset(&sa.sa_mask, s);
   sa.sa_flags = SA_RESTART;
-  for (int s : kStopSignals) sigaction(s, &sa, nullptr);
+  for (int s : kStopSignals)
+    if (!stop_signal_ignored(s)) sigaction(s, &sa, nullptr);  // nohup's SIGHUP stays ignored
 }
 
 /// The worker's task from its YAML, resolved and built through the registry like any configured task, and given

@@ -5,6 +5,7 @@
 #include <signal.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <set>
 
@@ -163,6 +164,37 @@ TEST_CASE("workers: a second SIGINT stops the running command's tree; its trial 
   int n = 0;
   for (pid_t p; in >> p; ++n) CHECK(kill(p, 0) != 0);  // gone
   CHECK(n == 2);
+}
+
+// Red team, session 29: `nohup varbo worker S &` exited 129 on the SIGHUP nohup had shut out (the handlers replaced
+// the inherited SIG_IGN); so did `varbo run`, killing its running command. A signal that arrives ignored stays so.
+TEST_CASE("workers and runs started ignoring SIGHUP (nohup) keep working through it; SIGTERM still stops them") {
+  const std::string dir = test::temp_folder("workers_nohup");
+  const std::string db = make_study(dir, 4, "");
+  const std::string slow = trial_script(dir, 0.6);
+  // `trap '' HUP` sets SIG_IGN, which exec keeps: what nohup does, without its nohup.out.
+  const pid_t w = test::spawn({"/bin/sh", "-c", "trap '' HUP; exec \"$0\" worker \"$1\" --command \"$2\"", VARBO_EXE,
+                               db, slow},
+                              dir + "/worker.log");
+  wait_for_trials(db, 1);
+  kill(w, SIGHUP);
+  CHECK(test::wait_for(w).exit_code == 0);  // the whole budget, not 129
+  int complete = 0;
+  for (const auto& t : open_sqlite_store(db)->trials()) complete += t.state == TrialState::Complete;
+  CHECK(complete == 4);
+
+  const std::string cfg = dir + "/run.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: '" << slow << "', names: [x1, x2], lower: [-5, 0], upper: "
+                     << "[10, 15]}\nbudget: 4\nseed: 4\nalgorithm: {type: random}\n";
+  const pid_t r = test::spawn({"/bin/sh", "-c", "trap '' HUP; exec \"$0\" run \"$1\" -o \"$2\" --no-progress", VARBO_EXE,
+                               cfg, out},
+                              dir + "/run.log");
+  for (int i = 0; i < 1200 && !std::filesystem::exists(out + "/study.db"); ++i) wait_ms(50);
+  wait_for_trials(out + "/study.db", 1);
+  kill(r, SIGHUP);
+  wait_ms(200);
+  kill(r, SIGTERM);  // not ignored: stops the run as before
+  CHECK(test::wait_for(r).exit_code == 143);
 }
 
 TEST_CASE("workers: bad input is an error naming the problem, exit 2, nothing written") {

@@ -8,8 +8,11 @@
 
 namespace varbo {
 
-/// Installs the one-shot handlers for SIGINT, SIGTERM and SIGHUP (idempotent).
+/// Installs the one-shot handlers for SIGINT, SIGTERM and SIGHUP (idempotent). One that the process started with
+/// ignored (nohup, a background job of a script) is left ignored.
 void install_interrupt_handlers();
+/// Whether `sig` (SIGINT, SIGTERM or SIGHUP) was ignored when install_interrupt_handlers() first ran.
+bool stop_signal_ignored(int sig);
 /// The signal that asked this process to stop, or 0.
 int interrupt_signal();
 /// Readable (poll POLLIN) once a stop signal arrived; -1 until install_interrupt_handlers().

@@ -19,6 +19,10 @@ std::atomic<int> g_signal{0};
 // poll() that watches it, however many there are.
 int g_pipe[2] = {-1, -1};
 constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+// A stop signal that arrived ignored stays ignored: `nohup varbo worker ...` (SIGHUP) and `varbo worker ... &` in a
+// script (a non-interactive shell ignores SIGINT for background jobs) were stopped by what their user had shut
+// out (red team, session 29). Read once, before any handler is installed.
+bool g_ignored[3] = {false, false, false};
 
 void on_stop_signal(int sig) {
   const int saved = errno;
@@ -32,7 +36,8 @@ void on_stop_signal(int sig) {
   struct sigaction dfl;
   std::memset(&dfl, 0, sizeof dfl);
   dfl.sa_handler = SIG_DFL;
-  for (int s : kStopSignals) ::sigaction(s, &dfl, nullptr);
+  for (int i = 0; i < 3; ++i)
+    if (!g_ignored[i]) ::sigaction(kStopSignals[i], &dfl, nullptr);
   errno = saved;
 }
 
@@ -48,8 +53,18 @@ void install_interrupt_handlers() {
     sigemptyset(&sa.sa_mask);
     for (int s : kStopSignals) sigaddset(&sa.sa_mask, s);
     sa.sa_flags = SA_RESTART;
-    for (int s : kStopSignals) ::sigaction(s, &sa, nullptr);
+    for (int i = 0; i < 3; ++i) {
+      struct sigaction current;
+      g_ignored[i] = ::sigaction(kStopSignals[i], nullptr, &current) == 0 && current.sa_handler == SIG_IGN;
+      if (!g_ignored[i]) ::sigaction(kStopSignals[i], &sa, nullptr);
+    }
   });
+}
+
+bool stop_signal_ignored(int sig) {
+  for (int i = 0; i < 3; ++i)
+    if (kStopSignals[i] == sig) return g_ignored[i];
+  return false;
 }
 
 int interrupt_signal() { return g_signal.load(); }
