@@ -223,7 +223,7 @@ Runner add_fit(CLI::App& app) {
       }
       j["predictions"] = preds;
     }
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return rep.ok ? 0 : 1;
   };
 }

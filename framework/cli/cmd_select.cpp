@@ -89,7 +89,7 @@ Runner add_select(CLI::App& app) {
       for (const auto& h : model->hyperparameters()) j["hyperparameters"][h.name] = h.value;
       j["selections"] = nlohmann::json::array();
       for (const auto& s : sel) j["selections"].push_back(selection_json(s, run));
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     } else {
       std::printf("varbo select %s: %s fitted on %lld of %lld trials (objective %.6g%s)\n", a->run.c_str(),
                   spec.info->full_name().c_str(), static_cast<long long>(run.data.size()),

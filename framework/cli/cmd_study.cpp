@@ -154,7 +154,7 @@ Runner add_suggest(CLI::App& app) {
                        {"phase", t.phase}});
         if (s.space()) out.back()["params"] = nlohmann::json::parse(s.space()->params(t.theta).to_json());
       }
-      std::printf("%s\n", out.dump().c_str());
+      std::printf("%s\n", out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     } else {
       for (const auto& t : trials) {
         std::string line = fmt::format("trial {}", t.id);

@@ -196,7 +196,7 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   bool written = false;
   {
     std::ofstream out(tmp, std::ios::trunc);
-    out << j.dump(2) << "\n";
+    out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
     out.flush();
     written = static_cast<bool>(out);
     out.close();
