@@ -58,7 +58,7 @@ Runner add_status(CLI::App& app) {
     Index n[4] = {0, 0, 0, 0};
     for (const auto& t : trials) ++n[static_cast<int>(t.state)];
     const Index finished = n[1] + n[2];
-    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", address.c_str(), s.config().task.info->name.c_str(),
+    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", s.store().location().c_str(), s.config().task.info->name.c_str(),
                 s.config().algorithm.info->name.c_str(), static_cast<unsigned long long>(s.config().seed));
     std::printf("  trials     %zu: %ld complete, %ld failed, %ld pending, %ld abandoned (budget %ld, %ld left)\n",
                 trials.size(), static_cast<long>(n[1]), static_cast<long>(n[2]), static_cast<long>(n[0]),

@@ -90,17 +90,19 @@ Runner add_study(CLI::App& app) {
       Study s = Study::open(a->store);
       const VerifyReport r = s.verify();
       if (!r.divergence.empty()) {
-        std::printf("%s: DIVERGES after replaying %ld trial(s): %s\n", a->store.c_str(), static_cast<long>(r.replayed),
+        std::printf("%s: DIVERGES after replaying %ld trial(s): %s\n", s.store().location().c_str(),
+                    static_cast<long>(r.replayed),
                     r.divergence.c_str());
         return 1;
       }
       std::printf("%s: ok: %ld finished trial(s) replayed, every serial trial reproduced, %ld saved algorithm "
                   "state(s) equal to the replay\n",
-                  a->store.c_str(), static_cast<long>(r.replayed), static_cast<long>(r.states_compared));
+                  s.store().location().c_str(), static_cast<long>(r.replayed), static_cast<long>(r.states_compared));
       return 0;
     }
     Study s = Study::create(a->store, a->config);
-    std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", a->store.c_str(),
+    // The store's location: a PostgreSQL URL's password is shown as *** (cron logs keep stdout).
+    std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", s.store().location().c_str(),
                 s.config().task.info->name.c_str(), s.config().algorithm.info->name.c_str(),
                 static_cast<long>(s.config().budget), static_cast<long>(s.domain().box.dim()),
                 join(s.domain().names).c_str());
@@ -137,7 +139,7 @@ Runner add_suggest(CLI::App& app) {
       std::fprintf(stderr,
                    "varbo: %s: nothing to suggest: the budget of %lld trials is used (%lld finished, %lld pending) or "
                    "the algorithm is done\n",
-                   printable(a->store).c_str(), static_cast<long long>(s.config().budget),
+                   printable(s.store().location()).c_str(), static_cast<long long>(s.config().budget),
                    static_cast<long long>(finished), static_cast<long long>(pending));
       return 4;
     }
@@ -173,7 +175,7 @@ Runner add_suggest(CLI::App& app) {
       const auto ids = s.abandon_where([&](const TrialRecord& p) { return asked.count(p.id) > 0; },
                                        "the suggestion could not be printed");
       std::fprintf(stderr, "varbo: %s: standard output could not be written; the %zu trial(s) suggested were abandoned\n",
-                   printable(a->store).c_str(), ids.size());
+                   printable(s.store().location()).c_str(), ids.size());
       errno = err;
     }
     opened.reset();  // closing the store: SQLite checkpoints its write-ahead log into the file

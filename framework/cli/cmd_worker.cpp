@@ -209,14 +209,16 @@ Runner add_worker(CLI::App& app) {
       if (a->command.empty())
         throw InputError(fmt::format("{}: the study's task is '{}', not an external command: give the command that "
                                      "evaluates a θ with --command",
-                                     a->store, own.info ? own.info->name : "?"));
+                                     study.store().location(), own.info ? own.info->name : "?"));
       task = external_task(study, a->command, a->timeout.empty() ? 600.0 : parse_number(a->timeout, "--timeout"),
                            a->grace.empty() ? 0.2 : parse_number(a->grace, "--grace"));
     }
     const double hb = study.config().heartbeat_timeout > 0 ? std::max(0.05, study.config().heartbeat_timeout / 4) : 10.0;
     study.heartbeat();
     auto beats = start_heartbeats(a->store, id, hb);
-    std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), a->store.c_str(), hb);
+    // The store's location everywhere it is shown: a PostgreSQL URL's password as *** (logs keep it).
+    const std::string where = study.store().location();
+    std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), where.c_str(), hb);
     long long done = 0;
     int exit_code = 0;
     Index failures_in_a_row = 0;
@@ -241,7 +243,7 @@ Runner add_worker(CLI::App& app) {
                        "varbo worker: the budget is held by %zu trial(s) pending elsewhere: %s; waiting for them to "
                        "be observed, failed or abandoned (`varbo abandon %s --id ID`; a trial a worker holds is also "
                        "abandoned once that worker is silent for the heartbeat timeout)\n",
-                       others.size(), join(others).c_str(), shell_word(a->store).c_str());
+                       others.size(), join(others).c_str(), shell_word(where).c_str());
           waiting_for = others;
         }
         std::this_thread::sleep_for(std::chrono::duration<double>(std::min(hb, 0.25)));
@@ -312,8 +314,8 @@ Runner add_worker(CLI::App& app) {
       } catch (const std::exception& err) {
         // The trial ran (on a robot, perhaps for an hour) but its result is not stored (a full disk, a store
         // gone): say it, with the command that records it once the cause is fixed. It stays pending.
-        std::string cmd = e.ok ? fmt::format("varbo observe {} {} {}", shell_word(a->store), t.id, exact(e.cost))
-                               : fmt::format("varbo fail {} {} --reason 'recorded by hand'", shell_word(a->store), t.id);
+        std::string cmd = e.ok ? fmt::format("varbo observe {} {} {}", shell_word(where), t.id, exact(e.cost))
+                               : fmt::format("varbo fail {} {} --reason 'recorded by hand'", shell_word(where), t.id);
         if (e.ok)
           for (const auto& [name, value] : e.components)
             cmd += " --component " + shell_word(fmt::format("{}={}", name, exact(value)));

@@ -108,6 +108,32 @@ TEST_CASE("postgresql: unreachable server, wrong credentials, a role without pri
   CHECK(open_store(url)->trials().empty());  // nothing written by any of them
 }
 
+TEST_CASE("postgresql: a URL's password is never printed: create, status, verify, suggest's end, worker") {
+  // Red team, session 29: `study create`'s and `status`'s first lines, suggest's "nothing to suggest" and the
+  // worker's banner and hints printed the URL as given, password and all, into cron logs.
+  const std::string dir = test::temp_folder("pg_password_hidden");
+  const std::string cfg = config_file(dir);
+  // Role varbo authenticates by trust (the fixture's pg_hba.conf): the password in the URL is never asked for.
+  const std::string url = "postgresql://varbo:s3cret@/varbo_test?host=" + socket_dir() + "&study=pw_hidden_" +
+                          std::to_string(getpid());
+  std::string all;
+  auto run = [&](const std::vector<std::string>& args) {
+    auto [code, out] = varbo_cli(args, dir);
+    all += out;
+    return code;
+  };
+  const int created = run({"study", "create", url, cfg});
+  CAPTURE(all);
+  REQUIRE(created == 0);
+  CHECK(run({"status", url}) == 0);
+  CHECK(run({"study", "verify", url}) == 0);
+  CHECK(run({"worker", url, "--command", "echo 1.5", "--max-trials", "2"}) == 0);
+  CHECK(run({"suggest", url, "--batch", "3"}) == 0);
+  CHECK(run({"suggest", url}) == 4);
+  CHECK(all.find("varbo:***@") != std::string::npos);  // the URL is shown, its password hidden
+  CHECK(all.find("s3cret") == std::string::npos);
+}
+
 TEST_CASE("postgresql: a URL naming no study, a database without studies, an existing name on create") {
   const std::string dir = test::temp_folder("pg_no_study");
   const std::string cfg = config_file(dir);
