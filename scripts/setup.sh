@@ -12,6 +12,7 @@ PACKAGES=(build-essential cmake ninja-build pkg-config
   libnlopt-cxx-dev libnlopt-dev libcli11-dev nlohmann-json3-dev libsqlite3-dev libnanoflann-dev
   libbenchmark-dev
   locales                       # localedef: a decimal-comma locale for tests/study/test_locale.cpp
+  iproute2                      # ss: tests/dashboard checks the listen backlog
   libcpp-httplib-dev chromium   # `varbo dashboard` and its browser test (headless)
   libpqxx-dev postgresql
   python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest python3-optuna)

@@ -1,6 +1,7 @@
 // `varbo dashboard STUDY [--port 8080] [--host 127.0.0.1]`: a live view of a study in the browser (docs/dashboard.md):
 // history, trials, model slices and maps, and the risk factor κ chosen after learning with a slider (Kuindersma
 // 2013, section 3.2), served read-only from the study store while workers write to it.
+#include <malloc.h>
 #include <fmt/format.h>
 
 #include <unistd.h>
@@ -49,6 +50,10 @@ Runner add_dashboard(CLI::App& app) {
     if (a->seed < 0) throw InputError("--seed: expected a non-negative integer");
     DashboardStudy study(a->study, static_cast<std::uint64_t>(a->seed));
     DashboardApi api(study);
+    // main() keeps freed blocks for the short commands; a server that lives for days gives them back: large
+    // replies are mapped and unmapped, and the heap is trimmed (growing_pool.hpp's on_idle trims the arenas).
+    mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+    mallopt(M_TRIM_THRESHOLD, 128 * 1024);
     install_interrupt_handlers();  // Ctrl-C, SIGTERM, SIGHUP: the server stops and closes the study (exit 128 + signal)
     serve_dashboard(api, a->host, a->port, [&](int port) {
       std::printf("varbo dashboard: serving %s at http://%s:%d/ (Ctrl-C stops)\n", study.address().c_str(),

@@ -80,3 +80,22 @@ TEST_CASE("growing pool: idle threads are reused rather than new ones started") 
   }
   CHECK(pool.threads() == 1);  // one job at a time: the one thread took every one
 }
+
+TEST_CASE("growing pool: after a burst, threads idle past the timeout leave down to the minimum; on_idle runs") {
+  // Red team, session 29: threads only ever started, never left: a burst of 20 slow clients kept 22 threads and
+  // their heaps (1.1 GB) for the dashboard's lifetime.
+  std::atomic<int> idle_calls{0};
+  GrowingPool pool(64, 50ms, 2, [&idle_calls] { ++idle_calls; });
+  Rendezvous r(8);
+  for (int i = 0; i < 8; ++i) pool.enqueue([&r] { r.arrive(); });
+  const auto end = std::chrono::steady_clock::now() + 20s;
+  while (pool.threads() > 2 && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(5ms);
+  CHECK(r.met == 8);
+  CHECK(pool.threads() == 2);
+  CHECK(idle_calls.load() >= 1);  // the last job of the burst left every thread idle
+  // The pool still serves: a new burst starts threads again, and every job runs.
+  std::atomic<int> done{0};
+  for (int i = 0; i < 20; ++i) pool.enqueue([&done] { ++done; });
+  pool.shutdown();
+  CHECK(done.load() == 20);
+}
