@@ -35,6 +35,9 @@ fi
 cmake -S plugins/template -B "$WORK/template" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$PREFIX" > "$WORK/configure.log"
 cmake --build "$WORK/template" > "$WORK/build.log"
 if grep -q "warning:" "$WORK/build.log"; then cat "$WORK/build.log"; echo "template plugins: compiler warnings"; exit 1; fi
+# Built with an install() rule, a plugin's RUNPATH must still hold no empty entry (the current folder): CMake pads
+# one for install to rewrite unless the plugin is built with its install RPATH (VarboPlugin.cmake).
+tests/loader/check_runpath.sh "$WORK"/template/libvarbo_*.so
 # The SDK a plugin builds against is the core only: neither the core nor a template plugin may need SQLite or
 # the study library.
 CORE_LIB=$(find "$PREFIX" -name libvarbo_core.so | head -n 1)

@@ -46,9 +46,17 @@ function(varbo_add_plugin)
     target_link_libraries(${target} PRIVATE ${core} ${P_LIBRARIES} ${P_PRIVATE_LIBRARIES})
   endif()
   target_link_options(${target} PRIVATE -Wl,-z,defs)
-  if(VARBO_BUILD_WITH_INSTALL_RPATH)  # varbo's own tree: lib/varbo/plugins/../.. is lib/ there too
-    set_target_properties(${target} PROPERTIES BUILD_WITH_INSTALL_RPATH TRUE)
+  # The RUNPATH the plugin is built with is the one it is installed with. Otherwise CMake pads the build RUNPATH
+  # with ':' for install to rewrite in place, and an empty entry is the current folder: a third-party plugin with
+  # an install() rule loaded its libraries from wherever varbo was started (red team, session 29;
+  # tests/loader/check_runpath.sh). In varbo's tree lib/varbo/plugins/../.. is lib/ in build and install alike;
+  # out of tree the SDK's library folder is added, where the build tree finds libvarbo_core.
+  if(NOT TARGET varbo_core)
+    get_target_property(_core_location varbo::core LOCATION)
+    get_filename_component(_core_dir "${_core_location}" DIRECTORY)
+    set_property(TARGET ${target} APPEND PROPERTY INSTALL_RPATH "${_core_dir}")
   endif()
+  set_target_properties(${target} PROPERTIES BUILD_WITH_INSTALL_RPATH TRUE)
   if(DEFINED VARBO_PLUGIN_OUTPUT_DIR)
     set_target_properties(${target} PROPERTIES LIBRARY_OUTPUT_DIRECTORY ${VARBO_PLUGIN_OUTPUT_DIR})
     # varbo's own plugin: its file name goes into the core's list of built-in libraries (top-level

@@ -67,6 +67,16 @@ void PluginLoader::load_file(const std::string& path) { load_file(path, false); 
 
 void PluginLoader::load_file(const std::string& path, bool builtin) {
   builtin = builtin && own_library(path);
+  // varbo's own plugin file, already loaded from another built-in folder (the build tree's, then an older install
+  // in the configured prefix): the same plugin of another install, whatever its build. Checked before the ABI and
+  // fingerprint: an older install there put 24 "built for plugin ABI 5" warnings on every command, for plugins
+  // that were all loaded (red team, session 29).
+  if (builtin)
+    for (const auto& l : loaded_)
+      if (l.builtin && fs::path(l.path).filename() == fs::path(path).filename() && l.path != path) {
+        log_debug("{} shadowed by {} (varbo's own plugin, loaded from the first built-in folder)", path, l.path);
+        return;
+      }
   // Size, class, machine and every segment are checked first: dlopen maps a truncated file and dies with
   // SIGBUS on the first page past its end, and says "No such file or directory" for another architecture.
   detail::check_elf_file(path);
