@@ -3,7 +3,11 @@
 # is a module of its own, libvarbo_dashboard_http.so, loaded by `varbo dashboard` only: cpp-httplib links OpenSSL,
 # zlib and brotli, which every other varbo process would otherwise load (dashboard_http.hpp).
 find_package(PkgConfig REQUIRED)
-pkg_check_modules(CPP_HTTPLIB REQUIRED IMPORTED_TARGET cpp-httplib)
+pkg_check_modules(CPP_HTTPLIB QUIET IMPORTED_TARGET cpp-httplib)
+if(NOT CPP_HTTPLIB_FOUND)
+  message(FATAL_ERROR "varbo: `varbo dashboard` needs cpp-httplib (Debian: apt-get install libcpp-httplib-dev); "
+                      "scripts/setup.sh installs every package the build needs")
+endif()
 set(VARBO_DASHBOARD_PAGE ${CMAKE_CURRENT_SOURCE_DIR}/cli/dashboard/dashboard_page.html)
 set(VARBO_DASHBOARD_PAGE_HEADER ${PROJECT_BINARY_DIR}/generated/dashboard_page.inc)
 add_custom_command(OUTPUT ${VARBO_DASHBOARD_PAGE_HEADER}

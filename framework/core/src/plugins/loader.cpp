@@ -102,10 +102,19 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
     throw PluginVersionError(fmt::format("{}: plugin '{}' uses API version {}, host is {}", path, shown_name,
                                          info.api_version, VARBO_API_VERSION));
   const std::string fp = info.fingerprint;
-  if (fp != host_fingerprint())
-    throw PluginVersionError(fmt::format("{}: plugin '{}' was built with [{}], host is [{}]; rebuild it with the "
-                                         "same compiler, standard library, Eigen, yaml-cpp and fmt",
-                                         path, shown_name, fp, host_fingerprint()));
+  if (fp != host_fingerprint()) {
+    // A plugin compiled without the SDK's CMake package lacks the definitions varbo::core carries: its yaml-cpp
+    // shows as "unknown", and the advice to use the same yaml-cpp did not fit (red team, session 29).
+    const bool no_sdk_definitions = fp.find("yaml-cpp=unknown") != std::string::npos;
+    throw PluginVersionError(fmt::format(
+        "{}: plugin '{}' was built with [{}], host is [{}]; {}", path, shown_name, fp, host_fingerprint(),
+        no_sdk_definitions
+            ? "it was compiled without the definitions of varbo's CMake package (yaml-cpp=unknown): build it with "
+              "find_package(varbo) and varbo_add_plugin (docs/plugins.md), or define what varbo::core's "
+              "INTERFACE_COMPILE_DEFINITIONS hold (VARBO_YAML_CPP_VERSION, EIGEN_MAX_ALIGN_BYTES=16, "
+              "EIGEN_MALLOC_ALREADY_ALIGNED=1)"
+            : "rebuild it with the same compiler, standard library, Eigen, yaml-cpp and fmt"));
+  }
   if (const std::string why = bad_plugin_name(info.name); !why.empty())
     throw PluginLoadError(fmt::format("{}: not loaded: {} (VARBO_PLUGIN(\"name\", ...) names it)", path, why));
   const std::string name = info.name;
