@@ -113,8 +113,20 @@ int main(int argc, char** argv) {
         // data lost. A failed write of standard output is the command's failure.
         if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
           // `varbo export S | head -1`: the reader left on purpose; end as a process killed by SIGPIPE would.
-          if (errno == EPIPE) return rc != 0 ? rc : 128 + SIGPIPE;
-          std::fprintf(stderr, "varbo: error: standard output: write failed (%s)\n", std::strerror(errno));
+          const int err = errno;
+          // observe, fail, abandon and study create print only a confirmation of a change already committed:
+          // exit 2 ("nothing written") after `observe S 0 1.25 > /dev/full` made a script retry, and the retry
+          // was refused as "already complete" (red team, session 29).
+          const bool recorded = rc == 0 && (sub->get_name() == "observe" || sub->get_name() == "fail" ||
+                                            sub->get_name() == "abandon" ||
+                                            (sub->get_name() == "study" && sub->get_subcommand("create")->parsed()));
+          if (recorded) {
+            std::fprintf(stderr, "varbo: warning: standard output: write failed (%s); the change was recorded\n",
+                         std::strerror(err));
+            return 0;
+          }
+          if (err == EPIPE) return rc != 0 ? rc : 128 + SIGPIPE;
+          std::fprintf(stderr, "varbo: error: standard output: write failed (%s)\n", std::strerror(err));
           return rc != 0 ? rc : 2;
         }
         return rc;
