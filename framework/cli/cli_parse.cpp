@@ -7,6 +7,7 @@
 
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -15,7 +16,7 @@ double parse_number(const std::string& text, const std::string& what) {
   if (!v)
     throw InputError(fmt::format("{}: malformed number '{}' (expected a decimal number such as 0.25 or -1.5e-3); "
                                  "nothing written",
-                                 what, text));
+                                 what, printable(text)));  // a CR from a CRLF file is shown, not obeyed
   return *v;
 }
 
@@ -27,14 +28,14 @@ std::int64_t parse_id(const std::string& text) {
   if (text.empty() || end == s || *end != '\0' || errno == ERANGE || v < 0)
     throw InputError(fmt::format("ID: malformed trial id '{}' (expected a non-negative integer as printed by "
                                  "`varbo suggest`); nothing written",
-                                 text));
+                                 printable(text)));
   return v;
 }
 
 std::pair<std::string, double> parse_component(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
-    throw InputError(fmt::format("--component: expected name=value, got '{}'; nothing written", text));
+    throw InputError(fmt::format("--component: expected name=value, got '{}'; nothing written", printable(text)));
   const std::string name = text.substr(0, eq);
   return {name, parse_number(text.substr(eq + 1), fmt::format("--component {}", name))};
 }
