@@ -10,6 +10,7 @@
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/study.hpp"
 
@@ -68,6 +69,10 @@ Runner add_run(CLI::App& app) {
     install_interrupt_handlers();
     RunSummary s = a->resume.empty() ? run_study_file(a->config, ov) : resume_study(a->resume, ov);
     std::printf("%s", s.report().c_str());
+    // Every trial failed: the run is over and recorded (exit 0, as any run whose trials were evaluated), but there
+    // is nothing to deploy; say it where a script's log shows it (red team, session 29).
+    if (s.evaluations > 0 && !s.best_theta)
+      log_warn("every one of the {} trials failed: no cost was observed, nothing to recommend", s.evaluations);
     return 0;
   };
 }

@@ -67,6 +67,8 @@ std::string RunSummary::report() const {
                               evaluations, failed);
   if (best_theta)
     s += fmt::format("  best cost       {:.8g} at {}\n", best_cost, best_params.empty() ? fmt_vec(*best_theta) : best_params);
+  else if (evaluations > 0)
+    s += "  best cost       none: every trial failed (their reasons are in trials.csv and log.txt)\n";
   if (recommended_theta)
     s += fmt::format("  recommended     {}{}\n", recommended_params.empty() ? fmt_vec(*recommended_theta) : recommended_params,
                      recommendation_rule.empty() ? std::string() : " (" + recommendation_rule + ")");
