@@ -166,6 +166,20 @@ def test_bad_space_and_config(tmp_path):
     assert not os.path.exists(tmp_path / "never")
 
 
+def test_a_refused_minimize_leaves_no_temporary_folder(tmp_path, monkeypatch):
+    # Each refused call without output= left an empty varbo-minimize-* folder in the temp dir (red team, session 29).
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", None)  # re-read TMPDIR
+    with pytest.raises(varbo.ConfigError):
+        varbo.minimize(lambda p: 0.0, {"x": (1, 0)})
+    with pytest.raises(ValueError):
+        varbo.minimize(lambda p: float("nan") if p["x"] > 2 else 0.0, {"x": (0, 1)}, budget=0)
+    assert list(tmp_path.iterdir()) == []
+    r = varbo.minimize(lambda p: p["x"] ** 2, {"x": (0, 1)}, budget=3, seed=1)
+    assert os.path.dirname(r.output) == str(tmp_path)  # a run's folder stays: it holds the user's trials
+
+
 CTRL_C_CHILD = r'''
 import csv, sys, time, varbo
 out = sys.argv[1]

@@ -494,8 +494,9 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
         raise InputError("minimize: resume=True continues the run in output, overwrite=True replaces it: give one")
     if resume and output is None and not given_output:
         raise InputError("minimize: resume=True needs the run folder to continue: output=...")
+    made_folder = None
     if output is None and not given_output:
-        output = tempfile.mkdtemp(prefix="varbo-minimize-")
+        output = made_folder = tempfile.mkdtemp(prefix="varbo-minimize-")
         overwrite = True
     user_callback = callback
     # Trials remember their study, as Study.ask's do: one told to another study with the same id was recorded
@@ -511,8 +512,19 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
     def on_trial(d: Dict[str, Any]) -> Any:
         return user_callback(own(d, output))
 
-    r = _varbo._minimize(fun, text, name, None if callback is None else on_trial, seed, budget, threads,
-                         None if output is None else os.fspath(output), resume, overwrite, progress)
+    try:
+        r = _varbo._minimize(fun, text, name, None if callback is None else on_trial, seed, budget, threads,
+                             None if output is None else os.fspath(output), resume, overwrite, progress)
+    except BaseException:
+        # A run refused before its first write (a bad config, a space it cannot use) left an empty temporary
+        # folder per call: the test suite alone left hundreds in /tmp (red team, session 29). One holding a
+        # study is kept: its trials are the user's.
+        if made_folder is not None:
+            try:
+                os.rmdir(made_folder)  # only if empty
+            except OSError:
+                pass
+        raise
     return OptimizeResult(x=r["best_x"], fun=r["best_cost"], params=r["best_params"],
                           recommended_x=r["recommended_x"], recommended_params=r["recommended_params"],
                           recommendation_rule=r["recommendation_rule"],
