@@ -10,6 +10,17 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _temporary_folders_under_pytest(tmp_path_factory):
+    """minimize() without output= writes its run into a new temporary folder, which it keeps (the user's trials):
+    the suite's calls go under pytest's own temporary root (it keeps the last three sessions), not into /tmp."""
+    import tempfile
+    before = tempfile.tempdir
+    tempfile.tempdir = str(tmp_path_factory.mktemp("tempdir"))
+    yield
+    tempfile.tempdir = before
+
+
 def varbo_bin() -> str:
     path = os.environ.get("VARBO_BIN") or str(ROOT / "build" / "bin" / "varbo")
     if not os.path.exists(path):
