@@ -218,7 +218,11 @@ Runner add_worker(CLI::App& app) {
     auto beats = start_heartbeats(a->store, id, hb);
     // The store's location everywhere it is shown: a PostgreSQL URL's password as *** (logs keep it).
     const std::string where = study.store().location();
-    std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), where.c_str(), hb);
+    // The banner, a line per trial and the closing count are progress: `varbo -q worker` keeps only warnings and
+    // errors (red team, session 29: -q silenced none of them).
+    const bool progress = log_level() <= LogLevel::Info;
+    if (progress)
+      std::fprintf(stderr, "varbo worker %s on %s (heartbeat every %.3g s)\n", id.c_str(), where.c_str(), hb);
     long long done = 0;
     int exit_code = 0;
     Index failures_in_a_row = 0;
@@ -327,8 +331,9 @@ Runner add_worker(CLI::App& app) {
       }
       ++done;
       if (taken_elsewhere) continue;
-      std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
-                   e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());
+      if (progress || !e.ok)
+        std::fprintf(stderr, "trial %lld (%s): %s\n", static_cast<long long>(t.id), t.phase.c_str(),
+                     e.ok ? ("cost " + exact(e.cost)).c_str() : ("failed: " + safe_text(e.error, 200)).c_str());
       // This worker's own trials: a rig that fails every trial (unplugged, E-stop) stops instead of using the
       // study's budget up in a second; the other workers go on.
       failures_in_a_row = e.ok ? 0 : failures_in_a_row + 1;
@@ -345,8 +350,9 @@ Runner add_worker(CLI::App& app) {
     }
     beats.reset();  // first: a beat after it would mark the worker running again
     study.heartbeat("stopped");
-    std::fprintf(stderr, "varbo worker %s: %lld trial(s) done%s\n", id.c_str(), done,
-                 exit_code > 128 ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");
+    if (progress || exit_code != 0)
+      std::fprintf(stderr, "varbo worker %s: %lld trial(s) done%s\n", id.c_str(), done,
+                   exit_code > 128 ? fmt::format(", stopped by signal {}", exit_code - 128).c_str() : "");
     return exit_code;
   };
 }
