@@ -468,6 +468,46 @@ TEST_CASE("a study this user cannot write is read (status, export, verify); a ch
   fs::remove_all(dir);
 }
 
+TEST_CASE("a study on a shared machine: umask 002 makes it group-writable; another user's side files do not block") {
+  // Red team, session 29 (users alice and bob, a setgid group folder): SQLite made every study 0644 whatever the
+  // umask; a reader's `varbo status` left -wal/-shm of its own, 0644, and the owner's next `suggest` failed with
+  // "attempt to write a readonly database" (163 of 170 in a loop). Runs as users daemon and nobody: root only.
+  const std::string V = VARBO_EXE;
+  if (geteuid() != 0 || std::system(fmt::format("/usr/sbin/runuser -u nobody -- test -x '{}' && /usr/sbin/runuser -u "
+                                                "daemon -- test -x '{}'",
+                                                V, V)
+                                        .c_str()) != 0) {
+    MESSAGE("skipped: needs root, runuser, and users daemon and nobody able to execute " << V);
+    return;
+  }
+  const std::string dir = scratch("shared_machine");
+  fs::permissions(dir, fs::perms::all);  // 0777, no sticky bit: as a group folder both users may write
+  const std::string cfg = dir + "/c.yaml", db = dir + "/s.db", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 6\nseed: 1\nalgorithm: {type: random}\n";
+  fs::permissions(cfg, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read);
+  auto as = [&](const std::string& user, const std::string& script) {
+    return test::run({"/usr/sbin/runuser", "-u", user, "--", "/bin/sh", "-c", script}, log).exit_code;
+  };
+  const std::string v = "'" + V + "'";
+  // umask 002: the study is group-writable like every other file the user makes.
+  REQUIRE(as("daemon", "umask 002; " + v + " -q study create '" + dir + "/g.db' '" + cfg + "'") == 0);
+  CHECK((fs::status(dir + "/g.db").permissions() & fs::perms::group_write) != fs::perms::none);
+  // umask 022: daemon's study, which nobody may only read.
+  REQUIRE(as("daemon", "umask 022; " + v + " -q study create '" + db + "' '" + cfg + "'") == 0);
+  CHECK((fs::status(db).permissions() & fs::perms::group_write) == fs::perms::none);
+  // A reader creates no side file of its own.
+  CHECK(as("nobody", v + " status '" + db + "' > /dev/null") == 0);
+  CHECK_FALSE(fs::exists(db + "-wal"));
+  CHECK_FALSE(fs::exists(db + "-shm"));
+  // Side files left by nobody (as an older varbo's reader did), holding no data: the owner's write clears them.
+  REQUIRE(as("nobody", "umask 022; : > '" + db + "-wal'; head -c 32768 /dev/zero > '" + db + "-shm'") == 0);
+  CHECK(as("daemon", v + " suggest '" + db + "'") == 0);
+  CHECK(as("daemon", v + " observe '" + db + "' 0 1.5") == 0);
+  CHECK(contains(slurp(log), "removed SQLite's side files of another user that held no data"));
+  CHECK(open_sqlite_store(db)->trials().size() == 1);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("past `ulimit -f` a run stops with the store's error (exit 2), not killed by SIGXFSZ; the study resumes") {
   // Red team, session 25: SIGXFSZ killed varbo silently (exit 153), the evaluated result lost without the usual
   // hint. Ignored, the write fails with EFBIG and is handled as any failed write.

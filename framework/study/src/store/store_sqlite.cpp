@@ -22,6 +22,7 @@
 #include "varbo/log.hpp"
 #include "varbo/store.hpp"
 #include "varbo/text.hpp"
+#include "sqlite_side_files.hpp"
 #include "store_codec.hpp"
 
 namespace varbo {
@@ -223,8 +224,11 @@ class SqliteStore final : public StudyStore {
                                                               length)
                                                 : ""));
     }
-    if (!create)
-      if (std::string why = read_only_reason(path); !why.empty()) reopen_read_only(why);
+    if (!create) {
+      std::string why = clear_foreign_side_files(path);
+      if (why.empty()) why = read_only_reason(path);
+      if (!why.empty()) reopen_read_only(why);
+    }
     sqlite3_busy_timeout(db_, kBusyTimeoutMs);
     try {
       if (create) {
@@ -628,7 +632,12 @@ class SqliteStore final : public StudyStore {
       throw InputError(fmt::format("{}: the study is {} and its newest changes are in {}-wal, which SQLite cannot "
                                    "read without its {}-shm; copy the folder to a writable place and open the copy",
                                    path_, why, path_, path_));
-    const std::string uri = sqlite_uri(path_, has_shm ? "mode=ro" : "immutable=1");
+    // Without a -shm no process has the study open: read the file as it is (immutable: a WAL-mode study opened
+    // otherwise makes its -wal). readonly_shm=1: a reader never creates the -shm either. Made by a reader, they
+    // belonged to that reader and blocked the study's owner (red team, session 29); a -wal made in the instant an
+    // owner closes is cleared by the owner's next write (clear_foreign_side_files).
+    const bool frozen = !has_shm;
+    const std::string uri = sqlite_uri(path_, frozen ? "immutable=1" : "mode=ro&readonly_shm=1");
     if (sqlite3_open_v2(uri.c_str(), &db_, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_FULLMUTEX, nullptr) !=
         SQLITE_OK) {
       const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
@@ -637,7 +646,7 @@ class SqliteStore final : public StudyStore {
       throw InputError(fmt::format("{}: cannot open the study file ({}): {}", path_, why, msg));
     }
     read_only_ = true;
-    log_debug("{}: {}; opened read-only{}", path_, why, has_shm ? "" : " (immutable)");
+    log_debug("{}: {}; opened read-only{}", path_, why, frozen ? " (immutable)" : "");
   }
 
   bool has_table(const std::string& name) const {
@@ -695,6 +704,12 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
       for (const auto& [k, v] : meta) store.set_meta(k, v);
     });
     store.checkpoint_into_file();
+    // SQLite makes its files 0644 whatever the umask: with `umask 002` in a lab's group folder, everything else
+    // varbo wrote was group-writable but the study was not, and a colleague's worker was refused (red team,
+    // session 29). The file gets 0666 less the umask, as any new file; its -wal and -shm take its mode.
+    const mode_t mask = ::umask(0);
+    ::umask(mask);
+    ::chmod(tmp.c_str(), 0666 & ~mask);
   } catch (const InputError& e) {
     cleanup();
     std::string msg = e.what();  // said of the study's name, not of the temporary file's
