@@ -1,7 +1,9 @@
 #pragma once
 // A background thread that runs a tick at scheduled times until it is destroyed: `varbo worker`'s heartbeat and
 // `varbo fit`'s progress line. Destruction wakes the thread at once (it never waits for the next tick) and joins it.
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <condition_variable>
 #include <functional>
 #include <mutex>
@@ -29,12 +31,21 @@ class BackgroundTicker {
  private:
   void run() {
     const auto t0 = std::chrono::steady_clock::now();
+    // Capped at ~30 years: a time past the clock's 64-bit nanosecond range overflowed into the past, and the
+    // ticker ticked in a loop (heartbeat_timeout: 1e11; red team, session 29).
+    const auto time_of = [&](int k) {
+      return t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                      std::chrono::duration<double>(std::min(at_(k), 1e9)));
+    };
     std::unique_lock<std::mutex> lock(mutex_);
-    for (int k = 0;; ++k) {
-      const auto when = t0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                 std::chrono::duration<double>(at_(k)));
-      if (cv_.wait_until(lock, when, [this] { return done_; })) return;
+    for (int k = 0;;) {
+      if (cv_.wait_until(lock, time_of(k), [this] { return done_; })) return;
       if (!tick_(k)) return;
+      // Ticks missed while the process was stopped (Ctrl-Z, SIGSTOP) are not made up in a burst: 900 heartbeat
+      // writes in the 2 s after a 20 s stop. The next tick is the first still ahead.
+      const auto now = std::chrono::steady_clock::now();
+      do ++k;
+      while (k < std::numeric_limits<int>::max() && time_of(k) <= now);
     }
   }
 

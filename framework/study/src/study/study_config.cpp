@@ -24,8 +24,10 @@ const std::vector<OptionSpec>& study_options() {
       opt::reals("initial_point", "", "θ0 in user units, for algorithms that start from a known policy"),
       opt::string("description", "", "free text, copied to the run folder"),
       opt::real("heartbeat_timeout", 60,
-                "seconds without a heartbeat after which a `varbo worker`'s pending trial is abandoned (0 = never)")
-          .at_least(0),
+                "seconds without a heartbeat after which a `varbo worker`'s pending trial is abandoned (0 = never; "
+                "else at least 0.2: a worker beats every timeout/4, at most every 0.05 s)")
+          .at_least(0)
+          .at_most(1e8),
       opt::node("parameters", "",
                 "typed parameters for tasks that take a domain (external): a list of {name, type: real|int|"
                 "categorical|fixed, low, high, log, choices, value} (docs/search_space.md)"),
@@ -154,6 +156,14 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   s.seed = static_cast<std::uint64_t>(o.integer("seed"));
   s.threads = static_cast<int>(o.integer("threads"));
   s.heartbeat_timeout = o.real("heartbeat_timeout");
+  // Below 0.2 s every worker looked silent to the others (its beats come at most every 0.05 s): with two workers
+  // every trial was abandoned and ran again (red team, session 29). Above 1e8 s the beat schedule overflowed and
+  // a worker spun, writing its heartbeat in a loop, and never exited.
+  if (s.heartbeat_timeout > 0 && s.heartbeat_timeout < 0.2)
+    o.node("heartbeat_timeout")
+        .fail(fmt::format("{} s is shorter than a worker's heartbeat can keep up with: give 0 (never abandon) or at "
+                          "least 0.2",
+                          s.heartbeat_timeout));
   s.retry_abandoned = o.boolean("retry_abandoned");
   s.stop_after_failures = static_cast<Index>(o.integer("stop_after_failures"));
   s.output = o.is_set("output") ? o.str("output") : std::string();
