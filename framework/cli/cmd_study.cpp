@@ -304,7 +304,11 @@ Runner add_abandon(CLI::App& app) {
     }
     // A worker is alive while its heartbeat is fresher than the study's heartbeat_timeout (docs/studies.md,
     // "Workers"). Before, `varbo abandon` took every pending trial, a live worker's included, which then ran twice.
-    const double now = unix_time(), window = s.config().heartbeat_timeout;
+    // heartbeat_timeout: 0 ("never abandon on its own") judged every worker ever seen live, a SIGKILLed one's
+    // trial spared forever (red team, session 29). By hand, a worker silent for 60 s is gone: with 0 it beats
+    // every 10 s (cmd_worker.cpp).
+    const double now = unix_time(),
+                 window = s.config().heartbeat_timeout > 0 ? s.config().heartbeat_timeout : 60.0;
     std::map<std::string, double> beat;
     for (const auto& w : s.store().workers())
       if (w.state == "running") beat[w.id] = w.heartbeat_at;
@@ -319,7 +323,7 @@ Runner add_abandon(CLI::App& app) {
       if (t.worker.empty()) return false;
       if (run_live && s.store().meta("run_worker/" + t.worker)) return true;
       const auto it = beat.find(t.worker);
-      return it != beat.end() && (window <= 0 || now - it->second < window);
+      return it != beat.end() && now - it->second < window;
     };
     auto holder = [&](const TrialRecord& t) {
       return beat.count(t.worker) ? fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id, printable(t.worker),

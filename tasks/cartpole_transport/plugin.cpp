@@ -34,7 +34,7 @@ const OptionSet<TransportSettings>& transport_options() {
       opt::node("weights", "{tracking: 0.25, sway: 2.0, energy: 0.002}",
                 "weight of each cost component (unlisted components: 1); the cost is their weighted sum"),
       opt::real("distance", &TransportSettings::distance, "transport distance D, m").above(0),
-      opt::real("horizon", &TransportSettings::horizon, "episode length T, s").above(0),
+      opt::real("horizon", &TransportSettings::horizon, "episode length T, s (at most 1e6 steps of dt)").above(0),
       opt::real("dt", &TransportSettings::dt, "fixed RK4 step and disturbance hold, s").above(0).at_most(0.05),
       opt::real("load_mass", opt::nested(&TransportSettings::gantry, &transport::GantryParams::load_mass), "mean load mass m, kg")
           .above(0),
@@ -66,6 +66,11 @@ VARBO_PLUGIN("cartpole_transport", "0.1.0", "Gantry crane transporting a swingin
       transport_options().specs(),
       Factory<Task>([](const Options& o, const BuildContext&) {
         transport::TransportSettings s = transport_options().read(o);
+        // horizon: 1e300 (or dt: 1e-300) overflowed the step count to none: every θ cost 0, "perfect" (red team,
+        // session 29). A million RK4 steps is already hours of simulation per trial.
+        if (!(s.horizon / s.dt <= 1e6))
+          o.node(o.given("horizon") ? "horizon" : "dt")
+              .fail(fmt::format("horizon/dt = {:g} steps per episode; at most 1e6", s.horizon / s.dt));
         s.weights = parse_weights(o.node("weights"));
         return std::make_unique<transport::TransportTask>(s);
       })));

@@ -242,9 +242,9 @@ std::string ProcessResult::status_text() const {
   if (interrupted && !started) return error;  // "not started: varbo received SIGTERM"
   if (!started) return "could not start: " + error;
   if (interrupted)
-    return fmt::format("interrupted by {} after {:.3g} s (the command's process tree was killed)",
+    return fmt::format("interrupted by {} after {:.1f} s (the command's process tree was killed)",
                        signal_name(interrupted), seconds);
-  if (timed_out) return fmt::format("timed out after {:.3g} s (the command's process tree was killed)", seconds);
+  if (timed_out) return fmt::format("timed out after {:.1f} s (the command's process tree was killed)", seconds);
   std::string s = exited ? fmt::format("exit status {}", exit_status)
                   : signal ? fmt::format("killed by signal {} ({})", signal, ::strsignal(signal))
                            : std::string("lost (its supervisor process was killed)");
