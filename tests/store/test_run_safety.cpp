@@ -505,6 +505,11 @@ TEST_CASE("a study on a shared machine: umask 002 makes it group-writable; anoth
   CHECK(as("daemon", v + " observe '" + db + "' 0 1.5") == 0);
   CHECK(contains(slurp(log), "removed SQLite's side files of another user that held no data"));
   CHECK(open_sqlite_store(db)->trials().size() == 1);
+  // A run folder of daemon's that nobody may not write: the refusal names the folder, not a lock file to remove.
+  REQUIRE(as("daemon", "umask 022; " + v + " -q run '" + cfg + "' -o '" + dir + "/r' --budget 2 --no-progress") == 0);
+  CHECK(as("nobody", v + " run --resume '" + dir + "/r' --budget 3 --no-progress") == 2);
+  CHECK(contains(slurp(log), "its folder is not writable by this user"));
+  CHECK_FALSE(contains(slurp(log), "it is stale: remove it"));
   fs::remove_all(dir);
 }
 

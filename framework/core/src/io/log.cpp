@@ -1,6 +1,8 @@
 #include "varbo/log.hpp"
 
 #include <atomic>
+#include <cerrno>
+#include <cstring>
 #include <cstdio>
 #include <fstream>
 #include <mutex>
@@ -49,7 +51,14 @@ void set_log_file(const std::string& path) {
   auto& f = log_file();
   if (f.is_open()) f.close();
   log_file_path() = path;
-  if (!path.empty()) f.open(path, std::ios::app);
+  if (!path.empty()) {
+    f.open(path, std::ios::app);
+    // Another user's run folder resumed: log.txt kept only the first user's lines, in silence (red team, session
+    // 29). Said on the terminal; the run goes on.
+    if (!f.is_open() && g_level.load() <= static_cast<int>(LogLevel::Warn))
+      std::fprintf(stderr, "[varbo warning] %s: cannot append to the log file (%s); messages go to the terminal only\n",
+                   path.c_str(), std::strerror(errno));
+  }
 }
 
 void log_file_message(LogLevel level, std::string_view message) {

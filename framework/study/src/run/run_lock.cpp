@@ -72,9 +72,16 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
                                        what, owner.empty() ? "another user's process" : owner, lock_path));
         }
       }
-      throw InputError(fmt::format("{}: the lock file {}is not writable by this user; if no varbo runs on this "
-                                   "folder it is stale: remove it",
-                                   lock_path, have_stat ? fmt::format("(owned by uid {}) ", st.st_uid) : ""));
+      // No lock file at all: the folder is what this user may not write (red team, session 29: told to remove a
+      // file that did not exist).
+      if (!have_stat)
+        throw InputError(fmt::format("{}: cannot create the lock file: its folder is not writable by this user "
+                                     "(Permission denied); a run writes its files there: run as the folder's owner, "
+                                     "or make it group-writable",
+                                     lock_path));
+      throw InputError(fmt::format("{}: the lock file (owned by uid {}) is not writable by this user; if no varbo "
+                                   "runs on this folder it is stale: remove it",
+                                   lock_path, st.st_uid));
     }
     if (fd < 0)
       throw InputError(fmt::format("{}: cannot create the lock file: {}", lock_path, std::strerror(errno)));

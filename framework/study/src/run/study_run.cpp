@@ -300,7 +300,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   for (const TrialRecord& t : st.store().pending_trials()) {
     const auto [worker_host, pid] = worker_host_pid(t.worker);
     const bool dead_here =
-        worker_host == host && pid > 0 && (kill(static_cast<pid_t>(pid), 0) != 0 || pid == static_cast<long>(getpid()));
+        // ESRCH only: EPERM is another user's live process (a colleague's Python Study on a shared machine),
+        // whose trial was abandoned and ran twice (red team, session 29).
+        worker_host == host && pid > 0 &&
+        ((kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) || pid == static_cast<long>(getpid()));
     const bool recorded_run = runs_recorded && st.meta("run_worker/" + t.worker).has_value();
     // A recorded run session's trial is a dead session's, on whatever host it ran: this run holds the study's run
     // lock, which a live run would hold (a run killed on host A and resumed on host B left its trial pending
