@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -58,7 +59,7 @@ inline void write_output(const std::string& output, const std::string& text, con
     return;
   }
   std::ofstream f(output, std::ios::trunc);
-  if (!f) throw InputError(fmt::format("{}: cannot write {}", output, what));
+  if (!f) throw InputError(fmt::format("{}: cannot write {} ({})", output, what, std::strerror(errno)));
   f << text;
   f.close();  // the buffered tail is written here: `-o /dev/full` exited 0 with nothing written
   if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", output));

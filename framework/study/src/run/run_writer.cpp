@@ -1,5 +1,7 @@
 #include "run_writer.hpp"
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <cerrno>
@@ -31,7 +33,7 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   {
     // Written aside and renamed into place, as trials.csv and model.yaml (publish()): a reader (`varbo select`,
     // `plot`, a backup) during a `--resume` saw these files empty or torn (red team, session 28).
-    std::ofstream cfg(folder_ + "/config.resolved.yaml.tmp", std::ios::trunc);
+    std::ofstream cfg(aside("config.resolved.yaml"), std::ios::trunc);
     YAML::Emitter em;
     YAML::Node resolved = study.resolved();
     // Not part of StudyConfig::resolved() (the study's identity): where the plugins are is not what the study is.
@@ -50,15 +52,16 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
         << em.c_str() << "\n";
     cfg.close();
     // A full disk (the run folder apart from the study): the run goes on, its files of before kept.
-    if (cfg) fs::rename(folder_ + "/config.resolved.yaml.tmp", folder_ + "/config.resolved.yaml", ec);
+    if (cfg) fs::rename(aside("config.resolved.yaml"), folder_ + "/config.resolved.yaml", ec);
     if (!cfg || ec) {
       log_warn("{}/config.resolved.yaml: cannot write{}; the previous one, if any, is kept", folder_,
                ec ? ": " + ec.message() : std::string());
-      fs::remove(folder_ + "/config.resolved.yaml.tmp", ec);
+      fs::remove(aside("config.resolved.yaml"), ec);
     }
   }
-  trials_.open(folder_ + "/trials.csv.tmp", std::ios::trunc);
-  if (!trials_) throw InputError(fmt::format("{}/trials.csv: cannot write", folder_));
+  trials_.open(aside("trials.csv"), std::ios::trunc);
+  if (!trials_)
+    throw InputError(fmt::format("{}: cannot write ({})", aside("trials.csv"), std::strerror(errno)));
   trials_ << "index,phase";
   for (const auto& n : domain.names) trials_ << "," << csv_escape(n);
   trials_ << ",cost,ok";
@@ -67,9 +70,13 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   if (with_regret_) trials_ << ",regret_best_observed,regret_recommended";
   trials_ << "\n";
   trials_.flush();
-  model_.open(folder_ + "/model.yaml.tmp", std::ios::trunc);
+  model_.open(aside("model.yaml"), std::ios::trunc);
   model_ << "# hyperparameters after each fit\n";
   model_.flush();
+}
+
+std::string RunWriter::aside(const std::string& name) const {
+  return fmt::format("{}/{}.tmp.{}", folder_, name, static_cast<long>(::getpid()));
 }
 
 void RunWriter::publish() {
@@ -81,11 +88,11 @@ void RunWriter::publish() {
   // not be written whole (a full disk) does not replace the complete file of before.
   for (auto [name, stream] : {std::pair<const char*, std::ofstream*>{"trials.csv", &trials_}, {"model.yaml", &model_}}) {
     std::error_code ec;
-    if (*stream) fs::rename(folder_ + "/" + name + ".tmp", folder_ + "/" + name, ec);
+    if (*stream) fs::rename(aside(name), folder_ + "/" + name, ec);
     if (!*stream || ec) {
       log_warn("{}/{}: cannot write{}; the previous one, if any, is kept", folder_, name,
                ec ? ": " + ec.message() : std::string());
-      fs::remove(folder_ + "/" + name + ".tmp", ec);
+      fs::remove(aside(name), ec);
     }
   }
 }
@@ -94,7 +101,7 @@ RunWriter::~RunWriter() {
   if (published_) return;
   // Never published (the run stopped while rewriting them): the files of before stay as they were.
   std::error_code ec;
-  for (const char* name : {"trials.csv.tmp", "model.yaml.tmp"}) fs::remove(folder_ + "/" + name, ec);
+  for (const char* name : {"trials.csv", "model.yaml"}) fs::remove(aside(name), ec);
 }
 
 void RunWriter::trial(const TrialRow& r) {
@@ -192,7 +199,7 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   if (s.regret_recommended) j["regret_recommended"] = *s.regret_recommended;
   if (s.regret_best_observed) j["regret_best_observed"] = *s.regret_best_observed;
   j["seconds"] = s.seconds;
-  const std::string tmp = folder_ + "/summary.json.tmp";
+  const std::string tmp = aside("summary.json");
   bool written = false;
   {
     std::ofstream out(tmp, std::ios::trunc);

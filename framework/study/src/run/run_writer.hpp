@@ -46,6 +46,10 @@ class RunWriter {
   void set_study(std::string study) { study_ = std::move(study); }
 
  private:
+  /// Where `name` is written before it is renamed into place: per process, so that one left by another user's
+  /// killed run cannot block this one (a fixed trials.csv.tmp of theirs made "trials.csv: cannot write"; red team,
+  /// session 29).
+  std::string aside(const std::string& name) const;
   std::string folder_;
   std::vector<std::string> components_;
   std::ofstream trials_, model_;

@@ -218,6 +218,15 @@ class SqliteStore final : public StudyStore {
       // file" alone gave no reason in a deep folder (red team, session 28).
       std::error_code ec;
       const std::size_t length = std::filesystem::absolute(path, ec).string().size();
+      // "unable to open database file" alone, for a study another user made with umask 077 (red team, session 29).
+      if (!create && ::access(path.c_str(), R_OK) != 0) {
+        struct stat st {};
+        const int err = errno;
+        if (::stat(path.c_str(), &st) == 0)
+          throw InputError(fmt::format("{}: cannot open the study file: {} (owned by uid {}, mode {:04o}); its owner "
+                                       "can share it with `chmod g+rw`",
+                                       path, std::strerror(err), st.st_uid, st.st_mode & 07777));
+      }
       throw InputError(fmt::format("{}: cannot open the study file: {}{}", path, msg,
                                    length > 480 ? fmt::format(" (its absolute path is {} bytes; SQLite opens paths of "
                                                               "at most ~500: use a shorter folder)",
