@@ -46,7 +46,11 @@ Vec theta_from_params(const Study& s, const std::vector<std::string>& words) {
   const SearchSpace space = s.space() ? *s.space() : SearchSpace::from_box(s.domain().box, names);
   std::vector<std::pair<std::string, std::string>> values;
   for (const auto& w : words) {
-    const auto eq = w.find('=');
+    // At the '=' after a parameter's whole name when one matches: a name may hold '=' itself (`k=d`, as `varbo
+    // suggest` prints it: "k=d=0.81"), which the first '=' cut in two (red team, session 29).
+    auto eq = w.find('=');
+    for (const auto& n : names)  // a match means w holds '=', so eq is set
+      if (w.size() > n.size() && w.compare(0, n.size(), n) == 0 && w[n.size()] == '=') eq = std::max(eq, n.size());
     if (eq == std::string::npos || eq == 0)
       throw InputError(fmt::format("--param '{}': expected name=value, e.g. --param {}=...", w, names.front()));
     values.emplace_back(w.substr(0, eq), w.substr(eq + 1));

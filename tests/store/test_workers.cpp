@@ -197,6 +197,42 @@ TEST_CASE("workers and runs started ignoring SIGHUP (nohup) keep working through
   CHECK(test::wait_for(r).exit_code == 143);
 }
 
+// Red team, session 29: the wall clock stepped forward (NTP on a robot PC without a battery clock; a laptop resumed)
+// while two workers ran: each then judged the other silent and abandoned its trial, and one θ ran 4 times. A
+// worker whose heartbeat this process read before is judged by this process's monotonic clock since then.
+TEST_CASE("workers: a wall clock stepped forward does not make a live worker's trial abandoned") {
+  const std::string dir = test::temp_folder("workers_clock_step");
+  const std::string shift = dir + "/shift.txt";
+  std::ofstream(shift) << 0 << "\n";
+  // Beats every 2 s (timeout / 4): the quick worker reads each beat of the slow one before the step.
+  const std::string cfg = dir + "/step.yaml", step_db = dir + "/step.db";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 40\nseed: 4\nalgorithm: {type: random}\nheartbeat_timeout: 8\n";
+  REQUIRE(test::run({VARBO_EXE, "study", "create", step_db, cfg}).exit_code == 0);
+  auto worker = [&](const std::string& command, const std::string& extra, const std::string& log) {
+    return test::spawn({"/bin/sh", "-c",
+                        "VARBO_TEST_CLOCK_SHIFT_FILE=\"$1\" LD_PRELOAD=\"$2\" ASAN_OPTIONS=\"${ASAN_OPTIONS:+$ASAN_OPTIONS:}verify_asan_link_order=0\" "
+                        "exec \"$3\" worker \"$4\" --command \"$5\" " + extra,
+                        "sh", shift, VARBO_TEST_CLOCK_SHIFT, VARBO_EXE, step_db, command},
+                       log);
+  };
+  const pid_t slow = worker("sleep 6; echo 2", "--max-trials 1", dir + "/slow.log");
+  wait_for_trials(step_db, 1);
+  const pid_t quick = worker("sleep 0.2; echo 1", "", dir + "/quick.log");
+  wait_ms(2500);  // the quick worker has asked ~10 times and read the slow one's beats
+  std::ofstream(shift) << 30 << "\n";  // every wall clock 30 s ahead, past the timeout of 8 s
+  CHECK(test::wait_for(slow).exit_code == 0);
+  CHECK(test::wait_for(quick).exit_code == 0);
+  const auto trials = open_sqlite_store(step_db)->trials();
+  REQUIRE_FALSE(trials.empty());
+  CHECK(trials[0].state == TrialState::Complete);  // the slow worker's trial
+  CHECK(trials[0].cost == 2.0);
+  int abandoned = 0;  // also those whose late result came after all ("late result, after: abandoned: ...")
+  for (const auto& t : trials)
+    abandoned += t.state == TrialState::Abandoned || t.error.find("abandoned") != std::string::npos;
+  CAPTURE(trials[0].error);
+  CHECK(abandoned == 0);
+}
+
 TEST_CASE("workers: bad input is an error naming the problem, exit 2, nothing written") {
   const std::string dir = test::temp_folder("workers_bad");
   const std::string db = make_study(dir, 3, "");

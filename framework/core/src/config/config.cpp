@@ -320,11 +320,6 @@ std::vector<std::string> distinct_names(const ConfigNode& list, const std::strin
     const ConfigNode item = list.item(i);
     if (!item.is_scalar() || item.scalar().empty()) item.fail(fmt::format("expected a {} name", what));
     if (!seen.insert(item.scalar()).second) item.fail(fmt::format("duplicate name '{}'", item.scalar()));
-    // `observe new --param name=value` and `--component name=value` split at the first '=': such a name could
-    // never be given there, and `varbo suggest`'s "name=value" lines could not be read back (red team, session 29).
-    if (item.scalar().find('=') != std::string::npos)
-      item.fail(fmt::format("'{}': a {} name cannot hold '=' (the command line reads name=value)", item.scalar(),
-                            what));
     // A parameter named `cost` gave trials.csv two `cost` columns, and a reader took the first (the θ value).
     if (what == "parameter" && is_trials_table_column(item.scalar()))
       item.fail(trials_column_clash(item.scalar(), "parameter"));

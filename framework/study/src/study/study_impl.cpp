@@ -123,18 +123,28 @@ std::unique_ptr<Algorithm> Study::Impl::make_algorithm() const {
 void Study::Impl::abandon_silent_workers(double asked_at) {
   if (!(config.heartbeat_timeout > 0)) return;
   const double now = asked_at;
-  std::vector<WorkerRecord> silent;
-  for (const auto& w : store->workers())
+  // This process's monotonic clock at `asked_at`.
+  const auto mono_now = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                               std::chrono::duration<double>(std::max(0.0, unix_time() - now)));
+  std::vector<std::pair<WorkerRecord, double>> silent;  // with its silence
+  for (const auto& w : store->workers()) {
     // Not this process's own: it is asking, so it is alive (a Python loop that sent one heartbeat and then asked
     // while its first trial ran had that trial abandoned by its own ask; red team, session 22).
-    if (w.state == "running" && w.id != worker && now - w.heartbeat_at > config.heartbeat_timeout) silent.push_back(w);
+    if (w.state != "running" || w.id == worker) continue;
+    auto [seen, first] = heartbeats_seen.try_emplace(w.id, HeartbeatSeen{w.heartbeat_at, mono_now, now - w.heartbeat_at});
+    if (!first && seen->second.heartbeat_at != w.heartbeat_at)  // it beat since: judged afresh
+      seen->second = HeartbeatSeen{w.heartbeat_at, mono_now, now - w.heartbeat_at};
+    const double silence =
+        seen->second.silence_then + std::chrono::duration<double>(mono_now - seen->second.first_read).count();
+    if (silence > config.heartbeat_timeout) silent.emplace_back(w, silence);
+  }
   if (silent.empty()) return;
   for (TrialRecord t : store->pending_trials()) {
-    for (const auto& w : silent) {
+    for (const auto& [w, silence] : silent) {
       if (t.worker != w.id) continue;
       t.state = TrialState::Abandoned;
-      t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id,
-                            now - w.heartbeat_at, config.heartbeat_timeout);
+      t.error = fmt::format("abandoned: worker {} silent for {:.0f} s (heartbeat_timeout {} s)", w.id, silence,
+                            config.heartbeat_timeout);
       t.finished_at = unix_time();
       store->update_trial(t);
       log_warn("{}: trial {} {}", store->location(), t.id, t.error);

@@ -4,7 +4,9 @@
 // saved states plus a replay of the rest), study_plugins.cpp (the plugins a process's studies share).
 #pragma once
 
+#include <chrono>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -110,6 +112,17 @@ struct Study::Impl {
   /// transaction by Ctrl-Z or SIGSTOP) no heartbeat could be written on SQLite, and judging after the wait
   /// abandoned the trials of live workers (red team, session 25: one θ run three times).
   void abandon_silent_workers(double asked_at);
+  /// Per worker: the heartbeat last read, when this process first read it (its monotonic clock) and the silence
+  /// the wall clock gave then. A worker's silence is that plus the monotonic time since, while its heartbeat stays
+  /// the same: a wall clock stepped forward (NTP on a robot PC without a battery clock) or a resumed laptop made
+  /// every live worker look silent, and two workers abandoned each other's trials: one θ ran 4 times (red team,
+  /// session 29). A process reading a worker's heartbeat for the first time still judges by the wall clock.
+  struct HeartbeatSeen {
+    double heartbeat_at;
+    std::chrono::steady_clock::time_point first_read;
+    double silence_then;
+  };
+  std::map<std::string, HeartbeatSeen> heartbeats_seen;
 
   /// Warns (once per study and direction) about a cost beyond ~1e150 or below ~1e-150 in magnitude: the models
   /// square costs. `id` < 0: a point told by hand. Per study, not per process: a second study opened by the same
