@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -58,9 +59,20 @@ TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the o
   test::wait_for(first);
   const std::size_t before = trial_count(out + "/study.db");
   CHECK(before >= 1);
+  // What killed runs were writing aside stays no longer (one set per SIGKILL accumulated): the resume holds the
+  // lock, so their writers are dead. Files of other names, or not ending in a pid, are the user's.
+  for (const char* f : {"trials.csv.tmp.999999999", "summary.json.tmp.12", "model.yaml.tmp.7",
+                        "config.resolved.yaml.tmp.8"})
+    std::ofstream(out + "/" + f) << "torn";
+  for (const char* f : {"trials.csv.tmp.keep", "notes.txt.tmp.5"}) std::ofstream(out + "/" + f) << "mine";
   CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress", "--budget", std::to_string(before + 1)}, log)
             .exit_code == 0);
   CHECK_FALSE(fs::exists(out + "/study.db.lock"));  // removed by a run that ends normally
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(out))
+    if (contains(e.path().filename().string(), ".tmp.")) left.push_back(e.path().filename().string());
+  std::sort(left.begin(), left.end());
+  CHECK(left == std::vector<std::string>{"notes.txt.tmp.5", "trials.csv.tmp.keep"});
   fs::remove_all(dir);
 }
 

@@ -30,6 +30,7 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   std::error_code ec;
   fs::create_directories(folder_, ec);
   if (ec) throw InputError(fmt::format("{}: cannot create the run folder: {}", folder_, ec.message()));
+  remove_stale_asides();
   {
     // Written aside and renamed into place, as trials.csv and model.yaml (publish()): a reader (`varbo select`,
     // `plot`, a backup) during a `--resume` saw these files empty or torn (red team, session 28).
@@ -73,6 +74,25 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   model_.open(aside("model.yaml"), std::ios::trunc);
   model_ << "# hyperparameters after each fit\n";
   model_.flush();
+}
+
+// Files a killed run was writing aside (NAME.tmp.PID) stayed in the folder for good, one set per SIGKILL
+// (red team, session 29). This process holds the run folder's lock (study_run.cpp), so every other writer of
+// these names is dead: their asides are removed. Only the names this class writes, with a pid that is not ours.
+void RunWriter::remove_stale_asides() const {
+  std::error_code ec;
+  const std::string own = std::to_string(static_cast<long>(::getpid()));
+  for (fs::directory_iterator it(folder_, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string file = it->path().filename().string();
+    for (const char* name : {"config.resolved.yaml", "trials.csv", "model.yaml", "summary.json"}) {
+      const std::string prefix = std::string(name) + ".tmp.";
+      if (file.size() <= prefix.size() || file.compare(0, prefix.size(), prefix) != 0) continue;
+      const std::string pid = file.substr(prefix.size());
+      if (pid.find_first_not_of("0123456789") != std::string::npos || pid == own) continue;
+      std::error_code rm;
+      if (it->is_regular_file(rm)) fs::remove(it->path(), rm);
+    }
+  }
 }
 
 std::string RunWriter::aside(const std::string& name) const {

@@ -50,6 +50,7 @@ class RunWriter {
   /// killed run cannot block this one (a fixed trials.csv.tmp of theirs made "trials.csv: cannot write"; red team,
   /// session 29).
   std::string aside(const std::string& name) const;
+  void remove_stale_asides() const;
   std::string folder_;
   std::vector<std::string> components_;
   std::ofstream trials_, model_;
