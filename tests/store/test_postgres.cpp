@@ -73,6 +73,14 @@ TEST_CASE("postgresql URL: the study parameter is required and checked; a passwo
   CHECK(msg.find("study=gait") != std::string::npos);
   CHECK(msg.find("cannot connect to the database server") != std::string::npos);
   CHECK(msg.find("secret") == std::string::npos);
+  // The client key's passphrase is a password too; an unescaped '@' in one made libpq quote the rest as a host.
+  const std::string ssl = open_error("postgresql://u@/db?host=/nonexistent-varbo-socket&sslpassword=KeyPass&study=g");
+  CHECK(ssl.find("sslpassword=***") != std::string::npos);
+  CHECK(ssl.find("KeyPass") == std::string::npos);
+  const std::string two_at = open_error("postgresql://lab:pa@ss5Secret@127.0.0.1/db?study=g");
+  CHECK(two_at.find("more than one '@'") != std::string::npos);
+  CHECK(two_at.find("%40") != std::string::npos);
+  CHECK(two_at.find("ss5Secret") == std::string::npos);
 }
 
 TEST_CASE("postgresql: unreachable server, wrong credentials, a role without privileges: exit 2 naming study and cause") {
@@ -132,6 +140,32 @@ TEST_CASE("postgresql: a URL's password is never printed: create, status, verify
   CHECK(run({"suggest", url}) == 4);
   CHECK(all.find("varbo:***@") != std::string::npos);  // the URL is shown, its password hidden
   CHECK(all.find("s3cret") == std::string::npos);
+
+  // The dashboard showed it on its page, in /api/summary and in its log (red team, session 30).
+  const std::string dash_log = dir + "/dashboard.log", answer = dir + "/summary.json";
+  const pid_t dash = test::spawn({VARBO_EXE, "dashboard", url, "--port", "0"}, dash_log);
+  std::string port;
+  for (int i = 0; i < 1500 && port.empty(); ++i) {
+    const std::string text = test::slurp(dash_log);
+    const auto at = text.find("at http://127.0.0.1:");
+    if (at != std::string::npos) port = text.substr(at + 20, text.find('/', at + 20) - at - 20);
+    else std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  REQUIRE_FALSE(port.empty());
+  const int fetched = test::run({"/usr/bin/python3", "-c",
+                                 "import sys, urllib.request; open(sys.argv[2], 'wb').write(urllib.request.urlopen("
+                                 "'http://127.0.0.1:' + sys.argv[1] + '/api/summary', timeout=60).read())",
+                                 port, answer})
+                          .exit_code;
+  kill(dash, SIGTERM);
+  test::wait_for(dash);
+  CHECK(fetched == 0);
+  const std::string summary = test::slurp(answer), served = test::slurp(dash_log);
+  CAPTURE(summary);
+  CAPTURE(served);
+  CHECK(summary.find("varbo:***@") != std::string::npos);
+  CHECK(summary.find("s3cret") == std::string::npos);
+  CHECK(served.find("s3cret") == std::string::npos);
 }
 
 TEST_CASE("postgresql: a URL naming no study, a database without studies, an existing name on create") {

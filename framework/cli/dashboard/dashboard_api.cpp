@@ -198,7 +198,7 @@ std::string json_text(const json& j) { return j.dump(-1, ' ', false, json::error
 ApiResponse DashboardApi::get(const std::string& path, const ApiQuery& query) {
   try {
     if (!study_.present())
-      return {404, json_text(error_json(fmt::format("{}: the study is gone (file removed?)", study_.address())))};
+      return {404, json_text(error_json(fmt::format("{}: the study is gone (file removed?)", study_.shown())))};
     if (path == "/api/summary") return {200, summary()};
     if (path == "/api/trials") return {200, trials(query)};
     if (path == "/api/history") return {200, history()};
@@ -244,7 +244,7 @@ std::string DashboardApi::summary() {
   for (const auto& o : s.config().algorithm.info->options)
     if (o.name == "surrogate" && o.type == OptionType::Component && s.config().algorithm.options.is_set("surrogate"))
       surrogate = s.config().algorithm.options.component("surrogate").info->full_name();
-  json j = {{"study", study_.address()},
+  json j = {{"study", study_.shown()},
             {"task", s.config().task.info->name},
             {"algorithm", s.config().algorithm.info->name},
             {"surrogate", surrogate},
@@ -438,7 +438,7 @@ std::string DashboardApi::region() {
 std::string DashboardApi::rescore(const ApiQuery& query) {
   const auto all = study_.trials();
   const RunFolder view = study_.run_view(all, study_.snapshots());
-  ComponentRun run = component_run_from(view, study_.address());
+  ComponentRun run = component_run_from(view, study_.shown());
   if (const auto summary = study_.summary_path()) read_run_summary(run, *summary);
   OfflineRequest request;
   try {

@@ -53,6 +53,7 @@ DashboardStudy::DashboardStudy(const std::string& study, std::uint64_t seed)
       is_file_(!is_database_url(address_)),
       seed_(seed),
       study_(std::make_shared<Study>(open_study(address_))) {
+  shown_ = study_->store().location();
   struct stat st {};
   if (is_file_ && ::stat(address_.c_str(), &st) == 0) {
     dev_ = static_cast<std::uint64_t>(st.st_dev);
@@ -79,7 +80,7 @@ bool DashboardStudy::present() {
   regret_cache_.clear();
   model_.reset();
   ++generation_;
-  log_info("dashboard: {} was replaced; opened it again", address_);
+  log_info("dashboard: {} was replaced; opened it again", shown_);
   return true;
 }
 
@@ -116,7 +117,7 @@ RunFolder DashboardStudy::run_view(const std::vector<TrialRecord>& trials,
                                    const std::vector<StoredSnapshot>& snapshots) const {
   const std::shared_ptr<const Study> study = this->study();
   RunFolder run;
-  run.folder = address_;
+  run.folder = is_file_ ? address_ : shown_;
   run.study = study->config();
   run.domain = study->domain();
   run.space = study->space();
@@ -174,7 +175,7 @@ std::shared_ptr<const DashboardModel> DashboardStudy::model() {
       std::count_if(all.begin(), all.end(), [](const TrialRecord& t) { return t.state == TrialState::Failed; }));
   if (model_ && model_->complete == complete && model_->failed == failed) return model_;
   if (complete < 2)
-    throw InputError(fmt::format("{}: {} complete trial(s); a model needs at least 2", address_, complete));
+    throw InputError(fmt::format("{}: {} complete trial(s); a model needs at least 2", shown_, complete));
   auto m = std::make_shared<DashboardModel>();
   m->run = run_view(all, snapshots());
   m->complete = complete;
@@ -208,7 +209,7 @@ std::shared_ptr<const DashboardModel> DashboardStudy::model() {
     }
   }
   if (!conditioned) {
-    m->fitted = fit_selection_model(m->run, registry, selection_surrogate(m->run, registry, "", address_), seed_, true);
+    m->fitted = fit_selection_model(m->run, registry, selection_surrogate(m->run, registry, "", shown_), seed_, true);
     m->full_fit_complete = complete;
   }
   m->fit_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -55,6 +55,16 @@ PostgresAddress parse_postgres_address(const std::string& url) {
     throw InputError(fmt::format("{}: not a PostgreSQL URL (expected {})", url, example));
   const auto q = url.find('?');
   const std::string base = url.substr(0, q);
+  {
+    // "user:pa@ss@host": libpq takes "ss@host" for the host name and quotes it in its error, password and all.
+    const auto auth = base.find("://") + 3;
+    const auto end = std::min(base.find('/', auth), base.size());
+    const auto first_at = base.find('@', auth);
+    if (first_at < end && base.find('@', first_at + 1) < end)
+      throw InputError(fmt::format("{}: the user:password@host part holds more than one '@'; write an '@' of the "
+                                   "user name or password as %40",
+                                   hide_password(base)));
+  }
   std::vector<std::string> kept, shown;
   PostgresAddress a;
   bool has_app = false, has_timeout = false, seen_study = false;
@@ -81,7 +91,8 @@ PostgresAddress parse_postgres_address(const std::string& url) {
       has_app = has_app || key == "application_name";
       has_timeout = has_timeout || key == "connect_timeout";
       kept.push_back(param);
-      shown.push_back(key == "password" ? "password=***" : param);
+      // sslpassword (the client key's passphrase) too: any key naming a password is shown hidden.
+      shown.push_back(key.size() >= 8 && key.compare(key.size() - 8, 8, "password") == 0 ? key + "=***" : param);
     }
   }
   if (a.study.empty())
