@@ -4,6 +4,8 @@
 // PyErr_CheckSignals before each trial and between trials) stops like SIGINT stops `varbo run`: the trial in
 // flight is abandoned, every recorded trial stays, and KeyboardInterrupt is raised; a callback returning True ends
 // the run after that trial; a callback raising ends it and re-raises.
+#include <unistd.h>
+
 #include <fmt/format.h>
 #include <signal.h>
 
@@ -31,6 +33,7 @@ namespace {
 /// What the running minimize() shares with its task (one per call; the task finds it through a thread-local).
 struct Objective {
   Objective(py::object f, py::object cb) : fun(std::move(f)), callback(std::move(cb)) {}
+  const pid_t owner = ::getpid();  ///< the process running minimize(); a forked child of `fun` is not it
   py::object fun;
   py::object callback;
   int stop = 0;                                  ///< sticky: once set, every later poll stops
@@ -127,6 +130,38 @@ void read_result(const py::object& r, Evaluation& ev) {
   ev.cost = number(r);
 }
 
+/// A child forked inside `fun` ("fork to sandbox the simulator") that returns or raises instead of calling
+/// os._exit came back here and carried on the parent's run: it recorded its own results, abandoned the parent's
+/// trial and removed its run lock (red team, session 30). The child ends here, as its code would have ended on
+/// its own: SystemExit's code, else 1 after the traceback of what it raised, else 0.
+void leave_if_forked(const Objective& objective, py::error_already_set* raised) {
+  if (::getpid() == objective.owner) return;
+  int code = 0;
+  if (raised && raised->matches(PyExc_SystemExit)) {
+    py::object c = raised->value().attr("code");
+    if (py::isinstance<py::int_>(c)) {
+      const long v = PyLong_AsLong(c.ptr());
+      if (PyErr_Occurred()) PyErr_Clear();
+      code = static_cast<int>(v & 0xff);
+    } else if (!c.is_none()) {
+      code = 1;
+    }
+  } else if (raised) {
+    raised->restore();
+    PyErr_Print();
+    code = 1;
+  }
+  PySys_WriteStderr("varbo: a process forked inside the objective of minimize() %s; it ends here (exit %d), "
+                    "not in the parent's run: end such a child with os._exit()\n",
+                    raised ? "raised out of it" : "returned from it", code);
+  try {
+    py::module_::import("sys").attr("stdout").attr("flush")();
+    py::module_::import("sys").attr("stderr").attr("flush")();
+  } catch (...) {
+  }
+  ::_exit(code);
+}
+
 /// The evaluation of the task `python` (varbo/host_task.hpp) inside minimize(): the function called with the GIL
 /// held on the params (typed with `parameters:`).
 Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<std::string>& names,
@@ -136,8 +171,10 @@ Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<st
   Evaluation ev;
   try {
     py::object r = objective->fun(params_of(theta, names, space));
+    leave_if_forked(*objective, nullptr);
     read_result(r, ev);
   } catch (py::error_already_set& e) {
+    leave_if_forked(*objective, &e);
     if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
       objective->stop = SIGINT;
       objective->error = std::make_unique<py::error_already_set>(std::move(e));

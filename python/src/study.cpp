@@ -2,6 +2,8 @@
 // Pythonic surface (configs as dicts, Trial objects, DataFrames) is varbo/study.py.
 #include <fmt/format.h>
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -18,10 +20,24 @@ namespace {
 /// call releases the GIL first, then takes the mutex, so a long ask never blocks other Python threads).
 class PyStudy {
  public:
-  explicit PyStudy(Study s) : study_(std::move(s)) {}
+  explicit PyStudy(Study s) : study_(std::make_unique<Study>(std::move(s))) {}
+  // In a forked child the inherited connection is the parent's (SQLite and libpq forbid using it there): left as
+  // it is, not closed.
+  ~PyStudy() {
+    if (::getpid() != owner_) static_cast<void>(study_.release());
+  }
+  PyStudy(const PyStudy&) = delete;
+  PyStudy& operator=(const PyStudy&) = delete;
 
   template <class F>
   auto locked(F&& f) {
+    // A Study opened before a fork (multiprocessing's default on Linux) used in the child: it waited for good on
+    // this object's mutex or on a SQLite write lock another thread held at the fork, and recorded the child's
+    // trials under the parent's worker name (red team, session 30). Refused before either lock is touched.
+    if (::getpid() != owner_)
+      throw InputError(fmt::format("{}: this Study was opened in process {}, not in this one (a forked child, e.g. "
+                                   "multiprocessing): open the study again in the child with varbo.Study.open()",
+                                   study_->store().location(), static_cast<long>(owner_)));
     py::gil_scoped_release release;
     std::lock_guard<std::mutex> lock(mutex_);
     // The engine's own time in the latest call, without the Python layer (bench/python: the layer's overhead).
@@ -30,16 +46,17 @@ class PyStudy {
       std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
       ~Timer() { out = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
     } timer{engine_seconds_};
-    return f(study_);
+    return f(*study_);
   }
   double engine_seconds() const { return engine_seconds_; }
-  const std::vector<std::string>& names() const { return study_.domain().names; }
+  const std::vector<std::string>& names() const { return study_->domain().names; }
   /// The study's typed space (null: a box of reals).
-  const SearchSpace* space() const { return study_.space().get(); }
-  Study& study() { return study_; }
+  const SearchSpace* space() const { return study_->space().get(); }
+  Study& study() { return *study_; }
 
  private:
-  Study study_;
+  const pid_t owner_ = ::getpid();
+  std::unique_ptr<Study> study_;
   std::mutex mutex_;
   double engine_seconds_ = 0;
 };

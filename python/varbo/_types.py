@@ -1,7 +1,7 @@
 """The plain records the API returns: trials, selections, predictions, results."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Dict, List, Optional, Union
 
 ParamValue = Union[float, int, str]
@@ -9,8 +9,32 @@ ParamValue = Union[float, int, str]
 import numpy as np
 
 
-@dataclass
-class Trial:
+def _equal(a, b) -> bool:
+    """Value equality that NumPy arrays take part in (the dataclass ``__eq__`` compared them with ``==`` and
+    raised "truth value of an array ... is ambiguous" for ``t in study.trials()``)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return (isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.shape == b.shape
+                and bool(np.array_equal(a, b)))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return type(a) is type(b) and len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b))
+    return bool(a == b)
+
+
+class _Record:
+    """Records compare field by field, arrays by their values."""
+
+    def __eq__(self, other):
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return all(_equal(getattr(self, f.name), getattr(other, f.name)) for f in fields(self))
+
+    __hash__ = None  # mutable records
+
+
+@dataclass(eq=False)
+class Trial(_Record):
     """One trial of a study.
 
     ``params`` maps each parameter's name to its value in your units (``x1, x2, …`` until the search space names
@@ -37,8 +61,8 @@ class Trial:
     evaluation_seconds: float = 0.0
 
 
-@dataclass
-class Selection:
+@dataclass(eq=False)
+class Selection(_Record):
     """The evaluated point minimizing E[y] + κ·sqrt(V[y]) under the refitted surrogate (``Study.select``)."""
 
     kappa: float
@@ -50,8 +74,8 @@ class Selection:
     value: float
 
 
-@dataclass
-class Prediction:
+@dataclass(eq=False)
+class Prediction(_Record):
     """The predictive distribution at each row of X, in cost units (Kuindersma 2013, eq. 7).
 
     ``mean`` E[y]; ``latent_var`` the variance of the latent cost f; ``noise_var`` E[exp g], the expected noise
@@ -77,8 +101,8 @@ class Prediction:
         return np.sqrt(self.variance)
 
 
-@dataclass
-class OptimizeResult:
+@dataclass(eq=False)
+class OptimizeResult(_Record):
     """What ``minimize`` returns. ``x``/``fun``/``params``: the best observed point and its cost;
     ``recommended_x``/``recommended_params``: the point the algorithm recommends deploying (bo: the evaluated point
     with the lowest posterior mean by default); ``output``: the run folder (trials.csv, summary.json, study.db)."""

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -673,6 +674,19 @@ class SqliteStore final : public StudyStore {
 
 }  // namespace
 
+namespace {
+/// The umask, read without changing it: umask(0) and back left a window in which a file another thread of the
+/// process created got mode 0666 (red team, session 30: a Python thread writing files beside Study.create).
+mode_t process_umask() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.rfind("Umask:", 0) == 0) return static_cast<mode_t>(std::strtoul(line.c_str() + 6, nullptr, 8));
+  const mode_t mask = ::umask(0);  // no /proc: read, and put back at once
+  ::umask(mask);
+  return mask;
+}
+}  // namespace
+
 std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
                                                 const std::vector<std::pair<std::string, std::string>>& meta) {
   // Built under a temporary name and linked into place complete: a crash never leaves a half-made store,
@@ -701,7 +715,9 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
       throw InputError(fmt::format("{}: cannot create the study file: the folder {} does not exist", path,
                                    folder.string()));
   }
-  const std::string tmp = fmt::format("{}.creating-{}", path, static_cast<long>(getpid()));
+  // Per thread: threads of one process creating the same study removed each other's file (cleanup()), and every
+  // one of them failed (red team, session 30).
+  const std::string tmp = fmt::format("{}.creating-{}-{}", path, static_cast<long>(getpid()), static_cast<long>(gettid()));
   auto cleanup = [&] {
     std::error_code ec;
     for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(tmp + suffix, ec);
@@ -716,9 +732,7 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
     // SQLite makes its files 0644 whatever the umask: with `umask 002` in a lab's group folder, everything else
     // varbo wrote was group-writable but the study was not, and a colleague's worker was refused (red team,
     // session 29). The file gets 0666 less the umask, as any new file; its -wal and -shm take its mode.
-    const mode_t mask = ::umask(0);
-    ::umask(mask);
-    ::chmod(tmp.c_str(), 0666 & ~mask);
+    ::chmod(tmp.c_str(), 0666 & ~process_umask());
   } catch (const InputError& e) {
     cleanup();
     std::string msg = e.what();  // said of the study's name, not of the temporary file's
@@ -742,8 +756,7 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
     // (red team, session 28). It is ours, just linked: removed.
     std::error_code ec;
     fs::remove(path, ec);
-    const mode_t mask = ::umask(0);  // read, and put back at once
-    ::umask(mask);
+    const mode_t mask = process_umask();
     throw InputError(fmt::format("{}; no study file was created{}", e.what(),
                                  (mask & 0600) != 0 ? " (the process's umask leaves the file's owner no read/write "
                                                       "permission: check `umask`)"

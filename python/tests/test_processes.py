@@ -1,0 +1,117 @@
+"""A study across fork (multiprocessing's default on Linux), threads creating one study, records compared by value
+(red team, session 30). Each test fails on the code before that session."""
+import os
+import sqlite3
+import threading
+
+import numpy as np
+import pytest
+
+import varbo
+from conftest import BRANIN_SPACE, branin
+
+CONFIG = {"task": {"type": "branin"}, "budget": 8, "seed": 3,
+          "algorithm": {"type": "bo", "initial_points": 4, "surrogate": {"type": "gp", "restarts": 1}}}
+
+
+def _child_status(pid):
+    _, status = os.waitpid(pid, 0)
+    return os.waitstatus_to_exitcode(status)
+
+
+def test_a_study_opened_before_a_fork_is_refused_in_the_child(tmp_path):
+    study = varbo.Study.create(tmp_path / "s.db", CONFIG)
+    (t,) = study.ask()
+    study.tell(t, branin(t.params))
+    message = tmp_path / "child.txt"
+    pid = os.fork()
+    if pid == 0:  # the child: its inherited object must refuse, a fresh open must work
+        code = 0
+        try:
+            study.ask()
+            code = 10
+        except varbo.InputError as e:
+            message.write_text(str(e))
+            try:
+                (u,) = varbo.Study.open(tmp_path / "s.db").ask()
+                if u.worker.endswith(str(os.getppid())):
+                    code = 12  # recorded under the parent's worker name
+            except BaseException:  # noqa: BLE001 - reported by the exit code
+                code = 11
+        os._exit(code)
+    assert _child_status(pid) == 0
+    text = message.read_text()
+    assert f"opened in process {os.getpid()}" in text and "open the study again" in text
+    # The parent's object is untouched: it goes on, and sees the child's trial pending.
+    (t2,) = study.ask()
+    study.tell(t2, branin(t2.params))
+    assert [x.state for x in study.trials()].count("pending") == 1
+
+
+def test_a_forked_child_leaving_the_objective_does_not_carry_on_the_run(tmp_path):
+    """The child raises (or returns) instead of os._exit: it ends there; the parent's results are all recorded."""
+    for how in ("raise", "return", "exit0"):
+        out = tmp_path / how
+
+        def fun(p):
+            pid = os.fork()
+            if pid == 0:
+                if how == "raise":
+                    raise RuntimeError("child failed")
+                if how == "exit0":
+                    raise SystemExit(0)
+                return 0.0
+            os.waitpid(pid, 0)
+            return branin(p)
+
+        r = varbo.minimize(fun, {"budget": 4, "seed": 1, "algorithm": {"type": "random"}}, space=BRANIN_SPACE,
+                           output=str(out))
+        assert r.evaluations == 4 and r.failed == 0, how
+        db = sqlite3.connect(out / "study.db")
+        states = [s for (s,) in db.execute("select state from trials")]
+        db.close()
+        assert states == ["complete"] * 4, how
+        assert "already recorded" not in (out / "log.txt").read_text()
+
+
+def test_threads_creating_one_study(tmp_path):
+    """One creates it; the others are told it exists (each thread removed the others' temporary file)."""
+    for round_ in range(5):
+        path = tmp_path / f"s{round_}.db"
+        results, barrier = [], threading.Barrier(4)
+
+        def create():
+            barrier.wait()
+            try:
+                varbo.Study.create(path, CONFIG)
+                results.append("created")
+            except varbo.InputError as e:
+                results.append("exists" if "exists already" in str(e) else str(e))
+
+        threads = [threading.Thread(target=create) for _ in range(4)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+        assert sorted(results) == ["created", "exists", "exists", "exists"], results
+        assert varbo.Study.open(path).trials() == []
+        assert not [f for f in os.listdir(tmp_path) if ".creating-" in f]
+
+
+def test_records_compare_by_value(tmp_path):
+    study = varbo.Study.create(tmp_path / "s.db", CONFIG)
+    for _ in range(3):
+        (t,) = study.ask()
+        study.tell(t, branin(t.params))
+    trials = study.trials()
+    again = study.trials()
+    assert trials == again and trials[1] in again and again.index(trials[2]) == 2
+    assert trials[0] != trials[1]
+    other = varbo.Study.open(tmp_path / "s.db").trials()[0]
+    other.x = other.x + 1e-9
+    assert other != trials[0]
+    sel = study.select(0.0)
+    assert sel == sel and sel == study.select(0.0)
+    assert study.best() in trials
+    with pytest.raises(TypeError):
+        hash(trials[0])
