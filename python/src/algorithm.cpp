@@ -50,7 +50,7 @@ class PyAlgorithm {
     if (q < 1) throw InputError(fmt::format("ask: the batch size must be at least 1, got {}", q));
     std::vector<Suggestion> s;
     {
-      py::gil_scoped_release release;
+      ReleasedGil release;
       ThreadLimit limit(threads_);
       s = alg_->ask(q);
     }
@@ -77,7 +77,7 @@ class PyAlgorithm {
       o.ok = std::isfinite(y[i]);  // NaN: a failed trial
       o.cost = y[i];
     }
-    py::gil_scoped_release release;
+    ReleasedGil release;
     ThreadLimit limit(threads_);
     alg_->tell(obs);
   }

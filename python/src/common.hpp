@@ -5,6 +5,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/stl.h>
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,44 @@
 namespace varbo::python {
 
 namespace py = pybind11;
+
+/// py::gil_scoped_release, except at interpreter exit: a daemon thread (a live plot, a background optimizer, a
+/// Jupyter kernel shutting down) whose varbo call ends after the interpreter began finalizing was ended by CPython
+/// with pthread_exit when it took the GIL back; the unwinding through this destructor (noexcept) called
+/// std::terminate: "FATAL: exception not rethrown", exit 134 and a core dump (red team, session 30). Such a
+/// thread waits here instead until the process is gone. (A thread already waiting for the GIL when finalizing
+/// begins is let through by at_exit() first.)
+class ReleasedGil {
+ public:
+  ReleasedGil() : state_(PyEval_SaveThread()) {}
+  ~ReleasedGil() {
+    ++restoring;
+    if (exiting.load() || finalizing()) {
+      --restoring;
+      for (;;) pause_forever();
+    }
+    PyEval_RestoreThread(state_);
+    --restoring;
+  }
+  /// Called by an atexit function (module.cpp), before the interpreter finalizes: from then on a thread leaving a
+  /// varbo call parks; the threads already waiting for the GIL get it and return while it is still safe.
+  static void at_exit();
+  ReleasedGil(const ReleasedGil&) = delete;
+  ReleasedGil& operator=(const ReleasedGil&) = delete;
+
+ private:
+  static bool finalizing() {
+#if PY_VERSION_HEX >= 0x030D0000
+    return Py_IsFinalizing() != 0;
+#else
+    return _Py_IsFinalizing() != 0;
+#endif
+  }
+  static void pause_forever();
+  static inline std::atomic<bool> exiting{false};
+  static inline std::atomic<int> restoring{0};  ///< threads between the check and having the GIL back
+  PyThreadState* state_;
+};
 
 /// A 1-D float64 array (a copy).
 py::array_t<double> to_array(const Vec& v);

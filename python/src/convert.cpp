@@ -1,4 +1,6 @@
 // Conversions between varbo's types and Python objects.
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -217,4 +219,17 @@ Components components_of(const py::handle& obj) {
   return out;
 }
 
+}  // namespace varbo::python
+
+namespace varbo::python {
+void ReleasedGil::pause_forever() { ::pause(); }
+
+void ReleasedGil::at_exit() {
+  exiting = true;
+  // Threads waiting for the GIL inside ~ReleasedGil passed the check before `exiting`: they take it now, while the
+  // interpreter is not yet finalizing (at most 2 s: a thread that never comes back does not hold up the exit).
+  Py_BEGIN_ALLOW_THREADS;
+  for (int i = 0; i < 2000 && restoring.load() > 0; ++i) ::usleep(1000);
+  Py_END_ALLOW_THREADS;
+}
 }  // namespace varbo::python

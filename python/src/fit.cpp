@@ -28,7 +28,7 @@ class PyModel {
     Mat d_mean, d_latent, d_noise;
     if (gradients) d_mean = d_latent = d_noise = Mat::Zero(n, X.cols());
     {
-      py::gil_scoped_release release;
+      ReleasedGil release;
       for (Index i = 0; i < n; ++i) {
         const Prediction p = fit_.model->predict(X.row(i).transpose(), gradients);
         mean[i] = p.mean;
@@ -130,7 +130,7 @@ void bind_fit(py::module_& m) {
         registry.resolve(Kind::Surrogate, node);
         std::optional<SurrogateFit> fit;
         {
-          py::gil_scoped_release release;
+          ReleasedGil release;
           ThreadLimit limit(threads);
           fit.emplace(fit_surrogate(registry, node, data, seed, optimize, "fit"));
         }

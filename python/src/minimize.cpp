@@ -255,7 +255,7 @@ void bind_minimize(py::module_& m) {
         std::optional<RunSummary> summary;
         std::string given_output;  // the run folder as the caller named it (relative paths stay relative)
         {
-          py::gil_scoped_release release;
+          ReleasedGil release;
           ScopedObjective scope(&objective);
           // A registry per run, as `varbo run` builds one: the default plugins, the config's plugin_path and the
           // task `python`.
@@ -319,7 +319,7 @@ void bind_minimize(py::module_& m) {
         out["parameters"] = space ? py::object(parameters_of(*space)) : py::object(py::none());
         std::vector<TrialRecord> trials;
         {
-          py::gil_scoped_release release;
+          ReleasedGil release;
           trials = open_sqlite_store(summary->output + "/study.db")->trials();
         }
         py::list ts;

@@ -12,4 +12,5 @@ PYBIND11_MODULE(_varbo, m) {
   bind_minimize(m);
   bind_fit(m);
   bind_algorithm(m);
+  py::module_::import("atexit").attr("register")(py::cpp_function([] { ReleasedGil::at_exit(); }));
 }

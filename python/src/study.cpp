@@ -38,7 +38,7 @@ class PyStudy {
       throw InputError(fmt::format("{}: this Study was opened in process {}, not in this one (a forked child, e.g. "
                                    "multiprocessing): open the study again in the child with varbo.Study.open()",
                                    study_->store().location(), static_cast<long>(owner_)));
-    py::gil_scoped_release release;
+    ReleasedGil release;
     std::lock_guard<std::mutex> lock(mutex_);
     // The engine's own time in the latest call, without the Python layer (bench/python: the layer's overhead).
     struct Timer {
@@ -65,7 +65,7 @@ std::unique_ptr<PyStudy> make(Study (*fn)(const std::string&, const std::string&
                               const std::string& b) {
   std::optional<Study> s;
   {
-    py::gil_scoped_release release;
+    ReleasedGil release;
     s.emplace(fn(a, b));
   }
   return std::make_unique<PyStudy>(std::move(*s));
@@ -88,7 +88,7 @@ void bind_study(py::module_& m) {
           [](const std::string& store, const std::string& yaml, const std::string& name) {
             std::optional<Study> s;
             {
-              py::gil_scoped_release release;
+              ReleasedGil release;
               s.emplace(Study::create_from_yaml(store, yaml, name));
             }
             return std::make_unique<PyStudy>(std::move(*s));
@@ -99,7 +99,7 @@ void bind_study(py::module_& m) {
           [](const std::string& store) {
             std::optional<Study> s;
             {
-              py::gil_scoped_release release;
+              ReleasedGil release;
               s.emplace(Study::open(store, add_python_task));  // studies made by varbo.minimize too
             }
             return std::make_unique<PyStudy>(std::move(*s));

@@ -115,3 +115,26 @@ def test_records_compare_by_value(tmp_path):
     assert study.best() in trials
     with pytest.raises(TypeError):
         hash(trials[0])
+
+
+def test_interpreter_exit_with_a_daemon_thread_inside_varbo(tmp_path):
+    """A background thread in a varbo call when the program ends: a clean exit, not abort (exit 134)."""
+    import subprocess
+    import sys
+    script = tmp_path / "daemon.py"
+    script.write_text(
+        "import threading, time\n"
+        "import numpy as np\n"
+        "import varbo\n"
+        "X = np.random.default_rng(1).random((8, 2)); y = X.sum(1)\n"
+        "m = varbo.fit('gp', X, y)\n"
+        "def loop():\n"
+        "    rng = np.random.default_rng(2)\n"
+        "    while True:\n"
+        "        m.predict(rng.random((50, 2)))\n"
+        "threading.Thread(target=loop, daemon=True).start()\n"
+        "time.sleep(0.3)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    codes = [subprocess.run([sys.executable, str(script)], env=env, capture_output=True, timeout=120).returncode
+             for _ in range(6)]
+    assert codes == [0] * 6
