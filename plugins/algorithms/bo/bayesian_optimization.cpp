@@ -400,7 +400,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     s.phase = "random";
     return s;
   }
-  if (data.size() < 2) {
+  // Real results, not `data`: with fewer than 2 of them, the rest of a batch (several workers starting on a fresh
+  // study, a first `suggest --batch` beyond the design, a design that all failed) came from a model of made-up
+  // costs (pending points at 0 or at the one result): every gain at its maximum, CRBO's region the whole box
+  // (red team, session 30). The design sampler's draws instead, as for one worker.
+  if (data_.size() < 2) {
     Rng rr = rng_.stream(kRandom, uk);
     update_feasibility(k, refit);
     s.x = random_point_avoiding_failures(rr);

@@ -185,3 +185,37 @@ TEST_CASE("bo: a batch stays in the confidence region of the observations, not o
     CHECK(region->contains(s.x, 1e-6));
   }
 }
+
+TEST_CASE("bo: before two real results, the points of a batch past the design are the design sampler's, not a model's") {
+  set_log_level(LogLevel::Error);
+  // Three robots starting on a fresh CRBO study (crbo.md: 2 design points around θ0): the third point came from a
+  // model of made-up costs (the pending points at 0), with the whole box as its region: every gain at a bound
+  // (red team, session 30). Now it is drawn as one worker's third trial would be before two results exist.
+  const std::string crbo =
+      "{type: bo, initial_points: 2, surrogate: gp, acquisition: {type: cb, kappa: -2}, "
+      "region: {type: confidence, gamma: 0.6}}";
+  for (const Index q : {Index{3}, Index{6}}) {
+    const std::vector<Suggestion> batch = make(crbo, 30)->ask(q);
+    REQUIRE(batch.size() == static_cast<std::size_t>(q));
+    for (Index j = 2; j < q; ++j) {
+      const Suggestion& s = batch[static_cast<std::size_t>(j)];
+      CAPTURE(j);
+      CAPTURE(s.x.transpose());
+      CHECK(s.phase == "random");
+      CHECK(s.x.minCoeff() > 0.0);  // not at a bound of the box
+      CHECK(s.x.maxCoeff() < 1.0);
+    }
+  }
+  // One result and two pending: still the design sampler's (the region of one point and two fantasies reached
+  // 0.58 of the box).
+  auto a = make(crbo, 30);
+  const Suggestion first = a->ask(1).front();
+  a->tell({Observation{first.x, bowl(first.x), true, {}}});
+  a->set_pending({Vec::Constant(2, 0.45)});
+  const Suggestion third = a->ask(1).front();
+  CHECK(third.phase == "random");
+  // The default bo with a batch beyond its design on a fresh study: no model either.
+  const std::vector<Suggestion> wide = make("{type: bo}", 40)->ask(12);
+  for (std::size_t j = 0; j < wide.size(); ++j)
+    if (wide[j].phase != "initial") CHECK(wide[j].phase == "random");
+}
