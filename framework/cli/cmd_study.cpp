@@ -147,9 +147,18 @@ Runner add_suggest(CLI::App& app) {
                    static_cast<long long>(finished), static_cast<long long>(pending));
       return 4;
     }
-    if (static_cast<long long>(trials.size()) < a->batch)  // on stderr: stdout stays the trials (or the JSON)
-      std::fprintf(stderr, "varbo: %zu of the %lld trials asked: the budget of %lld has no more room\n", trials.size(),
-                   a->batch, static_cast<long long>(s.config().budget));
+    if (static_cast<long long>(trials.size()) < a->batch) {  // on stderr: stdout stays the trials (or the JSON)
+      Index taken = 0;  // finished or pending: what the budget holds now
+      for (const auto& t : s.trials()) taken += t.finished() || t.state == TrialState::Pending ? 1 : 0;
+      if (taken >= s.config().budget)
+        std::fprintf(stderr, "varbo: %zu of the %lld trials asked: the budget of %lld has no more room\n",
+                     trials.size(), a->batch, static_cast<long long>(s.config().budget));
+      else
+        std::fprintf(stderr, "varbo: %zu of the %lld trials asked: the algorithm gave no more points (%lld of the "
+                     "budget of %lld left)\n",
+                     trials.size(), a->batch, static_cast<long long>(s.config().budget - taken),
+                     static_cast<long long>(s.config().budget));
+    }
     const auto& names = s.domain().names;
     if (a->json) {
       nlohmann::json out = nlohmann::json::array();

@@ -463,6 +463,29 @@ TEST_CASE("a late result of an abandoned and retried trial is kept, marked, and 
   CHECK(stored->error.find(fmt::format("run again as trial {}", retry.id)) != std::string::npos);
 }
 
+TEST_CASE("a batch with fewer abandoned trials to retry than asked: the retries and new points, distinct") {
+  // Red team, session 30: ask(4) with one abandoned trial returned that one alone, and `varbo suggest --batch 4`
+  // said the budget had no more room while 22 of 30 were left.
+  const std::string dir = test::temp_folder("study_retry_batch");
+  const std::string db = dir + "/s.db";
+  Study::create_from_yaml(db, "task: {type: branin}\nbudget: 12\nseed: 2\nretry_abandoned: true\n"
+                              "algorithm: {type: bo, initial_points: 3}\n");
+  Study s = Study::open(db);
+  const auto first = s.ask(3);
+  s.tell(first[0].id, 3.0);
+  s.tell(first[1].id, 2.0);
+  const std::int64_t lost = first[2].id;
+  CHECK(s.abandon_where([&](const TrialRecord& t) { return t.id == lost; }, "worker died").size() == 1);
+  const auto batch = s.ask(4);
+  REQUIRE(batch.size() == 4);
+  CHECK(batch[0].phase == "retry");
+  CHECK(batch[0].x == first[2].x);
+  for (std::size_t i = 0; i < batch.size(); ++i)
+    for (std::size_t j = i + 1; j < batch.size(); ++j) CHECK((batch[i].x - batch[j].x).norm() > 1e-6);
+  // The budget holds them: 2 complete + 1 abandoned (not counted) + 4 pending.
+  CHECK(s.ask(20).size() == 12 - 2 - 4);
+}
+
 TEST_CASE("the cost-scale warnings are given once per study, and for points told by hand") {
   // Red team, session 25: a process-wide once_flag warned only the first study of a Python process, and
   // tell_point (`varbo observe new`) never checked.

@@ -293,11 +293,15 @@ std::vector<TrialRecord> Study::ask(Index q) {
     const Index remaining =
         m.config.budget - static_cast<Index>(m.store->next_finish_seq()) - static_cast<Index>(pending.size());
     if (remaining <= 0) return;
-    out = m.retries(std::min(q, remaining));
-    if (!out.empty()) {
+    const Index room = std::min(q, remaining);
+    out = m.retries(room);
+    if (static_cast<Index>(out.size()) == room) {
       m.dirty = true;  // the retried points are pending now: the next ask rebuilds
       return;
     }
+    // Fewer retries than asked: the rest are new points, which see the retried ones as pending (a batch of 4 with
+    // one abandoned trial returned that trial alone, "the budget has no more room"; red team, session 30).
+    for (const auto& t : out) pending.push_back(t.x);
     try {
       detail::in_plugin_code(*m.registry, "bringing the algorithm up to date with the study's results",
                              [&] { m.sync(); });
@@ -308,7 +312,7 @@ std::vector<TrialRecord> Study::ask(Index q) {
       throw;
     }
     const auto n_finished = static_cast<std::int64_t>(m.told_ids.size());
-    const Index n = std::min(q, remaining);
+    const Index n = room - static_cast<Index>(out.size());
     m.dirty = true;  // until the suggestion is stored
     m.alg->set_pending(pending);
     const std::string algorithm = m.config.algorithm.info->full_name();
