@@ -14,6 +14,7 @@
 #include "../../framework/core/src/plugins/plugin_index.hpp"  // the index format (internal to the loader)
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
+#include "varbo/log.hpp"
 #include "varbo/plugin.hpp"
 #include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
@@ -584,6 +585,41 @@ TEST_CASE("a project moved with its run folder and plugins resumes with the plug
   std::ofstream(after / "plugins" / "libvarbo_fixture_good.so") << "rebuilt badly\n";
   CHECK(Study::open((copy / "st.db").string()).ask(1).size() == 1);
   CHECK_THROWS(Study::open((after / "st.db").string()));
+}
+
+TEST_CASE("a study's stored plugin folder that another user owns or every user can write is not loaded by reading") {
+  // Red team, session 30: `varbo status` / export / verify / the dashboard / Study.open on a study a colleague
+  // sent loaded every libvarbo_*.so of the folders its meta named: code run by reading a file. Now only folders of
+  // this user (or root) that not every user can write; the others are named, and VARBO_PLUGIN_PATH trusts them.
+  const fs::path root = test::temp_folder("loader_untrusted_folder");
+  fs::create_directories(root / "plugins");
+  fs::copy_file(fixture("good"), root / "plugins" / "libvarbo_fixture_good.so");
+  std::ofstream(root / "study.yaml") << "task: {type: branin}\nbudget: 6\nseed: 1\nthreads: 1\n"
+                                        "plugin_path: [plugins]\n"
+                                        "algorithm: {type: bo, initial_points: 3, acquisition: fixture_constant}\n";
+  Study::create((root / "st.db").string(), (root / "study.yaml").string());
+  CHECK(Study::open((root / "st.db").string()).ask(1).size() == 1);  // this user's folder: loaded
+
+  // Every user can write it (no sticky bit): refused, the warning names the folder and the way to trust it.
+  fs::permissions(root / "plugins", fs::perms::others_write, fs::perm_options::add);
+  const std::string log = (root / "log.txt").string();
+  set_log_file(log);
+  CHECK_THROWS_WITH(Study::open((root / "st.db").string()), doctest::Contains("fixture_constant"));
+  set_log_file("");
+  const std::string said = test::slurp(log);
+  CHECK(contains(said, (root / "plugins").string() + ", which every user can write: its plugins are not loaded"));
+  CHECK(contains(said, "VARBO_PLUGIN_PATH="));
+  fs::permissions(root / "plugins", fs::perms::others_write, fs::perm_options::remove);
+
+  // Another user's folder (when this test runs as root, which may hand it to `nobody`): refused likewise.
+  if (::geteuid() == 0) {
+    REQUIRE(::chown((root / "plugins").c_str(), 65534, 65534) == 0);
+    CHECK_THROWS_WITH(Study::open((root / "st.db").string()), doctest::Contains("fixture_constant"));
+    // Trusted on purpose: the same folder given in VARBO_PLUGIN_PATH is loaded.
+    ::setenv("VARBO_PLUGIN_PATH", (root / "plugins").c_str(), 1);
+    CHECK(Study::open((root / "st.db").string()).ask(1).size() == 1);
+    ::unsetenv("VARBO_PLUGIN_PATH");
+  }
 }
 
 TEST_CASE("a third-party surrogate or acquisition with wrong gradient lengths is named before its outputs are used") {

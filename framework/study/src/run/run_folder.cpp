@@ -2,6 +2,8 @@
 #include "varbo/space_wrappers.hpp"
 #include "varbo/run_folder.hpp"
 
+#include "../study/stored_plugin_paths.hpp"
+
 #include <fmt/format.h>
 
 #include <cerrno>
@@ -88,7 +90,8 @@ Registry& run_folder_registry(const std::string& folder) {
   const std::string cfg = folder + "/config.resolved.yaml";
   std::error_code ec;
   if (!fs::exists(cfg, ec)) return default_registry();  // load_run_folder says what is missing
-  const std::vector<std::string> paths = plugin_paths_of(ConfigNode::load_file(cfg));
+  const std::vector<std::string> paths =
+      study_detail::trusted_plugin_folders(plugin_paths_of(ConfigNode::load_file(cfg)), cfg);
   if (paths.empty()) return default_registry();
   struct Loaded {
     Registry registry;

@@ -1,8 +1,18 @@
 #include "stored_plugin_paths.hpp"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+
 #include <filesystem>
+#include <mutex>
+#include <set>
 #include <sstream>
+
+#include "varbo/log.hpp"
 #include "varbo/store.hpp"
+#include "varbo/text.hpp"
 
 namespace fs = std::filesystem;
 
@@ -63,6 +73,36 @@ std::vector<std::string> stored_plugin_paths(const StudyStore& store, const std:
       if (fs::exists(here, ec)) chosen = here.string();
     }
     out.push_back(chosen);
+  }
+  return trusted_plugin_folders(out, "the study " + store.location());
+}
+
+std::vector<std::string> trusted_plugin_folders(const std::vector<std::string>& paths, const std::string& what) {
+  static std::mutex mutex;
+  static std::set<std::string> warned;
+  std::vector<std::string> out;
+  for (const std::string& p : paths) {
+    struct stat st {};
+    // A folder that is not there is kept: the loader says so, naming it. Symbolic links are followed (the folder
+    // that is read is the one judged).
+    if (::stat(p.c_str(), &st) != 0) {
+      out.push_back(p);
+      continue;
+    }
+    const bool owner_ok = st.st_uid == ::geteuid() || st.st_uid == 0;
+    const bool world_writable = (st.st_mode & S_IWOTH) != 0 && (st.st_mode & S_ISVTX) == 0;
+    if (owner_ok && !world_writable) {
+      out.push_back(p);
+      continue;
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    if (warned.insert(p).second)
+      log_warn("{} names the plugin folder {}, {}: its plugins are not loaded (a study or run folder from "
+               "elsewhere must not run code by being read). If you trust them: VARBO_PLUGIN_PATH={}",
+               printable(what), printable(p),
+               owner_ok ? std::string("which every user can write")
+                        : fmt::format("which belongs to another user (uid {})", static_cast<long>(st.st_uid)),
+               printable(p));
   }
   return out;
 }

@@ -25,5 +25,12 @@ std::vector<std::pair<std::string, std::string>> plugin_path_entries(const std::
 /// absolute path stored at creation. A path found under neither is kept as stored (the loader warns, naming it).
 std::vector<std::string> stored_plugin_paths(const StudyStore& store, const std::string& store_address);
 
+/// The plugin folders named by a study or a run folder that this process may load code from: owned by this user
+/// or by root, and not writable by every user. Reading a study a colleague sent, or one in a folder another user
+/// can write, ran whatever libvarbo_*.so its stored paths named (red team, session 30) — as git refuses a
+/// repository another user owns. Each folder left out is warned about once, with how to trust it on purpose
+/// (VARBO_PLUGIN_PATH, which is never filtered). `what` names where the paths come from.
+std::vector<std::string> trusted_plugin_folders(const std::vector<std::string>& paths, const std::string& what);
+
 }  // namespace study_detail
 }  // namespace varbo
