@@ -73,6 +73,16 @@ TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the o
     if (contains(e.path().filename().string(), ".tmp.")) left.push_back(e.path().filename().string());
   std::sort(left.begin(), left.end());
   CHECK(left == std::vector<std::string>{"notes.txt.tmp.5", "trials.csv.tmp.keep"});
+  // A symbolic link planted under the name this very process writes aside (its pid: `exec` keeps the shell's) is
+  // not followed: the victim file keeps its text, trials.csv is a file of the run.
+  std::ofstream(dir + "/victim") << "precious\n";
+  const std::string plant = "for f in trials.csv model.yaml summary.json config.resolved.yaml; do ln -s " + dir +
+                            "/victim " + out + "/$f.tmp.$$; done; exec " + V + " -q run --resume " + out +
+                            " --no-progress --budget " + std::to_string(before + 2);
+  CHECK(test::run({"/bin/sh", "-c", plant}, log).exit_code == 0);
+  CHECK(slurp(dir + "/victim") == "precious\n");
+  CHECK_FALSE(fs::is_symlink(out + "/trials.csv"));
+  CHECK(csv_rows(out + "/trials.csv") == before + 2);
   fs::remove_all(dir);
 }
 

@@ -1,5 +1,6 @@
 #include "run_writer.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -20,6 +21,24 @@ namespace fs = std::filesystem;
 
 namespace varbo {
 
+// A file written aside is a new file: a symbolic link planted under its name (a run folder another user can
+// write) was followed, and a victim's ~/.bashrc became trials.csv (red team, session 30). The name is removed
+// (the link, not its target), created exclusively without following links, and opened through the descriptor.
+static void open_fresh(std::ofstream& out, const std::string& path) {
+  std::error_code ec;
+  fs::remove(path, ec);
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    out.setstate(std::ios::failbit);  // the caller reports errno
+    return;
+  }
+  out.open("/proc/self/fd/" + std::to_string(fd), std::ios::out | std::ios::trunc);
+  if (!out.is_open()) out.open(path, std::ios::out | std::ios::trunc);  // no /proc: the file just made
+  const int saved = errno;
+  ::close(fd);
+  errno = saved;
+}
+
 // Names and error messages: one valid UTF-8 line per cell, whatever a task wrote (varbo/csv.hpp).
 static std::string csv_escape(const std::string& s) { return csv_text(s); }
 
@@ -34,7 +53,8 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   {
     // Written aside and renamed into place, as trials.csv and model.yaml (publish()): a reader (`varbo select`,
     // `plot`, a backup) during a `--resume` saw these files empty or torn (red team, session 28).
-    std::ofstream cfg(aside("config.resolved.yaml"), std::ios::trunc);
+    std::ofstream cfg;
+    open_fresh(cfg, aside("config.resolved.yaml"));
     YAML::Emitter em;
     YAML::Node resolved = study.resolved();
     // Not part of StudyConfig::resolved() (the study's identity): where the plugins are is not what the study is.
@@ -60,7 +80,7 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
       fs::remove(aside("config.resolved.yaml"), ec);
     }
   }
-  trials_.open(aside("trials.csv"), std::ios::trunc);
+  open_fresh(trials_, aside("trials.csv"));
   if (!trials_)
     throw InputError(fmt::format("{}: cannot write ({})", aside("trials.csv"), std::strerror(errno)));
   trials_ << "index,phase";
@@ -71,7 +91,7 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
   if (with_regret_) trials_ << ",regret_best_observed,regret_recommended";
   trials_ << "\n";
   trials_.flush();
-  model_.open(aside("model.yaml"), std::ios::trunc);
+  open_fresh(model_, aside("model.yaml"));
   model_ << "# hyperparameters after each fit\n";
   model_.flush();
 }
@@ -222,7 +242,8 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   const std::string tmp = aside("summary.json");
   bool written = false;
   {
-    std::ofstream out(tmp, std::ios::trunc);
+    std::ofstream out;
+    open_fresh(out, tmp);
     out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
     out.flush();
     written = static_cast<bool>(out);
