@@ -86,6 +86,22 @@ TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the o
   fs::remove_all(dir);
 }
 
+TEST_CASE("a configuration's description is in the run folder: config.resolved.yaml and summary.json") {
+  // Documented "free text, copied to the run folder", it was copied nowhere (red team, session 30).
+  const std::string dir = scratch("run_description");
+  const std::string cfg = dir + "/c.yaml", out = dir + "/run", log = dir + "/log.txt";
+  std::ofstream(cfg) << "task: {type: branin}\nbudget: 3\nseed: 2\nalgorithm: {type: random}\n"
+                        "description: 'gait gains, robot B, new feet'\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress"}).exit_code == 0);
+  CHECK(contains(slurp(out + "/summary.json"), "\"description\": \"gait gains, robot B, new feet\""));
+  CHECK(contains(slurp(out + "/config.resolved.yaml"), "description: gait gains, robot B, new feet"));
+  // Not the study's identity: the folder is read and resumed without a "differs" warning.
+  CHECK(test::run({V, "run", "--resume", out, "--no-progress", "--budget", "4"}, log).exit_code == 0);
+  CHECK_FALSE(contains(slurp(log), "differ"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("run folder with trials: a plain run refuses (pointing at --resume and --overwrite); --overwrite replaces") {
   const std::string dir = scratch("run_overwrite");
   const std::string cfg = dir + "/c.yaml", out = dir + "/run", log = dir + "/log.txt";

@@ -68,6 +68,13 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
       }
       resolved["plugin_path"] = list;
     }
+    // `description` ("free text, copied to the run folder") was copied nowhere (red team, session 30). Not part of
+    // resolved(), the study's identity: a note edited between sessions is not another study.
+    const ConfigNode description = study.source.child("description");
+    if (description.defined() && description.is_scalar()) {
+      description_ = description.scalar();
+      resolved["description"] = description_;
+    }
     em << resolved;
     cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
         << em.c_str() << "\n";
@@ -239,6 +246,7 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   if (s.regret_recommended) j["regret_recommended"] = *s.regret_recommended;
   if (s.regret_best_observed) j["regret_best_observed"] = *s.regret_best_observed;
   j["seconds"] = s.seconds;
+  if (!description_.empty()) j["description"] = description_;
   const std::string tmp = aside("summary.json");
   bool written = false;
   {

@@ -51,6 +51,7 @@ class RunWriter {
   /// session 29).
   std::string aside(const std::string& name) const;
   void remove_stale_asides() const;
+  std::string description_;  ///< the configuration's `description`, repeated in summary.json
   std::string folder_;
   std::vector<std::string> components_;
   std::ofstream trials_, model_;
