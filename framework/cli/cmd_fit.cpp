@@ -126,10 +126,29 @@ Runner add_fit(CLI::App& app) {
         if (c == ycol) continue;
         const std::string& name = data.columns[static_cast<std::size_t>(c)];
         // A row number (0, 1, 2, … or 1, 2, 3, …) is not a coordinate; a gain named i (a PID's) is one.
-        if ((name == "i" || name == "index") && is_row_number(data.values.col(c))) {
+        if (name == "i" && is_row_number(data.values.col(c))) {
           std::fprintf(stderr, "varbo fit: column '%s' holds row numbers: not a θ column (name it in --columns to use it)\n",
                        name.c_str());
           continue;
+        }
+        // pandas' index, written by DataFrame.to_csv: "index" (after reset_index) or a header "Unnamed: 0" (after
+        // read_csv of a file that had one). Rows filtered in pandas leave gaps (0, 2, 3, 5), so its values are no
+        // test; they became a θ column in silence (red team, session 30).
+        const bool pandas_unnamed = name.rfind("Unnamed: ", 0) == 0 && name.size() > 9 &&
+                                    name.find_first_not_of("0123456789", 9) == std::string::npos;
+        if (name == "index" || pandas_unnamed) {
+          const auto col = data.values.col(c);
+          const bool integers = col.size() > 0 && (col.array() == col.array().round()).all();
+          if (name == "index" || integers) {
+            std::fprintf(stderr,
+                         "varbo fit: column '%s' is a pandas index (DataFrame.to_csv(index=False) leaves it out): not "
+                         "a θ column (name it in --columns to use it)\n",
+                         name.c_str());
+            continue;
+          }
+          throw InputError(fmt::format("{}: column '{}' has no name of its own (pandas calls a header cell left "
+                                       "empty so): name it in the file, or choose the θ columns with --columns",
+                                       a->data, name));
         }
         xcols.push_back(c);
         xnames.push_back(name);

@@ -94,11 +94,25 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
   int lineno = 0;
   std::vector<std::vector<double>> rows;
   std::vector<bool> numeric;
+  std::string first_comment;  // a header NumPy's savetxt wrote as a comment ("# a,b,y")
+  int first_comment_line = 0;
   while (next_line(in, line)) {
     ++lineno;
+    // UTF-16 (Excel's "Unicode Text", PowerShell's default) was refused as "a NUL byte (binary data?)".
+    if (lineno == 1 && (line.rfind("\xFF\xFE", 0) == 0 || line.rfind("\xFE\xFF", 0) == 0))
+      throw InputError(fmt::format("{}: UTF-16 text; expected UTF-8 (in a spreadsheet save as \"CSV UTF-8\"; or "
+                                   "iconv -f UTF-16 -t UTF-8)",
+                                   filename));
     // A UTF-8 byte order mark (spreadsheets write one) is not part of the first column's name.
     if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    if (line[0] == '#') {  // a comment line (docs/studies.md)
+      if (t.columns.empty() && first_comment_line == 0) {
+        first_comment = line;
+        first_comment_line = lineno;
+      }
+      continue;
+    }
     // A data file is text: a NUL byte means binary data, and an odd number of quotes a value that never ends
     // (a quoted field cannot hold a line break here).
     if (line.find('\0') != std::string::npos)
@@ -111,6 +125,17 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
       c = b == std::string::npos ? std::string() : c.substr(b, c.find_last_not_of(" \t") - b + 1);
     }
     if (t.columns.empty()) {
+      // A file without a header line (MATLAB's writematrix, NumPy's savetxt, whose header is a '#' comment): its
+      // first row was taken for the names, and the error said only "no column named 'y'".
+      if (std::all_of(cells.begin(), cells.end(), [](const std::string& c) { return parse_decimal(c).has_value(); }))
+        throw InputError(fmt::format(
+            "{}:{}: the header line is all numbers: a file without column names{}; add a header line such as "
+            "x1,x2,y",
+            filename, lineno,
+            first_comment_line > 0
+                ? fmt::format(" (line {} '{}' is a comment: NumPy's savetxt writes its header so; pass comments='')",
+                              first_comment_line, safe_text(first_comment, 40))
+                : std::string()));
       if (cells.size() == 1 && !separator_hint(line).empty())
         throw InputError(fmt::format("{}:{}: the header is a single column '{}'{}", filename, lineno,
                                      printable(cells[0]), separator_hint(line)));
