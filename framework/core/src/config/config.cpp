@@ -182,6 +182,30 @@ class DocumentStarts final : public YAML::EventHandler {
 };
 }  // namespace
 
+/// What yaml-cpp's message leaves out, for causes users meet (red team, session 30): a tab indenting the line
+/// (Windows editors), a Python object dumped by yaml.dump (its !!python/ tag, a NumPy scalar's !!binary block), a
+/// JSON string's UTF-16 surrogate escapes (json.dumps' default for an emoji).
+static std::string syntax_hint(const std::string& text, const YAML::Exception& e) {
+  std::vector<std::string> lines;
+  {
+    std::stringstream in(text);
+    for (std::string l; std::getline(in, l);) lines.push_back(l);
+  }
+  if (e.mark.line >= 0 && static_cast<std::size_t>(e.mark.line) < lines.size()) {
+    const std::string& l = lines[static_cast<std::size_t>(e.mark.line)];
+    const auto indent = l.find_first_not_of(" ");
+    if (indent != std::string::npos && l[indent] == '\t')
+      return fmt::format("; line {} is indented with a tab: YAML indents with spaces", e.mark.line + 1);
+  }
+  if (text.find("!!python/") != std::string::npos)
+    return "; the file holds a Python object (a !!python/ tag: yaml.dump of a tuple or a NumPy value): write plain "
+           "numbers and lists (float(), int(), .tolist(); yaml.safe_dump refuses the rest)";
+  if (e.msg.find("invalid unicode") != std::string::npos)
+    return "; a \\uD800-\\uDFFF escape is half of a UTF-16 pair, which YAML does not join (Python's json.dumps "
+           "writes an emoji so: pass ensure_ascii=False)";
+  return "";
+}
+
 static ConfigNode parse_impl(const std::string& text, const std::string& name) {
   auto file = std::make_shared<const std::string>(name);
   YAML::Node root;
@@ -200,8 +224,8 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
                                     at(name, starts.second)));
     root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    throw ConfigError(fmt::format("{}:{}:{}: YAML syntax error: {}", name, e.mark.line + 1, e.mark.column + 1,
-                                  e.msg));
+    throw ConfigError(fmt::format("{}:{}:{}: YAML syntax error: {}{}", name, e.mark.line + 1, e.mark.column + 1,
+                                  e.msg, syntax_hint(text, e)));
   }
   WalkBudget merging, checking;
   resolve_merge_keys(root, name, 0, merging);
