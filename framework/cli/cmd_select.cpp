@@ -9,6 +9,7 @@
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "run_selection.hpp"
+#include "varbo/text.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
@@ -97,7 +98,7 @@ Runner add_select(CLI::App& app) {
       // The fit's own note, e.g. the vhgp's "homoscedastic noise selected": κ then trades the mean against the
       // model's uncertainty only, and a user reading only the table could not know (red team, session 26).
       if (!rep.message.empty()) std::printf("  fit: %s\n", rep.message.c_str());
-      std::printf("  parameters: %s\n", join(run.names).c_str());
+      std::printf("  parameters: %s\n", printable(join(run.names)).c_str());
       std::printf("  %8s  %-28s %12s %12s %14s\n", "kappa", "theta", "mean E", "std s", "E + kappa*s");
       for (const auto& s : sel) {
         if (!s.ok) {

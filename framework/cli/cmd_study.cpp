@@ -174,9 +174,9 @@ Runner add_suggest(CLI::App& app) {
       for (const auto& t : trials) {
         std::string line = fmt::format("trial {}", t.id);
         for (Index i = 0; i < t.theta.size(); ++i)
-          line += fmt::format(" {}={}", names[static_cast<std::size_t>(i)],
+          line += fmt::format(" {}={}", printable(names[static_cast<std::size_t>(i)]),
                               s.space() ? s.space()->format_value(static_cast<std::size_t>(i), t.theta[i]) : exact(t.theta[i]));
-        std::printf("%s  (%s)\n", line.c_str(), t.phase.c_str());
+        std::printf("%s  (%s)\n", line.c_str(), printable(t.phase).c_str());
       }
     }
     if (std::fflush(stdout) != 0 || std::ferror(stdout)) {

@@ -86,3 +86,13 @@ TEST_CASE("read_csv: a BOM is dropped, another separator is named, a FIFO is ref
   REQUIRE(std::system(("mkfifo " + fifo).c_str()) == 0);
   CHECK_THROWS_WITH_AS(read_csv(fifo), (fifo + ": not a regular file (expected a CSV file)").c_str(), InputError);
 }
+
+TEST_CASE("terminal_text: escape sequences and C1 controls shown, never obeyed; lines and tabs kept") {
+  // A parameter name of a study from elsewhere retitled and cleared the terminal through an error message
+  // (red team, session 30): "\x1B]0;owned\x07\x1B[2J".
+  CHECK(terminal_text("no parameter '\x1B]0;owned\x07\x1B[2J'") == "no parameter '\\x1B]0;owned\\x07\\x1B[2J'");
+  CHECK(terminal_text("line one\n\tline two") == "line one\n\tline two");
+  CHECK(terminal_text("csi \xC2\x9B" "2J and nel \xC2\x85") == "csi \\u009B2J and nel \\u0085");
+  CHECK(terminal_text("caf\xC3\xA9 \xC2\xA0ok") == "caf\xC3\xA9 \xC2\xA0ok");  // é and a no-break space stay
+  CHECK(terminal_text("bad \xFF byte\r") == "bad \\xFF byte\\r");
+}

@@ -14,6 +14,10 @@ std::string abbreviate(std::string_view text, std::size_t keep = 1024);
 /// Valid UTF-8 on one line: well-formed UTF-8 sequences are kept, \n \r \t become those two-character
 /// escapes, other control bytes and bytes that are not UTF-8 become \xHH.
 std::string printable(std::string_view text);
+/// What a terminal shows as text and never obeys: printable(), but line breaks and tabs kept, and the C1 controls
+/// (U+0080–U+009F, e.g. U+009B, a one-character CSI) escaped too. For messages varbo prints to a terminal: a
+/// parameter name of a study from elsewhere held ESC sequences that retitled and cleared the user's terminal.
+std::string terminal_text(std::string_view text);
 /// `text` as one word of a POSIX shell command: unchanged when it holds only characters no shell treats
 /// specially (letters, digits, and _ - . / : , + = @ %), else in single quotes. For the commands varbo prints
 /// for a user to paste: a PostgreSQL URL holds '&', which split `varbo observe URL 2 0.5` into two commands.

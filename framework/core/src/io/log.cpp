@@ -1,4 +1,5 @@
 #include "varbo/log.hpp"
+#include "varbo/text.hpp"
 
 #include <atomic>
 #include <cerrno>
@@ -39,7 +40,8 @@ void write_message(LogLevel level, std::string_view message) {
     f.flush();
   }
   if (static_cast<int>(level) < g_level.load()) return;
-  std::fprintf(stderr, "[varbo %s] %.*s\n", tag(level), static_cast<int>(message.size()), message.data());
+  const std::string shown = terminal_text(message);  // names from a study or a task's output: no escape sequences
+  std::fprintf(stderr, "[varbo %s] %s\n", tag(level), shown.c_str());
 }
 }  // namespace
 

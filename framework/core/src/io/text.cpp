@@ -87,6 +87,24 @@ std::string printable(std::string_view text) {
   return out;
 }
 
+std::string terminal_text(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  std::size_t start = 0;
+  for (std::size_t i = 0; i <= text.size(); ++i) {
+    if (i < text.size() && text[i] != '\n' && text[i] != '\t') continue;
+    std::string part = printable(text.substr(start, i - start));
+    for (std::size_t at = part.find('\xC2'); at != std::string::npos; at = part.find('\xC2', at + 1))
+      if (at + 1 < part.size() && static_cast<unsigned char>(part[at + 1]) >= 0x80 &&
+          static_cast<unsigned char>(part[at + 1]) <= 0x9F)
+        part.replace(at, 2, fmt::format("\\u{:04X}", static_cast<unsigned char>(part[at + 1])));
+    out += part;
+    if (i < text.size()) out += text[i];
+    start = i + 1;
+  }
+  return out;
+}
+
 std::size_t invalid_utf8_at(std::string_view s) {
   for (std::size_t i = 0; i < s.size();) {
     const std::size_t n = detail::utf8_length(s, i);
