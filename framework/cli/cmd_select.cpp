@@ -9,6 +9,7 @@
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "run_selection.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/text.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
@@ -25,7 +26,7 @@ std::string theta_text(const Vec& theta, const SharedSpace& space) {
   for (Index i = 0; i < theta.size(); ++i)
     s += space && space->parameters()[static_cast<std::size_t>(i)].type != ParameterType::Real
              ? fmt::format("{}{}", i ? ", " : "", space->format_value(static_cast<std::size_t>(i), theta[i]))
-             : space ? fmt::format("{}{:.4g}", i ? ", " : "", theta[i]) : fmt::format("{}{:.4f}", i ? ", " : "", theta[i]);
+             : fmt::format("{}{}", i ? ", " : "", exact(theta[i]));  // every digit: the θ a user deploys
   return s + "]";
 }
 }  // namespace

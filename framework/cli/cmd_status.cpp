@@ -25,8 +25,11 @@ std::string theta_text(const Vec& theta, const std::vector<std::string>& names, 
   for (Index i = 0; i < theta.size(); ++i)
     s += space ? fmt::format("{}{}={}", i ? " " : "", names[static_cast<std::size_t>(i)],
                              space->format_value(static_cast<std::size_t>(i), theta[i]))  // labels, integers
-               : fmt::format("{}{}={:.6g}", i ? " " : "", names[static_cast<std::size_t>(i)], theta[i]);
-  return printable(s);  // names and labels may hold control characters: shown escaped, never sent to the terminal
+               : fmt::format("{}{}={}", i ? " " : "", names[static_cast<std::size_t>(i)], exact(theta[i]));
+  // Every digit (shortest round-trip form): at 6 digits the trials of [1e6, 1e6 + 1] all read 1e+06, and a θ copied
+  // into `observe new --theta` landed elsewhere (red team, session 30). Names and labels may hold control
+  // characters: shown escaped, never sent to the terminal.
+  return printable(s);
 }
 
 std::string csv_cell(const std::string& s) { return csv_text(s); }

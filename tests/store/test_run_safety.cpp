@@ -12,6 +12,7 @@
 
 #include "process.hpp"
 #include "study_helpers.hpp"
+#include "varbo/csv.hpp"
 #include "varbo/store.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
@@ -566,5 +567,53 @@ TEST_CASE("past `ulimit -f` a run stops with the store's error (exit 2), not kil
   CHECK(test::run({V, "-q", "run", "--resume", out, "--budget", "20", "--no-progress"}).exit_code == 0);
   CHECK(test::run({V, "-q", "study", "verify", out + "/study.db"}).exit_code == 0);
   CHECK(trial_count(out + "/study.db") == 20);
+  fs::remove_all(dir);
+}
+
+TEST_CASE("every view of a study agrees: θ to the last digit, the recommended trial's own θ, ties, hand-told regret") {
+  // Red team, session 30: status and the run's printout showed 6 digits (every trial of [1e6, 1e6 + 1] read
+  // 1e+06); the recommended θ of an evaluated trial was its decoded point (3.0999999999999996 for 3.1); the run
+  // named the first-finished of tied trials, status the lowest id; a hand-told cost made the noise-free regret −100.
+  const std::string dir = scratch("run_views_agree");
+  const std::string V = VARBO_EXE;
+  {
+    const std::string cfg = dir + "/wide.yaml", db = dir + "/wide/study.db", log = dir + "/wide.log";
+    std::ofstream(cfg) << "task: {type: external, command: 'echo 1', lower: [1000000], upper: [1000001], "
+                          "names: [freq_hz]}\nbudget: 3\nseed: 1\nalgorithm: {type: random}\n";
+    fs::create_directories(dir + "/wide");
+    REQUIRE(test::run({V, "-q", "study", "create", db, cfg}).exit_code == 0);
+    REQUIRE(test::run({V, "-q", "observe", db, "new", "0.5", "--theta", "1000000.2999642659"}).exit_code == 0);
+    REQUIRE(test::run({V, "status", db}, log).exit_code == 0);
+    CHECK(contains(slurp(log), "freq_hz=1000000.2999642659"));
+  }
+  {
+    const std::string cfg = dir + "/b.yaml", run = dir + "/b", log = dir + "/b.log";
+    std::ofstream(cfg) << "task: {type: branin}\nbudget: 3\nseed: 7\n"
+                          "algorithm: {type: bo, initial_points: 2, recommendation: best_observed}\n";
+    fs::create_directories(run);
+    REQUIRE(test::run({V, "-q", "study", "create", run + "/study.db", cfg}).exit_code == 0);
+    REQUIRE(test::run({V, "-q", "observe", run + "/study.db", "new", "-100", "--theta", "3.1,2.3"}).exit_code == 0);
+    REQUIRE(test::run({V, "-q", "run", "--resume", run, "--no-progress"}, log).exit_code == 0);
+    const std::string summary = slurp(run + "/summary.json");
+    CAPTURE(summary);
+    CHECK(contains(summary, "\"recommended_theta\": [\n    3.1,\n    2.3\n  ]"));
+    const auto at = summary.find("\"regret_best_observed\": ");
+    REQUIRE(at != std::string::npos);
+    CHECK(std::stod(summary.substr(at + 24)) >= 0.0);  // branin's noise-free value, not the −100 told
+    CHECK(Study::open(run + "/study.db").recommendation().value() == Vec((Vec(2) << 3.1, 2.3).finished()));
+  }
+  {
+    const std::string cfg = dir + "/tie.yaml", run = dir + "/tie";
+    std::ofstream(cfg) << "task: {type: branin}\nbudget: 4\nseed: 3\nalgorithm: {type: random}\n";
+    fs::create_directories(run);
+    Study s = Study::create(run + "/study.db", cfg);
+    const auto t = s.ask(3);
+    for (const std::size_t i : {std::size_t{2}, std::size_t{0}, std::size_t{1}}) s.tell(t[i].id, 1.0);
+    REQUIRE(test::run({V, "-q", "run", "--resume", run, "--no-progress"}).exit_code == 0);
+    const auto best = Study::open(run + "/study.db").best();
+    REQUIRE(best);
+    CHECK(best->id == t[0].id);
+    CHECK(contains(slurp(run + "/summary.json"), fmt::format("\"best_theta\": [\n    {},", exact(t[0].theta[0]))));
+  }
   fs::remove_all(dir);
 }

@@ -44,7 +44,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 std::string fmt_vec(const Vec& v) {
   std::string s = "[";
-  for (Index i = 0; i < v.size(); ++i) s += fmt::format("{}{:.6g}", i ? ", " : "", v[i]);
+  // Every digit: the θ printed is the one a user deploys or copies (at 6 digits, all of [1e6, 1e6 + 1] was 1e+06).
+  for (Index i = 0; i < v.size(); ++i) s += fmt::format("{}{}", i ? ", " : "", exact(v[i]));
   return s + "]";
 }
 /// "5", or "5 (study id 6)" once the two numberings differ (after an abandoned trial): the log speaks of the row
@@ -404,7 +405,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
         return;
       }
       summary.recommended_theta =
-          st.space() ? st.space()->decode(st.space()->admissible(*r)) : from_unit(*r, domain.box);
+          study_detail::recommended_theta(*r, st.store().trials(), st.space().get(), domain.box);
     }
     if (!optimum) return;
     const std::optional<double> v = noiseless(*summary.recommended_theta);
@@ -414,16 +415,26 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // Per-row regret of the recommendation, kept in the store so a resumed run rewrites trials.csv exactly.
   auto regret_key = [](Index row) { return fmt::format("regret_recommended/{}", row); };
 
+  std::int64_t best_id = -1;
   auto account = [&](TrialRow& row) {
     const TrialRecord& t = row.trial;
     if (!row.ok()) {
       ++summary.failed;
     } else {
-      if (!summary.best_theta || t.cost < summary.best_cost) {
+      // Ties to the lowest id, as the store's best() (status, Python, the dashboard): the run took the first to
+      // finish, and with several workers and coarse costs the views named different trials (red team, session 30).
+      if (!summary.best_theta || t.cost < summary.best_cost || (t.cost == summary.best_cost && t.id < best_id)) {
         summary.best_cost = t.cost;
         summary.best_theta = t.theta;
+        best_id = t.id;
       }
-      const double nl = std::isnan(t.noiseless_cost) ? t.cost : t.noiseless_cost;
+      // A trial recorded by hand (observe, a worker, tell_point) has no noise-free cost stored: the task's, not
+      // its measured one (which made this "oracle" regret −100 with `observe new -100`).
+      double nl = t.noiseless_cost;
+      if (std::isnan(nl)) {
+        const std::optional<double> v = optimum ? noiseless(t.theta) : std::nullopt;
+        nl = v && std::isfinite(*v) ? *v : t.cost;
+      }
       best_noiseless = std::min(best_noiseless, nl);
     }
     ++summary.evaluations;

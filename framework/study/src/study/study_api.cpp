@@ -123,6 +123,15 @@ bool study_detail::adopt_current_resolution(const std::string& store_path, const
   return true;
 }
 
+Vec study_detail::recommended_theta(const Vec& r, const std::vector<TrialRecord>& trials, const SearchSpace* space,
+                                    const Box& box) {
+  const Vec x = space ? space->admissible(r) : Vec(Box::unit(r.size()).clamp(r));
+  for (const TrialRecord& t : trials)
+    if (t.state == TrialState::Complete && t.x.size() == x.size() && (t.x - x).lpNorm<Eigen::Infinity>() <= 1e-12)
+      return t.theta;
+  return space ? space->decode(x) : from_unit(r, box);
+}
+
 bool study_detail::usable_recommendation(const Vec& r, Index dim, const std::string& algorithm, bool say) {
   if (r.size() == dim && r.allFinite()) {
     if (Box::unit(dim).contains(r, 1e-9)) return true;
@@ -601,7 +610,7 @@ std::optional<Vec> Study::recommendation() {
   if (!r) return std::nullopt;
   if (!study_detail::usable_recommendation(*r, m.encoded_dim(), m.config.algorithm.info->full_name(), true))
     return std::nullopt;
-  return m.space ? m.space->decode(m.space->admissible(*r)) : from_unit(*r, m.domain.box);
+  return study_detail::recommended_theta(*r, m.store->trials(), m.space.get(), m.domain.box);
 }
 
 std::optional<Selection> Study::select(double kappa) const { return select(std::vector<double>{kappa}).front(); }

@@ -45,6 +45,11 @@ std::string emit(const YAML::Node& n);
 /// a third-party algorithm's mistake is said (when `say`) and the point dropped, never printed as θ.
 bool usable_recommendation(const Vec& r, Index dim, const std::string& algorithm, bool say);
 
+/// θ in user units of an algorithm's recommendation `r` (unit cube / encoding): the stored θ of the complete trial
+/// at that point when there is one (the evaluated-point rules), else `r` decoded. Decoding gave 3.0999999999999996
+/// for a trial at 3.1 and 0.0010000000000000002 for lr = 0.001 (red team, session 30).
+Vec recommended_theta(const Vec& r, const std::vector<TrialRecord>& trials, const SearchSpace* space, const Box& box);
+
 bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config, const Registry& registry);
 
 /// The first line where two emitted YAML texts differ, with its key path: "at task.upper: stored 'a' vs now 'b'".
