@@ -214,7 +214,43 @@ def main():
         check(status == 409 and "not a varbo study" in body["error"], f"replaced by garbage: {status} {body}")
     dash11_hostile(varbo, folder)
     growing_study(varbo, work)
+    views_agree(varbo, work)
     print(f"{checks} passed, 0 failed")
+
+
+def views_agree(varbo, work):
+    """Red team, session 30: /api/trials gave typed values as strings ('4' for an int), and /api/history dropped
+    every regret when results told before `varbo run` left row 0 without one."""
+    typed = os.path.join(work, "typed")
+    os.makedirs(typed, exist_ok=True)
+    cfg = os.path.join(typed, "c.yaml")
+    with open(cfg, "w") as f:
+        f.write("task: {type: external, command: 'echo 1'}\nbudget: 4\nseed: 1\nalgorithm: {type: random}\n"
+                "parameters:\n  - {name: lr, type: real, low: 0.0001, high: 0.1, log: true}\n"
+                "  - {name: waypoints, type: int, low: 2, high: 9}\n"
+                "  - {name: solver, type: categorical, choices: [lqr, mpc]}\n")
+    db = os.path.join(typed, "s.db")
+    run([varbo, "-q", "study", "create", db, cfg])
+    run([varbo, "-q", "observe", db, "new", "0.5", "--param", "lr=0.001", "--param", "waypoints=4",
+         "--param", "solver=mpc"])
+    with Dashboard(varbo, db) as d:
+        status, t, _ = d.get("/api/trials")
+        check(status == 200 and t["trials"][0]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc"},
+              f"typed params as declared: {t['trials'][0].get('params')}")
+    regret = os.path.join(work, "regret")
+    os.makedirs(regret, exist_ok=True)
+    cfg = os.path.join(regret, "c.yaml")
+    with open(cfg, "w") as f:
+        f.write("task: {type: branin}\nbudget: 5\nseed: 2\nalgorithm: {type: random}\n")
+    run([varbo, "-q", "study", "create", os.path.join(regret, "study.db"), cfg])
+    run([varbo, "-q", "observe", os.path.join(regret, "study.db"), "new", "3.0", "--theta", "3,2"])
+    run([varbo, "-q", "run", "--resume", regret, "--no-progress"])
+    with Dashboard(varbo, regret) as d:
+        status, h, _ = d.get("/api/history")
+        pts = h["points"]
+        check(status == 200 and len(pts) == 5 and all("regret_recommended" in p for p in pts),
+              f"history regrets: {pts}")
+        check(all(isinstance(p["regret_recommended"], float) for p in pts[1:]), "the run's rows have a regret")
 
 
 def dash11_hostile(varbo, folder):

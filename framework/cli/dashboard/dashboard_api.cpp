@@ -95,10 +95,9 @@ json trial_json(const TrialRecord& t, const std::vector<std::string>& names, con
             {"acquisition_seconds", t.acquisition_seconds},
             {"evaluation_seconds", t.evaluation_seconds}};
   if (space && t.theta.size() == static_cast<Index>(space->parameters().size()) && t.theta.allFinite()) {
-    json labels = json::object();  // typed values as the user declared them: labels, integers
-    for (std::size_t i = 0; i < space->parameters().size(); ++i)
-      labels[space->parameters()[i].name] = space->format_value(i, t.theta[static_cast<Index>(i)]);
-    j["params"] = labels;
+    // Typed values as the user declared them, as summary.json, /api/model and Python give them: labels as
+    // strings, integers and reals as numbers (they were all strings here; red team, session 30).
+    j["params"] = json::parse(space->params(t.theta).to_json());
   }
   json comps = json::object();
   for (const auto& [name, v] : t.components) comps[name] = v;
@@ -284,9 +283,12 @@ std::string DashboardApi::history() {
     if (t.finished()) finished.push_back(&t);
   std::sort(finished.begin(), finished.end(),
             [](const TrialRecord* a, const TrialRecord* b) { return a->finish_seq < b->finish_seq; });
-  // `varbo run` records the regret of its recommendation per row when the task knows its optimum; a study
-  // without the first row's value has none (no need to look up the others).
-  const bool with_regret = !finished.empty() && study_.regret_recommended(0).has_value();
+  // `varbo run` records the regret of its recommendation per row when the task knows its optimum: from the
+  // run's first row on, which need not be row 0 (results told before the run; red team, session 30). Rows
+  // without one show NaN, as in trials.csv.
+  bool with_regret = false;
+  for (std::size_t row = finished.size(); study_.knows_optimum() && row-- > 0 && !with_regret;)
+    with_regret = study_.regret_recommended(static_cast<std::int64_t>(row)).has_value();
   json points = json::array();
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t row = 0; row < finished.size(); ++row) {

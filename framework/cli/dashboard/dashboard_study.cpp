@@ -54,6 +54,11 @@ DashboardStudy::DashboardStudy(const std::string& study, std::uint64_t seed)
       seed_(seed),
       study_(std::make_shared<Study>(open_study(address_))) {
   shown_ = study_->store().location();
+  try {
+    knows_optimum_ = study_->task().optimum().has_value();
+  } catch (const std::exception&) {
+    knows_optimum_ = false;  // a task only its host evaluates (minimize's python): no optimum known here
+  }
   struct stat st {};
   if (is_file_ && ::stat(address_.c_str(), &st) == 0) {
     dev_ = static_cast<std::uint64_t>(st.st_dev);

@@ -42,6 +42,8 @@ class DashboardStudy {
   /// The address for people to read: a PostgreSQL URL's password hidden (the page, /api/summary and the log
   /// showed it to whoever could reach the dashboard; red team, session 30).
   const std::string& shown() const { return shown_; }
+  /// Whether the study's task knows its optimum (then `varbo run` records per-row regrets).
+  bool knows_optimum() const { return knows_optimum_; }
   /// False when the study file has gone since the server started (a request then answers 404). A file replaced
   /// since it was opened (another study written in its place, a deleted one restored) is opened again, and the
   /// model cache dropped; InputError when the new file is not a study.
@@ -76,6 +78,7 @@ class DashboardStudy {
  private:
   std::string address_;
   std::string shown_;
+  bool knows_optimum_ = false;
   bool is_file_ = false;
   std::uint64_t seed_;
   std::shared_ptr<Study> study_;  ///< guarded by store_mutex_ (swapped when the file is replaced)
