@@ -246,13 +246,19 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   const std::string resume_target = shell_word(ov.store ? *ov.store : study.output);
   if (ov.resume && !store_exists(store_path))
     throw InputError(fmt::format("{}: no study store to resume", store_path));
-  if (own_store && !ov.resume && !ov.overwrite && !std::filesystem::exists(store_path) &&
-      std::filesystem::exists(study.output + "/trials.csv"))
-    // A trials.csv without its study: someone's own file, or a run whose study.db is gone. Writing the run here
-    // replaced it silently (session 20).
-    throw InputError(fmt::format("{}: the folder holds a trials.csv but no study.db; a run here would replace it. Choose "
-                                 "another folder, or {} to replace it",
-                                 study.output, ov.overwrite_hint));
+  if (own_store && !ov.resume && !ov.overwrite && !std::filesystem::exists(store_path)) {
+    // Files a run writes, in a folder without its study: someone's own files (a project folder given as the run
+    // folder: its model.yaml and summary.json were replaced in silence; red team, session 30), or a run whose
+    // study.db is gone. Writing the run here replaced them (session 20: trials.csv).
+    std::vector<std::string> found;
+    for (const char* name : {"trials.csv", "model.yaml", "summary.json", "config.resolved.yaml"})
+      if (std::filesystem::exists(study.output + "/" + name)) found.push_back(name);
+    if (!found.empty())
+      throw InputError(fmt::format("{}: the folder holds {} but no study.db; a run here would replace {}. Choose "
+                                   "another folder, or {} to replace {}",
+                                   study.output, join(found, ", "), found.size() > 1 ? "them" : "it",
+                                   ov.overwrite_hint, found.size() > 1 ? "them" : "it"));
+  }
   if (!ov.overwrite && !same_file(study.output + "/study.db", store_path))
     refuse_other_studys_folder(study.output, store_path, ov);
   {

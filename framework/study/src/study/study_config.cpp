@@ -2,6 +2,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 
 #include "varbo/errors.hpp"
@@ -170,6 +171,15 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   if (o.given("output") && s.output.find_first_not_of(" \t") == std::string::npos)
     o.node("output").fail("an empty folder name; expected a run folder such as runs/gait (leave the key out for "
                           "runs/<config file name>)");
+  // `~/runs/gait` as a shell reads it: it made a folder named '~' in the current one, inviting `rm -rf ~`
+  // (red team, session 30). `~user/` is left to the shell (say it without quotes on the command line).
+  if (s.output == "~" || s.output.rfind("~/", 0) == 0) {
+    const char* home = std::getenv("HOME");
+    if (!home || !*home)
+      o.node("output").fail(fmt::format("'{}' starts with ~ but HOME is not set; give the folder's full path",
+                                        s.output));
+    s.output = std::string(home) + s.output.substr(1);
+  }
   if (s.output.empty()) {
     const std::string stem = std::filesystem::path(root.file()).stem().string();
     s.output = "runs/" + (stem.empty() ? std::string("study") : stem);
