@@ -622,6 +622,32 @@ TEST_CASE("a study's stored plugin folder that another user owns or every user c
   }
 }
 
+TEST_CASE("a surrogate without gradients: bo and select search the acquisition by its values") {
+  // Red team, session 30: the acquisitions read the empty gradients as zeros and said they had one, so a gradient
+  // optimizer stopped where it started (and select's local search swallowed an error): the bowl's minimum at the
+  // centre was never reached.
+  Registry r;
+  PluginLoader l(r);
+  l.load_default({fixture("good")});
+  const std::string folder = test::temp_folder("loader_no_gradient");
+  const StudyConfig cfg = parse_study(
+      ConfigNode::parse("task: branin\nbudget: 8\nseed: 2\nthreads: 1\nalgorithm: {type: bo, initial_points: 3, "
+                        "region: box, surrogate: {type: fixture_bad_model, mode: no_gradient}, acquisition: {type: cb, "
+                        "kappa: 0}, acquisition_optimizer: {type: nlopt, algorithm: lbfgs}}\n",
+                        "<test>"),
+      r);
+  Study s = Study::attach(folder + "/s.db", cfg, r);
+  for (int i = 0; i < 3; ++i) {
+    const auto t = s.ask();
+    REQUIRE(t.size() == 1);
+    s.tell(t[0].id, 1.0 + i);
+  }
+  const auto t = s.ask();
+  REQUIRE(t.size() == 1);
+  CAPTURE(t[0].x.transpose());
+  CHECK((t[0].x.array() - 0.5).abs().maxCoeff() < 1e-3);  // the model's minimum, found without gradients
+}
+
 TEST_CASE("a third-party surrogate or acquisition with wrong gradient lengths is named before its outputs are used") {
   // Before: release builds check no Eigen sizes, so the built-in acquisitions and optimizers read and wrote past the
   // vectors' ends (garbage suggestions or a crash), naming nobody.

@@ -17,6 +17,11 @@
 
 namespace varbo {
 
+NegativeConfidenceBound::NegativeConfidenceBound(const Surrogate& model, Index dim, double kappa)
+    : model_(model), dim_(dim), kappa_(kappa) {
+  gradients_ = model_.predict(Vec::Constant(dim, 0.5), true).has_gradient();
+}
+
 double NegativeConfidenceBound::value(const Vec& x, Vec* grad) const {
   const Prediction p = model_.predict(x, grad != nullptr);
   // s = sqrt(c*² + exp(μ* + σ*²/2)) (section 2.2); ds/dx = dV/dx / (2 s).

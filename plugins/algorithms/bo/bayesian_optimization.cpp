@@ -32,6 +32,19 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
+
+/// A prepared acquisition offered by its values only (the surrogate under it gives no gradients).
+class ValuesOnly final : public Acquisition {
+ public:
+  explicit ValuesOnly(const Acquisition& a) : a_(a) {}
+  void prepare(const AcquisitionContext&) override {}
+  double evaluate(const Vec& x, Vec*) const override { return a_.evaluate(x, nullptr); }
+  bool has_gradient() const override { return false; }
+  std::string state() const override { return a_.state(); }
+
+ private:
+  const Acquisition& a_;
+};
 }  // namespace
 
 BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext& ctx)
@@ -536,8 +549,10 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // gradient length was undefined behaviour there): the surrogate before the acquisition reads its gradients, the
   // acquisition before the failure and pending wrappers do.
   const Vec probe = Vec::Constant(dim_, 0.5);
+  bool model_gradients = true;
   if (surrogate_->ready()) {
     const Prediction at_centre = check_surrogate_outputs(*surrogate_, surrogate_name_, probe, dim_);
+    model_gradients = at_centre.d_mean.size() == dim_;
     // A NaN or negative variance was used silently (red team, session 23): said here, once per trial.
     if (const std::string bad = unusable_prediction(at_centre); !bad.empty())
       log_warn("bo: trial {}: surrogate '{}' predicts {} at the centre of the domain; the acquisition may find no "
@@ -546,7 +561,10 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       check_surrogate_outputs(scored, surrogate_name_ + " (its acquisition model)", probe, dim_);
   }
   base.prepare(actx);
-  check_acquisition_outputs(base, refining_ ? refine_acquisition_name_ : phase.acquisition_name, probe, dim_);
+  // Without the model's gradients the acquisition's gradient is not asked for, here or below.
+  const ValuesOnly base_values(base);
+  check_acquisition_outputs(model_gradients ? static_cast<const Acquisition&>(base) : base_values,
+                            refining_ ? refine_acquisition_name_ : phase.acquisition_name, probe, dim_);
   // With failures seen, maximize the acquisition weighted by P(success) (failure_aware.hpp). The final refinement
   // around the incumbent (a success) only excludes likely failures: weighting pulled its points away from a
   // failure boundary beside the minimizer (docs/defaults.md).
@@ -572,7 +590,17 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
         base, *feasibility_, failure_utility(base, data_.X), p_min, !refining_ || refine_weighted_);
   if (feasible && !refining_ && !blocked_.empty() && failure_settings_.boundary_tabu > 0)
     feasible->set_tabu(blocked_, failure_settings_.boundary_tabu);
-  const Acquisition& acquisition = feasible ? static_cast<const Acquisition&>(*feasible) : base;
+  const Acquisition& weighed = feasible ? static_cast<const Acquisition&>(*feasible) : base;
+  // A surrogate without gradients (allowed: docs/plugins.md): the acquisitions read its empty gradients as zeros
+  // and still said they had one, so gradient optimizers stopped where they started and the derivative-free
+  // fallback never ran (a third-party surrogate: EI 0.196 found against 0.353, 7 repeated θ in 30 trials; red
+  // team, session 30). Its acquisition is searched by values only then.
+  const ValuesOnly values_only(weighed);
+  if (!model_gradients && !said_no_gradients_) {
+    said_no_gradients_ = true;
+    log_info("bo: surrogate '{}' gives no gradients: the acquisition is optimized from its values only", surrogate_name_);
+  }
+  const Acquisition& acquisition = model_gradients ? weighed : values_only;
   AcquisitionFunction unscaled(acquisition, dim_);
   const double scale = acquisition_scale(*surrogate_);  // 1 unless the costs are tiny (acquisition_scale.hpp)
   const ScaledFunction f(unscaled, scale);

@@ -142,6 +142,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   double pending_distance_ = 1e-3;  ///< bo's pending_distance (pending_exclusion.hpp)
   std::vector<Vec> pending_;
+  bool said_no_gradients_ = false;  ///< the surrogate's lack of gradients logged (once per run)
   bool prefitted_ = false;  ///< ask() already fitted on the real data (pending points present)
 
   Index dim_;

@@ -222,11 +222,16 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const M
                                         : away ? static_cast<const RegionConstraint&>(*away)
                                                : region;
         const Surrogate& m = *model_;
-        FunctionRef neg_mean(data.dim(), [&m](const Vec& x, Vec* g) {
-          const Prediction p = m.predict(x, g != nullptr);
-          if (g) *g = -p.d_mean;
-          return -p.mean;
-        });
+        // A surrogate without gradients is searched by values (an empty gradient stopped gradient optimizers).
+        const bool gradients = m.predict(at_data, true).d_mean.size() == data.dim();
+        FunctionRef neg_mean(
+            data.dim(),
+            [&m](const Vec& x, Vec* g) {
+              const Prediction p = m.predict(x, g != nullptr);
+              if (g) *g = -p.d_mean;
+              return -p.mean;
+            },
+            gradients);
         const OptimizeResult r = optimizer.maximize(neg_mean, where, data.X, rng);
         out = at_data;
         if (r.x.size() == data.dim() && r.x.allFinite() && std::isfinite(r.value) &&

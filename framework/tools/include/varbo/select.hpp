@@ -39,14 +39,18 @@ inline constexpr double kExtrapolating = 0.5;
 /// where one is asked for is a NumericalError (a zero gradient would stop a gradient search at its start).
 class NegativeConfidenceBound : public DifferentiableFunction {
  public:
-  NegativeConfidenceBound(const Surrogate& model, Index dim, double kappa) : model_(model), dim_(dim), kappa_(kappa) {}
+  NegativeConfidenceBound(const Surrogate& model, Index dim, double kappa);
   Index dim() const override { return dim_; }
   double value(const Vec& x, Vec* grad) const override;
+  /// False for a surrogate without gradients (a third party's may have none): then searched by values; its empty
+  /// gradient was an error the local search swallowed, so no point was ever polished (red team, session 30).
+  bool has_gradient() const override { return gradients_; }
 
  private:
   const Surrogate& model_;
   Index dim_;
   double kappa_;
+  bool gradients_ = true;
 };
 
 /// For each κ, maximizes −(E + κ·s) over the unit cube with `optimizer`, started from the rows of `starts`
