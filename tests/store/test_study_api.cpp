@@ -587,6 +587,24 @@ TEST_CASE("a trial abandoned out of order: no evaluated point is handed out agai
   }
 }
 
+TEST_CASE("ask with the budget held by pending trials says so, once per Study object") {
+  // Red team, session 30: an embedded node that crashed after asking left trials pending; the next ask returned
+  // nothing and said nothing, and the shipped example read that as "budget spent".
+  const std::string dir = test::temp_folder("study_pending_hold");
+  const std::string log = dir + "/log.txt";
+  Study s = Study::create_from_yaml(dir + "/s.db", "task: {type: branin}\nbudget: 3\nseed: 2\nalgorithm: {type: random}\n");
+  const auto t = s.ask(3);
+  s.tell(t[0].id, 1.0);
+  set_log_file(log);
+  CHECK(s.ask(1).empty());
+  CHECK(s.ask(1).empty());
+  set_log_file("");
+  const std::string said = test::slurp(log);
+  const std::string line = "held by 1 finished and 2 pending trial(s)";
+  CHECK(said.find(line) != std::string::npos);
+  CHECK(said.find(line) == said.rfind(line));
+}
+
 TEST_CASE("a study file deleted or replaced under an open Study: writing calls refuse, nothing is lost in silence") {
   // SQLite keeps writing to an unlinked file through its descriptor: results told after `rm study.db` vanished
   // (red team, session 27; the Python wrapper checked this, the C++ class did not).
@@ -602,6 +620,9 @@ TEST_CASE("a study file deleted or replaced under an open Study: writing calls r
   CHECK_THROWS_WITH_AS(s.tell(t[1].id, 2.0), doctest::Contains("the study file was deleted or moved"), InputError);
   CHECK_THROWS_WITH_AS(s.ask(1), doctest::Contains("the study file was deleted or moved"), InputError);
   CHECK_THROWS_AS(s.fail(t[1].id, "x"), InputError);
+  // A worker's heartbeat and a meta value were written into the unlinked file without a word (session 30).
+  CHECK_THROWS_WITH_AS(s.heartbeat("running"), doctest::Contains("the study file was deleted or moved"), InputError);
+  CHECK_THROWS_WITH_AS(s.set_meta("note", "x"), doctest::Contains("the study file was deleted or moved"), InputError);
   // Replaced by another study at the same path.
   Study other = Study::create_from_yaml(file, kRandomYaml);
   CHECK_THROWS_WITH_AS(s.tell(t[1].id, 2.0), doctest::Contains("replaced by another file"), InputError);

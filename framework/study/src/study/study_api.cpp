@@ -1,6 +1,7 @@
 // varbo::Study: ask/tell on a study store — creating and opening a study, asking for trials, recording results,
 // abandoning, selecting. The algorithm is rebuilt from its latest saved state plus a replay of the trials finished
 // since (study_rebuild.cpp); the state behind a Study is Study::Impl (study_impl.hpp).
+#include "varbo/parallel.hpp"
 #include "varbo/study_api.hpp"
 
 #include <fmt/format.h>
@@ -291,6 +292,9 @@ std::vector<TrialRecord> Study::ask(Index q) {
   if (q < 1) throw InputError(fmt::format("ask: the batch size must be at least 1, got {}", q));
   Impl& m = live();
   m.check_file();
+  // The study's `threads:` (a robot's control loop keeps its cores): only `varbo run` honoured it; an embedded
+  // Study, `varbo suggest` and `varbo worker` fitted on every core (red team, session 30).
+  const ThreadLimit limit(static_cast<int>(m.config.threads));
   std::vector<TrialRecord> out;
   const double asked_at = unix_time();  // before any wait for the store's lock (abandon_silent_workers)
   m.store->transaction([&] {
@@ -301,7 +305,16 @@ std::vector<TrialRecord> Study::ask(Index q) {
     for (const auto& t : m.checked(m.store->pending_trials())) pending.push_back(t.x);
     const Index remaining =
         m.config.budget - static_cast<Index>(m.store->next_finish_seq()) - static_cast<Index>(pending.size());
-    if (remaining <= 0) return;
+    if (remaining <= 0) {
+      // Pending trials holding the budget (an embedded node that crashed after asking, without heartbeats): the
+      // empty answer read as "budget spent" and a restarted node finished after one real result (red team,
+      // session 30). `varbo suggest` says it; so does ask.
+      if (!pending.empty() && !std::exchange(m.said_pending_hold_budget, true))
+        log_info("{}: nothing to ask: the budget of {} is held by {} finished and {} pending trial(s); a pending "
+                 "trial of a process that died is freed by abandon (`varbo abandon`)",
+                 m.store->location(), m.config.budget, m.store->next_finish_seq(), pending.size());
+      return;
+    }
     const Index room = std::min(q, remaining);
     out = m.retries(room);
     if (static_cast<Index>(out.size()) == room) {
@@ -591,6 +604,7 @@ std::optional<TrialRecord> Study::best() const {
 
 std::optional<Vec> Study::recommendation() {
   Impl& m = live();
+  const ThreadLimit limit(static_cast<int>(m.config.threads));
   if (m.store->next_finish_seq() == 0) return std::nullopt;
   m.store->transaction([&] {
     try {
@@ -621,6 +635,7 @@ std::vector<std::optional<Selection>> Study::select(const std::vector<double>& k
     if (!std::isfinite(kappa)) throw InputError(fmt::format("select: kappa must be a finite number, got {}", kappa));
   std::vector<std::optional<Selection>> out(kappas.size());
   const Impl& m = live();
+  const ThreadLimit limit(static_cast<int>(m.config.threads));
   std::vector<TrialRecord> done;
   for (const auto& t : m.checked(m.store->trials()))
     if (t.state == TrialState::Complete) done.push_back(t);
@@ -687,6 +702,8 @@ void Study::transaction(const std::function<void()>& body) {
 }
 std::optional<std::string> Study::meta(const std::string& key) const { return live().store->meta(key); }
 void Study::set_meta(const std::string& key, const std::string& value) {
+  if (key.empty()) throw InputError("set_meta: an empty key; nothing written");
+  live().check_file();  // else written into a deleted or replaced file, and lost (red team, session 30)
   live().store->transaction([&] { live().store->set_meta(key, value); });
 }
 void Study::add_model_snapshot(const StoredSnapshot& snapshot) {
@@ -705,6 +722,7 @@ void Study::heartbeat(const std::string& state) {
     throw InputError(fmt::format("heartbeat: state '{}': expected running or stopped; nothing written",
                                  safe_text(state, 100)));
   Impl& m = live();
+  m.check_file();  // a heartbeat into a deleted or replaced file kept a dead worker looking alive to nobody
   WorkerRecord w;
   w.id = m.worker;
   const auto [host, pid] = worker_host_pid(m.worker);

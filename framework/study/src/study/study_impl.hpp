@@ -83,6 +83,7 @@ struct Study::Impl {
   std::vector<std::int64_t> told_ids;
   std::optional<std::int64_t> outstanding;
   bool dirty = true;
+  bool said_pending_hold_budget = false;  ///< ask's note, once per Study object (a waiting worker polls)
   Index mismatches = 0;
   Index replayed = 0;         ///< trials replayed (ask + tell) since this object was opened
   /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
