@@ -89,10 +89,13 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                               "categorical parameter has one per choice), takes the whole budget of {}: no trial is "
                               "model-based; give `initial_points:` or a larger budget",
                               initial_points_, dim_, budget_));
-  if (budget_ > 0 && settings.initial_points > budget_)
-    log_warn_once(fmt::format("bo: initial_points {} is more than the budget of {}: the design is cut to {} points "
-                              "and no trial is model-based",
-                              settings.initial_points, budget_, budget_));
+  if (budget_ > 0 && settings.initial_points >= budget_)  // equal: no model-based trial either (session 30)
+    log_warn_once(fmt::format("bo: initial_points {} is {} the budget of {}: {}no trial is model-based",
+                              settings.initial_points, settings.initial_points > budget_ ? "more than" : "all of",
+                              budget_,
+                              settings.initial_points > budget_ ? fmt::format("the design is cut to {} points and ",
+                                                                              budget_)
+                                                                : std::string()));
   if (budget_ > 0) initial_points_ = std::min(initial_points_, budget_);
   // The design is drawn whole, up front: 1e9 points ended in std::bad_alloc, exit 3, or the kernel's OOM killer
   // (red team, session 28). 5e7 coordinates are 400 MB; no model-based search starts after such a design.
@@ -617,25 +620,33 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     if (start) res.x = *start;
     else res.x = Vec();  // chosen at random below
   }
-  if (res.x.size() == dim_ && res.x.allFinite() && pending_distance_ > 0 && data.size() > data_.size()) {
+  // With the failure model off (`failure_model: {enabled: off}`) a failed θ is not in the data, and the acquisition's
+  // best point stayed where it was: 24 of 30 trials fell at one θ (red team, session 30). A failed θ is then kept
+  // out as a pending one is.
+  const bool avoid_failed = !feasibility_on_ && !failed_.empty();
+  const double exclusion = pending_distance_ > 0 ? pending_distance_ : 1e-6;
+  if (res.x.size() == dim_ && res.x.allFinite() &&
+      ((pending_distance_ > 0 && data.size() > data_.size()) || avoid_failed)) {
     // The rows of `data` past the real observations are fantasies: points pending elsewhere and earlier points of
     // this batch. Their θ is not handed out a second time (pending_exclusion.hpp).
     std::vector<Vec> pending;
-    for (Index i = data_.size(); i < data.size(); ++i) pending.push_back(data.X.row(i).transpose());
-    const Index hit = nearest_within(Box::unit(dim_).clamp(res.x), pending, pending_distance_);
+    if (pending_distance_ > 0)
+      for (Index i = data_.size(); i < data.size(); ++i) pending.push_back(data.X.row(i).transpose());
+    if (avoid_failed) pending.insert(pending.end(), failed_.begin(), failed_.end());
+    const Index hit = nearest_within(Box::unit(dim_).clamp(res.x), pending, exclusion);
     if (hit >= 0) {
-      const AwayFromPoints away(acquisition, pending, pending_distance_,
-                                AwayFromPoints::below_values(acquisition, data.X));
+      const AwayFromPoints away(acquisition, pending, exclusion, AwayFromPoints::below_values(acquisition, data.X));
       AcquisitionFunction g_unscaled(away, dim_);
       const ScaledFunction g(g_unscaled, scale);
       Rng prng = rng_.stream(kPendingAway, uk);
       OptimizeResult again = optimizer_->maximize(g, *region_, starts, prng);
       again.value /= scale;
       const bool clear = again.success && again.x.size() == dim_ && again.x.allFinite() &&
-                         nearest_within(Box::unit(dim_).clamp(again.x), pending, pending_distance_) < 0;
-      log_info("bo: trial {}: the acquisition's best point is a pending one (pending point {} of {}); {}", k, hit + 1,
-               pending.size(), clear ? fmt::format("searched again at least {:g} away from them", pending_distance_)
-                                     : std::string("no other point found: choosing at random"));
+                         nearest_within(Box::unit(dim_).clamp(again.x), pending, exclusion) < 0;
+      log_info("bo: trial {}: the acquisition's best point is a pending {}; {}", k,
+               avoid_failed ? "or failed one" : fmt::format("one (pending point {} of {})", hit + 1, pending.size()),
+               clear ? fmt::format("searched again at least {:g} away from them", exclusion)
+                     : std::string("no other point found: choosing at random"));
       if (clear) res = again;
       else res.x = Vec();  // chosen at random below
     }
@@ -873,6 +884,10 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
       // Failed trials inform the failure model only (the cost model has no value for them).
       if (o.x.size() == dim_ && o.x.allFinite()) failed_.push_back(o.x);
       failed_trials_.push_back(told_ - 1);
+      if (failure_settings_.enabled == FailureModelSettings::Enabled::Off)
+        log_warn_once("bo: a trial failed with `failure_model: {enabled: off}`: failures teach the search nothing, "
+                      "so it may keep returning to where trials fail (only the failed θ themselves are kept out); "
+                      "`enabled: auto`, the default, steers away from them");
       continue;
     }
     if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));

@@ -219,3 +219,24 @@ TEST_CASE("bo: before two real results, the points of a batch past the design ar
   for (std::size_t j = 0; j < wide.size(); ++j)
     if (wide[j].phase != "initial") CHECK(wide[j].phase == "random");
 }
+
+TEST_CASE("bo: with the failure model off, a failed θ is not suggested again") {
+  set_log_level(LogLevel::Error);
+  // Red team, session 30: failed trials leave the data unchanged when the failure model is off, so the
+  // acquisition's best point stayed put: 24 of 30 trials fell at one θ.
+  auto a = make("{type: bo, initial_points: 3, region: box, failure_model: {enabled: off}}", 20);
+  for (Index k = 0; k < 3; ++k) {
+    const Suggestion s = a->ask(1).front();
+    a->tell({Observation{s.x, bowl(s.x), true, {}}});
+  }
+  std::vector<Vec> failed;
+  for (int i = 0; i < 4; ++i) {
+    const Suggestion s = a->ask(1).front();
+    for (const Vec& f : failed) {
+      CAPTURE(s.x.transpose());
+      CHECK(distance(s.x, f) >= 1e-3 * (1 - 1e-9));  // pending_distance away (the search returned within 1e-4)
+    }
+    failed.push_back(s.x);
+    a->tell({Observation{s.x, std::nan(""), false, {}}});
+  }
+}
