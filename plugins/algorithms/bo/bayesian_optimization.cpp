@@ -59,8 +59,17 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   region_ = r.create<RegionConstraint>(o.component("region"), ctx);
   {
     const auto& provides = o.component("region").info->provides;
-    if (std::find(provides.begin(), provides.end(), "region:constraint") != provides.end())
+    if (std::find(provides.begin(), provides.end(), "region:constraint") != provides.end()) {
       observed_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+      // CRBO's region is a bound on the latent variance (Fröhlich 2021, eq. (6)): a surrogate that reports its
+      // uncertainty as noise made it the whole box in silence (red team, session 30; docs/plugins.md).
+      const auto& model_tags = o.component("surrogate").info->provides;
+      if (std::find(model_tags.begin(), model_tags.end(), "surrogate:latent_variance") == model_tags.end())
+        log_warn_once(fmt::format("bo: region '{}' bounds the surrogate's latent variance, and surrogate '{}' does "
+                                  "not declare surrogate:latent_variance: if it reports its uncertainty as noise, "
+                                  "the region is the whole box (docs/plugins.md, \"Writing a surrogate\")",
+                                  o.component("region").info->full_name(), surrogate_name_));
+    }
   }
   optimizer_ = r.create<Optimizer>(o.component("acquisition_optimizer"), ctx);
   optimizer_name_ = o.component("acquisition_optimizer").info->full_name();

@@ -191,8 +191,17 @@ Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double 
       return name == key || (name.size() > key.size() && name.compare(name.size() - key.size(), key.size(), key) == 0 &&
                              name[name.size() - key.size() - 1] == '.');
     };
+    bool found = false;
     for (const Hyperparameter& h : hyperparameters)
       if ((names(h.name, gp_name) || names(h.name, vhgp_name)) && std::isfinite(h.value) && h.value > 0) {
+        ell(d) = h.value;
+        found = true;
+        break;
+      }
+    // An isotropic kernel's one length scale (se, matern52: `lengthscale`) holds for every coordinate.
+    for (const Hyperparameter& h : hyperparameters)
+      if (!found && (names(h.name, "lengthscale") || names(h.name, "lengthscale_f")) && std::isfinite(h.value) &&
+          h.value > 0) {
         ell(d) = h.value;
         break;
       }

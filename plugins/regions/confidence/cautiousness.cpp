@@ -38,6 +38,12 @@ double paper_radius(double ell, double gamma) {
 }
 
 std::string CautiousnessReport::text() const {
+  // A surrogate that names no `lengthscale` hyperparameter (a third party's): r0 is unknown, not 0 (it printed
+  // "single-point r0 0 ... (0 r0)"; red team, session 30).
+  if (!(lengthscale > 0))
+    return fmt::format("cautiousness: single-point r0 unknown (the surrogate names no lengthscale), region reach "
+                       "{:.4g}, L {:.4g}, reach*L {:.4g}, incumbent mean {:.6g}, worst-case next cost {:.6g}",
+                       reach, lipschitz, reach * lipschitz, incumbent_mean, worst_case);
   return fmt::format("cautiousness: single-point r0 {:.4g} (l_max {:.4g}; paper eq. 4: {:.4g}), region reach {:.4g} "
                      "({:.3g} r0), L {:.4g}, reach*L {:.4g}, incumbent mean {:.6g}, worst-case next cost {:.6g}",
                      single_point_r0, lengthscale, r0_paper, reach,

@@ -345,6 +345,11 @@ TEST_CASE("cost_lengthscales reads ARD and composite kernels of gp and vhgp, nev
   CHECK(b(0) == 0.3);  // the first term that names dimension 0
   CHECK(b(1) == 0.4);  // f's, not g's, and not a name that merely ends like it
   CHECK(bo::cost_lengthscales({}, 2)(1) == 0.2);
+  // An isotropic kernel's one length scale holds for every coordinate (it was ignored: 0.2; session 30).
+  const Vec iso = bo::cost_lengthscales({{"lengthscale", 0.35}, {"signal_std", 1.0}}, 2);
+  CHECK(iso(0) == 0.35);
+  CHECK(iso(1) == 0.35);
+  CHECK(bo::cost_lengthscales({{"lengthscale[0]", 0.3}, {"lengthscale", 0.9}}, 2)(0) == 0.3);  // ARD first
 }
 
 TEST_CASE("stall_value and its variants: no change without failures; they reach the trust region once trials fail") {
