@@ -31,7 +31,7 @@ int main() {
     varbo::Study study = varbo::Study::create_from_yaml(file, kStudy, "embedded study");
     for (int i = 0; i < 10; ++i) {
       const std::vector<varbo::TrialRecord> trials = study.ask(1);
-      if (trials.empty()) break;  // budget spent
+      if (trials.empty()) break;  // the budget is used: by finished trials, or by pending ones (then abandon them)
       const varbo::TrialRecord& t = trials.front();
       const double cost = run_trial(t.theta);
       study.tell(t.id, cost, {{"distance", cost}});
