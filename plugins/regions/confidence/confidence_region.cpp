@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include "varbo/errors.hpp"
@@ -70,7 +71,8 @@ void ConfidenceRegion::update(const Surrogate* model, const Dataset& data, Rng& 
   // crbo.md (reference implementation): if no point but the data satisfies the constraint, multiply the
   // variance scale by 1.2, up to 50 times. We scale the threshold γ²σ_f² (γ_eff = γ·sqrt(s)) rather than the
   // model's kernel variance, because the region must not modify the surrogate it was given.
-  while (!probes_feasible(probe_rng) && widenings_ < options_.max_widenings) {
+  bool feasible = false;
+  while (!(feasible = probes_feasible(probe_rng)) && widenings_ < options_.max_widenings) {
     scale_ *= options_.widening_factor;
     ++widenings_;
   }
@@ -78,9 +80,12 @@ void ConfidenceRegion::update(const Surrogate* model, const Dataset& data, Rng& 
     log_info("confidence region: no point near the data satisfied sigma <= gamma*sigma_f; widened {} times "
              "(variance scale {:.4g}, effective gamma {:.4g})",
              widenings_, scale_, effective_gamma());
-    if (!probes_feasible(probe_rng))
-      log_warn("confidence region: still empty after {} widenings; samplers fall back to the data points",
-               widenings_);
+    // The loop's own answer: probing again drew new probes, and a region just found non-empty was said to be
+    // empty, on every trial (red team, session 30).
+    if (!feasible && !std::exchange(said_empty_, true))
+      log_warn("confidence region: still empty after {} widenings; samplers fall back to the data points (gamma "
+               "{:g} is very small for this model: a larger gamma lets the search leave the data)",
+               widenings_, options_.gamma);
   }
   if (options_.report) {
     // Fröhlich 2021, section 4.1: r0, L ≈ max‖∇μ‖ and the worst-case cost of the next trial, for state().

@@ -57,6 +57,7 @@ class ConfidenceRegion final : public RegionConstraint {
   double signal_var_ = 1.0;
   double scale_ = 1.0;
   int widenings_ = 0;
+  bool said_empty_ = false;  ///< the "still empty" warning, once per region
   std::string report_;
 };
 

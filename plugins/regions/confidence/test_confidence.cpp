@@ -4,6 +4,8 @@
 #include "fake_gp.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/function.hpp"
+#include "varbo/log.hpp"
+#include "study_helpers.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -92,6 +94,14 @@ TEST_CASE("confidence region: widens when only the data satisfy it, and logs it"
   CHECK(region.widenings() <= 3);
   CHECK(region.contains(one.X.row(0).transpose()));
   CHECK(region.effective_gamma() == doctest::Approx(0.6 * std::sqrt(region.variance_scale())));
+  // Widened until non-empty: no "still empty" warning (probing again with new probes said so on every trial; red
+  // team, session 30).
+  const std::string log = test::temp_folder("confidence_widen_log") + "/log.txt";
+  set_log_file(log);
+  for (int i = 0; i < 3; ++i) region.update(&gp, one, rng);
+  set_log_file("");
+  CHECK(test::slurp(log).find("widened") != std::string::npos);
+  CHECK(test::slurp(log).find("still empty") == std::string::npos);
 }
 
 TEST_CASE("confidence region: before any update it is the whole box; invalid gamma is a ConfigError") {
