@@ -361,7 +361,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // A resumed run's algorithm is rebuilt from the store first (before, a finished run resumed had none, and its
   // summary.json lost the recommended θ and its regret).
   bool bad_recommendation_said = false;
-  Index failures_in_a_row = 0;
+  Index failures_in_a_row = 0, timeouts_in_a_row = 0;
   std::string last_failure;
   // The regret figures only: a task's noise-free cost that throws (third-party code) leaves them out, said once,
   // instead of ending the run with "internal error" and the evaluated trial left pending (red team, session 23).
@@ -667,6 +667,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     writer.trial(row);
     accounted_seq = std::max(accounted_seq, row.trial.finish_seq + 1);
     failures_in_a_row = row.ok() ? 0 : failures_in_a_row + 1;
+    // The external task's timeout message: a streak of those is a timeout too short, not a rig that is down.
+    timeouts_in_a_row = row.ok() ? 0 : timeouts_in_a_row + (row.trial.error.find("timed out after") != std::string::npos);
     if (!row.ok()) last_failure = row.trial.error;
     if (ov.progress) {
       std::string line = fmt::format("[{:>4}/{}] {:<10} cost {:>12.6g}  best {:>12.6g}", summary.evaluations,
@@ -688,8 +690,14 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
         summary.evaluations < study.budget) {
       const std::string why = fmt::format(
           "run {} stopped after {} failed trials in a row (stop_after_failures: {}), the last: {}; every trial is "
-          "recorded. Check the setup (is the robot powered, the E-stop released?), then continue with: {}{}",
+          "recorded. {}, then continue with: {}{}",
           study.output, failures_in_a_row, study.stop_after_failures, safe_text(last_failure, 300),
+          // Every one timed out: `--resume` keeps the stored timeout and times out again (red team, session 30).
+          timeouts_in_a_row == failures_in_a_row && study.task.info && study.task.info->name == "external"
+              ? fmt::format("Every one timed out: if a trial needs longer, continue with a longer timeout: varbo "
+                            "worker {} --timeout SECONDS (the study's command); else check the setup",
+                            shell_word(store_path))
+              : std::string("Check the setup (is the robot powered, the E-stop released?)"),
           fmt::format(fmt::runtime(ov.resume_hint), resume_target),
           // The command is part of the study's identity (a resumed run runs the stored one): a wrong command is
           // replaced by a worker's, which runs the same study (red team, session 23).
