@@ -61,7 +61,10 @@ VARBO_PLUGIN("region_trust_region", "0.1.0", "TuRBO-1 trust region: a box around
         // Checked here, where the keys are known, so the error names file:line:col (the constructor's own check
         // cannot say where the numbers came from).
         if (!(t.length_min <= t.length_init && t.length_init <= t.length_max))
-          o.node(t.length_min > t.length_init ? "length_min" : "length_max")
+          // The key the user gave (length_init: 5 blamed length_max, which was the default; session 30).
+          o.node(o.given("length_init") && !o.given("length_min") && !o.given("length_max") ? "length_init"
+                 : t.length_min > t.length_init                                             ? "length_min"
+                                                                                            : "length_max")
               .fail(fmt::format("need length_min <= length_init <= length_max, got {}, {}, {}", t.length_min,
                                 t.length_init, t.length_max));
         return std::make_unique<TrustRegion>(ctx.dim, t);

@@ -101,7 +101,15 @@ void Study::Impl::set_up_task() {
     if (theta0->size() != d) bad(fmt::format("expected {} values (the task's dimension), got {}", d, theta0->size()));
     std::string why;
     if (space && !space->contains(*theta0, &why)) bad("the initial point is not admissible: " + why);
-    if (!domain.box.contains(*theta0)) bad("the initial point lies outside the task's domain");
+    if (!domain.box.contains(*theta0)) {
+      // Which coordinate, and its bounds (typed spaces name the parameter; the box said nothing more).
+      Index i = 0;
+      while (i + 1 < d && (*theta0)(i) >= domain.box.lower(i) && (*theta0)(i) <= domain.box.upper(i)) ++i;
+      bad(fmt::format("the initial point lies outside the task's domain: {} = {} is not in [{}, {}]",
+                      i < static_cast<Index>(domain.names.size()) ? domain.names[static_cast<std::size_t>(i)]
+                                                                  : fmt::format("coordinate {}", i + 1),
+                      (*theta0)(i), domain.box.lower(i), domain.box.upper(i)));
+    }
     initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
   }
 }
