@@ -179,6 +179,9 @@ TEST_CASE("θ of name=value texts (observe new --param, Python's tell_point): ea
 TEST_CASE("each bad parameter declaration is refused at its key") {
   CHECK(error_of("- {name: a, type: real, low: 1, high: 1}").find("p.yaml:1:39: key '[0].high'") == 0);
   CHECK(error_of("- {name: a, type: real, low: 2, high: 1}").find("must exceed low") != std::string::npos);
+  CHECK(error_of("- {name: a, type: int, low: 3, high: 3}").find("must exceed low (3); a parameter held at one value "
+                                                                   "is {name: a, type: fixed, value: 3}") !=
+        std::string::npos);
   CHECK(error_of("- {name: a, type: real, low: 0, high: 1, log: true}").find("p.yaml:1:30") == 0);
   CHECK(error_of("- {name: a, type: real, low: 0, high: 1, log: true}").find("log-scaled parameter needs low > 0") != std::string::npos);
   CHECK(error_of("- {name: a, type: int, low: 0.5, high: 3}").find("integer bounds") != std::string::npos);

@@ -26,7 +26,11 @@ std::optional<ParameterProblem> check_parameter(const Parameter& p) {
       if (!std::isfinite(p.low) || !std::isfinite(p.high))
         return ParameterProblem{"low", "expected finite bounds low < high"};
       if (!(p.low < p.high))
-        return ParameterProblem{"high", fmt::format("high ({}) must exceed low ({})", p.high, p.low)};
+        return ParameterProblem{"high", fmt::format("high ({}) must exceed low ({}){}", p.high, p.low,
+                                                    p.low == p.high ? fmt::format("; a parameter held at one value is "
+                                                                                  "{{name: {}, type: fixed, value: {}}}",
+                                                                                  p.name, p.low)
+                                                                    : std::string())};
       if (p.type == ParameterType::Int && (p.low != std::round(p.low) || p.high != std::round(p.high)))
         return ParameterProblem{p.low != std::round(p.low) ? "low" : "high",
                                 fmt::format("an int parameter needs integer bounds, got [{}, {}]", p.low, p.high)};
