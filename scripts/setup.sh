@@ -15,7 +15,7 @@ PACKAGES=(build-essential cmake ninja-build pkg-config
   iproute2                      # ss: tests/dashboard checks the listen backlog
   libcpp-httplib-dev chromium   # `varbo dashboard` and its browser test (headless)
   libpqxx-dev postgresql
-  python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest python3-optuna)
+  python3-dev python3-pybind11 pybind11-dev python3-numpy python3-pytest python3-optuna python3-yaml)
 
 missing=()
 for p in "${PACKAGES[@]}"; do

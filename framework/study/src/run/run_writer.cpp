@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <regex>
 
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
@@ -38,6 +39,59 @@ static void open_fresh(std::ofstream& out, const std::string& path) {
   ::close(fd);
   errno = saved;
 }
+
+namespace {
+/// A scalar as YAML 1.1 readers (PyYAML's safe_load, ROS 1's rosparam) read it back and dump it again, where that
+/// is not the text written: the resolved configuration loaded, edited and dumped in Python came back with
+/// `feasible_region: false` (refused) and labels changed in silence (`on` → true, `.1` → 0.1), and its 1e-10 read
+/// as a string (red team, session 30). Such scalars are written quoted: what a YAML 1.1 reader then sees is the text
+/// varbo wrote, which varbo reads back the same (a real option takes a quoted number; a label stays that label).
+bool yaml11_rereads_otherwise(const std::string& v) {
+  static const std::regex words(
+      "y|Y|yes|Yes|YES|n|N|no|No|NO|on|On|ON|off|Off|OFF|True|TRUE|False|FALSE|~|null|Null|NULL|"
+      "\\.(inf|Inf|INF|nan|NaN|NAN)|[-+]\\.(inf|Inf|INF)");
+  // Numbers YAML 1.1 reads but would dump in another form: a leading '+', a leading or trailing dot, leading zeros
+  // (octal in 1.1), '_' separators, hexadecimal or octal, base 60 ("1:30" is 90).
+  // ... and exponents without YAML 1.1's dot and sign ("1e-10" is a string to it, "1e3" too).
+  static const std::regex numbers(
+      "[-+]?(\\.[0-9_]+([eE][-+]?[0-9]+)?|[0-9][0-9_]*\\.([eE][-+]?[0-9]+)?|0[0-9_]+|[0-9]*_[0-9_]*(\\.[0-9_]*)?|"
+      "0x[0-9a-fA-F_]+|0o?[0-7_]+|[0-9][0-9_]*(:[0-5]?[0-9])+(\\.[0-9_]*)?|[0-9]+[eE][-+]?[0-9]+|"
+      "[0-9]+\\.[0-9]*[eE][0-9]+)|\\+[0-9][0-9_]*(\\.[0-9_]*)?([eE][-+]?[0-9]+)?");
+  return std::regex_match(v, words) || std::regex_match(v, numbers);
+}
+
+void emit_portable(YAML::Emitter& em, const YAML::Node& n) {
+  switch (n.Type()) {
+    case YAML::NodeType::Map:
+      em << YAML::BeginMap;
+      for (const auto& kv : n) {
+        em << YAML::Key;
+        emit_portable(em, kv.first);
+        em << YAML::Value;
+        emit_portable(em, kv.second);
+      }
+      em << YAML::EndMap;
+      break;
+    case YAML::NodeType::Sequence: {
+      bool scalars = true;  // a list of numbers or labels on one line; of maps (parameters:), one per line
+      for (const auto& item : n) scalars = scalars && item.IsScalar();
+      if (scalars) em << YAML::Flow;
+      em << YAML::BeginSeq;
+      for (const auto& item : n) emit_portable(em, item);
+      em << YAML::EndSeq;
+      break;
+    }
+    case YAML::NodeType::Scalar: {
+      const std::string v = n.Scalar();
+      if (n.Tag() == "!" || yaml11_rereads_otherwise(v)) em << YAML::DoubleQuoted << v;  // "!": quoted in the source
+      else em << v;
+      break;
+    }
+    default:
+      em << YAML::Null;
+  }
+}
+}  // namespace
 
 // Names and error messages: one valid UTF-8 line per cell, whatever a task wrote (varbo/csv.hpp).
 static std::string csv_escape(const std::string& s) { return csv_text(s); }
@@ -75,7 +129,7 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
       description_ = description.scalar();
       resolved["description"] = description_;
     }
-    em << resolved;
+    emit_portable(em, resolved);
     cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
         << em.c_str() << "\n";
     cfg.close();
