@@ -634,3 +634,19 @@ TEST_CASE("a study file deleted or replaced under an open Study: writing calls r
   other.tell(u[0].id, 0.5);
   std::filesystem::current_path(cwd);
 }
+
+namespace varbo::study_detail {
+std::string first_difference(const std::string& stored, const std::string& now);
+}
+
+TEST_CASE("first_difference names the key of the line that differs: added, removed or changed") {
+  // Red team, session 30: an option a plugin added (algorithm.surrogate.as_noise) was reported "at
+  // algorithm.acquisition", the stored line after the insertion.
+  const std::string stored = "algorithm:\n  surrogate:\n    type: kreg\n  acquisition:\n    type: ei\nbudget: 5\n";
+  const std::string added = "algorithm:\n  surrogate:\n    type: kreg\n    as_noise: false\n  acquisition:\n    type: ei\n"
+                            "budget: 5\n";
+  CHECK(study_detail::first_difference(stored, added).rfind("at algorithm.surrogate.as_noise:", 0) == 0);
+  CHECK(study_detail::first_difference(added, stored).rfind("at algorithm.surrogate.as_noise:", 0) == 0);
+  const std::string changed = "algorithm:\n  surrogate:\n    type: kreg\n  acquisition:\n    type: pi\nbudget: 5\n";
+  CHECK(study_detail::first_difference(stored, changed).rfind("at algorithm.acquisition.type:", 0) == 0);
+}

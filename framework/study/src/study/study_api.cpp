@@ -90,7 +90,11 @@ std::string study_detail::first_difference(const std::string& stored, const std:
   const auto a = lines_of(stored), b = lines_of(now);
   std::size_t i = 0;
   while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
-  const std::string where = key_path(i < a.size() ? a : b, i);
+  // The key of the line that differs in the text where it is: a line only in `now` (an option a plugin added
+  // since) was given the path of the stored line after it ("at algorithm.acquisition" for a new
+  // algorithm.surrogate.as_noise; red team, session 30); a line only in `stored` keeps the stored path.
+  const bool removed = i < a.size() && (i >= b.size() || (i + 1 < a.size() && a[i + 1] == b[i]));
+  const std::string where = removed ? key_path(a, i) : i < b.size() ? key_path(b, i) : key_path(a, i);
   return fmt::format("{}stored '{}' vs now '{}'", where.empty() ? "" : "at " + where + ": ",
                      i < a.size() ? a[i] : "<end>", i < b.size() ? b[i] : "<end>");
 }
