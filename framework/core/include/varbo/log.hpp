@@ -19,6 +19,17 @@ void log_file_message(LogLevel level, std::string_view message);
 /// once: checks, then the run) and once in each log file opened afterwards, so a run's log.txt holds it too.
 void log_warn_once(std::string_view message);
 
+/// While one is alive, this thread's info messages are debug ones (shown with -v, not in the log file): a study
+/// rebuilt by replaying its trials (each re-asked of the algorithm) repeated every trial's info lines on every
+/// `varbo suggest` (red team, session 30). Warnings and errors pass.
+class InfoAsDebug {
+ public:
+  InfoAsDebug();
+  ~InfoAsDebug();
+  InfoAsDebug(const InfoAsDebug&) = delete;
+  InfoAsDebug& operator=(const InfoAsDebug&) = delete;
+};
+
 template <class... Args>
 void log_debug(fmt::format_string<Args...> f, Args&&... args) {
   if (log_level() <= LogLevel::Debug) log_message(LogLevel::Debug, fmt::format(f, std::forward<Args>(args)...));

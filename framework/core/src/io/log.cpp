@@ -72,7 +72,14 @@ void log_file_message(LogLevel level, std::string_view message) {
   }
 }
 
+namespace {
+thread_local int t_info_as_debug = 0;
+}
+InfoAsDebug::InfoAsDebug() { ++t_info_as_debug; }
+InfoAsDebug::~InfoAsDebug() { --t_info_as_debug; }
+
 void log_message(LogLevel level, std::string_view message) {
+  if (level == LogLevel::Info && t_info_as_debug > 0) level = LogLevel::Debug;
   std::lock_guard<std::mutex> lock(g_mutex);
   write_message(level, message);
 }

@@ -133,6 +133,7 @@ void Study::Impl::say_state_not_saved(std::int64_t told, const std::string& why)
 
 void Study::Impl::replay_one(const TrialRecord& t) {
   ++replayed;
+  const InfoAsDebug quiet;  // the replayed trial's own lines were said when it was asked
   std::vector<Suggestion> s = alg->ask(1);
   const bool serial = t.batch_size == 1 && t.pending_before == 0 &&
                       t.finished_before == static_cast<std::int64_t>(told_ids.size());
