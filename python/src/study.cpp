@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <set>
 
 #include "common.hpp"
 #include "varbo/errors.hpp"
@@ -109,6 +110,23 @@ void bind_study(py::module_& m) {
           "ask",
           [](PyStudy& s, Index n) {
             std::vector<TrialRecord> asked = s.locked([&](Study& st) { return st.ask(n); });
+            // Ctrl-C (or a signal handler that raises) during the ask: Python raised it right after this returned,
+            // and the trials just asked stayed pending, held the budget and were never handed to anyone (red team,
+            // session 30). They are abandoned here, then the exception is raised.
+            if (!asked.empty() && PyErr_CheckSignals() != 0) {
+              py::error_already_set raised;
+              std::set<std::int64_t> ids;
+              for (const auto& t : asked) ids.insert(t.id);
+              try {
+                s.locked([&](Study& st) {
+                  st.abandon_where([&](const TrialRecord& t) { return ids.count(t.id) > 0; },
+                                   "interrupted while asking (the trial was never handed out)");
+                });
+              } catch (const std::exception&) {
+                // The interrupt is what the user is told; a pending trial left is abandoned later by `varbo abandon`.
+              }
+              throw raised;
+            }
             py::list out;
             for (const auto& t : asked) out.append(trial_dict(t, s.names(), s.space()));
             return out;

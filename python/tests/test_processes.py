@@ -138,3 +138,32 @@ def test_interpreter_exit_with_a_daemon_thread_inside_varbo(tmp_path):
     codes = [subprocess.run([sys.executable, str(script)], env=env, capture_output=True, timeout=120).returncode
              for _ in range(6)]
     assert codes == [0] * 6
+
+
+def test_ctrl_c_during_ask_leaves_no_trial_pending_that_nobody_got(tmp_path):
+    """A KeyboardInterrupt that arrives while ask runs: the trials it had just asked are abandoned, not left pending
+    (holding the budget, handed to no one)."""
+    import signal
+    cfg = {"task": {"type": "python", "lower": [0] * 4, "upper": [1] * 4}, "budget": 400, "seed": 3,
+           "algorithm": {"type": "bo", "initial_points": 4, "region": "box"}}
+    study = varbo.Study.create(tmp_path / "s.db", cfg)
+    rng = np.random.default_rng(1)
+    for _ in range(60):
+        x = rng.random(4)
+        study.tell_point(x, float(np.sin(3 * x).sum()))
+    returned = set()
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    timer.start()
+    try:
+        for _ in range(300):
+            (t,) = study.ask()
+            returned.add(t.id)
+            study.tell(t, float(np.sin(3 * t.x).sum()))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        timer.cancel()
+    pending = [t.id for t in study.trials() if t.state == "pending"]
+    assert set(pending) <= returned, f"pending trials nobody received: {set(pending) - returned}"
+    abandoned = [t for t in study.trials() if t.state == "abandoned"]
+    assert all("interrupted while asking" in t.error for t in abandoned)
