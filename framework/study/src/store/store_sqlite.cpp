@@ -753,9 +753,13 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
     return std::make_unique<SqliteStore>(path, false);
   } catch (const InputError& e) {
     // Made but unusable (`umask 777` gave it mode 000): it was left behind, and a retry said "exists already"
-    // (red team, session 28). It is ours, just linked: removed.
+    // (red team, session 28). It is ours, just linked: removed, with the empty -wal the failed open made (a retry
+    // was refused as "a leftover SQLite wal of an earlier file"; session 30). Creation refuses an existing -wal, so
+    // one here is this attempt's.
     std::error_code ec;
     fs::remove(path, ec);
+    const fs::path wal = path + "-wal";
+    if (fs::is_regular_file(fs::symlink_status(wal, ec)) && fs::file_size(wal, ec) == 0) fs::remove(wal, ec);
     const mode_t mask = process_umask();
     throw InputError(fmt::format("{}; no study file was created{}", e.what(),
                                  (mask & 0600) != 0 ? " (the process's umask leaves the file's owner no read/write "
