@@ -650,3 +650,23 @@ TEST_CASE("first_difference names the key of the line that differs: added, remov
   const std::string changed = "algorithm:\n  surrogate:\n    type: kreg\n  acquisition:\n    type: pi\nbudget: 5\n";
   CHECK(study_detail::first_difference(stored, changed).rfind("at algorithm.acquisition.type:", 0) == 0);
 }
+
+TEST_CASE("a second Study object of the file called inside the first's transaction in the same thread: refused at once") {
+  // Red team, session 30 (an embedded node): it waited 10 minutes for the write lock its own thread held, saying
+  // "held by another process".
+  const std::string dir = test::temp_folder("study_nested_objects");
+  const std::string db = dir + "/s.db";
+  Study a = Study::create_from_yaml(db, "task: {type: branin}\nbudget: 6\nseed: 2\nalgorithm: {type: random}\n");
+  Study b = Study::open(db);
+  const auto t0 = std::chrono::steady_clock::now();
+  CHECK_THROWS_WITH_AS(a.transaction([&] {
+    a.ask(1);
+    b.ask(1);
+  }),
+                       doctest::Contains("another varbo::Study object of this study holds a transaction in this thread"),
+                       InputError);
+  CHECK(std::chrono::steady_clock::now() - t0 < std::chrono::seconds(5));
+  CHECK(a.trials().empty());  // rolled back: nothing written
+  CHECK(b.ask(1).size() == 1);  // and both objects work afterwards
+  CHECK(a.ask(1).size() == 1);
+}

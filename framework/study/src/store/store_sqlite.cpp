@@ -16,6 +16,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -126,6 +128,54 @@ CREATE TABLE IF NOT EXISTS workers (
   state TEXT NOT NULL
 );
 )SQL";
+
+/// The study files this process holds a write transaction on, and in which thread: a second Study object of the
+/// same file called from inside the first's transaction() in the same thread waited 10 minutes for a lock its own
+/// thread held, "held by another process" (red team, session 30). Refused at once instead; another thread's is named.
+class OpenTransactions {
+ public:
+  using Key = std::pair<std::uint64_t, std::uint64_t>;  // device, inode; {0, 0}: not known
+  static Key key_of(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return {0, 0};
+    return {static_cast<std::uint64_t>(st.st_dev), static_cast<std::uint64_t>(st.st_ino)};
+  }
+  static void check_this_thread(const Key& file, const std::string& path) {
+    if (file == Key{0, 0}) return;
+    std::lock_guard<std::mutex> lock(mutex());
+    const auto it = held().find(file);
+    if (it != held().end() && it->second == std::this_thread::get_id())
+      throw InputError(fmt::format("{}: another varbo::Study object of this study holds a transaction in this thread "
+                                   "(a call made inside the other object's transaction()): make the call on that "
+                                   "object; nothing written",
+                                   path));
+  }
+  static bool held_in_this_process(const Key& file) {
+    if (file == Key{0, 0}) return false;
+    std::lock_guard<std::mutex> lock(mutex());
+    return held().count(file) > 0;
+  }
+  static void enter(const Key& file) {
+    if (file == Key{0, 0}) return;
+    std::lock_guard<std::mutex> lock(mutex());
+    held()[file] = std::this_thread::get_id();
+  }
+  static void leave(const Key& file) {
+    if (file == Key{0, 0}) return;
+    std::lock_guard<std::mutex> lock(mutex());
+    held().erase(file);
+  }
+
+ private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  static std::map<Key, std::thread::id>& held() {
+    static auto* m = new std::map<Key, std::thread::id>();  // never destroyed: used by destructors at exit
+    return *m;
+  }
+};
 
 class SqliteStore;
 
@@ -306,7 +356,10 @@ class SqliteStore final : public StudyStore {
       throw InputError(fmt::format("{}: the study is {}: it can be read (varbo status, export, plot, dashboard) but "
                                    "not changed; copy its folder to a writable place to continue it",
                                    path_, read_only_why_));
-    begin_immediate();
+    const OpenTransactions::Key file = OpenTransactions::key_of(path_);
+    OpenTransactions::check_this_thread(file, path_);
+    begin_immediate(file);
+    OpenTransactions::enter(file);
     depth_ = 1;
     try {
       body();
@@ -314,9 +367,11 @@ class SqliteStore final : public StudyStore {
     } catch (...) {
       depth_ = 0;
       sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+      OpenTransactions::leave(file);
       throw;
     }
     depth_ = 0;
+    OpenTransactions::leave(file);
   }
 
   std::optional<std::string> meta(const std::string& key) const override {
@@ -541,26 +596,27 @@ class SqliteStore final : public StudyStore {
     }
   }
 
-  void begin_immediate() {
+  void begin_immediate(const OpenTransactions::Key& file = {}) {
     for (int attempt = 1;; ++attempt) {
       const int rc = sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr);
       if (rc == SQLITE_OK) return;
       if ((rc != SQLITE_BUSY && rc != SQLITE_LOCKED) || attempt >= kBeginAttempts)
         throw InputError(fmt::format("{}: cannot start a transaction after {} attempts: {}", path_, attempt,
                                      sqlite3_errmsg(db_)));
-      say_still_waiting(attempt);
+      say_still_waiting(attempt, OpenTransactions::held_in_this_process(file));
       std::this_thread::sleep_for(std::chrono::milliseconds(10 * attempt));
     }
   }
 
   // Each failed attempt has waited kBusyTimeoutMs: a process holding a write transaction (an `sqlite3` shell left
   // in BEGIN, a backup, a stalled writer) kept every command silent for up to 10 min (red team, session 28).
-  void say_still_waiting(int attempt) const {
+  void say_still_waiting(int attempt, bool this_process = false) const {
     if (attempt != 1 && attempt % 6 != 0) return;
     const std::string text = fmt::format(
-        "{}: waiting for the study's write lock, held by another process (a varbo command fitting its model, an "
-        "open `sqlite3` shell, a backup); waited {} s so far, giving up after ~{} min",
-        path_, attempt * kBusyTimeoutMs / 1000, kBeginAttempts * kBusyTimeoutMs / 60000);
+        "{}: waiting for the study's write lock, held by {}; waited {} s so far, giving up after ~{} min", path_,
+        this_process ? "another Study object of this process (in another thread)"
+                     : "another process (a varbo command fitting its model, an open `sqlite3` shell, a backup)",
+        attempt * kBusyTimeoutMs / 1000, kBeginAttempts * kBusyTimeoutMs / 60000);
     if (attempt == 1) log_info("{}", text);
     else log_warn("{}", text);
   }
