@@ -404,10 +404,12 @@ TEST_CASE("a process's own ask does not abandon its own pending trial as a silen
 TEST_CASE("silence is judged when an ask asked for the lock: a long hold of the store abandons no live worker") {
   // Red team, session 25: a worker stopped inside its transaction (Ctrl-Z, SIGSTOP) kept every heartbeat from being
   // written on SQLite; the next ask judged the live workers silent for the whole hold and abandoned their trials,
-  // so their θ ran again. Here a third process holds the lock for 3× heartbeat_timeout while an ask waits.
+  // so their θ ran again. Here a third object holds the lock for 3× heartbeat_timeout while an ask waits.
   const std::string dir = test::temp_folder("study_lock_hold");
   const std::string db = dir + "/s.db";
-  Study::create_from_yaml(db, "task: {type: branin}\nbudget: 6\nseed: 2\nheartbeat_timeout: 0.3\n"
+  // 1 s (0.3 before): under a sanitizer build on a loaded machine, starting the asking thread alone took longer
+  // than 0.3 s after the live worker's beat, which then was silent indeed (session 30).
+  Study::create_from_yaml(db, "task: {type: branin}\nbudget: 6\nseed: 2\nheartbeat_timeout: 1\n"
                               "algorithm: {type: random}\n");
   Study live = Study::open(db);
   live.set_worker("live:1");
@@ -421,18 +423,18 @@ TEST_CASE("silence is judged when an ask asked for the lock: a long hold of the 
   std::thread hold([&] {
     holder.transaction([&] {
       holding = true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(900));
+      std::this_thread::sleep_for(std::chrono::milliseconds(3000));
     });
   });
   while (!holding) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   std::vector<TrialRecord> asked;
-  std::thread ask([&] { asked = asker.ask(1); });  // waits for the holder's 0.9 s, the live worker beats 0.0 s late
+  std::thread ask([&] { asked = asker.ask(1); });  // waits for the holder's 3 s, the live worker beats 0.0 s late
   ask.join();
   hold.join();
   CHECK(asked.size() == 1);
   CHECK(asker.store().trial(running.id)->state == TrialState::Pending);
   // A worker that is silent before the ask asks is still abandoned.
-  std::this_thread::sleep_for(std::chrono::milliseconds(400));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1300));
   CHECK(asker.ask(1).size() == 1);
   CHECK(asker.store().trial(running.id)->state == TrialState::Abandoned);
 }

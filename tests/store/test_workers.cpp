@@ -105,6 +105,8 @@ TEST_CASE("workers: SIGTERM finishes the current trial; retry_abandoned re-runs 
   CHECK(test::wait_for(term).exit_code == 143);
   {
     const auto trials = open_sqlite_store(db)->trials();
+    const std::string worker_log = test::slurp(dir + "/worker.log");
+    CAPTURE(worker_log);  // it once failed in the sanitizer build under load (session 30)
     REQUIRE(trials.size() == 1);
     CHECK(trials[0].state == TrialState::Complete);
   }
