@@ -109,15 +109,18 @@ svg::Figure plot_1d(const RunFolder& run, const Registry& registry, const PlotAr
       ylo = std::min(ylo, c->lo[static_cast<std::size_t>(i)]);
       yhi = std::max(yhi, c->hi[static_cast<std::size_t>(i)]);
     }
-  svg::Figure fig(1000, 520, fmt::format("{}: {} trials ({} successful), GP vs VHGP fit", run.study.task.info->name,
-                                        run.trials, run.data.size()));
+  // The surrogates drawn, by name: `--gp kreg` was labelled "GP" (red team, session 30).
+  auto label = [](const std::string& name) { return name == "gp" ? std::string("GP") : name == "vhgp" ? std::string("VHGP") : name; };
+  const std::string A = label(gp.name), B = label(vh.name);
+  svg::Figure fig(1000, 520, fmt::format("{}: {} trials ({} successful), {} vs {} fit", run.study.task.info->name,
+                                        run.trials, run.data.size(), A, B));
   svg::Panel& p = fig.panel(80, 50, 560, 400, {lo, hi}, svg::padded(ylo, yhi, 0.04));
   p.labels(run.names[0], "cost", "");
   p.legend_place(svg::Panel::LegendPlace::Right);
-  p.band(xs, cg.lo, cg.hi, "#8c8c8c", 0.25, "GP ±2 s");
-  p.band(xs, cv.lo, cv.hi, "#e69f00", 0.30, "VHGP ±2 s");
-  p.line(xs, cg.mean, "#555555", 1.8, "6 4", "GP mean");
-  p.line(xs, cv.mean, "#b35900", 2.2, "", "VHGP mean");
+  p.band(xs, cg.lo, cg.hi, "#8c8c8c", 0.25, A + " ±2 s");
+  p.band(xs, cv.lo, cv.hi, "#e69f00", 0.30, B + " ±2 s");
+  p.line(xs, cg.mean, "#555555", 1.8, "6 4", A + " mean");
+  p.line(xs, cv.mean, "#b35900", 2.2, "", B + " mean");
   std::vector<double> dx(run.theta.col(0).data(), run.theta.col(0).data() + run.theta.rows());
   std::vector<double> dy(run.cost.data(), run.cost.data() + run.cost.size());
   p.markers(dx, dy, svg::Marker::Circle, "#0b3d91", 3.6, "data", "data (trials)");
