@@ -178,6 +178,13 @@ void bind_study(py::module_& m) {
           },
           py::arg("id"), py::arg("reason") = "failed")
       .def(
+          "created_at",
+          [](PyStudy& s, std::int64_t id) -> py::object {
+            const std::optional<TrialRecord> t = s.locked([&](Study& st) { return st.store().trial(id); });
+            return t ? py::object(py::float_(t->created_at)) : py::object(py::none());
+          },
+          py::arg("id"), "when trial `id` of this study was made (None: no such trial)")
+      .def(
           "abandon",
           [](PyStudy& s, double older_than) {
             return s.locked([&](Study& st) { return st.abandon(older_than, "abandoned from Python"); });

@@ -167,3 +167,24 @@ def test_ctrl_c_during_ask_leaves_no_trial_pending_that_nobody_got(tmp_path):
     assert set(pending) <= returned, f"pending trials nobody received: {set(pending) - returned}"
     abandoned = [t for t in study.trials() if t.state == "abandoned"]
     assert all("interrupted while asking" in t.error for t in abandoned)
+
+
+def test_a_trial_of_a_study_created_again_at_the_same_path_is_refused(tmp_path):
+    """A notebook re-run: the file deleted and created again; the old Trial's result landed on the new study's
+    trial of that id, another θ."""
+    path = tmp_path / "s.db"
+    old = varbo.Study.create(path, CONFIG)
+    (t,) = old.ask()
+    del old
+    for suffix in ("", "-wal", "-shm"):
+        if os.path.exists(str(path) + suffix):
+            os.remove(str(path) + suffix)
+    import time
+    time.sleep(0.01)
+    new = varbo.Study.create(path, dict(CONFIG, seed=9))
+    (u,) = new.ask()
+    assert u.id == t.id
+    with pytest.raises(varbo.InputError, match="is not the trial you hold"):
+        new.tell(t, 1.0)
+    new.tell(u, 1.0)  # its own trial is told
+    assert new.trials()[0].cost == 1.0

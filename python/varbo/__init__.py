@@ -83,6 +83,13 @@ def _trial_id(trial_or_id: Union[Trial, int], study: Optional["Study"] = None) -
         if study is not None and origin is not None and not _same_store(origin, study._origin):
             raise InputError(f"trial {trial_or_id.id} belongs to the study {origin}, not to {study._location}; "
                              "tell each study its own trials")
+        # The same path, another study: the file was deleted and created again (a notebook re-run), and the old
+        # Trial's result was recorded on the new study's trial of that id, another θ (red team, session 30).
+        if study is not None and trial_or_id.created_at:
+            made = study._impl.created_at(trial_or_id.id)
+            if made is not None and abs(made - trial_or_id.created_at) > 1e-6:
+                raise InputError(f"trial {trial_or_id.id} of {study._location} is not the trial you hold (made at "
+                                 f"another time: the study file was created again since?); nothing written")
         return trial_or_id.id
     if isinstance(trial_or_id, (int, np.integer)) and not isinstance(trial_or_id, (bool, np.bool_)):
         i = int(trial_or_id)
