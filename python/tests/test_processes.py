@@ -188,3 +188,19 @@ def test_a_trial_of_a_study_created_again_at_the_same_path_is_refused(tmp_path):
         new.tell(t, 1.0)
     new.tell(u, 1.0)  # its own trial is told
     assert new.trials()[0].cost == 1.0
+
+
+def test_points_that_numpy_would_convert_silently_are_refused(tmp_path):
+    """Booleans, strings, complex numbers and masked values became a θ without a word; y with two columns was read
+    as twice the values."""
+    study = varbo.Study.create(tmp_path / "s.db", dict(CONFIG, algorithm={"type": "random"}))
+    for x, said in (([True, False], "booleans"), (["0.1", "2"], "strings"), (np.array([1 + 2j, 3]), "complex"),
+                    (np.ma.masked_array([1.0, 2.0], [0, 1]), "masked")):
+        with pytest.raises(varbo.InputError, match=said):
+            study.tell_point(x, 1.0)
+    assert study.trials() == []
+    study.tell_point(np.ma.masked_array([1.0, 2.0]), 1.0)  # nothing masked: its values
+    X = np.random.default_rng(0).random((10, 2))
+    with pytest.raises(varbo.InputError, match=r"one cost per row of X \(a 1-D array\), got shape \(10, 2\)"):
+        varbo.fit("gp", X, np.ones((10, 2)))
+    assert varbo.fit("gp", X, X.sum(1).reshape(10, 1)) is not None  # a column vector is one cost per row

@@ -590,5 +590,8 @@ def fit(surrogate_config: Config, X: Any, y: Any, *, seed: int = 1, optimize: bo
     X = _checks.float_array(X, "fit: X")
     if X.ndim == 1:
         X = X.reshape(-1, 1)
-    return Model(_varbo._fit(text, name, X, _checks.float_array(y, "fit: y").ravel(), seed, optimize,
+    y = _checks.float_array(y, "fit: y")
+    if y.ndim > 1 and sum(n > 1 for n in y.shape) > 1:  # two columns were read as twice the values
+        raise _checks._input_error(f"fit: y: expected one cost per row of X (a 1-D array), got shape {y.shape}")
+    return Model(_varbo._fit(text, name, X, y.ravel(), seed, optimize,
                              threads))

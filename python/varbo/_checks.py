@@ -56,6 +56,17 @@ def float_array(v: Any, what: str) -> np.ndarray:
     """np.asarray(v, dtype=float) with a ValueError that names the argument (strings, objects, ragged lists)."""
     if isinstance(v, (str, bytes)):
         raise TypeError(f"{what}: expected an array of numbers, got a {_type_name(v)}")
+    # What np.asarray(v, dtype=float) turns into numbers without a word (red team, session 30): a masked array's
+    # hidden values, booleans, strings ("0.1"), complex numbers (their imaginary part dropped).
+    if isinstance(v, np.ma.MaskedArray) and np.ma.is_masked(v):
+        raise _input_error(f"{what}: a masked array with masked values; give the values to use (e.g. .filled())")
+    try:
+        raw = np.asarray(v)
+    except (TypeError, ValueError) as e:
+        raise _input_error(f"{what}: expected an array of numbers ({e})") from None
+    kinds = {"b": "booleans", "U": "strings", "S": "bytes", "c": "complex numbers"}
+    if raw.dtype.kind in kinds:
+        raise _input_error(f"{what}: expected an array of numbers, got {kinds[raw.dtype.kind]}")
     try:
         with np.errstate(all="ignore"):
             a = np.asarray(v, dtype=float)
