@@ -48,7 +48,11 @@ Mat AroundInitialPointSampler::sample(const RegionConstraint& region, Index n, R
       u = rng.normal_vec(d);
       u /= std::max(u.norm(), 1e-300);
     }
-    out.row(k) = box.clamp(c + r0 * u).transpose();
+    Vec x = box.clamp(c + r0 * u);
+    // θ0 on a bound or in a corner: a direction pointing out of the box was clamped back onto θ0 itself, and θ0
+    // ran twice (a fall, twice, when it is a bad policy; red team, session 30). The opposite direction instead.
+    if ((x - c).lpNorm<Eigen::Infinity>() <= 1e-12) x = box.clamp(c - r0 * u);
+    out.row(k) = x.transpose();
   }
   return out;
 }

@@ -53,6 +53,18 @@ TEST_CASE("points are clipped into the box; no initial point means the box centr
   Rng rng(1);
   const Mat X = corner.sample(box, 7, rng);
   for (Index k = 0; k < X.rows(); ++k) CHECK(box.bounds().contains(X.row(k).transpose()));
+  // θ0 in a corner: no point but the first is θ0 again (an outward direction was clamped back onto it; session 30).
+  for (Index k = 1; k < X.rows(); ++k) CHECK(X.row(k).norm() > 0.0);
+  // The same in 1-D at a bound: the second point is r0 inside.
+  AroundInitialPointSampler bound(AroundInitialPointOptions{}, Vec::Zero(1));
+  BoxRegion line(Box::unit(1));
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    Rng r1(seed);
+    const Mat L = bound.sample(line, 3, r1);
+    CHECK(L(0, 0) == 0.0);
+    CHECK(L(1, 0) == doctest::Approx(bound.radius()));
+    CHECK(L(2, 0) == doctest::Approx(bound.radius()));  // both directions of 1-D lead out or in: r0 inside
+  }
   CHECK(corner.radius() == 0.4);
   AroundInitialPointSampler centre(AroundInitialPointOptions{}, std::nullopt);
   Rng r2(1);
