@@ -142,7 +142,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   double pending_distance_ = 1e-3;  ///< bo's pending_distance (pending_exclusion.hpp)
   std::vector<Vec> pending_;
-  bool said_no_gradients_ = false;  ///< the surrogate's lack of gradients logged (once per run)
+  bool said_no_gradients_ = false;
+  double integer_exclusion_ = 0;  ///< half the widest integer cell of the unit cube (set_search_space)  ///< the surrogate's lack of gradients logged (once per run)
   bool prefitted_ = false;  ///< ask() already fitted on the real data (pending points present)
 
   Index dim_;

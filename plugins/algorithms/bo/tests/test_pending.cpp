@@ -10,6 +10,7 @@
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/search_space.hpp"
 #include "bo_on_bowl.hpp"
 #include "varbo_test.hpp"
 
@@ -239,4 +240,36 @@ TEST_CASE("bo: with the failure model off, a failed θ is not suggested again") 
     failed.push_back(s.x);
     a->tell({Observation{s.x, std::nan(""), false, {}}});
   }
+}
+
+TEST_CASE("bo: the points of a batch on an integer grid are distinct after rounding") {
+  set_log_level(LogLevel::Error);
+  // Red team, session 30: the exclusion of pending points ran before rounding, and a batch of 6 on a 21×21 grid
+  // held [3,-2] three times.
+  std::vector<Parameter> params(2);
+  params[0].name = "a";
+  params[1].name = "b";
+  for (Parameter& p : params) {
+    p.type = ParameterType::Int;
+    p.low = -10;
+    p.high = 10;
+  }
+  auto space = std::make_shared<const SearchSpace>(params);
+  auto a = make("{type: bo, initial_points: 4}", 40);
+  auto* aware = dynamic_cast<SpaceAware*>(a.get());
+  REQUIRE(aware != nullptr);
+  aware->set_search_space(space);
+  // A bowl whose minimum sits on a grid point: EI piles up there.
+  auto cost = [](const Vec& x) { return (x.array() - 0.65).square().sum(); };
+  for (Index k = 0; k < 12; ++k) {
+    const Suggestion s = a->ask(1).front();
+    a->tell({Observation{s.x, cost(s.x), true, {}}});
+  }
+  const std::vector<Suggestion> batch = a->ask(6);
+  REQUIRE(batch.size() == 6);
+  for (std::size_t i = 0; i < batch.size(); ++i)
+    for (std::size_t j = i + 1; j < batch.size(); ++j) {
+      CAPTURE(space->decode(batch[i].x).transpose());
+      CHECK((space->decode(batch[i].x) - space->decode(batch[j].x)).lpNorm<Eigen::Infinity>() > 0.5);
+    }
 }
