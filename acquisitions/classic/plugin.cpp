@@ -1,5 +1,8 @@
 // libvarbo_acquisitions.so: EI, PI, CB and ERI (Kuindersma 2013, section 3).
+#include <fmt/format.h>
+
 #include "classic_acquisitions.hpp"
+#include "varbo/log.hpp"
 #include "varbo/plugin.hpp"
 
 namespace {
@@ -55,6 +58,12 @@ VARBO_PLUGIN("acquisitions", "0.1.0", "Expected improvement, probability of impr
                  "lower confidence bound of standard BO (ignored when randomize is true)"),
        opt::boolean("randomize", false, "draw κ ~ N(0, 1) every iteration (randomized CB selection)")},
       varbo::Factory<Acquisition>([](const Options& o, const BuildContext&) {
+        // An option that cannot act is accepted with a warning (README): `{randomize: true, kappa: 3}` ran without a
+        // word with κ drawn anew every trial (red team, session 30).
+        if (o.given("kappa") && o.boolean("randomize"))
+          varbo::log_warn_once(fmt::format("{}: cb's kappa {} is not used: randomize: true draws κ ~ N(0, 1) every "
+                                           "trial",
+                                           o.node("kappa").where(), o.real("kappa")));
         return std::make_unique<varbo::acq::ConfidenceBound>(o.real("kappa"), o.boolean("randomize"));
       }),
       gradient));
