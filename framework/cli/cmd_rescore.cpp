@@ -8,6 +8,7 @@
 
 #include "cli_parse.hpp"
 #include "commands.hpp"
+#include "varbo/numbers.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
@@ -127,7 +128,7 @@ Runner add_rescore(CLI::App& app) {
       // Fresh episodes under the NEW weights: the task built from the run's config with `weights` replaced.
       YAML::Node tnode = run.study.task.resolved();
       YAML::Node w(YAML::NodeType::Map);
-      for (const auto& c : run.components) w[c] = weights.at(c);
+      for (const auto& c : run.components) w[c] = yaml_scalar(weights.at(c));
       bool has_weights = false;
       for (const auto& o : run.study.task.info->options) has_weights = has_weights || o.name == "weights";
       if (has_weights) tnode["weights"] = w;

@@ -25,7 +25,7 @@ std::string theta_text(const Vec& theta, const SharedSpace& space) {
   std::string s = "[";
   for (Index i = 0; i < theta.size(); ++i)
     s += space && space->parameters()[static_cast<std::size_t>(i)].type != ParameterType::Real
-             ? fmt::format("{}{}", i ? ", " : "", space->format_value(static_cast<std::size_t>(i), theta[i]))
+             ? fmt::format("{}{}", i ? ", " : "", terminal_line(space->format_value(static_cast<std::size_t>(i), theta[i])))
              : fmt::format("{}{}", i ? ", " : "", exact(theta[i]));  // every digit: the θ a user deploys
   return s + "]";
 }
@@ -123,7 +123,8 @@ Runner add_select(CLI::App& app) {
       if (below_observed(s, run))
         std::fprintf(stderr,
                      "varbo select: kappa %g chose a θ whose predicted mean %.6g lies below the lowest observed cost "
-                     "%.6g by more than 2 sd (%.3g): the model extrapolates there%s\n",
+                     "%.6g by more than 2 sd (%.3g) or by a quarter of the costs' spread above it: the model "
+                     "extrapolates there%s\n",
                      s.kappa, s.mean, lowest, s.std, advice);
       else if (s.relative_latent_std > kExtrapolating && !a->among_evaluated)
         std::fprintf(stderr,

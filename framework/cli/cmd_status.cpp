@@ -29,7 +29,7 @@ std::string theta_text(const Vec& theta, const std::vector<std::string>& names, 
   // Every digit (shortest round-trip form): at 6 digits the trials of [1e6, 1e6 + 1] all read 1e+06, and a θ copied
   // into `observe new --theta` landed elsewhere (red team, session 30). Names and labels may hold control
   // characters: shown escaped, never sent to the terminal.
-  return printable(s);
+  return terminal_line(s);
 }
 
 std::string csv_cell(const std::string& s) { return csv_text(s); }
@@ -61,7 +61,8 @@ Runner add_status(CLI::App& app) {
     Index n[4] = {0, 0, 0, 0};
     for (const auto& t : trials) ++n[static_cast<int>(t.state)];
     const Index finished = n[1] + n[2];
-    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", s.store().location().c_str(), s.config().task.info->name.c_str(),
+    std::printf("study %s\n  task %s, algorithm %s, seed %llu\n", terminal_line(s.store().location()).c_str(),
+                s.config().task.info->name.c_str(),
                 s.config().algorithm.info->name.c_str(), static_cast<unsigned long long>(s.config().seed));
     std::printf("  trials     %zu: %ld complete, %ld failed, %ld pending, %ld abandoned (budget %ld, %ld left)\n",
                 trials.size(), static_cast<long>(n[1]), static_cast<long>(n[2]), static_cast<long>(n[0]),
@@ -77,7 +78,7 @@ Runner add_status(CLI::App& app) {
       std::printf("  pending:\n    %-6s %-24s %10s  %s\n", "id", "worker", "age [s]", "theta");
       for (const auto& t : trials)
         if (t.state == TrialState::Pending)
-          std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), printable(t.worker).c_str(),
+          std::printf("    %-6lld %-24s %10.0f  %s\n", static_cast<long long>(t.id), terminal_line(t.worker).c_str(),
                       now - t.created_at, theta_text(t.theta, names, s.space()).c_str());
     }
     // Workers that send heartbeats (`varbo worker`): a running one silent past heartbeat_timeout is presumed dead,
@@ -91,7 +92,7 @@ Runner add_status(CLI::App& app) {
         for (const auto& t : trials) pending += t.state == TrialState::Pending && t.worker == w.id;
         const bool silent = w.state == "running" && s.config().heartbeat_timeout > 0 &&
                             now - w.heartbeat_at > s.config().heartbeat_timeout;
-        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", printable(w.id).c_str(), silent ? "silent" : w.state.c_str(),
+        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", terminal_line(w.id).c_str(), silent ? "silent" : w.state.c_str(),
                     now - w.heartbeat_at, pending, silent && pending ? " (abandoned at the next ask)" : "");
       }
     }
@@ -103,7 +104,7 @@ Runner add_status(CLI::App& app) {
                   t.phase.c_str(), t.state == TrialState::Complete ? t.cost : std::nan(""), theta_text(t.theta, names, s.space()).c_str(),
                   // A failure reason is anyone's text (a worker, a task): an escape sequence in it must not reach the
                   // terminal (`varbo fail --reason $'\e[2J'` cleared the screen of whoever ran `varbo status`).
-                  t.error.empty() ? "" : ("  (" + printable(t.error) + ")").c_str());
+                  t.error.empty() ? "" : ("  (" + terminal_line(t.error) + ")").c_str());
     }
     return 0;
   };

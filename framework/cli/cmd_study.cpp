@@ -94,22 +94,22 @@ Runner add_study(CLI::App& app) {
       Study s = Study::open(a->store);
       const VerifyReport r = s.verify();
       if (!r.divergence.empty()) {
-        std::printf("%s: DIVERGES after replaying %ld trial(s): %s\n", s.store().location().c_str(),
+        std::printf("%s: DIVERGES after replaying %ld trial(s): %s\n", terminal_line(s.store().location()).c_str(),
                     static_cast<long>(r.replayed),
                     r.divergence.c_str());
         return 1;
       }
       std::printf("%s: ok: %ld finished trial(s) replayed, every serial trial reproduced, %ld saved algorithm "
                   "state(s) equal to the replay\n",
-                  s.store().location().c_str(), static_cast<long>(r.replayed), static_cast<long>(r.states_compared));
+                  terminal_line(s.store().location()).c_str(), static_cast<long>(r.replayed), static_cast<long>(r.states_compared));
       return 0;
     }
     Study s = Study::create(a->store, a->config);
     // The store's location: a PostgreSQL URL's password is shown as *** (cron logs keep stdout).
-    std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", s.store().location().c_str(),
+    std::printf("created %s: task %s, algorithm %s, budget %ld, %ld parameters (%s)\n", terminal_line(s.store().location()).c_str(),
                 s.config().task.info->name.c_str(), s.config().algorithm.info->name.c_str(),
                 static_cast<long>(s.config().budget), static_cast<long>(s.domain().box.dim()),
-                join(s.domain().names).c_str());
+                terminal_line(join(s.domain().names)).c_str());
     return 0;
   };
 }
@@ -174,9 +174,10 @@ Runner add_suggest(CLI::App& app) {
       for (const auto& t : trials) {
         std::string line = fmt::format("trial {}", t.id);
         for (Index i = 0; i < t.theta.size(); ++i)
-          line += fmt::format(" {}={}", printable(names[static_cast<std::size_t>(i)]),
-                              s.space() ? s.space()->format_value(static_cast<std::size_t>(i), t.theta[i]) : exact(t.theta[i]));
-        std::printf("%s  (%s)\n", line.c_str(), printable(t.phase).c_str());
+          line += fmt::format(" {}={}", terminal_line(names[static_cast<std::size_t>(i)]),
+                              s.space() ? terminal_line(s.space()->format_value(static_cast<std::size_t>(i), t.theta[i]))
+                                        : exact(t.theta[i]));
+        std::printf("%s  (%s)\n", line.c_str(), terminal_line(t.phase).c_str());
       }
     }
     if (std::fflush(stdout) != 0 || std::ferror(stdout)) {

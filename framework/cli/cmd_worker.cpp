@@ -339,6 +339,17 @@ Runner add_worker(CLI::App& app) {
       failures_in_a_row = e.ok ? 0 : failures_in_a_row + 1;
       const Index limit = study.config().stop_after_failures;
       if (limit > 0 && failures_in_a_row >= limit) {
+        // The study may be over with this trial: then there is nothing to start again, as `varbo run` says in the
+        // same state (exit 0). It said "start the worker again" with exit 2 (red team, session 31).
+        Index finished = 0;
+        for (const auto& r : study.trials())
+          finished += r.state == TrialState::Complete || r.state == TrialState::Failed;
+        if (finished >= study.config().budget) {
+          std::fprintf(stderr,
+                       "varbo worker %s: the budget is used; the last %lld trials failed in a row, the last: %s\n",
+                       id.c_str(), static_cast<long long>(failures_in_a_row), safe_text(e.error, 300).c_str());
+          break;
+        }
         std::fprintf(stderr,
                      "varbo worker %s: stopping after %lld failed trials in a row (stop_after_failures: %lld), the "
                      "last: %s; check this machine's setup, then start the worker again\n",

@@ -13,6 +13,25 @@
 
 namespace varbo::python {
 
+namespace {
+/// A Python str as UTF-8, or an InputError naming the argument: a lone surrogate (what os.fsdecode makes of a byte
+/// that is not UTF-8) cannot be encoded, and pybind11's cast said only "Unable to cast Python instance to C++ type"
+/// (red team, session 31).
+std::string utf8_of(const py::handle& s, const std::string& what) {
+  Py_ssize_t size = 0;
+  const char* data = PyUnicode_AsUTF8AndSize(s.ptr(), &size);
+  if (data == nullptr) {
+    PyErr_Clear();
+    const py::object shown = py::reinterpret_steal<py::object>(PyObject_ASCII(s.ptr()));  // ascii(s)
+    if (!shown) PyErr_Clear();
+    throw InputError(fmt::format("{}: {} is not valid text (it holds a lone surrogate, e.g. from os.fsdecode of a "
+                                 "byte that is not UTF-8); nothing written",
+                                 what, shown ? py::cast<std::string>(shown) : std::string("a str")));
+  }
+  return std::string(data, static_cast<std::size_t>(size));
+}
+}  // namespace
+
 py::array_t<double> to_array(const Vec& v) {
   py::array_t<double> a(v.size());
   std::copy(v.data(), v.data() + v.size(), a.mutable_data());
@@ -117,7 +136,7 @@ namespace {
 /// A user's value as the text `--param name=value` would carry: a label as is, an integer exactly, a real with 17
 /// significant digits (so the parsed double is the one given).
 std::string value_text(const py::handle& given, const std::string& what, const std::string& name) {
-  if (py::isinstance<py::str>(given)) return py::cast<std::string>(given);
+  if (py::isinstance<py::str>(given)) return utf8_of(given, fmt::format("{}: parameter '{}'", what, name));
   const py::module_ np = py::module_::import("numpy");
   py::object v = py::reinterpret_borrow<py::object>(given);
   if (py::isinstance(v, np.attr("ndarray"))) {
@@ -128,7 +147,7 @@ std::string value_text(const py::handle& given, const std::string& what, const s
                                    "nothing written",
                                    what, name, py::cast<std::string>(py::str(v.attr("shape")))));
     v = v.attr("item")();
-    if (py::isinstance<py::str>(v)) return py::cast<std::string>(v);  // np.array("lqr"): its label
+    if (py::isinstance<py::str>(v)) return utf8_of(v, fmt::format("{}: parameter '{}'", what, name));  // its label
   }
   const bool boolean = py::isinstance<py::bool_>(v) || py::isinstance(v, np.attr("bool_"));
   // Integers exactly (Python's and NumPy's integer types); a bool is not a number here.
@@ -153,7 +172,7 @@ Vec theta_of_mapping(const py::handle& mapping, const SearchSpace* space, const 
   std::vector<std::pair<std::string, std::string>> values;
   for (const auto& [k, v] : py::reinterpret_borrow<py::dict>(mapping)) {
     if (!py::isinstance<py::str>(k)) throw InputError(fmt::format("{}: every parameter name must be a str", what));
-    const auto name = py::cast<std::string>(k);
+    const auto name = utf8_of(k, what + ": a parameter name");
     // A categorical parameter declared with `choices: [True, False]` has the labels "true" and "false" (YAML's
     // spelling): True given for it is that label. It was refused as "got True (type bool)" (red team, session 23).
     if (space && (py::isinstance<py::bool_>(v) || py::isinstance(v, py::module_::import("numpy").attr("bool_")))) {
@@ -203,18 +222,19 @@ Components components_of(const py::handle& obj) {
     throw InputError("components: expected a dict {name: number}");
   for (const auto& [k, v] : py::reinterpret_borrow<py::dict>(obj)) {
     if (!py::isinstance<py::str>(k)) throw InputError("components: every name must be a string");
+    const std::string name = utf8_of(k, "components: a name");
     // A bool is not a number here (as for costs and parameter values): `{"fell": True}` was stored as 1.0.
     if (py::isinstance<py::bool_>(v) || py::isinstance(v, py::module_::import("numpy").attr("bool_")))
       throw InputError(fmt::format("components: '{}' is {} (type bool); expected a number (write 1.0 for a "
                                    "flag you want as a number)",
-                                   py::cast<std::string>(k), py::cast<std::string>(py::repr(v))));
+                                   name, py::cast<std::string>(py::repr(v))));
     double x = 0;
     try {
       x = py::cast<double>(v);
     } catch (const py::cast_error&) {
-      throw InputError(fmt::format("components: '{}' must be a number", py::cast<std::string>(k)));
+      throw InputError(fmt::format("components: '{}' must be a number", name));
     }
-    out.emplace_back(py::cast<std::string>(k), x);
+    out.emplace_back(name, x);
   }
   return out;
 }

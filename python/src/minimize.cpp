@@ -111,11 +111,27 @@ void read_result(const py::object& r, Evaluation& ev) {
     static std::set<std::string> said;
     for (const auto& [k, v] : d) {
       const std::string key = py::isinstance<py::str>(k) ? py::cast<std::string>(k) : std::string(py::repr(k));
-      if (key == "cost" || key == "components" || !said.insert(key).second) continue;
+      if (key == "cost" || key == "components" || key == "ok" || key == "reason" || !said.insert(key).second)
+        continue;
       const std::string near = closest_match(key, {"cost", "components"});
       log_warn("the objective's result has the key '{}', which is not used (a result is 'cost' and optionally "
-               "'components'){}",
+               "'components'; 'ok': False with a 'reason' reports a failure){}",
                key, near.empty() ? "" : fmt::format("; did you mean '{}'?", near));
+    }
+    // {"cost": 1e9, "ok": False} was recorded as a success with cost 1e9 (red team, session 31): a failed trial,
+    // as the external task's answer `"ok": false` and trials.csv's column say.
+    if (d.contains("ok")) {
+      const py::object ok = d["ok"];
+      if (!py::isinstance<py::bool_>(ok) && !py::isinstance(ok, py::module_::import("numpy").attr("bool_")))
+        throw InputError(fmt::format("the objective returned 'ok': {}; expected True or False",
+                                     py::cast<std::string>(py::repr(ok))));
+      if (!py::cast<bool>(ok)) {
+        std::string why = "the objective returned 'ok': False";
+        if (d.contains("reason") && py::isinstance<py::str>(d["reason"]))
+          why += ": " + py::cast<std::string>(
+                            py::str(d["reason"]).attr("encode")("utf-8", "backslashreplace").attr("decode")("utf-8"));
+        throw InputError(why);
+      }
     }
     if (!d.contains("cost")) throw InputError("the objective returned a dict without 'cost'");
     ev.cost = number(d["cost"]);

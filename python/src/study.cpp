@@ -167,7 +167,7 @@ void bind_study(py::module_& m) {
           "fail_params",
           [](PyStudy& s, const py::object& params, const std::string& reason) {
             const Domain& dom = s.study().domain();
-            const Vec v = theta_of_mapping(params, s.space(), dom.box, dom.names, "fail_params");
+            const Vec v = theta_of_mapping(params, s.space(), dom.box, dom.names, "fail_point");
             return s.locked([&](Study& st) { return st.fail_point(v, reason); });
           },
           py::arg("params"), py::arg("reason") = "failed")

@@ -500,3 +500,29 @@ def test_result_dict_keys_that_are_not_used_are_named(tmp_path, capfd):
     err = capfd.readouterr().err
     assert err.count("the objective's result has the key 'costs', which is not used") == 1
     assert "did you mean 'cost'?" in err
+
+
+def test_text_that_is_not_utf8_is_named(tmp_path):
+    # A lone surrogate (os.fsdecode of a byte that is not UTF-8) gave pybind11's "Unable to cast Python instance"
+    # or "incompatible function arguments" (red team, session 31): an InputError naming the argument.
+    study = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 4, "algorithm": "random"})
+    (t,) = study.ask()
+    with pytest.raises(varbo.InputError, match="components: a name"):
+        study.tell(t, 1.0, components={"\udcfc": 1.0})
+    with pytest.raises(varbo.InputError, match="a parameter name"):
+        study.tell_point({"x\udcfc": 0.5}, 1.0)
+    with pytest.raises(varbo.InputError, match="set_worker: name"):
+        study.set_worker("w\udcfc")
+    study.tell(t, 1.0)  # nothing was written by the refused calls
+
+
+def test_names_and_labels_beyond_the_basic_plane_in_a_dict(tmp_path):
+    # json.dumps wrote an emoji as a surrogate pair ("\\ud83e\\udd16"), which yaml-cpp refuses (red team, session 31).
+    cfg = {"parameters": [{"name": "gain", "type": "real", "low": 0, "high": 1},
+                          {"name": "mode", "type": "categorical", "choices": ["ü", "日本", "🤖"]}],
+           "budget": 6, "seed": 1, "algorithm": "random", "description": "robot 🤖 B"}
+    study = varbo.Study.create(tmp_path / "s.db", cfg)
+    labels = {study.ask()[0].params["mode"] for _ in range(6)}
+    assert labels <= {"ü", "日本", "🤖"} and labels
+    r = varbo.minimize(lambda p: p["x🤖"] ** 2, {"x🤖": (-1, 1)}, budget=3, seed=1, output=tmp_path / "m")
+    assert set(r.params) == {"x🤖"}

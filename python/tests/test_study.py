@@ -1,4 +1,5 @@
 """varbo.Study: ask/tell round trips, shared with the CLI on the same study file."""
+import csv
 import json
 
 import numpy as np
@@ -207,3 +208,49 @@ def test_a_study_of_your_own_parameters_for_ask_tell_and_the_cli(tmp_path):
     varbo.minimize(lambda p: p["x"] ** 2, space={"x": (-1, 1)}, budget=3, seed=1, output=out)
     r = run_cli("suggest", out / "study.db", check=False)
     assert r.returncode == 4 and "budget" in r.stderr and "unknown task" not in r.stderr  # 4: nothing to suggest
+
+
+def test_result_ok_false_is_a_failed_trial(tmp_path):
+    # {"cost": 1e9, "ok": False} was recorded as a success with cost 1e9 (red team, session 31).
+    study = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 4, "algorithm": "random"})
+    (t,) = study.ask()
+    study.tell(t, {"cost": 1e9, "ok": False, "reason": "robot fell"})
+    (rec,) = study.trials(as_frame=False)
+    assert rec.state == "failed" and "robot fell" in rec.error
+    (t,) = study.ask()
+    with pytest.raises(TypeError, match="'ok'"):
+        study.tell(t, {"cost": 1.0, "ok": "no"})
+    study.tell(t, {"cost": 1.0, "ok": True})
+    r = varbo.minimize(lambda p: {"cost": 1e9, "ok": False, "reason": "fell"} if p["x"] < 0 else p["x"] ** 2,
+                       {"x": (-1, 1)}, budget=6, seed=2, output=tmp_path / "m")
+    with open(tmp_path / "m" / "trials.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    bad = [row for row in rows if float(row["x"]) < 0]
+    assert bad and all(row["ok"] == "0" and "fell" in row["error"] for row in bad)
+    assert all(float(row["cost"]) < 1e9 for row in rows if row["ok"] == "1")
+    assert r is not None
+
+
+def test_create_from_a_file_with_parameters_only(tmp_path):
+    # Study.create refused a file with `parameters:` and no task ("key 'task': missing required key"), which
+    # minimize and the same text accepted (red team, session 31).
+    cfg = tmp_path / "p.yaml"
+    cfg.write_text("parameters:\n  - {name: gain, type: real, low: 0, high: 2}\n  - {name: n, type: int, low: 1, high: 4}\n"
+                   "budget: 3\nalgorithm: random\n")
+    study = varbo.Study.create(tmp_path / "s.db", cfg)
+    assert study.names == ["gain", "n"]
+
+
+def test_a_fit_on_noisy_costs_does_not_abort_the_process(tmp_path):
+    # These 9 costs (a noisy rig, red team session 31) made the 10th ask's gp fit (se_ard) hit a fatal CHECK in
+    # Ceres' line search: SIGABRT, and the study could never be continued. A huge gradient is now a failed step.
+    costs = [2.3362093055135227, 2.2223661214983217, 1.267020120177826, 1.942295788195092, 1.5897087075585548,
+             1.737275124708863, 1.3284429376432434, 1.3507568029893595, 1.3862245177095078]
+    cfg = {"task": {"type": "external", "command": "false", "dim": 2, "bounds": [0, 1]}, "budget": 30, "seed": 2,
+           "threads": 1, "algorithm": {"type": "bo", "surrogate": {"type": "gp", "kernel": "se_ard"}}}
+    study = varbo.Study.create(tmp_path / "s.db", cfg)
+    for c in costs:
+        (t,) = study.ask()
+        study.tell(t, c)
+    (t,) = study.ask()
+    assert all(0 <= v <= 1 for v in t.x)

@@ -119,7 +119,7 @@ def _components(components: Any) -> Optional[Dict[str, Any]]:
 
 def _cost_and_components(cost: Any, components: Optional[Mapping[str, float]]):
     if isinstance(cost, Mapping):
-        unused = [k for k in cost if k not in ("cost", "components")]
+        unused = [k for k in cost if k not in ("cost", "components", "ok", "reason")]
         if unused:  # a misspelled 'Cost' or 'component' was dropped without a word (red team, session 24)
             import warnings
             warnings.warn(f"the result dict's key(s) {', '.join(repr(k) for k in unused)} are not used (a result is "
@@ -193,7 +193,17 @@ class Study:
         configuration a ConfigError naming file:line:col and the key."""
         location = _checks.path(path_or_url, "Study.create: path_or_url")
         if is_path(config):
-            return cls(_varbo._Study.create_from_file(location, _checks.path(config, "Study.create: config")))
+            file = _checks.path(config, "Study.create: config")
+            try:
+                with open(file, encoding="utf-8") as f:
+                    text = f.read()
+            except (OSError, UnicodeDecodeError):
+                text = ""  # the C++ reader says what is wrong with the file (a ConfigError naming it)
+            if not (has_parameters(text) and not has_task(text)):
+                return cls(_varbo._Study.create_from_file(location, file))
+            # Typed parameters alone, as for a dict or a text (minimize took such a file, create refused it:
+            # "key 'task': missing required key"; red team, session 31). Appended: the file's lines keep their numbers.
+            return cls(_varbo._Study.create_from_yaml(location, text.rstrip("\n") + "\ntask: {type: python}\n", file))
         if isinstance(config, Mapping) and "parameters" in config and "task" not in config:
             # Typed parameters alone: the task `python` takes them as the domain, evaluated by the caller (ask/tell).
             config = dict(config, task={"type": "python"})
@@ -216,7 +226,16 @@ class Study:
     def tell(self, trial_or_id: Union[Trial, int], cost: Union[float, Mapping[str, Any]],
              components: Optional[Mapping[str, float]] = None) -> None:
         """Records the result of a pending trial: a finite cost (or ``{"cost": c, "components": {...}}``).
-        A NaN or infinite cost is an InputError: report a trial that could not be measured with ``fail``."""
+        A NaN or infinite cost is an InputError: report a trial that could not be measured with ``fail``. A dict with
+        ``"ok": False`` (and optionally ``"reason"``) is recorded as ``fail`` would."""
+        if isinstance(cost, Mapping) and "ok" in cost:
+            ok = cost["ok"]
+            if not isinstance(ok, (bool, np.bool_)):
+                raise TypeError(f"tell: 'ok': expected True or False, got {ok!r:.40}")
+            if not ok:  # was recorded as a success (red team, session 31)
+                self.fail(trial_or_id, _reason(cost.get("reason"), "tell") if cost.get("reason") is not None
+                          else "the result says 'ok': False")
+                return
         c, comps = _cost_and_components(cost, components)
         i = _trial_id(trial_or_id, self)
         self._check_file()
@@ -315,15 +334,11 @@ class Study:
     def heartbeat(self, state: str = "running") -> None:
         """A sign of life of this worker: once sent, a worker silent for longer than the study's heartbeat_timeout
         has its pending trials abandoned by the next ask of any process."""
-        if not isinstance(state, str):
-            raise TypeError(f"heartbeat: state: expected a str, got {type(state).__name__}")
-        self._impl.heartbeat(state)
+        self._impl.heartbeat(_checks.text(state, "heartbeat: state"))
 
     def set_worker(self, name: str) -> None:
         """Name recorded as the worker of the trials this object asks for (default "host:pid")."""
-        if not isinstance(name, str):
-            raise TypeError(f"set_worker: name: expected a str, got {type(name).__name__}")
-        self._impl.set_worker(name)
+        self._impl.set_worker(_checks.text(name, "set_worker: name"))
 
     @property
     def names(self) -> List[str]:
@@ -487,10 +502,10 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
                 raise ConfigError(f"{name}: give the space either as space= or as the config's task or parameters, "
                                   "not both")
             if _is_typed_space(space):
-                text = (text.rstrip("\n") + "\nparameters: " + json.dumps([dict(p) for p in space])
+                text = (text.rstrip("\n") + "\nparameters: " + json.dumps([dict(p) for p in space], ensure_ascii=False)
                         + "\ntask: {type: python}\n")
             else:
-                text = text.rstrip("\n") + "\ntask: " + json.dumps(_space_task(space)) + "\n"
+                text = text.rstrip("\n") + "\ntask: " + json.dumps(_space_task(space), ensure_ascii=False) + "\n"
         elif has_parameters(text) and not has_task(text):
             text = text.rstrip("\n") + "\ntask: {type: python}\n"
         elif not has_task(text):

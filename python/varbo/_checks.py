@@ -75,6 +75,19 @@ def float_array(v: Any, what: str) -> np.ndarray:
     return a
 
 
+def text(v: Any, what: str) -> str:
+    """A str that can be written as UTF-8: a lone surrogate (os.fsdecode of a byte that is not UTF-8) gave
+    pybind11's "incompatible function arguments" (red team, session 31)."""
+    if not isinstance(v, str):
+        raise TypeError(f"{what}: expected a str, got {_type_name(v)}")
+    try:
+        v.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _input_error(f"{what}: {ascii(v):.80} is not valid text (it holds a lone surrogate, e.g. from "
+                           "os.fsdecode of a byte that is not UTF-8)") from None
+    return v
+
+
 def path(v: Any, what: str) -> str:
     """A filesystem path or URL (str or os.PathLike)."""
     if not isinstance(v, (str, os.PathLike)):

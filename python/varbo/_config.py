@@ -66,7 +66,7 @@ def to_yaml(config: Any, what: str = "config") -> Tuple[str, str]:
     if isinstance(config, dict):
         _warn_label_choices(config.get("parameters"), what)
         try:
-            return json.dumps(config, indent=2, default=_plain), f"<{what} dict>"
+            return json.dumps(config, indent=2, default=_plain, ensure_ascii=False), f"<{what} dict>"
         except RecursionError:
             from . import ConfigError
             raise ConfigError(f"<{what} dict>: nested too deeply to be a varbo configuration") from None

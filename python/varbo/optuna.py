@@ -242,7 +242,7 @@ class VarboSampler(BaseSampler):
         sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
         key = (tuple(names), tuple(repr(search_space[n]) for n in names), sign)
         typed = [_typed_parameter(i, search_space[n]) for i, n in enumerate(names)]
-        parameters = json.dumps(typed) if self._typed and all(p is not None for p in typed) else ""
+        parameters = json.dumps(typed, ensure_ascii=False) if self._typed and all(p is not None for p in typed) else ""
         if parameters:
             def encode(n: str, v: Any) -> float:
                 return _to_theta(search_space[n], v)

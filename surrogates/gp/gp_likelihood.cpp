@@ -21,7 +21,7 @@ LogMarginal log_marginal_likelihood(const Kernel& form, const Vec& log_params, c
   const std::unique_ptr<Kernel> kernel = form.clone();  // one copy per evaluation: thread-safe, N² work dominates
   kernel->set_log_params(log_params.head(m));
   const double noise_var = std::exp(2.0 * log_params(m));
-  Mat K = kernel->matrix(X);
+  Mat K = kernel->checked_matrix(X);
   K.diagonal().array() += noise_var;
   RobustCholesky chol = robust_cholesky(K);
   if (!chol.ok) {
@@ -39,7 +39,7 @@ LogMarginal log_marginal_likelihood(const Kernel& form, const Vec& log_params, c
   Mat W = inverse_from_cholesky(chol.llt);
   W = alpha * alpha.transpose() - W;
   out.gradient.resize(m + 1);
-  out.gradient.head(m) = kernel->contract_gradient(X, W);
+  out.gradient.head(m) = kernel->checked_contract_gradient(X, W);
   // ∂K/∂log σ_n = 2σ_n² I (the jitter does not depend on σ_n).
   out.gradient(m) = noise_var * W.trace();
   out.ok = out.gradient.allFinite();

@@ -186,7 +186,7 @@ std::optional<GpSurrogate::Posterior> GpSurrogate::build(const Dataset& data, co
                  data.X, Vec(), Eigen::LLT<Mat>(Mat(0, 0)), 0.0, 0.0, s, p};  // an initialized (empty) factor
   if (n == 0) return post;
   const Vec r = (data.y.array() - s.shift).matrix() / s.scale - Vec::Constant(n, post.mean);
-  Mat K = post.kernel->matrix(data.X);
+  Mat K = post.kernel->checked_matrix(data.X);
   K.diagonal().array() += post.noise_var;
   RobustCholesky chol = robust_cholesky(K);
   if (!chol.ok) return std::nullopt;
@@ -291,6 +291,8 @@ Restarts<OptimizeResult> GpSurrogate::run_restarts_for(const Dataset& data, cons
           } else {
             res.success = false;
           }
+        } catch (const PluginCodeError&) {
+          throw;  // a component's code is wrong (a kernel's result of the wrong size): no restart is usable
         } catch (const std::exception& e) {
           res.success = false;
           res.message = e.what();
@@ -432,7 +434,7 @@ Prediction GpSurrogate::predict(const Vec& x, bool with_gradient) const {
   }
   const Posterior& post = *posterior_;
   const double scale = post.stdz.scale;
-  const Vec k = post.kernel->cross_vec(x, post.X);
+  const Vec k = post.kernel->checked_cross_vec(x, post.X);
   const Vec v = post.llt.matrixL().solve(k);
   // R&W eqs. (2.25)–(2.26), standardized, then mapped back to cost units.
   const double var_std = post.kernel->diagonal(x) - v.squaredNorm();
@@ -441,7 +443,7 @@ Prediction GpSurrogate::predict(const Vec& x, bool with_gradient) const {
   pr.log_noise_mean = std::log(post.noise_var) + 2.0 * std::log(scale);
   pr.log_noise_var = 0.0;
   if (with_gradient) {
-    const Mat G = post.kernel->cross_gradient_x(x, post.X);  // D × N, column i = ∂k(x, X_i)/∂x
+    const Mat G = post.kernel->checked_cross_gradient_x(x, post.X);  // D × N, column i = ∂k(x, X_i)/∂x
     pr.d_mean = scale * (G * post.alpha);
     // ∂/∂x (σ² − k'K⁻¹k) = −2 G K⁻¹k
     pr.d_latent_var = var_std > 0 ? Vec(-2.0 * scale * scale * (G * post.llt.matrixU().solve(v))) : Vec::Zero(d);
@@ -457,7 +459,7 @@ double GpSurrogate::predict_mean(const Vec& x) const {
     throw InputError(fmt::format("gp: predict at a point of dimension {}, the model's is {}", x.size(), dim_));
   if (!posterior_ || posterior_->X.rows() == 0) return mean_;
   const Posterior& post = *posterior_;
-  const Vec k = post.kernel->cross_vec(x, post.X);
+  const Vec k = post.kernel->checked_cross_vec(x, post.X);
   return post.stdz.shift + post.stdz.scale * (post.mean + k.dot(post.alpha));
 }
 

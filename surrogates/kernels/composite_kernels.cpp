@@ -71,10 +71,10 @@ class Sum final : public Composite {
  public:
   explicit Sum(std::vector<std::unique_ptr<Kernel>> terms) : Composite(std::move(terms)) { declare_from_terms(false); }
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<Sum>(*this); }
-  Mat matrix(const Mat& X) const override { return add([&](const Kernel& t) { return t.matrix(X); }); }
-  Mat cross(const Mat& X, const Mat& Z) const override { return add([&](const Kernel& t) { return t.cross(X, Z); }); }
+  Mat matrix(const Mat& X) const override { return add([&](const Kernel& t) { return t.checked_matrix(X); }); }
+  Mat cross(const Mat& X, const Mat& Z) const override { return add([&](const Kernel& t) { return t.checked_cross(X, Z); }); }
   Vec cross_vec(const Vec& x, const Mat& X) const override {
-    return add([&](const Kernel& t) -> Mat { return t.cross_vec(x, X); });
+    return add([&](const Kernel& t) -> Mat { return t.checked_cross_vec(x, X); });
   }
   double diagonal(const Vec& x) const override {
     double s = 0.0;
@@ -85,7 +85,7 @@ class Sum final : public Composite {
     Vec g(num_params());
     Index offset = 0;
     for (const auto& t : terms_) {
-      g.segment(offset, t->num_params()) = t->contract_gradient(X, W);
+      g.segment(offset, t->num_params()) = t->checked_contract_gradient(X, W);
       offset += t->num_params();
     }
     return g;
@@ -93,11 +93,11 @@ class Sum final : public Composite {
   std::vector<Mat> matrix_gradients(const Mat& X) const override {
     std::vector<Mat> G;
     for (const auto& t : terms_)
-      for (Mat& m : t->matrix_gradients(X)) G.push_back(std::move(m));
+      for (Mat& m : t->checked_matrix_gradients(X)) G.push_back(std::move(m));
     return G;
   }
   Mat cross_gradient_x(const Vec& x, const Mat& X) const override {
-    return add([&](const Kernel& t) { return t.cross_gradient_x(x, X); });
+    return add([&](const Kernel& t) { return t.checked_cross_gradient_x(x, X); });
   }
 
  private:
@@ -116,12 +116,12 @@ class Product final : public Composite {
     declare_from_terms(true);
   }
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<Product>(*this); }
-  Mat matrix(const Mat& X) const override { return multiply([&](const Kernel& t) { return t.matrix(X); }); }
+  Mat matrix(const Mat& X) const override { return multiply([&](const Kernel& t) { return t.checked_matrix(X); }); }
   Mat cross(const Mat& X, const Mat& Z) const override {
-    return multiply([&](const Kernel& t) { return t.cross(X, Z); });
+    return multiply([&](const Kernel& t) { return t.checked_cross(X, Z); });
   }
   Vec cross_vec(const Vec& x, const Mat& X) const override {
-    return multiply([&](const Kernel& t) -> Mat { return t.cross_vec(x, X); });
+    return multiply([&](const Kernel& t) -> Mat { return t.checked_cross_vec(x, X); });
   }
   double diagonal(const Vec& x) const override {
     double p = 1.0;
@@ -129,30 +129,30 @@ class Product final : public Composite {
     return p;
   }
   Vec contract_gradient(const Mat& X, const Mat& W) const override {
-    const std::vector<Mat> K = each([&](const Kernel& t) { return t.matrix(X); });
+    const std::vector<Mat> K = each([&](const Kernel& t) { return t.checked_matrix(X); });
     Vec g(num_params());
     Index offset = 0;
     for (std::size_t j = 0; j < terms_.size(); ++j) {
-      g.segment(offset, terms_[j]->num_params()) = terms_[j]->contract_gradient(X, W.cwiseProduct(others(K, j)));
+      g.segment(offset, terms_[j]->num_params()) = terms_[j]->checked_contract_gradient(X, W.cwiseProduct(others(K, j)));
       offset += terms_[j]->num_params();
     }
     return g;
   }
   std::vector<Mat> matrix_gradients(const Mat& X) const override {
-    const std::vector<Mat> K = each([&](const Kernel& t) { return t.matrix(X); });
+    const std::vector<Mat> K = each([&](const Kernel& t) { return t.checked_matrix(X); });
     std::vector<Mat> G;
     for (std::size_t j = 0; j < terms_.size(); ++j) {
       const Mat rest = others(K, j);
-      for (Mat& m : terms_[j]->matrix_gradients(X)) G.push_back(m.cwiseProduct(rest));
+      for (Mat& m : terms_[j]->checked_matrix_gradients(X)) G.push_back(m.cwiseProduct(rest));
     }
     return G;
   }
   Mat cross_gradient_x(const Vec& x, const Mat& X) const override {
     // Column i: Σ_j ∂k_j(x, X_i)/∂x Π_{o≠j} k_o(x, X_i).
-    const std::vector<Mat> k = each([&](const Kernel& t) -> Mat { return t.cross_vec(x, X).transpose(); });
+    const std::vector<Mat> k = each([&](const Kernel& t) -> Mat { return t.checked_cross_vec(x, X).transpose(); });
     Mat G = Mat::Zero(dim(), X.rows());
     for (std::size_t j = 0; j < terms_.size(); ++j)
-      G += terms_[j]->cross_gradient_x(x, X) * others(k, j).row(0).asDiagonal();
+      G += terms_[j]->checked_cross_gradient_x(x, X) * others(k, j).row(0).asDiagonal();
     return G;
   }
 

@@ -4,6 +4,8 @@
 #include <limits>
 #include <vector>
 
+#include "varbo/errors.hpp"
+
 namespace varbo::vhgp {
 
 double homoscedastic_log_likelihood(const Mat& X, const Vec& y, const Kernel& kernel, double jitter, const Vec& x,
@@ -80,6 +82,8 @@ HomoscedasticFit fit_homoscedastic(const Mat& X, const Vec& y, const Kernel& ker
     OptimizeResult r;
     try {
       r = optimizer.maximize(objective, region, x0.transpose(), rng);
+    } catch (const PluginCodeError&) {
+      throw;  // a component's code is wrong: no start is usable
     } catch (const std::exception&) {
       continue;
     }

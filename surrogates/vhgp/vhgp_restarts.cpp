@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "budgeted_objective.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/restarts.hpp"
 
@@ -18,6 +19,8 @@ Vec maximize_log_lambda(const VhgpObjective& joint, const VhgpParams& fixed, con
     const OptimizeResult w = optimizer.maximize(lambda_objective, lambda_region, fixed.log_lambda.transpose(), rng);
     if (w.x.size() == n && w.x.allFinite() && std::isfinite(lambda_objective.value(w.x, nullptr)))
       return lambda_region.bounds().clamp(w.x);
+  } catch (const PluginCodeError&) {
+    throw;  // a component's code is wrong (a kernel's result of the wrong size): no fit is usable
   } catch (const std::exception& e) {
     log_debug("vhgp: log Lambda optimization failed: {}", e.what());
   }
@@ -69,6 +72,8 @@ std::vector<RestartResult> optimize_restarts(const VhgpObjective& objective, con
           out.x = x;
         }
       }
+    } catch (const PluginCodeError&) {
+      throw;
     } catch (const std::exception& e) {
       log_debug("vhgp: restart {} failed: {}", k, e.what());
     }

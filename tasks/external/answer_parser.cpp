@@ -1,6 +1,7 @@
 #include "answer_parser.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -10,6 +11,7 @@
 #include <cstdlib>
 #include <nlohmann/json.hpp>
 
+#include "varbo/log.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/text.hpp"
 
@@ -61,6 +63,24 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
           abbreviate(j["error"].is_string() ? j["error"].get<std::string>() : j["error"].dump(), 512);
     return std::nullopt;
   }
+  // `"ok": false` is a failure, as varbo's own trials.csv column says: {"ok": false, "cost": 1e9, "reason": "fell"}
+  // was recorded as a success with cost 1e9, which misled the model (red team, session 31).
+  if (j.contains("ok")) {
+    if (!j["ok"].is_boolean()) {
+      why = "\"ok\" is not true or false: " + abbreviate(j["ok"].dump(), 512);
+      return std::nullopt;
+    }
+    if (!j["ok"].get<bool>()) {
+      const auto text = [&](const char* key) {
+        return j.contains(key) && j[key].is_string() && !j[key].get<std::string>().empty()
+                   ? std::optional<std::string>(j[key].get<std::string>())
+                   : std::nullopt;
+      };
+      const auto reason = text("reason") ? text("reason") : text("message");
+      why = "the command answered \"ok\": false" + (reason ? ": " + abbreviate(*reason, 512) : std::string());
+      return std::nullopt;
+    }
+  }
   if (!j.contains("cost")) {
     why = "the JSON answer has no \"cost\"";
     return std::nullopt;
@@ -90,6 +110,17 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
       a.components.emplace_back(it.key(), it.value().get<double>());
     }
   }
+  // Any other key is not read: said once per process, so a misspelled "components" or "Cost" is seen, while a
+  // script that adds its own notes to the answer still runs.
+  std::vector<std::string> unused;
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (it.key() != "cost" && it.key() != "components" && it.key() != "error" && it.key() != "ok" &&
+        it.key() != "reason" && it.key() != "message")
+      unused.push_back("\"" + printable(abbreviate(it.key(), 64)) + "\"");
+  if (!unused.empty())
+    log_warn_once(fmt::format("the external command's JSON answer has key(s) {} that varbo does not read (an answer is "
+                              "\"cost\" and optionally \"components\"; \"error\" or \"ok\": false report a failure)",
+                              fmt::join(unused, ", ")));
   return a;
 }
 

@@ -135,6 +135,17 @@ TEST_CASE("parse_answer") {
     REQUIRE(a->components.size() == 1);
     CHECK(a->components[0].second == 3);
   }
+  SUBCASE("\"ok\": false is a failed trial, with its reason (it was recorded as a success; session 31)") {
+    CHECK(!parse_answer("{\"ok\": false, \"cost\": 1e9, \"reason\": \"robot fell\"}\n", why));
+    CHECK(contains(why, "\"ok\": false: robot fell"));
+    CHECK(!parse_answer("{\"ok\": false}\n", why));
+    CHECK(contains(why, "\"ok\": false"));
+    CHECK(!parse_answer("{\"ok\": \"no\", \"cost\": 1}\n", why));
+    CHECK(contains(why, "not true or false"));
+    auto ok = parse_answer("{\"ok\": true, \"cost\": 0.5, \"note\": \"mine\"}\n", why);  // other keys: a warning
+    REQUIRE(ok);
+    CHECK(ok->cost == 0.5);
+  }
 }
 
 TEST_CASE("run_shell: stdin, stdout, stderr, status") {

@@ -1,5 +1,9 @@
 // Numerical helpers against closed forms and published values.
+#include <chrono>
 #include <cmath>
+#include <mutex>
+#include <set>
+#include <thread>
 
 #include "varbo/function.hpp"
 #include "varbo/math.hpp"
@@ -89,6 +93,28 @@ TEST_CASE("parallel_for fills every slot once with any thread count") {
     std::vector<int> hits(100, 0);
     parallel_for(100, [&](Index i) { hits[static_cast<std::size_t>(i)] += 1; });
     for (int h : hits) CHECK(h == 1);
+  }
+}
+
+TEST_CASE("ThreadLimit bounds the threads parallel_for uses while it lives") {
+  // A study's `threads: 1` must hold for its fits on a shared machine (Study::ask, select, recommendation).
+  const auto threads_used = [] {
+    std::mutex m;
+    std::set<std::thread::id> ids;
+    parallel_for(64, [&](Index) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));  // give other threads a chance to join
+      std::lock_guard<std::mutex> lock(m);
+      ids.insert(std::this_thread::get_id());
+    });
+    return ids.size();
+  };
+  {
+    ThreadLimit one(1);
+    CHECK(threads_used() == 1);
+  }
+  {
+    ThreadLimit two(2);
+    CHECK(threads_used() <= 2);
   }
 }
 

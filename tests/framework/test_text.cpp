@@ -96,3 +96,24 @@ TEST_CASE("terminal_text: escape sequences and C1 controls shown, never obeyed; 
   CHECK(terminal_text("caf\xC3\xA9 \xC2\xA0ok") == "caf\xC3\xA9 \xC2\xA0ok");  // é and a no-break space stay
   CHECK(terminal_text("bad \xFF byte\r") == "bad \\xFF byte\\r");
 }
+
+TEST_CASE("terminal_line: one line, escapes and C1 controls shown (a label printed by varbo suggest)") {
+  // A categorical label "\x1B[2Jclear" cleared the screen of `varbo suggest`, "x\ny" split its line (session 31).
+  CHECK(terminal_line("\x1B[2Jclear") == "\\x1B[2Jclear");
+  CHECK(terminal_line("x\ny\tz") == "x\\ny\\tz");
+  CHECK(terminal_line("csi \xC2\x9B" "2J") == "csi \\u009B2J");
+  CHECK(terminal_line("gain_\xC3\xBC \xF0\x9F\xA4\x96") == "gain_\xC3\xBC \xF0\x9F\xA4\x96");  // ü and 🤖 stay
+}
+
+TEST_CASE("ASCII classes do not follow the process's locale") {
+  // In a Latin-1 LC_CTYPE std::isalnum took both bytes of a UTF-8 'µ' (C2 B5) for letters (session 31).
+  for (int c = 0; c < 256; ++c) {
+    const char ch = static_cast<char>(c);
+    const bool letter = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z');
+    const bool digit = c >= '0' && c <= '9';
+    CHECK(ascii_alpha(ch) == letter);
+    CHECK(ascii_digit(ch) == digit);
+    CHECK(ascii_alnum(ch) == (letter || digit));
+    CHECK(ascii_space(ch) == (c == ' ' || (c >= 9 && c <= 13)));
+  }
+}

@@ -219,7 +219,7 @@ TEST_CASE("a plugin cannot register under another plugin's name") {
 
 TEST_CASE("a plugin name with the qualification separator is refused") {
   CHECK(contains(error_loading<PluginLoadError>(fixture("slashname")),
-                 ": not loaded: its plugin name 'bad/name' has a character other than letters, digits"));
+                 ": not loaded: its plugin name 'bad/name' has a character other than ASCII letters, digits"));
 }
 
 TEST_CASE("hostile entries in a plugin folder are skipped with a named reason, never thrown") {
@@ -339,7 +339,7 @@ TEST_CASE("option declarations are checked when the plugin loads") {
   auto info = make_component<Acquisition>("my acq/v2", "", {}, Factory<Acquisition>([](const Options&, const BuildContext&) {
                                             return std::unique_ptr<Acquisition>();
                                           }));
-  CHECK_THROWS_WITH_AS(r.add(info), doctest::Contains("character other than letters"), PluginLoadError);
+  CHECK_THROWS_WITH_AS(r.add(info), doctest::Contains("character other than ASCII letters"), PluginLoadError);
 }
 
 TEST_CASE("an option whose declared default fails its own declaration is a load error naming it") {

@@ -100,6 +100,9 @@ TEST_CASE("a configuration's description is in the run folder: config.resolved.y
   // Not the study's identity: the folder is read and resumed without a "differs" warning.
   CHECK(test::run({V, "run", "--resume", out, "--no-progress", "--budget", "4"}, log).exit_code == 0);
   CHECK_FALSE(contains(slurp(log), "differ"));
+  // And still there after the resume, which rebuilds the study from its store (it was dropped; session 31).
+  CHECK(contains(slurp(out + "/summary.json"), "\"description\": \"gait gains, robot B, new feet\""));
+  CHECK(contains(slurp(out + "/config.resolved.yaml"), "description: gait gains, robot B, new feet"));
   fs::remove_all(dir);
 }
 

@@ -5,9 +5,17 @@
 #include <clocale>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <locale>
+#include <sstream>
 
 #include "study_helpers.hpp"
+#include "varbo/config.hpp"
+#include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/search_space_config.hpp"
+#include "varbo/store.hpp"
+#include "varbo/study.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
 
@@ -32,7 +40,114 @@ struct DecimalCommaLocale {
   bool active = false;
 };
 
+/// A locale compiled from the `locales` package's sources into `dir` (as DecimalCommaLocale), e.g. en_US.UTF-8 or
+/// de_DE.ISO-8859-1; nullopt when localedef could not build it.
+std::optional<std::locale> compiled_locale(const std::string& dir, const std::string& source, const std::string& charmap,
+                                           const std::string& name) {
+  const std::string cmd = "localedef -c -i " + source + " -f " + charmap + " " + dir + "/" + name + " >/dev/null 2>&1";
+  [[maybe_unused]] const int rc = std::system(cmd.c_str());
+  setenv("LOCPATH", dir.c_str(), 1);
+  try {
+    return std::locale(name.c_str());
+  } catch (const std::runtime_error&) {
+    return std::nullopt;
+  }
+}
+
+/// The host's global C++ locale while alive (std::locale::global also sets the C locale of a named one); "C" again
+/// afterwards.
+struct GlobalLocale {
+  explicit GlobalLocale(const std::locale& l) { std::locale::global(l); }
+  ~GlobalLocale() {
+    std::locale::global(std::locale::classic());
+    unsetenv("LOCPATH");
+  }
+};
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
 }  // namespace
+
+TEST_CASE("a host's global C++ locale (decimal comma, thousands grouping) changes no number varbo writes") {
+  // std::locale::global(std::locale("")) under LANG=de_DE.UTF-8 or en_US.UTF-8: yaml-cpp's stream formatted the
+  // stored configuration as `xi: 0,01`, `candidates: 2,000`, `budget: 1,003`, a study no other process could open,
+  // and trials.csv's index 1000 as "1,000", a 13th field (red team, session 31).
+  const std::string dir = temp_folder("locale_global");
+  const std::string yaml =
+      "task: {type: external, command: 'true', names: [a, b], lower: [-5.5, 0.25], upper: [2.5, 1.75]}\n"
+      "algorithm: {type: bo, initial_points: 3, acquisition: {type: ei, xi: 0.01}}\n"
+      "budget: 1003\nseed: 12345\nheartbeat_timeout: 2.5\ninitial_point: [0.5, 1.25]\n";
+  // The same study created in the "C" locale: what every other process writes.
+  const std::string reference = dir + "/c.db";
+  std::string reference_config, reference_identity;
+  {
+    Study s = Study::create_from_yaml(reference, yaml, "locale.yaml");
+    reference_config = s.store().meta(store_key::kConfig).value_or("");
+    reference_identity = s.store().meta(store_key::kIdentity).value_or("");
+  }
+  REQUIRE(reference_config.find("1003") != std::string::npos);
+  for (const auto& [source, name] : {std::pair<std::string, std::string>{"de_DE", "de_DE.UTF-8"}, {"en_US", "en_US.UTF-8"}}) {
+    CAPTURE(name);
+    const auto loc = compiled_locale(dir, source, "UTF-8", name);
+    REQUIRE_MESSAGE(loc, "localedef could not build " << name << " (Debian package `locales`, scripts/setup.sh)");
+    const std::string store = dir + "/" + source + ".db";
+    {
+      GlobalLocale global(*loc);
+      std::ostringstream probe;
+      probe << 1003 << ' ' << 0.5;
+      CHECK(probe.str() != "1003 0.5");  // the trap itself: a default stream follows the host's locale
+      Study s = Study::create_from_yaml(store, yaml, "locale.yaml");
+      CHECK(s.store().meta(store_key::kConfig).value_or("") == reference_config);
+      CHECK(s.store().meta(store_key::kIdentity).value_or("") == reference_identity);
+      for (int i = 0; i < 4; ++i) {
+        const auto t = s.ask().at(0);
+        s.tell(t.id, (t.theta[0] - 0.5) * (t.theta[0] - 0.5) + t.theta[1]);
+      }
+    }
+    // Opened by a process in the "C" locale: the same study, every saved state read.
+    Study s = Study::open(store);
+    CHECK(s.config().budget == 1003);
+    CHECK(s.domain().box.lower[0] == -5.5);
+    CHECK(s.verify().divergence.empty());
+  }
+
+  // A run's files: trials.csv's index and model.yaml's iteration are written with <<.
+  const auto us = compiled_locale(dir, "en_US", "UTF-8", "en_US.UTF-8");
+  REQUIRE(us);
+  const std::string cfg = dir + "/random.yaml";
+  std::ofstream(cfg) << "task: branin\nbudget: 1002\nseed: 3\nthreads: 1\nalgorithm: {type: random}\noutput: " << dir
+                     << "/random_run\n";
+  {
+    GlobalLocale global(*us);
+    RunOverrides ov;
+    ov.progress = false;
+    run_study_file(cfg, ov);
+  }
+  const std::string csv = read_file(dir + "/random_run/trials.csv");
+  CHECK(csv.find("\n1000,") != std::string::npos);
+  CHECK(csv.find("1,000") == std::string::npos);
+  CHECK(read_file(dir + "/random_run/config.resolved.yaml").find("budget: 1002") != std::string::npos);
+}
+
+TEST_CASE("a parameter name is ASCII whatever the process's LC_CTYPE") {
+  // In a Latin-1 locale (setlocale(LC_ALL, "de_DE") in older host code) std::isalnum took both bytes of a UTF-8
+  // 'µ' for letters: Python created a study with `delay_µs` that `varbo suggest` then refused (red team, session 31).
+  const std::string dir = temp_folder("locale_ctype");
+  const auto latin1 = compiled_locale(dir, "de_DE", "ISO-8859-1", "de_DE.ISO-8859-1");
+  REQUIRE_MESSAGE(latin1, "localedef could not build de_DE.ISO-8859-1");
+  REQUIRE(std::setlocale(LC_CTYPE, "de_DE.ISO-8859-1") != nullptr);
+  CHECK(std::isalnum(0xB5));  // the trap itself: in Latin-1 0xB5 is a letter (µ)
+  const ConfigNode params = ConfigNode::parse(
+      "- {name: delay_\xC2\xB5s, type: real, low: 0, high: 1}\n", "latin1.yaml");
+  CHECK_THROWS_WITH_AS(parse_search_space(params), doctest::Contains("a parameter name is ASCII letters"), ConfigError);
+  std::setlocale(LC_CTYPE, "C");
+  unsetenv("LOCPATH");
+}
 
 TEST_CASE("numbers, configurations, plugins and saved states read the same in a decimal-comma locale") {
   const std::string dir = temp_folder("locale");

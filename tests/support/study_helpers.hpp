@@ -1,5 +1,7 @@
 #pragma once
 // Helpers for tests that run whole studies in-process.
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -21,11 +23,13 @@ inline std::string slurp(const std::string& file) {
 }
 
 /// A fresh, empty folder under the system temp dir, one set per build tree (the hash of the test program's
-/// folder), so that test suites of several checkouts running at once never share a folder.
+/// folder) and user, so that test suites of several checkouts running at once never share a folder, nor two users
+/// running one build's tests (each removed the other's folders; red team, session 31).
 inline std::string temp_folder(const std::string& name) {
   std::error_code ec;
   const std::size_t tree = std::hash<std::string>{}(std::filesystem::canonical("/proc/self/exe", ec).parent_path().string());
-  const auto p = std::filesystem::temp_directory_path() / ("varbo_test_" + std::to_string(tree % 100000)) / name;
+  const auto p = std::filesystem::temp_directory_path() /
+                 ("varbo_test_" + std::to_string(::getuid()) + "_" + std::to_string(tree % 100000)) / name;
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p.string();

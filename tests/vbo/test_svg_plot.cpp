@@ -32,6 +32,9 @@ TEST_CASE("colormap and escape") {
   CHECK(svg::colormap(1) == "#fde725");
   CHECK(svg::colormap(NAN) == svg::colormap(0));
   CHECK(svg::escape("a<b & \"c\">") == "a&lt;b &amp; &quot;c&quot;&gt;");
+  // XML takes no control character: a label holding ESC made a file browsers refused (red team, session 31).
+  CHECK(svg::escape("\x1B[31mred\x01") == "\\x1B[31mred\\x01");
+  CHECK(svg::escape("caf\xC3\xA9 \xFF") == "caf\xC3\xA9 \\xFF");
 }
 
 TEST_CASE("a figure renders well-formed SVG with one element per marker") {

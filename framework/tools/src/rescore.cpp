@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <locale>
 #include <nlohmann/json.hpp>
 
 #include "varbo/continuation.hpp"
@@ -332,6 +333,7 @@ RunSummary continue_run(const ComponentRun& run, const Weights& weights, const V
   {
     // The re-scored trials of the parent run, as the new run's critic data (θ in the unit cube).
     std::ofstream h(history);
+    h.imbue(std::locale::classic());
     for (Index i = 0; i < run.unit.cols(); ++i) h << (i ? "," : "") << "x" << (i + 1);
     h << ",cost\n";
     for (Index r = 0; r < run.unit.rows(); ++r) {
@@ -341,11 +343,14 @@ RunSummary continue_run(const ComponentRun& run, const Weights& weights, const V
   }
   YAML::Node cfg = run.study.resolved();
   YAML::Node w(YAML::NodeType::Map);
-  for (const auto& c : run.components) w[c] = weights.count(c) ? weights.at(c) : 1.0;
+  // Numbers in the "C" locale whatever the host's (numbers.hpp).
+  for (const auto& c : run.components) w[c] = yaml_scalar(weights.count(c) ? weights.at(c) : 1.0);
   cfg["task"]["weights"] = w;
-  cfg["initial_point"] = std::vector<double>(start.data(), start.data() + start.size());
-  cfg["budget"] = steps;
-  cfg["seed"] = seed;
+  YAML::Node start_node(YAML::NodeType::Sequence);
+  for (Index i = 0; i < start.size(); ++i) start_node.push_back(yaml_scalar(start[i]));
+  cfg["initial_point"] = start_node;
+  cfg["budget"] = yaml_scalar(steps);
+  cfg["seed"] = yaml_scalar(seed);
   cfg["output"] = fs::absolute(folder).string();
   YAML::Node alg = own ? YAML::Node(cfg["algorithm"]) : YAML::Node(YAML::NodeType::Map);
   if (!own)  // the short name when it reaches this component, else the full one
@@ -357,6 +362,7 @@ RunSummary continue_run(const ComponentRun& run, const Weights& weights, const V
   const std::string file = folder + "/study.yaml";
   {
     std::ofstream out(file);
+    out.imbue(std::locale::classic());
     YAML::Emitter em;
     em << cfg;
     out << "# written by varbo rescore --continue\n" << em.c_str() << "\n";

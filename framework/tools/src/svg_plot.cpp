@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "varbo/errors.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::svg {
 
@@ -103,7 +104,9 @@ std::string colormap(double t) {
 
 std::string escape(const std::string& text) {
   std::string out;
-  for (char c : text) {
+  // printable(): XML allows no control character but tab and line breaks, and no invalid UTF-8; a label holding
+  // ESC made an SVG browsers refuse (red team, session 31). Shown as \xHH instead.
+  for (char c : printable(text)) {
     switch (c) {
       case '&': out += "&amp;"; break;
       case '<': out += "&lt;"; break;

@@ -314,8 +314,17 @@ bool BayesianOptimization::update_feasibility(Index k, bool refit) {
   feasibility_on_ = n + m > 0 && fit_feasibility(*feasibility_);
   // Never stricter than 0.8 × the probability of success where nothing is known (the smoothed success rate):
   // in a study where most trials fail, unexplored regions stay open while failed neighbourhoods are excluded.
-  if (feasibility_on_)
+  if (feasibility_on_) {
     exclusion_threshold_ = std::min(failure_settings_.min_probability, 0.8 * feasibility_->prior_probability());
+    // A min_probability above that cap had no effect at all, in silence (red team, session 31: 0.95 ran the very
+    // trials of the default): said once per process.
+    if (exclusion_threshold_ < failure_settings_.min_probability &&
+        failure_settings_.min_probability != FailureModelSettings{}.min_probability)  // a value the user chose
+      log_warn_once(fmt::format(
+          "bo: failure_model.min_probability {} is above 0.8 × the initial design's success rate ({:.3g}); θ with "
+          "P(success) ≥ {:.3g} stay open, so that regions nothing is known about are not closed",
+          failure_settings_.min_probability, 0.8 * feasibility_->prior_probability(), exclusion_threshold_));
+  }
   if (!feasibility_on_) {
     log_warn("bo: trial {}: the failure model could not be fitted; failed trials are ignored this time", k);
   } else if (!was_on) {
@@ -617,6 +626,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(
         base, *feasibility_, failure_utility(base, data_.X), p_min, !refining_ || refine_weighted_);
+  if (feasible && space_) feasible->set_evaluated_point([this](const Vec& x) { return evaluated_point(x); });
   if (feasible && !refining_ && !blocked_.empty() && failure_settings_.boundary_tabu > 0)
     feasible->set_tabu(blocked_, failure_settings_.boundary_tabu);
   const Acquisition& weighed = feasible ? static_cast<const Acquisition&>(*feasible) : base;
@@ -718,6 +728,14 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
              "clamp| {:.3g}); clamped into it",
              k, optimizer_name_, (res.x - Box::unit(dim_).clamp(res.x)).cwiseAbs().maxCoeff());
   s.x = Box::unit(dim_).clamp(res.x);
+  // A region's constraint (a safety set) binds the optimizer only through their capability tags: a third party's
+  // region without its `needs: optimizer:constraints` tag, paired with an optimizer that ignores constraints, had 8
+  // of 18 suggestions outside its ellipsoid in silence (red team, session 31). Said, once per process.
+  if (region_->has_constraint() && region_->constraint(s.x, nullptr) < -1e-4)
+    log_warn_once(fmt::format("bo: acquisition optimizer '{}' returned a point outside region '{}''s constraint "
+                              "(first at trial {}, constraint value {:.3g} < 0): the pair does not keep to it; does the "
+                              "region declare `needs: optimizer:constraints` (docs/plugins.md)?",
+                              optimizer_name_, region_name_, k, region_->constraint(s.x, nullptr)));
   s.phase = refining_ ? "refine" : phase.name;
   // The attempt ends here (why: the log's reason); the region restarts afresh with a new design.
   const auto restart_afresh = [&](const char* why) {

@@ -228,7 +228,7 @@ double FeasibilityWeightedAcquisition::evaluate(const Vec& x, Vec* grad) const {
   // boundary_tabu: below every excluded (≥ −1) and allowed point.
   if (const std::optional<double> v = excluded_ball_value(x, tabu_, tabu_radius_, 0.0, grad)) return *v;
   Vec dp;
-  const double p = model_.probability(x, grad ? &dp : nullptr);
+  const double p = model_.probability(at_ ? at_(x) : x, grad ? &dp : nullptr);
   if (p < p_min_) {
     // Excluded: below every allowed point, rising towards the allowed set.
     if (grad) *grad = dp;

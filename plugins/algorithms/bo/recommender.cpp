@@ -36,6 +36,25 @@ Index best_observed(const Dataset& data) {
   return best;
 }
 
+/// The evaluated points a recommendation may name: none at a θ where a trial also failed. A gain observed once and
+/// failed three times at the very same θ (replicates, or `varbo fail --theta`) was recommended by every
+/// evaluated-point rule, its one success the lowest cost (red team, session 31). Every point when each one has
+/// failed somewhere (said once): something must be recommended.
+Dataset never_failed(const Dataset& data, const Mat& failed) {
+  if (failed.rows() == 0 || failed.cols() != data.dim()) return data;
+  constexpr double kSamePoint = 1e-9;  // in the unit cube: the same θ up to its text's rounding
+  Dataset out = Dataset::empty(data.dim());
+  for (Index i = 0; i < data.size(); ++i) {
+    bool also_failed = false;
+    for (Index j = 0; j < failed.rows() && !also_failed; ++j)
+      also_failed = (failed.row(j) - data.X.row(i)).cwiseAbs().maxCoeff() <= kSamePoint;
+    if (!also_failed) out.add(data.X.row(i).transpose(), data.y(i));
+  }
+  if (out.size() > 0) return out;
+  log_warn_once("bo: every evaluated θ also failed at least once; the recommendation is one of them");
+  return data;
+}
+
 
 }  // namespace
 
@@ -181,7 +200,8 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const M
   if (cached_n_ == data.size() && cached_failed_ == failed.rows() && cached_refit_ == refit &&
       cached_.size() == data.dim())
     return cached_;
-  const Vec observed = data.X.row(best_observed(data)).transpose();
+  const Dataset candidates = never_failed(data, failed);
+  const Vec observed = candidates.X.row(best_observed(candidates)).transpose();
   ready_ = false;
   Vec out = observed;
   if (rule_ != RecommendationRule::BestObserved && data.size() >= 2) {
@@ -197,10 +217,10 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const M
   if (ready_) {
     switch (rule_) {
       case RecommendationRule::LowestMeanEvaluated:
-        out = data.X.row(lowest_mean_evaluated(*model_, data)).transpose();
+        out = candidates.X.row(lowest_mean_evaluated(*model_, candidates)).transpose();
         break;
       case RecommendationRule::LowestBoundEvaluated:
-        out = data.X.row(find_incumbent(*model_, data, kappa_).index).transpose();
+        out = candidates.X.row(find_incumbent(*model_, candidates, kappa_).index).transpose();
         break;
       case RecommendationRule::LowestMeanDomain: {
         // Minimize the posterior mean over the search region, started at the evaluated points; the best
@@ -214,7 +234,7 @@ Vec Recommender::recommend(const Surrogate* fitted, const Dataset& data, const M
         // refine_min_probability (red team, session 27: 0.708 recommended where every trial past 0.7 failed).
         std::optional<AwayFromFailures> away;
         if (failed.rows() > 0 && failed.cols() == data.dim()) away.emplace(region, data.X, failed);
-        const Vec at_data = data.X.row(find_incumbent(*model_, data, 0.0).index).transpose();
+        const Vec at_data = candidates.X.row(find_incumbent(*model_, candidates, 0.0).index).transpose();
         std::optional<LikelyToSucceed> likely;
         if (away && success)
           likely.emplace(*away, success, std::min(success.cap, success.probability(at_data, nullptr)));

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "varbo/numbers.hpp"
+
 namespace varbo::rssgd {
 
 LocalModelSpec Continuation::local_model(const Options* o, const Registry& registry) const {
@@ -31,7 +33,7 @@ LocalModelSpec Continuation::local_model(const Options* o, const Registry& regis
 void Continuation::continue_from(YAML::Node& algorithm, const std::string& history_csv, double kappa) const {
   algorithm.remove("phases");
   algorithm.remove("start");  // the continuation starts at the study's initial_point: the re-selected policy
-  algorithm["kappa"] = kappa;
+  algorithm["kappa"] = yaml_scalar(kappa);  // "C" locale whatever the host's (numbers.hpp)
   algorithm["history"] = history_csv;
   algorithm["evaluate_initial"] = false;  // the history already holds the neighbourhood; every trial is a step
 }

@@ -10,6 +10,8 @@
 #include <limits>
 #include <string>
 
+#include "varbo/errors.hpp"
+
 namespace varbo::ceres_lbfgs {
 
 namespace {
@@ -26,16 +28,28 @@ class NegatedFunction final : public ceres::FirstOrderFunction {
     try {
       Vec g;
       const double v = evaluate(x, gradient ? &g : nullptr);
-      if (!std::isfinite(v)) return false;
+      // Finite but astronomically large values or gradients are failed evaluations too: Ceres forms the
+      // directional derivative g·d, which overflowed to inf in its Wolfe zoom and hit a fatal CHECK that aborted the
+      // process (a gp fit on noisy costs, value 1.3e11 and gradient 1e15 at the start; red team, session 31).
+      constexpr double kHuge = 1e100;
+      if (!std::isfinite(v) || std::abs(v) > kHuge) return false;
       *cost = -v;
       if (gradient) {
-        if (g.size() != f_.dim() || !g.allFinite()) return false;
+        if (g.size() != f_.dim() || !g.allFinite() || g.cwiseAbs().maxCoeff() > kHuge) return false;
         Eigen::Map<Vec>(gradient, f_.dim()) = -g;
       }
       return true;
+    } catch (const PluginCodeError&) {
+      // A mistake in a component's code (a kernel's wrong-sized result) is not a failed step: kept, and rethrown
+      // by run_from after Ceres returns (not thrown through Ceres' own frames).
+      if (!plugin_error_) plugin_error_ = std::current_exception();
+      return false;
     } catch (const std::exception&) {
       return false;
     }
+  }
+  void rethrow_plugin_error() const {
+    if (plugin_error_) std::rethrow_exception(plugin_error_);
   }
   int NumParameters() const override { return static_cast<int>(f_.dim()); }
   Index evaluations() const { return evaluations_; }
@@ -61,6 +75,7 @@ class NegatedFunction final : public ceres::FirstOrderFunction {
 
   const DifferentiableFunction& f_;
   mutable Index evaluations_ = 0;
+  mutable std::exception_ptr plugin_error_;
 };
 
 /// Ceres logs through glog even with logging_type SILENT: its line search warns on a degenerate (flat) step
@@ -135,6 +150,7 @@ OptimizeResult CeresLbfgs::run_from(const DifferentiableFunction& f, const Vec& 
     options.function_tolerance = std::min(settings_.function_tolerance, kTightFunctionTolerance);
     options.gradient_tolerance = std::max(settings_.gradient_tolerance, g_tol);
   }
+  negated->rethrow_plugin_error();
   r.evaluations = negated->evaluations();
   r.iterations = iterations;
   r.message = message;
@@ -175,3 +191,4 @@ OptimizeResult CeresLbfgs::maximize(const DifferentiableFunction& f, const Regio
 }
 
 }  // namespace varbo::ceres_lbfgs
+

@@ -27,22 +27,22 @@ JitteredKernel::JitteredKernel(const Kernel& form, const Vec& theta, double jitt
 }
 
 Mat JitteredKernel::training_matrix(const Mat& X) const {
-  Mat K = k_->matrix(X);
+  Mat K = k_->checked_matrix(X);
   if (jitter_ != 0.0) K.diagonal() *= 1.0 + jitter_;
   return K;
 }
 
 Vec JitteredKernel::contract_gradient(const Mat& X, const Mat& W) const {
-  if (jitter_ == 0.0) return k_->contract_gradient(X, W);
+  if (jitter_ == 0.0) return k_->checked_contract_gradient(X, W);
   // Σ_ik W_ik ∂(jitter·δ_ik K_ii) = Σ_i (jitter·W_ii) ∂K_ii: the same contraction with W_ii·(1 + jitter).
   Mat Wj = W;
   Wj.diagonal() *= 1.0 + jitter_;
-  return k_->contract_gradient(X, Wj);
+  return k_->checked_contract_gradient(X, Wj);
 }
 
 Vec JitteredKernel::prior_variance_gradient(const Vec& x) const {
   const Mat at = x.transpose();
-  return 2.0 * (1.0 + jitter_) * k_->cross_gradient_x(x, at).col(0);
+  return 2.0 * (1.0 + jitter_) * k_->checked_cross_gradient_x(x, at).col(0);
 }
 
 std::string process_name(const std::string& kernel_name, Process p) {

@@ -53,8 +53,8 @@ class JitteredKernel {
   /// ½ Σ_ik W_ik ∂(K + jitter·diag K)_ik/∂θ_j for symmetric W: the jitter term moves with θ (for a stationary
   /// kernel only through σ²), which is the contraction of W with jitter·W_ii added on the diagonal.
   Vec contract_gradient(const Mat& X, const Mat& W) const;
-  Vec cross_vec(const Vec& x, const Mat& X) const { return k_->cross_vec(x, X); }
-  Mat cross_gradient_x(const Vec& x, const Mat& X) const { return k_->cross_gradient_x(x, X); }
+  Vec cross_vec(const Vec& x, const Mat& X) const { return k_->checked_cross_vec(x, X); }
+  Mat cross_gradient_x(const Vec& x, const Mat& X) const { return k_->checked_cross_gradient_x(x, X); }
   /// k** = k(x, x)(1 + jitter), the prior variance at a new input (a white term included).
   double prior_variance(const Vec& x) const { return k_->diagonal(x) * (1.0 + jitter_); }
   /// ∂k**/∂x = 2 ∂k(x, z)/∂x at z = x (k symmetric); 0 for stationary kernels, 2σ²x for a linear one.

@@ -77,6 +77,17 @@ class Kernel {
   /// The fit box in log space: [log lower_j, log upper_j].
   Box log_box() const;
 
+  /// The virtual results above with their shapes checked; what surrogates call. A third-party kernel whose
+  /// matrix_gradients() returned one matrix for two hyperparameters crashed varbo and the Python interpreter, and
+  /// one a row short made a seeded run differ from itself (red team, session 31). A wrong shape or count throws
+  /// PluginCodeError naming the method, the sizes and the kernel's hyperparameters.
+  Mat checked_matrix(const Mat& X) const;
+  Mat checked_cross(const Mat& X, const Mat& Z) const;
+  Vec checked_cross_vec(const Vec& x, const Mat& X) const;
+  std::vector<Mat> checked_matrix_gradients(const Mat& X) const;
+  Mat checked_cross_gradient_x(const Vec& x, const Mat& X) const;
+  Vec checked_contract_gradient(const Mat& X, const Mat& W) const;
+
   /// Replaces the prior and the box of every hyperparameter with this role (how `gp`'s lengthscale_prior_*,
   /// min_lengthscale, ... options reach any kernel, composites included).
   virtual void set_role_defaults(KernelParameterRole role, const LogNormalPrior& prior, double lower, double upper);

@@ -4,6 +4,7 @@
 // blanks, which turn typos into silently wrong costs.
 #include <optional>
 #include <string>
+#include <type_traits>
 
 namespace varbo {
 
@@ -18,5 +19,17 @@ std::optional<double> parse_decimal(const std::string& text);
 /// and every plugin default, configuration real and saved state was refused or cut (red team, session 28).
 /// Every number varbo reads goes through this or parse_decimal.
 double strtod_c(const char* text, char** end);
+
+/// `v` as yaml-cpp writes a number (`YAML::Node(v)`: max_digits10 significant digits, .nan, .inf, -.inf), but
+/// always in the "C" locale. yaml-cpp formats through a std::stringstream, which follows the host's global C++
+/// locale: a program that called std::locale::global(std::locale("")) under LANG=de_DE.UTF-8 or en_US.UTF-8 stored
+/// `xi: 0,01` and `candidates: 2,000`, a study no other process could open (red team, session 31). Every number
+/// varbo puts into a YAML node or a file goes through this, std::to_string (integers) or fmt (never the `L` form).
+std::string yaml_scalar(double v);
+template <class T>
+  requires(std::is_integral_v<T> && !std::is_same_v<T, bool>)
+std::string yaml_scalar(T v) {
+  return std::to_string(v);  // locale-independent, unlike a stream
+}
 
 }  // namespace varbo

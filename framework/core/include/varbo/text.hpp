@@ -7,6 +7,14 @@
 
 namespace varbo {
 
+/// ASCII character classes, whatever the process's locale. std::isalnum follows LC_CTYPE: in a Latin-1 locale (a
+/// host's setlocale(LC_ALL, "de_DE")) each byte of a UTF-8 'µ' is a letter, so a name the CLI refuses was accepted
+/// from Python and the study then opened nowhere else (red team, session 31).
+constexpr bool ascii_digit(char c) { return c >= '0' && c <= '9'; }
+constexpr bool ascii_alpha(char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z'); }
+constexpr bool ascii_alnum(char c) { return ascii_alpha(c) || ascii_digit(c); }
+constexpr bool ascii_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+
 /// `text` if it is at most 2·keep bytes (plus a little); else its first and last `keep` bytes around a
 /// "[... N bytes omitted ...]" marker (cut at UTF-8 character boundaries).
 std::string abbreviate(std::string_view text, std::size_t keep = 1024);
@@ -18,6 +26,10 @@ std::string printable(std::string_view text);
 /// (U+0080–U+009F, e.g. U+009B, a one-character CSI) escaped too. For messages varbo prints to a terminal: a
 /// parameter name of a study from elsewhere held ESC sequences that retitled and cleared the user's terminal.
 std::string terminal_text(std::string_view text);
+/// terminal_text(printable(text)): one line a terminal shows and never obeys, for a name or label printed inside a
+/// line of output (`varbo suggest`'s name=label, `varbo select`'s θ): a label holding ESC cleared the screen, one
+/// holding a newline split the line a script reads (red team, session 31).
+std::string terminal_line(std::string_view text);
 /// `text` as one word of a POSIX shell command: unchanged when it holds only characters no shell treats
 /// specially (letters, digits, and _ - . / : , + = @ %), else in single quotes. For the commands varbo prints
 /// for a user to paste: a PostgreSQL URL holds '&', which split `varbo observe URL 2 0.5` into two commands.

@@ -145,7 +145,7 @@ static bool parse_real(const std::string& text, double& out) {
 static bool parse_int(const std::string& text, long& out) {
   // strtol skips leading white space: `budget: " 3"` ran 3 where `noise_std: ' 0.1'` was refused (red team,
   // session 24). One rule for every number: no white space.
-  if (text.empty() || std::isspace(static_cast<unsigned char>(text.front()))) return false;
+  if (text.empty() || ascii_space(text.front())) return false;
   char* end = nullptr;
   errno = 0;
   out = std::strtol(text.c_str(), &end, 10);
@@ -212,13 +212,13 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
         bad();
       }
       if (!in_range(s, static_cast<double>(v))) bad();
-      return YAML::Node(v);
+      return YAML::Node(yaml_scalar(v));
     }
     case OptionType::Real: {
       double v;
       // Non-finite values (.inf, .nan) are never a setting: an infinite noise_std made every trial fail.
       if (!n.is_scalar() || !parse_real(n.scalar(), v) || !std::isfinite(v) || !in_range(s, v)) bad();
-      return YAML::Node(v);
+      return YAML::Node(yaml_scalar(v));
     }
     case OptionType::String: {
       if (!n.is_scalar()) bad();
@@ -241,7 +241,7 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
         if (!it.is_scalar() || !parse_real(it.scalar(), v) || !std::isfinite(v))
           it.fail(fmt::format("expected a finite real number, got {}", shown(it)));
         if (!in_range(s, v)) it.fail(fmt::format("value {} out of range: expected {}", v, s.expected()));
-        out.push_back(v);
+        out.push_back(yaml_scalar(v));
       }
       return out;
     }
@@ -366,7 +366,13 @@ const YAML::Node& Options::value(const std::string& name) const {
 }
 
 bool Options::boolean(const std::string& name) const { return value(name).as<bool>(); }
-long Options::integer(const std::string& name) const { return value(name).as<long>(); }
+long Options::integer(const std::string& name) const {
+  // As yaml_real below: yaml-cpp's stream would follow the host's global C++ locale.
+  const YAML::Node& n = value(name);
+  long v = 0;
+  if (n.IsScalar() && parse_int(n.Scalar(), v)) return v;
+  return n.as<long>();
+}
 // Read by varbo's own number rule, not yaml-cpp's stream: that one follows the global C++ locale, where a host's
 // std::locale::global(de_DE) made '.' a thousands separator.
 static double yaml_real(const YAML::Node& n) {

@@ -2,8 +2,13 @@
 // written in terms of the pure virtual methods.
 #include "varbo/kernel.hpp"
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include <cmath>
 #include <stdexcept>
+
+#include "varbo/errors.hpp"
 
 namespace varbo {
 
@@ -31,10 +36,59 @@ void Kernel::set_log_params(const Vec& log_params) {
   params_changed();
 }
 
-Vec Kernel::cross_vec(const Vec& x, const Mat& X) const { return cross(X, x.transpose()).col(0); }
+
+namespace {
+[[noreturn]] void wrong_shape(const Kernel& k, const char* method, const std::string& got, const std::string& expected) {
+  throw PluginCodeError(fmt::format("a kernel's {} returned {} where {} was expected (kernel with hyperparameters [{}]; "
+                                    "a mistake in the kernel's code)",
+                                    method, got, expected, fmt::join(k.names(), ", ")));
+}
+void require(const Kernel& k, const char* method, const Mat& m, Index rows, Index cols) {
+  if (m.rows() != rows || m.cols() != cols)
+    wrong_shape(k, method, fmt::format("a {}×{} matrix", m.rows(), m.cols()), fmt::format("{}×{}", rows, cols));
+}
+}  // namespace
+
+Vec Kernel::cross_vec(const Vec& x, const Mat& X) const { return checked_cross(X, x.transpose()).col(0); }
+
+Mat Kernel::checked_matrix(const Mat& X) const {
+  Mat K = matrix(X);
+  require(*this, "matrix()", K, X.rows(), X.rows());
+  return K;
+}
+Mat Kernel::checked_cross(const Mat& X, const Mat& Z) const {
+  Mat K = cross(X, Z);
+  require(*this, "cross()", K, X.rows(), Z.rows());
+  return K;
+}
+Vec Kernel::checked_cross_vec(const Vec& x, const Mat& X) const {
+  Vec k = cross_vec(x, X);
+  if (k.size() != X.rows())
+    wrong_shape(*this, "cross_vec()", fmt::format("{} values", k.size()), fmt::format("{}", X.rows()));
+  return k;
+}
+std::vector<Mat> Kernel::checked_matrix_gradients(const Mat& X) const {
+  std::vector<Mat> G = matrix_gradients(X);
+  if (static_cast<Index>(G.size()) != num_params())
+    wrong_shape(*this, "matrix_gradients()", fmt::format("{} matrices", G.size()),
+                fmt::format("{} (one per hyperparameter)", num_params()));
+  for (const Mat& m : G) require(*this, "matrix_gradients()", m, X.rows(), X.rows());
+  return G;
+}
+Mat Kernel::checked_cross_gradient_x(const Vec& x, const Mat& X) const {
+  Mat G = cross_gradient_x(x, X);
+  require(*this, "cross_gradient_x()", G, x.size(), X.rows());
+  return G;
+}
+Vec Kernel::checked_contract_gradient(const Mat& X, const Mat& W) const {
+  Vec g = contract_gradient(X, W);
+  if (g.size() != num_params())
+    wrong_shape(*this, "contract_gradient()", fmt::format("{} values", g.size()), fmt::format("{}", num_params()));
+  return g;
+}
 
 Vec Kernel::contract_gradient(const Mat& X, const Mat& W) const {
-  const std::vector<Mat> G = matrix_gradients(X);
+  const std::vector<Mat> G = checked_matrix_gradients(X);
   Vec g(num_params());
   for (Index j = 0; j < num_params(); ++j) g(j) = 0.5 * (W.array() * G[static_cast<std::size_t>(j)].array()).sum();
   return g;

@@ -4,7 +4,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
+#include <locale>
 #include <locale.h>
+#include <sstream>
 
 namespace varbo {
 
@@ -43,6 +46,16 @@ double strtod_c(const char* text, char** end) {
   static const locale_t c_locale = newlocale(LC_NUMERIC_MASK, "C", static_cast<locale_t>(nullptr));
   if (!c_locale) return std::strtod(text, end);  // out of memory at the first call: the process's locale
   return strtod_l(text, end, c_locale);
+}
+
+std::string yaml_scalar(double v) {
+  if (std::isnan(v)) return ".nan";
+  if (std::isinf(v)) return v > 0 ? ".inf" : "-.inf";
+  std::ostringstream out;
+  out.imbue(std::locale::classic());
+  out.precision(std::numeric_limits<double>::max_digits10);
+  out << v;
+  return out.str();
 }
 
 std::optional<double> parse_decimal(const std::string& text) {

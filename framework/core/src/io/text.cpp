@@ -54,8 +54,7 @@ std::string abbreviate(std::string_view text, std::size_t keep) {
 
 std::string shell_word(std::string_view text) {
   const bool plain = !text.empty() && std::all_of(text.begin(), text.end(), [](char ch) {
-    const auto c = static_cast<unsigned char>(ch);
-    return std::isalnum(c) || std::strchr("_-./:,+=@%", ch) != nullptr;
+    return ascii_alnum(ch) || (ch != '\0' && std::strchr("_-./:,+=@%", ch) != nullptr);
   });
   if (plain) return std::string(text);
   std::string out = "'";
@@ -104,6 +103,8 @@ std::string terminal_text(std::string_view text) {
   }
   return out;
 }
+
+std::string terminal_line(std::string_view text) { return terminal_text(printable(text)); }
 
 std::size_t invalid_utf8_at(std::string_view s) {
   for (std::size_t i = 0; i < s.size();) {

@@ -52,10 +52,10 @@ std::string bad_plugin_name(const char* name) {
   const std::string n = name;
   if (n.empty()) return "its plugin info gives an empty name";
   if (n.size() > 128) return "its plugin name is longer than 128 characters";
-  for (unsigned char ch : n)
-    if (!(std::isalnum(ch) || ch == '_' || ch == '-' || ch == '.')) {
+  for (const char ch : n)
+    if (!(ascii_alnum(ch) || ch == '_' || ch == '-' || ch == '.')) {
       const bool printable = std::all_of(n.begin(), n.end(), [](unsigned char c) { return c >= 0x20 && c < 0x7f; });
-      return fmt::format("its plugin name {}has a character other than letters, digits, '_', '-', '.'",
+      return fmt::format("its plugin name {}has a character other than ASCII letters, digits, '_', '-', '.'",
                          printable ? "'" + n + "' " : "");
     }
   return "";

@@ -87,9 +87,9 @@ void check_component_name(const ComponentInfo& info) {
   if (info.name.size() > 128)
     throw PluginLoadError(fmt::format("{} name '{}...' is longer than 128 characters", kind_name(info.kind),
                                       safe_text(info.name, 40)));
-  for (unsigned char ch : info.name)
-    if (!(std::isalnum(ch) || ch == '_' || ch == '-' || ch == '.'))
-      throw PluginLoadError(fmt::format("{} name '{}' has a character other than letters, digits, '_', '-', '.'",
+  for (const char ch : info.name)
+    if (!(ascii_alnum(ch) || ch == '_' || ch == '-' || ch == '.'))
+      throw PluginLoadError(fmt::format("{} name '{}' has a character other than ASCII letters, digits, '_', '-', '.'",
                                         kind_name(info.kind), printable(info.name)));
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 
+#include "varbo/text.hpp"
 #include "varbo/config.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
@@ -32,17 +33,17 @@ std::vector<Token> tokenize(const std::string& s) {
   while (i < s.size()) {
     const char c = s[i];
     const std::size_t col = i + 1;
-    if (std::isspace(static_cast<unsigned char>(c))) {
+    if (ascii_space(c)) {
       ++i;
-    } else if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') {
+    } else if (ascii_digit(c) || c == '.') {
       std::size_t j = i;
-      while (j < s.size() && (std::isdigit(static_cast<unsigned char>(s[j])) || s[j] == '.')) ++j;
+      while (j < s.size() && (ascii_digit(s[j]) || s[j] == '.')) ++j;
       if (j < s.size() && (s[j] == 'e' || s[j] == 'E')) {
         std::size_t k = j + 1;
         if (k < s.size() && (s[k] == '+' || s[k] == '-')) ++k;
-        if (k < s.size() && std::isdigit(static_cast<unsigned char>(s[k]))) {
+        if (k < s.size() && ascii_digit(s[k])) {
           j = k;
-          while (j < s.size() && std::isdigit(static_cast<unsigned char>(s[j]))) ++j;
+          while (j < s.size() && ascii_digit(s[j])) ++j;
         }
       }
       const std::string t = s.substr(i, j - i);
@@ -50,9 +51,9 @@ std::vector<Token> tokenize(const std::string& s) {
       if (!v || !std::isfinite(*v)) syntax(s, col, fmt::format("'{}' is not a number", t));
       out.push_back({Token::Number, t, *v, col});
       i = j;
-    } else if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+    } else if (ascii_alpha(c) || c == '_') {
       std::size_t j = i;
-      while (j < s.size() && (std::isalnum(static_cast<unsigned char>(s[j])) || s[j] == '_')) ++j;
+      while (j < s.size() && (ascii_alnum(s[j]) || s[j] == '_')) ++j;
       out.push_back({Token::Name, s.substr(i, j - i), 0, col});
       i = j;
     } else if (c == '+') {

@@ -1,4 +1,5 @@
 // `parameters:` and `constraints:` of a study file.
+#include "varbo/text.hpp"
 #include "varbo/search_space_config.hpp"
 
 #include <fmt/format.h>
@@ -41,9 +42,10 @@ Parameter parse_parameter(const ConfigNode& item) {
   Parameter p;
   p.name = name.scalar();
   for (const char c : p.name)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_'))
-      name.fail(fmt::format("'{}': a parameter name is letters, digits and '_' (constraints refer to it)", p.name));
-  if (std::isdigit(static_cast<unsigned char>(p.name[0]))) name.fail(fmt::format("'{}': a name starts with a letter or '_'", p.name));
+    if (!(ascii_alnum(c) || c == '_'))
+      name.fail(fmt::format("'{}': a parameter name is ASCII letters, digits and '_' (constraints refer to it)",
+                            printable(p.name)));
+  if (ascii_digit(p.name[0])) name.fail(fmt::format("'{}': a name starts with a letter or '_'", p.name));
   if (!item.has("type")) item.fail(fmt::format("parameter '{}' needs a type: {}", p.name, join(kTypes)));
   const ConfigNode type = item.child("type");
   const std::string t = type.is_scalar() ? type.scalar() : std::string();

@@ -125,7 +125,8 @@ void warn_if_behind_its_study(const RunFolder& run) {
       log_warn("{}: its study holds {} finished trials, trials.csv {}: results recorded since the run wrote it are "
                "not used here; `varbo run --resume {}` rewrites the folder",
                run.folder, finished, run.trials, shell_word(run.folder));
-    if (const auto identity = store->meta(store_key::kIdentity); identity && *identity != study_identity(run.study))
+    if (const auto identity = store->meta(store_key::kIdentity);
+        identity && !study_detail::same_identity(*identity, study_identity(run.study)))
       log_warn("{}/config.resolved.yaml differs from the study's configuration ({}): an edit of that file changes "
                "nothing of the study, and what is computed here follows the file",
                run.folder, study_detail::first_difference(*identity, study_identity(run.study)));

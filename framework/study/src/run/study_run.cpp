@@ -151,7 +151,8 @@ void refuse_to_replace(const std::string& folder, const std::string& store_path,
     n = store->trials().size();
     // An edited configuration re-run on its folder: the advice to resume was followed and the edits (bounds, a
     // budget) were dropped in silence (red team, session 28). Said, with where it differs.
-    if (const auto stored = store->meta(store_key::kIdentity); stored && *stored != identity_now)
+    if (const auto stored = store->meta(store_key::kIdentity);
+        stored && !study_detail::same_identity(*stored, identity_now))
       differs = fmt::format(". The configuration given differs from the study's ({}): a resumed run continues the "
                             "study as it was created (a budget is raised with --budget); a changed configuration "
                             "is a new study, in another folder (-o)",
@@ -553,8 +554,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
         log_info("nothing more to suggest: {} pending trial(s) of other processes hold the rest of the budget; "
                  "stopping after {} evaluations (their results, when recorded, are part of the study)",
                  pending, summary.evaluations);
-      else
-        log_info("the algorithm has nothing more to suggest; stopping after {} evaluations", summary.evaluations);
+      else  // a warning: the run ends short of its budget (red team, session 31: said at info level, unseen)
+        log_warn("algorithm '{}' has nothing more to suggest (it has finished); stopping after {} of {} evaluations",
+                 study.algorithm.info ? study.algorithm.info->name : std::string("?"), summary.evaluations,
+                 study.budget);
       break;
     }
     const TrialRecord& t = asked.front();

@@ -98,8 +98,8 @@ PostgresAddress parse_postgres_address(const std::string& url) {
   if (a.study.empty())
     throw InputError(fmt::format("{}: the URL names no study; add ?study=NAME (e.g. {})", hide_password(base), example));
   for (char c : a.study)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-' && c != '.')
-      throw InputError(fmt::format("{}: study name '{}': use letters, digits, '_', '-' and '.' only",
+    if (!ascii_alnum(c) && c != '_' && c != '-' && c != '.')
+      throw InputError(fmt::format("{}: study name '{}': use ASCII letters, digits, '_', '-' and '.' only",
                                    hide_password(base), a.study));
   if (a.study.size() > 200)
     throw InputError(fmt::format("{}: study name '{}…' is longer than 200 characters", hide_password(base),

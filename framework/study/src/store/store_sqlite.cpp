@@ -64,7 +64,7 @@ std::string read_only_reason(const std::string& path) {
 std::string sqlite_uri(const std::string& path, const char* query) {
   std::string out = "file:";
   for (const unsigned char c : path) {
-    if (std::isalnum(c) || c == '/' || c == '-' || c == '_' || c == '.' || c == '~')
+    if (ascii_alnum(static_cast<char>(c)) || c == '/' || c == '-' || c == '_' || c == '.' || c == '~')
       out += static_cast<char>(c);
     else
       out += fmt::format("%{:02X}", c);

@@ -13,7 +13,7 @@ struct PostgresAddress {
   std::string display;   ///< the URL as given with any password hidden, for messages
 };
 
-/// Throws InputError for a URL without `?study=NAME` or with a name holding other than letters, digits, '_', '-', '.'.
+/// Throws InputError for a URL without `?study=NAME` or with a name holding other than ASCII letters, digits, '_', '-', '.'.
 PostgresAddress parse_postgres_address(const std::string& url);
 
 /// A libpqxx error's message for ours: one line, without libpq's "FATAL:  " / "ERROR:  " prefixes.

@@ -1,6 +1,7 @@
 // varbo::Study: ask/tell on a study store — creating and opening a study, asking for trials, recording results,
 // abandoning, selecting. The algorithm is rebuilt from its latest saved state plus a replay of the trials finished
 // since (study_rebuild.cpp); the state behind a Study is Study::Impl (study_impl.hpp).
+#include "varbo/numbers.hpp"
 #include "varbo/study_api.hpp"
 
 #include <fmt/format.h>
@@ -49,8 +50,12 @@ std::string study_identity(const StudyConfig& c) {
   YAML::Node n(YAML::NodeType::Map);
   n["task"] = c.task.resolved();
   n["algorithm"] = c.algorithm.resolved();
-  n["seed"] = c.seed;
-  if (c.initial_point) n["initial_point"] = std::vector<double>(c.initial_point->data(), c.initial_point->data() + c.initial_point->size());
+  n["seed"] = yaml_scalar(c.seed);  // numbers in the "C" locale whatever the host's (numbers.hpp)
+  if (c.initial_point) {
+    YAML::Node v(YAML::NodeType::Sequence);
+    for (Index i = 0; i < c.initial_point->size(); ++i) v.push_back(yaml_scalar((*c.initial_point)[i]));
+    n["initial_point"] = v;
+  }
   // Only when present: the identity of a study without them is unchanged.
   if (c.parameters) n["parameters"] = YAML::Clone(c.source.child("parameters").yaml());
   if (c.constraints.defined()) n["constraints"] = YAML::Clone(c.constraints.yaml());
@@ -85,8 +90,38 @@ std::string key_path(const std::vector<std::string>& lines, std::size_t i) {
 }
 }  // namespace
 
-/// The first line where two texts differ, as "at task.upper: stored 'a' vs now 'b'".
-std::string study_detail::first_difference(const std::string& stored, const std::string& now) {
+namespace {
+void block_style(YAML::Node n) {
+  if (n.IsMap() || n.IsSequence()) n.SetStyle(YAML::EmitterStyle::Block);
+  if (n.IsMap())
+    for (auto kv : n) block_style(kv.second);
+  else if (n.IsSequence())
+    for (auto item : n) block_style(item);
+}
+
+/// An emitted identity with every list and map in block style. The identity keeps `parameters:` as the source
+/// wrote it (a stored identity must stay what it was), so a study created with flow entries (`- {name: mode, ...}`)
+/// and read back from its run folder's config.resolved.yaml (block style) differed in text only: `varbo select`
+/// warned of an edited file on every typed run (red team, session 31).
+std::string canonical_identity(const std::string& text) {
+  try {
+    YAML::Node n = YAML::Load(text);
+    block_style(n);
+    return emit(n);
+  } catch (const YAML::Exception&) {
+    return text;
+  }
+}
+}  // namespace
+
+bool study_detail::same_identity(const std::string& stored, const std::string& now) {
+  return stored == now || canonical_identity(stored) == canonical_identity(now);
+}
+
+/// The first line where two texts differ, as "at task.upper: stored 'a' vs now 'b'" (in block style: a list
+/// written in flow style is one line, and differs as a whole).
+std::string study_detail::first_difference(const std::string& stored_text, const std::string& now_text) {
+  const std::string stored = canonical_identity(stored_text), now = canonical_identity(now_text);
   const auto a = lines_of(stored), b = lines_of(now);
   std::size_t i = 0;
   while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
@@ -105,7 +140,7 @@ bool study_detail::adopt_current_resolution(const std::string& store_path, const
   std::unique_ptr<StudyStore> store = open_store(store_path);
   const std::string identity = study_identity(config);
   const auto stored = store->meta(store_key::kIdentity);
-  if (!stored || *stored == identity) return false;
+  if (!stored || study_detail::same_identity(*stored, identity)) return false;
   // Only a difference of resolution is adopted: the stored configuration, resolved by this version, must be the
   // configuration given. One the user changed (another seed, budget aside, another algorithm) is still refused by
   // Study::attach as another study's; adopting it would continue the trials of one configuration with another's.
@@ -246,7 +281,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
   const auto identity = store->meta(store_key::kIdentity);
   if (identity && !(shared && identity_checked(*registry, *text, *identity))) {
     const std::string now = study_identity(impl->config);
-    if (*identity != now)
+    if (!study_detail::same_identity(*identity, now))
       log_warn("{}: the stored configuration resolves differently with the plugins loaded now (an option added or "
                "a default changed since the study was created; first difference: {}); continuing",
                store_path, first_difference(*identity, now));
@@ -270,7 +305,7 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
   impl->store = open_store(store_path);
   impl->check_domain_unchanged();
   const std::string stored = impl->store->meta(store_key::kIdentity).value_or("");
-  if (stored != identity)
+  if (!study_detail::same_identity(stored, identity))
     throw InputError(fmt::format(
         "{}: this study was created from a different configuration (task, algorithm, seed and initial point must "
         "match to continue it); first difference: {}. Use another study file, or continue it with the configuration "
@@ -300,8 +335,8 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
       n[key] = now;
       changed = true;
     };
-    record("budget", YAML::Node(impl->config.budget));
-    record("stop_after_failures", YAML::Node(impl->config.stop_after_failures));
+    record("budget", YAML::Node(yaml_scalar(impl->config.budget)));
+    record("stop_after_failures", YAML::Node(yaml_scalar(impl->config.stop_after_failures)));
     record("heartbeat_timeout", YAML::Node(exact(impl->config.heartbeat_timeout)));
     record("retry_abandoned", YAML::Node(impl->config.retry_abandoned ? "true" : "false"));
     if (changed)

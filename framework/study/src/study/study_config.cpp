@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "varbo/numbers.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
@@ -82,19 +83,26 @@ YAML::Node StudyConfig::resolved() const {
   YAML::Node out(YAML::NodeType::Map);
   out["task"] = task.resolved();
   out["algorithm"] = algorithm.resolved();
-  out["budget"] = budget;
-  out["seed"] = seed;
-  out["threads"] = threads;
+  // Numbers as text in the "C" locale (yaml_scalar): yaml-cpp's own conversion follows the host's C++ locale.
+  out["budget"] = yaml_scalar(budget);
+  out["seed"] = yaml_scalar(seed);
+  out["threads"] = yaml_scalar(threads);
   out["output"] = output;
-  out["heartbeat_timeout"] = heartbeat_timeout;
+  out["heartbeat_timeout"] = yaml_scalar(heartbeat_timeout);
   out["retry_abandoned"] = retry_abandoned;
-  out["stop_after_failures"] = stop_after_failures;
+  out["stop_after_failures"] = yaml_scalar(stop_after_failures);
   if (initial_point) {
-    std::vector<double> v(initial_point->data(), initial_point->data() + initial_point->size());
+    YAML::Node v(YAML::NodeType::Sequence);
+    for (Index i = 0; i < initial_point->size(); ++i) v.push_back(yaml_scalar((*initial_point)[i]));
     out["initial_point"] = v;
   }
   if (parameters) out["parameters"] = YAML::Clone(source.child("parameters").yaml());
   if (constraints.defined()) out["constraints"] = YAML::Clone(constraints.yaml());
+  // Kept with the stored configuration, so a resumed run's folder still carries it: `--resume` rebuilt the study
+  // from the store and dropped it from config.resolved.yaml and summary.json (red team, session 31). Not part of the
+  // study's identity (study_identity): a note edited between sessions is the same study.
+  if (const ConfigNode d = source.child("description"); d.defined() && d.is_scalar() && !d.scalar().empty())
+    out["description"] = d.scalar();
   return out;
 }
 

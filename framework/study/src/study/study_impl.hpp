@@ -52,6 +52,10 @@ Vec recommended_theta(const Vec& r, const std::vector<TrialRecord>& trials, cons
 
 bool adopt_current_resolution(const std::string& store_path, const StudyConfig& config, const Registry& registry);
 
+/// Two emitted identities that describe the same study: equal texts, or equal once every list and map is in
+/// block style (the source's flow style of `parameters:` is kept in a stored identity).
+bool same_identity(const std::string& stored, const std::string& now);
+
 /// The first line where two emitted YAML texts differ, with its key path: "at task.upper: stored 'a' vs now 'b'".
 std::string first_difference(const std::string& stored, const std::string& now);
 

@@ -341,3 +341,25 @@ TEST_CASE("recommendation: lowest_mean_domain stays where success is likely, not
   REQUIRE(runs >= 4);
   CHECK(recommended_past <= runs / 2);
 }
+
+TEST_CASE("recommendation: no evaluated-point rule names a θ where a trial also failed") {
+  set_log_level(LogLevel::Error);
+  // A gain observed once at the lowest cost and failed three times at the very same θ (replicates, or
+  // `varbo fail --theta`) was recommended by every evaluated-point rule (red team, session 31).
+  for (const std::string rule : {"lowest_mean_evaluated", "lowest_bound_evaluated", "best_observed",
+                                 "lowest_mean_domain"}) {
+    CAPTURE(rule);
+    auto a = make_bo("initial_points: 6, recommendation: " + rule + ", surrogate: {type: gp, restarts: 2}", 2, 12, 5);
+    Vec risky;
+    for (int i = 0; i < 6; ++i) {
+      const Suggestion s = a->ask(1).front();
+      a->tell({Observation{s.x, quadratic(s.x), true, {}}});
+    }
+    risky = Vec::Constant(2, 0.3);  // the optimum of `quadratic`: its one success is the lowest cost
+    a->tell({Observation{risky, quadratic(risky), true, {}}});
+    for (int k = 0; k < 3; ++k) a->tell({Observation{risky, std::numeric_limits<double>::quiet_NaN(), false, {}}});
+    const auto rec = a->recommendation();
+    REQUIRE(rec.has_value());
+    CHECK((*rec - risky).cwiseAbs().maxCoeff() > 1e-6);
+  }
+}
