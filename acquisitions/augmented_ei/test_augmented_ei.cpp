@@ -56,6 +56,26 @@ TEST_CASE("aei: incumbent minimizes mu + c s over the data; value = latent EI ti
   }
 }
 
+TEST_CASE("aei: the incumbent's rule uses the latent sd, not the variance (two points that tell them apart)") {
+  // (μ = 0, s = 0.5) and (μ = 0.3, s = 0) with c = 1: μ + c·s = 0.5 vs 0.3, the second is x**; with the variance
+  // (0.25 vs 0.3) the first would be (mutation testing, session 31: the smooth test data could not tell).
+  FakeSurrogate model([](const Vec& x, bool) {
+    Prediction p;
+    p.mean = x(0) < 0.5 ? 0.0 : 0.3;
+    p.latent_var = x(0) < 0.5 ? 0.25 : 0.0;
+    p.log_noise_mean = std::log(1e-4);
+    return p;
+  });
+  Dataset data = Dataset::empty(1);
+  data.add(Vec::Constant(1, 0.2), 0.0);
+  data.add(Vec::Constant(1, 0.8), 0.3);
+  AugmentedExpectedImprovement aei(1.0, false);
+  aei.prepare({&model, &data, 0, nullptr});
+  // At a candidate with μ = 0 and s = 0.5 the value is the latent EI against μ(x**) = 0.3.
+  const Prediction at = model.predict(Vec::Constant(1, 0.2), false);
+  CHECK(aei.evaluate(Vec::Constant(1, 0.2), nullptr) == doctest::Approx(plain_ei(0.3, at.mean, 0.5)).epsilon(1e-12));
+}
+
 TEST_CASE("aei prefers the quieter of two candidates with the same latent prediction; Kuindersma's EI does not") {
   // Two candidates, equal latent mean and variance, noise sd 0.01 at x0 < 0.5 and 1 at x0 >= 0.5.
   FakeSurrogate model([](const Vec& x, bool) {

@@ -1,5 +1,6 @@
 // Samplers: ranges, LHS stratification, Sobol low discrepancy, determinism per seed, constrained regions.
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "region_samplers.hpp"
@@ -100,6 +101,27 @@ TEST_CASE("Latin hypercube hits each of the n strata exactly once per dimension"
                                                   region.bounds().width()[j] * 40)));
     CHECK(strata.size() == 40);
   }
+}
+
+TEST_CASE("Latin hypercube: every pairing of the strata is equally likely (a uniform permutation per dimension)") {
+  // n = 3 in 2-D: the stratum of dimension 1 as a function of dimension 0's is one of the 3! = 6 permutations,
+  // each with probability 1/6. Sattolo's shuffle (rng.index(i) for index(i + 1)) gives only the 2 cyclic ones, and
+  // survived the stratum test above (mutation testing, session 31). χ² over 6 000 designs, 5 degrees of freedom:
+  // 20.5 is its 0.999 quantile.
+  constexpr int kDesigns = 6000;
+  std::map<std::vector<Index>, int> counts;
+  for (int k = 0; k < kDesigns; ++k) {
+    Rng rng(static_cast<std::uint64_t>(1000 + k));
+    const Mat X = latin_hypercube_unit(3, 2, rng);
+    std::vector<Index> pairing(3);
+    for (Index i = 0; i < 3; ++i)
+      pairing[static_cast<std::size_t>(std::floor(X(i, 0) * 3))] = static_cast<Index>(std::floor(X(i, 1) * 3));
+    ++counts[pairing];
+  }
+  CHECK(counts.size() == 6);
+  double chi2 = 0;
+  for (const auto& [pairing, c] : counts) chi2 += std::pow(c - kDesigns / 6.0, 2) / (kDesigns / 6.0);
+  CHECK(chi2 < 20.5);
 }
 
 TEST_CASE("Sobol has lower discrepancy and integration error than uniform sampling") {

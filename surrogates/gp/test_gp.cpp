@@ -427,6 +427,9 @@ TEST_CASE("the fit does not depend on the costs' units: 1e-13 and 1e200 times th
     CHECK(p.mean / unit == doctest::Approx(p0.mean).epsilon(1e-6));
     // The variance is in squared cost units: 1e400 is beyond a double (the run warns above 1e150, study_api.cpp).
     if (unit < 1e150) CHECK(std::sqrt(p.latent_var) / unit == doctest::Approx(std::sqrt(p0.latent_var)).epsilon(1e-5));
+    // So is the noise (mutation testing, session 31: the noise variance scaled by the costs' sd instead of its
+    // square survived every gp test, and EI, PI, CB and the recommendation read it).
+    if (unit < 1e150) CHECK(std::sqrt(p.noise_var()) / unit == doctest::Approx(std::sqrt(p0.noise_var())).epsilon(1e-5));
   }
 }
 

@@ -21,6 +21,12 @@ TEST_CASE("trust_region: defaults follow Eriksson et al. 2019") {
   CHECK(tr.failure_tolerance() == 10);  // ceil(max(4, 10))
   TrustRegion small(2, {});
   CHECK(small.failure_tolerance() == 4);  // ceil(max(4, 2))
+  // With batches of q the tolerance counts batches: ceil(max(4/q, d/q)) (mutation testing, session 31: dropping
+  // the /q on d survived every test, and the region shrank 3× too slowly at d = 10, q = 4).
+  TrustRegionOptions batched;
+  batched.batch_size = 4;
+  CHECK(TrustRegion(10, batched).failure_tolerance() == 3);  // ceil(max(1, 2.5))
+  CHECK(TrustRegion(2, batched).failure_tolerance() == 1);   // ceil(max(1, 0.5))
   CHECK_FALSE(tr.has_constraint());
   CHECK(tr.bounds().lower.isApprox(Vec::Zero(10)));  // before data: the unit cube
 }
