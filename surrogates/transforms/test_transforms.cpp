@@ -268,6 +268,13 @@ TEST_CASE("transformed gp: prediction gradients match finite differences; acquis
   }
   // The incumbent is the same point in cost and warped units (a monotone map keeps the order of the means).
   CHECK(find_incumbent(*model, data).index == find_incumbent(model->acquisition_model(), data).index);
+  // σ_f² in cost units: the warped model's, times (sd of the costs / sd of the warped costs)², computed here from
+  // the data (the confidence region's γ²σ_f² and the cautiousness report read it; mutation testing, session 31: a
+  // factor r instead of r² survived every test).
+  const auto sd = [](const Vec& v) { return std::sqrt((v.array() - v.mean()).square().sum() / (v.size() - 1.0)); };
+  const double r = sd(data.y) / sd(wrapped->transform().forward(data.y));
+  REQUIRE(std::abs(r - 1) > 0.1);  // costs 1 … 1e5: the warping changes the scale, so r and r² differ
+  CHECK(model->signal_variance() == doctest::Approx(wrapped->inner().signal_variance() * r * r).epsilon(1e-12));
 }
 
 TEST_CASE("transformed gp: on exponentially scaled costs it predicts held-out points better, never wildly low") {
