@@ -8,11 +8,11 @@
 
 #include "cli_parse.hpp"
 #include "commands.hpp"
-#include "varbo/numbers.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/math.hpp"
+#include "varbo/numbers.hpp"
 #include "varbo/parallel.hpp"
 #include "varbo/run_folder.hpp"
 #include "varbo/rescore.hpp"

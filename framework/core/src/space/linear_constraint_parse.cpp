@@ -5,11 +5,11 @@
 #include <cmath>
 #include <map>
 
-#include "varbo/text.hpp"
 #include "varbo/config.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/search_space.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 

@@ -1,5 +1,4 @@
 // `parameters:` and `constraints:` of a study file.
-#include "varbo/text.hpp"
 #include "varbo/search_space_config.hpp"
 
 #include <fmt/format.h>
@@ -10,6 +9,7 @@
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/numbers.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 

@@ -1,7 +1,6 @@
 // varbo::Study: ask/tell on a study store — creating and opening a study, asking for trials, recording results,
 // abandoning, selecting. The algorithm is rebuilt from its latest saved state plus a replay of the trials finished
 // since (study_rebuild.cpp); the state behind a Study is Study::Impl (study_impl.hpp).
-#include "varbo/numbers.hpp"
 #include "varbo/study_api.hpp"
 
 #include <fmt/format.h>
@@ -21,6 +20,7 @@
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 #include "varbo/math.hpp"
+#include "varbo/numbers.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/space_wrappers.hpp"
 #include "varbo/state.hpp"

@@ -5,8 +5,8 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "varbo/numbers.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/numbers.hpp"
 #include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
 #include "varbo/text.hpp"
