@@ -1,6 +1,4 @@
 // Logging: what reaches a run's log file, and InfoAsDebug (a replayed study's info lines are not said again).
-#include <fstream>
-#include <sstream>
 #include <thread>
 
 #include "study_helpers.hpp"
@@ -8,15 +6,6 @@
 #include "varbo_test.hpp"
 
 using namespace varbo;
-
-namespace {
-std::string read_all(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-}  // namespace
 
 TEST_CASE("InfoAsDebug demotes this thread's info lines only, warnings pass, and it nests") {
   const std::string dir = test::temp_folder("log_info_as_debug");
@@ -41,7 +30,7 @@ TEST_CASE("InfoAsDebug demotes this thread's info lines only, warnings pass, and
   set_log_file("");
   set_log_level(before);
 
-  const std::string text = read_all(file);
+  const std::string text = test::slurp(file);
   CHECK(text.find("said before") != std::string::npos);
   CHECK(text.find("said after") != std::string::npos);
   CHECK(text.find("a warning while replaying") != std::string::npos);

@@ -64,13 +64,6 @@ struct GlobalLocale {
   }
 };
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 }  // namespace
 
 TEST_CASE("a host's global C++ locale (decimal comma, thousands grouping) changes no number varbo writes") {
@@ -128,10 +121,10 @@ TEST_CASE("a host's global C++ locale (decimal comma, thousands grouping) change
     ov.progress = false;
     run_study_file(cfg, ov);
   }
-  const std::string csv = read_file(dir + "/random_run/trials.csv");
+  const std::string csv = test::slurp(dir + "/random_run/trials.csv");
   CHECK(csv.find("\n1000,") != std::string::npos);
   CHECK(csv.find("1,000") == std::string::npos);
-  CHECK(read_file(dir + "/random_run/config.resolved.yaml").find("budget: 1002") != std::string::npos);
+  CHECK(test::slurp(dir + "/random_run/config.resolved.yaml").find("budget: 1002") != std::string::npos);
 }
 
 TEST_CASE("a parameter name is ASCII whatever the process's LC_CTYPE") {

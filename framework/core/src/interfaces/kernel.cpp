@@ -47,6 +47,9 @@ void require(const Kernel& k, const char* method, const Mat& m, Index rows, Inde
   if (m.rows() != rows || m.cols() != cols)
     wrong_shape(k, method, fmt::format("a {}×{} matrix", m.rows(), m.cols()), fmt::format("{}×{}", rows, cols));
 }
+void require(const Kernel& k, const char* method, const Vec& v, Index size) {
+  if (v.size() != size) wrong_shape(k, method, fmt::format("{} values", v.size()), fmt::format("{}", size));
+}
 }  // namespace
 
 Vec Kernel::cross_vec(const Vec& x, const Mat& X) const { return checked_cross(X, x.transpose()).col(0); }
@@ -63,8 +66,7 @@ Mat Kernel::checked_cross(const Mat& X, const Mat& Z) const {
 }
 Vec Kernel::checked_cross_vec(const Vec& x, const Mat& X) const {
   Vec k = cross_vec(x, X);
-  if (k.size() != X.rows())
-    wrong_shape(*this, "cross_vec()", fmt::format("{} values", k.size()), fmt::format("{}", X.rows()));
+  require(*this, "cross_vec()", k, X.rows());
   return k;
 }
 std::vector<Mat> Kernel::checked_matrix_gradients(const Mat& X) const {
@@ -82,8 +84,7 @@ Mat Kernel::checked_cross_gradient_x(const Vec& x, const Mat& X) const {
 }
 Vec Kernel::checked_contract_gradient(const Mat& X, const Mat& W) const {
   Vec g = contract_gradient(X, W);
-  if (g.size() != num_params())
-    wrong_shape(*this, "contract_gradient()", fmt::format("{} values", g.size()), fmt::format("{}", num_params()));
+  require(*this, "contract_gradient()", g, num_params());
   return g;
 }
 
