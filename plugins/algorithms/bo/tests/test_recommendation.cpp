@@ -363,3 +363,57 @@ TEST_CASE("recommendation: no evaluated-point rule names a θ where a trial also
     CHECK((*rec - risky).cwiseAbs().maxCoeff() > 1e-6);
   }
 }
+
+namespace {
+// A noise-free model whose mean 1 − x falls towards x = 1 everywhere, with its gradient.
+class FallingMean final : public Surrogate {
+ public:
+  FitReport fit(const Dataset&, Rng&) override { return {}; }
+  FitReport condition(const Dataset&) override { return {}; }
+  Prediction predict(const Vec& x, bool grad) const override {
+    Prediction p;
+    p.mean = 1.0 - x(0);
+    if (grad) {
+      p.d_mean = Vec::Constant(1, -1.0);
+      p.d_latent_var = p.d_log_noise_mean = p.d_log_noise_var = Vec::Zero(1);
+    }
+    return p;
+  }
+  double signal_variance() const override { return 1; }
+  Hyperparameters hyperparameters() const override { return {}; }
+  void set_hyperparameters(const Hyperparameters&) override {}
+  bool ready() const override { return true; }
+};
+}  // namespace
+
+TEST_CASE("recommendation: lowest_mean_domain asks for the incumbent's P(success) only up to the cap") {
+  set_log_level(LogLevel::Error);
+  // Successes at x = 0.1 … 0.6, one failure at 0.95, a mean falling towards the failure, and P(success) 0.99 up to
+  // the last success, then falling by 3.3 per unit. The incumbent (x = 0.6) has P = 0.99, above the cap 0.8: the
+  // recommendation may go as far as P = 0.8, at x = 0.6 + 0.19 / 3.3 = 0.6576 (AwayFromFailures allows up to
+  // 0.7167). Asking for the incumbent's own 0.99 (max instead of min; a surviving mutant of session 31) keeps it at
+  // 0.6. With the cap at 0.7 the contour moves to 0.6 + 0.29 / 3.3 = 0.6879.
+  Dataset data = Dataset::empty(1);
+  for (double x : {0.1, 0.2, 0.3, 0.4, 0.5, 0.6}) data.add(Vec::Constant(1, x), 1.0 - x);
+  const Mat failed = Mat::Constant(1, 1, 0.95);
+  BuildContext ctx;
+  ctx.dim = 1;
+  const BoxRegion region(Box::unit(1));
+  const std::unique_ptr<Optimizer> optimizer = test::registry().create<Optimizer>("multistart", ctx);
+  for (const double cap : {0.8, 0.7}) {
+    CAPTURE(cap);
+    bo::SuccessOdds odds;
+    odds.cap = cap;
+    odds.probability = [](const Vec& x, Vec* grad) {
+      const bool falling = x(0) > 0.6;
+      if (grad) *grad = Vec::Constant(1, falling ? -3.3 : 0.0);
+      return falling ? 0.99 - 3.3 * (x(0) - 0.6) : 0.99;
+    };
+    bo::Recommender rec(bo::RecommendationRule::LowestMeanDomain, 0.0, std::make_unique<FallingMean>());
+    Rng rng(4);
+    const Vec r = rec.recommend(nullptr, data, failed, region, *optimizer, rng, true, odds);
+    const double contour = 0.6 + (0.99 - cap) / 3.3;
+    CHECK(std::abs(r(0) - contour) <= 2e-3);  // the optimizer's constraint tolerance
+    CHECK(odds.probability(r, nullptr) >= cap - 1e-6);
+  }
+}
