@@ -53,6 +53,7 @@ class CmaEs final : public Algorithm, public AlgorithmState, public SpaceAware {
   Index generation() const { return generation_; }
   double sigma() const { return sigma_; }
   const Vec& mean() const { return m_; }
+  const Mat& covariance() const { return C_; }
 
  private:
   struct Candidate {

@@ -1,5 +1,8 @@
+#include <algorithm>
 #include <cmath>
 #include <functional>
+#include <utility>
+#include <vector>
 
 #include "cma_es.hpp"
 #include "varbo/errors.hpp"
@@ -108,4 +111,58 @@ TEST_CASE("cma_es: recommendation: mean recommends the distribution mean, clippe
   run(es, f, 60);
   REQUIRE(es.recommendation());
   CHECK((*es.recommendation() - Box::unit(3).clamp(es.mean())).norm() == 0.0);
+}
+
+TEST_CASE("cma_es: one generation's update equals Hansen's tutorial, recomputed here") {
+  // An independent recomputation of the first update (Hansen 2016, eqs. (39)–(47) with positive weights, Table 1's
+  // parameters) from the candidates and their costs; C, m, σ must agree to round-off. It catches, e.g., a rank-μ
+  // term divided by μ_eff (a surviving mutant of session 31: the optimizer still converged, only slower).
+  const Index n = 4;
+  CmaEsOptions o;
+  o.seed = 11;
+  o.sigma0 = 0.05;  // from the centre: no candidate is clipped (10 σ to the faces), so z = x
+  CmaEs es(n, o);
+  const Index lambda = es.lambda();
+  REQUIRE(lambda == 8);  // 4 + floor(3 ln 4)
+  const Vec m0 = es.mean();
+  const auto cost = [](const Vec& x) { return (x - Vec::LinSpaced(4, 0.2, 0.8)).squaredNorm() + 3.0 * x(0) * x(1); };
+  std::vector<std::pair<double, Vec>> told;
+  for (Index k = 0; k < lambda; ++k) {
+    const Vec x = es.ask(1).front().x;
+    REQUIRE(((x.array() > 0) && (x.array() < 1)).all());
+    told.emplace_back(cost(x), x);
+    es.tell({Observation{x, told.back().first, true, {}}});
+  }
+  REQUIRE(es.generation() == 1);
+  std::sort(told.begin(), told.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+
+  const double d = static_cast<double>(n), lam = static_cast<double>(lambda);
+  const Index mu = lambda / 2;
+  Vec w(mu);
+  for (Index i = 0; i < mu; ++i) w(i) = std::log((lam + 1) / 2) - std::log(static_cast<double>(i + 1));
+  w /= w.sum();
+  const double mueff = 1 / w.squaredNorm();
+  const double cc = (4 + mueff / d) / (d + 4 + 2 * mueff / d), cs = (mueff + 2) / (d + mueff + 5);
+  const double c1 = 2 / ((d + 1.3) * (d + 1.3) + mueff);
+  const double cmu = std::min(1 - c1, 2 * (mueff - 2 + 1 / mueff) / ((d + 2) * (d + 2) + mueff));
+  const double damps = 1 + 2 * std::max(0.0, std::sqrt((mueff - 1) / (d + 1)) - 1) + cs;
+  const double chin = std::sqrt(d) * (1 - 1 / (4 * d) + 1 / (21 * d * d));
+
+  Vec yw = Vec::Zero(n);
+  Mat rank_mu = Mat::Zero(n, n);
+  for (Index i = 0; i < mu; ++i) {
+    const Vec y = (told[static_cast<std::size_t>(i)].second - m0) / o.sigma0;
+    yw += w(i) * y;
+    rank_mu += w(i) * y * y.transpose();
+  }
+  const Vec ps = std::sqrt(cs * (2 - cs) * mueff) * yw;  // C⁻½ = I in the first generation
+  const bool hsig = ps.norm() / std::sqrt(1 - (1 - cs) * (1 - cs)) < (1.4 + 2 / (d + 1)) * chin;
+  const Vec pc = (hsig ? std::sqrt(cc * (2 - cc) * mueff) : 0.0) * yw;
+  const Mat C = (1 - c1 - cmu + (hsig ? 0.0 : c1 * cc * (2 - cc))) * Mat::Identity(n, n) + c1 * pc * pc.transpose() +
+                cmu * rank_mu;
+  const double sigma = o.sigma0 * std::exp(cs / damps * (ps.norm() / chin - 1));
+
+  CHECK((es.mean() - (m0 + o.sigma0 * yw)).norm() <= 1e-14);
+  CHECK(std::abs(es.sigma() - sigma) <= 1e-14 * sigma);
+  CHECK((es.covariance() - C).norm() <= 1e-13 * C.norm());
 }
