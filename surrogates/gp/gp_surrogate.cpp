@@ -226,7 +226,9 @@ FitReport GpSurrogate::condition(const Dataset& data) {
     data_ = data;
   } else {
     rep.ok = false;
-    rep.message = "Cholesky failed even with jitter; the previous model is kept";
+    // Say what the caller is left with: a first condition() has no model to keep (red team, session 31).
+    rep.message = posterior_ ? "Cholesky failed even with jitter; the previous model is kept"
+                             : "Cholesky failed even with jitter; no model (nothing fitted before)";
     log_warn("gp: {}", rep.message);
   }
   rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

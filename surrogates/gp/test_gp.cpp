@@ -698,3 +698,22 @@ TEST_CASE("gp options: the defaults are GpSettings{}; given priors are stored as
   CHECK(s.priors.lengthscale.mean == ref.priors.lengthscale.mean);
   CHECK(s.min_signal_std == 0.1);
 }
+
+TEST_CASE("condition: a kernel matrix no jitter can factor says whether a previous model is kept") {
+  // A NaN input makes the kernel matrix NaN (as a faulty kernel plugin does): the first condition() has no model
+  // to keep, and said "the previous model is kept" (red team, session 31); a later one keeps the fitted model.
+  GpSurrogate gp(1, settings_for(KernelType::Matern52), lbfgs());
+  Dataset bad{(Mat(3, 1) << 0.1, std::nan(""), 0.7).finished(), (Vec(3) << 1.0, 2.0, 0.5).finished()};
+  const FitReport first = gp.condition(bad);
+  CHECK_FALSE(first.ok);
+  CHECK_FALSE(gp.ready());
+  CHECK(first.message.find("no model") != std::string::npos);
+  Dataset good{(Mat(3, 1) << 0.1, 0.4, 0.7).finished(), bad.y};
+  REQUIRE(gp.condition(good).ok);
+  const double before = gp.predict(Vec::Constant(1, 0.4), false).mean;
+  const FitReport later = gp.condition(bad);
+  CHECK_FALSE(later.ok);
+  CHECK(later.message.find("previous model is kept") != std::string::npos);
+  REQUIRE(gp.ready());
+  CHECK(gp.predict(Vec::Constant(1, 0.4), false).mean == before);
+}
