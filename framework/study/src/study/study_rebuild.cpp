@@ -65,8 +65,12 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
   const std::string why = detail::what_it_threw<std::bad_alloc>(
       [&] { resumable->restore_state(best->state, observations_of(finished, m)); });
   if (!why.empty()) {
-    log_warn("{}: the saved algorithm state after {} trials cannot be used ({}); replaying the study instead",
-             store->location(), m, why);
+    // Name the component whose code threw (a plugin's, usually), with its library (red team, session 31).
+    const auto* info = config.algorithm.info;
+    log_warn("{}: the saved state of algorithm '{}'{} after {} trials cannot be used ({}); replaying the study "
+             "instead",
+             store->location(), info ? info->full_name() : std::string("?"),
+             info && !info->library.empty() ? " (" + info->library + ")" : std::string(), m, why);
     alg = make_algorithm();
     return finished;
   }
