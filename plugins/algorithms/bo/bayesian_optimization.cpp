@@ -272,16 +272,17 @@ void BayesianOptimization::draw_initial_design() {
 }
 
 Mat BayesianOptimization::design_sample(Index n, Rng& rng) const {
-  return check_sampler_outputs(sample_unit_cube(*design_sampler_, space_, dim_, n, rng), design_sampler_name_, n,
-                               dim_, false);
+  return check_sampler_outputs(sample_unit_cube(*design_sampler_, design_sampler_name_, space_, dim_, n, rng),
+                               design_sampler_name_, n, dim_, false);
 }
 
 Vec BayesianOptimization::random_point(Rng& rng) const {
   // The region may hold no point the sampler finds (fewer_ok); the unit cube always does.
-  Mat m = check_sampler_outputs(design_sampler_->sample(*region_, 1, rng), design_sampler_name_, 1, dim_, true);
+  Mat m = check_sampler_outputs(sample_named(*design_sampler_, design_sampler_name_, *region_, 1, rng),
+                                design_sampler_name_, 1, dim_, true);
   if (m.rows() == 0)
-    m = check_sampler_outputs(design_sampler_->sample(BoxRegion(Box::unit(dim_)), 1, rng), design_sampler_name_, 1,
-                              dim_, false);
+    m = check_sampler_outputs(sample_named(*design_sampler_, design_sampler_name_, BoxRegion(Box::unit(dim_)), 1, rng),
+                              design_sampler_name_, 1, dim_, false);
   return m.row(0).transpose();
 }
 

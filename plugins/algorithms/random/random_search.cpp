@@ -41,7 +41,7 @@ std::optional<Vec> RandomSearch::point(Index k) {
     if (budget_ > kBlock || b * block_ >= budget_) rng = rng.stream(static_cast<std::uint64_t>(b));
     const Index left = budget_ - b * block_;
     const Index want = left > 0 ? std::min(block_, left) : block_;
-    points_ = sample_unit_cube(*sampler_, space_, dim_, want, rng);
+    points_ = sample_unit_cube(*sampler_, sampler_name_, space_, dim_, want, rng);
     // Fewer points than asked is the sampler's bug (a box always holds n points): it ended the run early as
     // "nothing more to suggest", exit 0, the budget unspent (red team, session 23).
     if (points_.rows() != want)
