@@ -820,7 +820,7 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
   Registry registry;
   PluginLoader loader(registry);
   loader.load_default(paths);
-  StudyConfig study = parse_study(root, registry);
+  StudyConfig study = study_detail::parse_stored_study(root, registry, store_path);
   return run_study(study, registry, ov);
 }
 

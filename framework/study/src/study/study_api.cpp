@@ -276,7 +276,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
     registry = &shared_registry(paths);
   }
   const ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
-  impl->init(parse_study(root, *registry), *registry);
+  impl->init(study_detail::parse_stored_study(root, *registry, store_path), *registry);
   log_cpu("configuration parsed and validated, its plugins loaded, task built");
   const auto identity = store->meta(store_key::kIdentity);
   if (identity && !(shared && identity_checked(*registry, *text, *identity))) {

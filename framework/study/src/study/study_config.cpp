@@ -10,6 +10,7 @@
 #include "varbo/search_space_config.hpp"
 #include "varbo/study.hpp"
 #include "varbo/text.hpp"
+#include "study_impl.hpp"
 
 namespace varbo {
 
@@ -199,6 +200,19 @@ StudyConfig parse_study(const ConfigNode& root, const Registry& registry) {
   if (o.is_set("parameters")) s.parameters = std::make_shared<const SearchSpace>(parse_search_space(o.node("parameters")));
   if (o.is_set("constraints")) s.constraints = o.node("constraints");
   return s;
+}
+
+StudyConfig study_detail::parse_stored_study(const ConfigNode& root, const Registry& registry,
+                                             const std::string& store_path) {
+  try {
+    return parse_study(root, registry);
+  } catch (const UnknownComponentError& e) {
+    throw UnknownComponentError(fmt::format(
+        "{}; the study {} names a component of a plugin not loaded here: if a third-party plugin provides it "
+        "(loaded by Python's load_plugin, VARBO_PLUGIN_PATH or a C++ host when the study was created), give its file "
+        "or folder in VARBO_PLUGIN_PATH",
+        e.what(), store_path));
+  }
 }
 
 }  // namespace varbo

@@ -59,6 +59,12 @@ bool same_identity(const std::string& stored, const std::string& now);
 /// The first line where two emitted YAML texts differ, with its key path: "at task.upper: stored 'a' vs now 'b'".
 std::string first_difference(const std::string& stored, const std::string& now);
 
+/// parse_study on the configuration stored with the study at `store_path`. A component no loaded plugin provides
+/// gets a hint: a study created by a process that loaded a plugin itself (Python's load_plugin, a C++ host's
+/// loader) stores no path to it, and opening it elsewhere said only "unknown acquisition 'x'. Known: ..." (red
+/// team, session 31).
+StudyConfig parse_stored_study(const ConfigNode& root, const Registry& registry, const std::string& store_path);
+
 }  // namespace study_detail
 
 struct Study::Impl {
