@@ -200,17 +200,16 @@ int main(int argc, char** argv) {
   std::map<std::string, Result> failure_free;  // by task, budget and seed: shared by the regions of a task
   for (Problem p : set == "wider" ? kWider : kProblems) {
     if (budget > 0) p.budget = budget;  // --budget: every problem's budget
-    const std::string lower = p.key;
-    if (!only.empty() && only != lower) continue;
+    if (!only.empty() && only != p.key) continue;
     const std::string failing = p.task + ", failure_region: " + p.failure_region;
     std::vector<double> rate, rec_with, rec_without, best_with, best_without;
     std::vector<double> hidden_with, hidden_without, shown_with, shown_without;
     int failed_pooled = 0, after_pooled = 0, stuck_with = 0, stuck_without = 0;
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-      const Result w = run(reg, failing, algorithm, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, lower, seed));
+      const Result w = run(reg, failing, algorithm, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, p.key, seed));
       const std::string free_key = fmt::format("{} {} {}", p.task, p.budget, seed);
       if (!with_only && !failure_free.count(free_key))
-        failure_free[free_key] = run(reg, p.task, algorithm, p.budget, seed, threads, fmt::format("{}/{}_o_{}", tmp, lower, seed));
+        failure_free[free_key] = run(reg, p.task, algorithm, p.budget, seed, threads, fmt::format("{}/{}_o_{}", tmp, p.key, seed));
       const Result o = with_only ? Result{} : failure_free[free_key];
       stuck_with += w.regret_recommended >= p.stuck;
       stuck_without += o.regret_recommended >= p.stuck;
