@@ -552,6 +552,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     check_region_outputs(*region_, region_name_, dim_);
   }
   if (fresh_region && !refining_ && fresh_region->fresh_starts() > fresh_starts_ && restart_points_ > 0) {
+    remember_if_blocked(k, data);
     begin_fresh_attempt(k, fresh_region->fresh_starts(), data);
     log_info("bo: trial {}: the region restarts afresh ({}): a new design of {} points, then a model of the new "
              "points", k, fresh_starts_, restart_points_);

@@ -81,6 +81,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   bool restart_on_known(const Dataset& data, Index near, const ValueStall& rule, Rng& region_rng);
   /// failure_model.boundary_restart: whether the attempt's best point is blocked by the failure boundary.
   bool blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const;
+  void remember_if_blocked(Index k, const Dataset& data);
   /// The test itself, without boundary_restart's gates: the cost model's descent from the attempt's best (∞-norm 1)
   /// and the distance along it to the blocking failed trial.
   std::optional<std::pair<Vec, double>> blocked_direction(Index k, const Vec& x, const Dataset& data,
@@ -138,6 +139,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// replacement for a point where failure is likely or was seen: it keeps the design space-filling and away from
   /// earlier minima); the likeliest if none qualifies.
   Vec feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const;
+  std::optional<Vec> nearest_feasible_point(Rng& rng, const Vec& x, double min_p) const;
 
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   double pending_distance_ = 1e-3;  ///< bo's pending_distance (pending_exclusion.hpp)

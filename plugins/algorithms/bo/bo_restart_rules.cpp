@@ -180,6 +180,24 @@ std::optional<std::pair<Vec, double>> BayesianOptimization::blocked_direction(In
   return std::make_pair(dir, ahead);
 }
 
+void BayesianOptimization::remember_if_blocked(Index k, const Dataset& data) {
+  // failure_model.blocked_tabu (session 33): Branin with the slab x2 < 0.3 over two of its minimisers: the first
+  // attempt converges on the slab's face above the covered one (cost 3.93; the minimum 0.398) and the fresh starts,
+  // whose models see only their own points, come back to it. Cutting the attempt there (boundary_restart) also cuts
+  // Hartmann-6 attempts still approaching a minimiser next to a failure face; an attempt that has ended costs nothing
+  // to remember.
+  if (!failure_settings_.blocked_tabu || failed_.empty() || !feasibility_on_ ||
+      !failure_settings_.active(static_cast<Index>(failed_.size())) || data.size() <= fresh_from_)
+    return;
+  const Index best = attempt_best(data);
+  const Vec b = data.X.row(best).transpose();
+  if (blocked_direction(k, b, data, exclusion_threshold_)) {
+    blocked_.push_back(b);
+    log_info("bo: trial {}: the attempt ended blocked by the failure boundary; later attempts keep {} away from its "
+             "best point", k, failure_settings_.boundary_tabu);
+  }
+}
+
 Index BayesianOptimization::attempt_best(const Dataset& data) const {
   const Index from = std::min(fresh_from_, data.size());
   Index best = from;

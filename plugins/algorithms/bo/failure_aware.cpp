@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "pending_exclusion.hpp"
 #include "varbo/errors.hpp"
@@ -153,6 +154,12 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "those within this (max-norm, unit cube) of an earlier attempt's best; 0 = every point")
           .at_least(0)
           .at_most(1),
+      opt::boolean("blocked_tabu", &FailureModelSettings::blocked_tabu,
+                   "once a trial has failed, an attempt that ends with its best point blocked by the failure boundary "
+                   "(boundary_restart's test) keeps later attempts boundary_tabu away from that point"),
+      opt::choice("design_repair", &FailureModelSettings::design_repair, {"farthest", "nearest"},
+                  "where a fresh start's design point with P(success) below the exclusion threshold moves: the likely "
+                  "success farthest from the other design points and earlier minima, or the nearest likely success"),
   };
   return set;
 }
@@ -178,8 +185,41 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
+}
+
+std::optional<Vec> nearest_likely_success(const std::function<double(const Vec&)>& probability, const Vec& x,
+                                          double min_p, Rng& rng) {
+  // Session 33: a fresh start's design point where failure is likely moved to the likely success farthest from the
+  // design, and so away from the failure region's faces — where a basin cut by the region begins (Hartmann-6 with
+  // the slab 0.195 < x2 < 0.495 next to its minimiser at x2 = 0.15: the design point that led the failure-free run
+  // there lay in the slab). The nearest likely success keeps the design's coverage there.
+  const Index dim = x.size();
+  std::vector<Vec> directions;
+  for (Index d = 0; d < dim; ++d)
+    for (const double sign : {1.0, -1.0}) {
+      Vec u = Vec::Zero(dim);
+      u(d) = sign;
+      directions.push_back(std::move(u));
+    }
+  for (Index i = 0; i < 2 * dim; ++i) {
+    const Vec u = rng.uniform_vec(dim).array() * 2.0 - 1.0;
+    if (u.lpNorm<Eigen::Infinity>() > 0) directions.push_back(u / u.lpNorm<Eigen::Infinity>());
+  }
+  std::optional<Vec> best;
+  int best_steps = std::numeric_limits<int>::max();
+  for (const Vec& u : directions)
+    for (int step = 1; step < best_steps && step <= 100; ++step) {
+      const Vec z = x + (0.01 * step) * u;
+      if ((z.array() < 0.0).any() || (z.array() > 1.0).any()) break;
+      if (probability(z) >= min_p) {
+        best_steps = step;
+        best = z;
+        break;
+      }
+    }
+  return best;
 }
 
 Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double fallback) {

@@ -15,6 +15,7 @@
 // point, with the gradient of P, so a local optimizer started there climbs out towards likely success.
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -84,7 +85,7 @@ struct FailureModelSettings {
   bool boundary_restart = false;
   double boundary_reach = 0.05;
   /// Later attempts (not the refinement) do not search within this distance (∞-norm) of a blocked attempt's best.
-  double boundary_tabu = 0.05;
+  double boundary_tabu = 0.15;
   /// A failure-aware trust region (session fail14): once a trial has failed, the region also counts as trials without
   /// improvement (TuRBO's failure counter; feasible_shrink: halve = one halving of L each) every failed model-based
   /// trial ("failed"), every model-based step whose point's P(success) lay within feasible_margin of the level it had
@@ -129,6 +130,14 @@ struct FailureModelSettings {
   /// blocked side's costs set EI's reference and the acquisition around the probe was flat (Hartmann-3 seed 1).
   int follow_points = -1;
   double follow_memory = 0.1;
+  /// Once a trial has failed, an attempt that ends (its region converged) with its best point blocked by the failure
+  /// boundary (boundary_restart's test) is remembered: later attempts keep boundary_tabu away from that point.
+  bool blocked_tabu = true;
+  /// Where a fresh start's design point with P(success) below the exclusion threshold moves: "farthest" (the likely
+  /// success farthest from the design's other points and the earlier minima) or "nearest" (the nearest likely success
+  /// along 2d coordinate and 2d random directions: the design keeps its coverage next to the failure region, where a
+  /// basin beside it begins).
+  std::string design_repair = "nearest";
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);
@@ -148,6 +157,12 @@ FailureModelSettings parse_failure_model(const Options& bo_options, const Regist
 /// composite kernel the first term that has one, e.g. "terms[0].lengthscale[d]"), clipped to [0.01, 10];
 /// `fallback` for a dimension the surrogate does not name.
 Vec cost_lengthscales(const Hyperparameters& hyperparameters, Index dim, double fallback = 0.2);
+
+/// The nearest point to x (in the unit cube) where `probability` reaches min_p, searched along ±each coordinate and
+/// 2d random directions (∞-norm 1) in steps of 0.01: bo's design_repair: nearest. nullopt when every direction leaves
+/// the cube first.
+std::optional<Vec> nearest_likely_success(const std::function<double(const Vec&)>& probability, const Vec& x,
+                                          double min_p, Rng& rng);
 
 /// u_fail = min(0, min_i u(x_i)) over the rows of X (see above).
 double failure_utility(const Acquisition& base, const Mat& X);
