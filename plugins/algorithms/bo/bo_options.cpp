@@ -139,8 +139,10 @@ const OptionSet<BoSettings>& bo_options() {
                 "failed trials (a map; keys left out keep these defaults): enabled: auto = on from the first "
                 "failure; the acquisition is weighted by P(success | θ) from a GP classifier of successes and "
                 "failures and θ with P < min_probability are never suggested; once a trial has failed, an attempt "
-                "converged in value (stall_*) hands over to a fresh start sooner; the other keys are measured "
-                "variants, off by default (docs/failures.md)"),
+                "converged in value (stall_*) hands over to a fresh start sooner, a fresh design's likely failures "
+                "move to the nearest likely success (design_repair) and attempts that ended blocked by the failure "
+                "boundary are kept off (blocked_tabu); the other keys are measured variants, off by default "
+                "(docs/failures.md)"),
   };
   return set;
 }

@@ -91,8 +91,8 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
           .above(0)
           .at_most(1),
       opt::real("boundary_tabu", &FailureModelSettings::boundary_tabu,
-                "with boundary_restart, later attempts (not the final refinement) do not search within this distance "
-                "(max-norm, unit cube) of the best point of an attempt that ended blocked; 0 = they may")
+                "with boundary_restart or blocked_tabu, later attempts (not the final refinement) do not search within "
+                "this distance (max-norm, unit cube) of the best point of an attempt that ended blocked; 0 = they may")
           .at_least(0)
           .at_most(1),
       opt::choice("feasible_region", &FailureModelSettings::feasible_region, {"off", "failed", "limited", "both"},

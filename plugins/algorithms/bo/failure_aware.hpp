@@ -84,7 +84,8 @@ struct FailureModelSettings {
   /// in the global basin whose cost model points into the slab; docs/failures.md, session fail13).
   bool boundary_restart = false;
   double boundary_reach = 0.05;
-  /// Later attempts (not the refinement) do not search within this distance (∞-norm) of a blocked attempt's best.
+  /// Later attempts (not the refinement) do not search within this distance (∞-norm) of a blocked attempt's best
+  /// (boundary_restart, blocked_tabu; 0.05 until session 33).
   double boundary_tabu = 0.15;
   /// A failure-aware trust region (session fail14): once a trial has failed, the region also counts as trials without
   /// improvement (TuRBO's failure counter; feasible_shrink: halve = one halving of L each) every failed model-based
