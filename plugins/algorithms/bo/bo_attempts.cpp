@@ -38,10 +38,12 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   const Index last = design.rows() - 1, row = k - fresh_trial_;
   const Vec x = design.row(replicate_design_ && last >= 1 && row == last ? 0 : row).transpose();
   // A design point where failure is likely (the failure model of every trial so far) is replaced by a point where
-  // success is likely: a new design must not repeat known failures (issue 11). The replacement is the likely
-  // success farthest from the design's other likely successes and (restart_design: away) from the earlier
-  // attempts' minima: an arbitrary random point put Hartmann-6's new attempt next to the old minimum, and the
-  // attempt returned to that basin (docs/failures.md).
+  // success is likely: a new design must not repeat known failures (issue 11). By default (design_repair: nearest,
+  // session 33) the nearest likely success, which keeps the design's coverage at the failure region's face, where a
+  // basin the region cuts begins; with design_repair: farthest (or when no direction finds one) the likely success
+  // farthest from the design's other likely successes and (restart_design: away) from the earlier attempts' minima:
+  // an arbitrary random point put Hartmann-6's new attempt next to the old minimum, and the attempt returned to
+  // that basin (docs/failures.md).
   if (update_feasibility(k, refit) && feasibility_->probability(x) < exclusion_threshold_) {
     Rng rr = rng_.stream(kRandom, static_cast<std::uint64_t>(k));
     if (failure_settings_.design_repair == "nearest")
