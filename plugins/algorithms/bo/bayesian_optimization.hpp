@@ -139,7 +139,6 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// replacement for a point where failure is likely or was seen: it keeps the design space-filling and away from
   /// earlier minima); the likeliest if none qualifies.
   Vec feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const;
-  std::optional<Vec> nearest_feasible_point(Rng& rng, const Vec& x, double min_p) const;
 
   BatchStrategy batch_strategy_ = BatchStrategy::KrigingBeliever;
   double pending_distance_ = 1e-3;  ///< bo's pending_distance (pending_exclusion.hpp)

@@ -47,7 +47,9 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   if (update_feasibility(k, refit) && feasibility_->probability(x) < exclusion_threshold_) {
     Rng rr = rng_.stream(kRandom, static_cast<std::uint64_t>(k));
     if (failure_settings_.design_repair == "nearest")
-      if (std::optional<Vec> near = nearest_feasible_point(rr, x, exclusion_threshold_)) return *near;
+      if (std::optional<Vec> near = nearest_likely_success(
+              [this](const Vec& z) { return feasibility_->probability(z); }, x, exclusion_threshold_, rr))
+        return *near;
     std::vector<Vec> away = restart_away_ ? earlier_minima() : std::vector<Vec>{};
     for (Index i = 0; i < design.rows(); ++i)
       if (i != row && feasibility_->probability(design.row(i).transpose()) >= exclusion_threshold_)
@@ -55,10 +57,6 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
     return feasible_point_away(rr, away, exclusion_threshold_);
   }
   return x;
-}
-
-std::optional<Vec> BayesianOptimization::nearest_feasible_point(Rng& rng, const Vec& x, double min_p) const {
-  return nearest_likely_success([this](const Vec& z) { return feasibility_->probability(z); }, x, min_p, rng);
 }
 
 Vec BayesianOptimization::feasible_point_away(Rng& rng, const std::vector<Vec>& away, double min_p) const {

@@ -191,10 +191,11 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
 
 std::optional<Vec> nearest_likely_success(const std::function<double(const Vec&)>& probability, const Vec& x,
                                           double min_p, Rng& rng) {
-  // Session 33: a fresh start's design point where failure is likely moved to the likely success farthest from the
-  // design, and so away from the failure region's faces — where a basin cut by the region begins (Hartmann-6 with
-  // the slab 0.195 < x2 < 0.495 next to its minimiser at x2 = 0.15: the design point that led the failure-free run
-  // there lay in the slab). The nearest likely success keeps the design's coverage there.
+  // Session 33: before, a fresh start's design point where failure is likely moved to the likely success farthest
+  // from the design (design_repair: farthest, now the fallback), and so away from the failure region's faces —
+  // where a basin cut by the region begins (Hartmann-6 with the slab 0.195 < x2 < 0.495 next to its minimiser at
+  // x2 = 0.15: the design point that led the failure-free run there lay in the slab). The nearest likely success
+  // keeps the design's coverage there.
   const Index dim = x.size();
   std::vector<Vec> directions;
   for (Index d = 0; d < dim; ++d)
