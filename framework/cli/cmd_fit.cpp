@@ -155,6 +155,11 @@ Runner add_fit(CLI::App& app) {
       }
     }
     if (xcols.empty()) throw InputError(fmt::format("{}: no θ columns besides '{}'", a->data, target));
+    // 10^6 columns ran for minutes without a word (red team, session 34); the external task's limit on dim.
+    constexpr std::size_t kMaxColumns = 10000;
+    if (xcols.size() > kMaxColumns)
+      throw InputError(fmt::format("{}: {} θ columns; at most {} (choose the θ columns with --columns)", a->data,
+                                   xcols.size(), kMaxColumns));
     if (data.values.rows() == 0)
       throw InputError(fmt::format("{}: no data rows after the header; a model needs at least one (θ, y) row", a->data));
     std::vector<Index> used = xcols;

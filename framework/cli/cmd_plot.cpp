@@ -252,6 +252,7 @@ svg::Figure plot_slice(const RunFolder& run, const Registry& registry, const Plo
 /// Writes the SVG and prints where, unless it went to standard output itself (`-o -`, `-o /dev/stdout`).
 void save_plot(const svg::Figure& fig, const std::string& out) {
   refuse_to_write_over_a_study(out, "-o");
+  refuse_to_write_over_a_run_file(out, "-o");
   const bool to_stdout = is_standard_output(out);
   write_output(out, fig.render(), "the SVG file");
   if (!to_stdout) std::printf("%s\n", out.c_str());

@@ -152,6 +152,7 @@ Runner add_export(CLI::App& app) {
       std::fwrite(out.data(), 1, out.size(), stdout);
     } else {
       refuse_to_write_over_a_study(a->output, "-o");
+      refuse_to_write_over_a_run_file(a->output, "-o");
       write_output(a->output, out, "the export");
     }
     return 0;

@@ -5,11 +5,14 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <string>
+#include <system_error>
 
 #include "varbo/errors.hpp"
 
@@ -38,8 +41,35 @@ inline void refuse_to_write_over_a_study(const std::string& output, const std::s
   }
   if (is_sqlite(output) || (base != output && is_sqlite(base)))
     throw InputError(fmt::format("{} {}: is {} study file; writing there would destroy its trials. Name another "
-                                 "file (e.g. trials.csv, model.svg)",
+                                 "file (e.g. export.csv, model.svg)",
                                  option, output, base != output ? "part of the" : "a"));
+}
+
+/// Throws InputError (exit 2) when `output` names one of the files a run writes in its folder (trials.csv,
+/// config.resolved.yaml, model.yaml, summary.json, log.txt) inside a run folder (one holding study.db or
+/// config.resolved.yaml), following links: `export -o RUN/trials.csv` and `plot -o RUN/trials.csv` replaced the
+/// run's record with exit 0, and select, plot and rescore refused the run afterwards (red team, session 34).
+inline void refuse_to_write_over_a_run_file(const std::string& output, const std::string& option) {
+  namespace fs = std::filesystem;
+  static const char* const kRunFiles[] = {"trials.csv", "config.resolved.yaml", "model.yaml", "summary.json",
+                                          "log.txt"};
+  const auto check = [&](const fs::path& p) {
+    const std::string name = p.filename().string();
+    if (std::find_if(std::begin(kRunFiles), std::end(kRunFiles), [&](const char* f) { return name == f; }) ==
+        std::end(kRunFiles))
+      return;
+    const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+    std::error_code ec;
+    if (fs::exists(dir / "study.db", ec) || fs::exists(dir / "config.resolved.yaml", ec))
+      throw InputError(fmt::format("{} {}: is the run folder {}'s own {}; writing there would replace the run's "
+                                   "record. Name a file outside the run folder or with another name (e.g. "
+                                   "export.csv, model.svg)",
+                                   option, output, dir.string(), name));
+  };
+  check(fs::path(output));
+  std::error_code ec;
+  const fs::path real = fs::weakly_canonical(fs::path(output), ec);  // a link to a run's file
+  if (!ec) check(real);
 }
 
 /// Whether `output` names standard output: "-", or a path to the very file it writes to (`/dev/stdout`,

@@ -12,6 +12,7 @@
 #include "varbo/continuation.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/regular_file.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
@@ -99,6 +100,7 @@ ComponentRun component_run_from(const RunFolder& rf, const std::string& label) {
 void read_run_summary(ComponentRun& run, const std::string& summary) {
   std::error_code ec;
   if (!fs::exists(summary, ec)) return;
+  require_regular_file(summary, "the run's summary, a JSON file");
   try {
     std::ifstream s(summary);
     const nlohmann::json j = nlohmann::json::parse(s);

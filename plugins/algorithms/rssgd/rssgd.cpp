@@ -87,7 +87,12 @@ Settings settings_from(const Options& o, Index dim) {
   if (s.step.min > s.step.max) o.node("step_min").fail("step_min must not exceed step_max");
   if (s.cost_unit != -1 && !(s.cost_unit > 0))
     o.node("cost_unit").fail("expected -1 (the local costs' standard deviation) or a cost difference > 0");
+  // The sentinels are -1 exactly: 0 or -0.5 acted as -1 in silence while config.resolved.yaml kept the number
+  // (red team, session 34).
+  if (s.max_step != -1 && s.max_step < 0)
+    o.node("max_step").fail("expected -1 (ε, the local data ball's radius), 0 (no limit) or a length > 0");
   const double eps = o.real("epsilon");
+  if (eps != -1 && !(eps > 0)) o.node("epsilon").fail("expected -1 (3.5·max σ, as the paper) or a radius > 0");
   s.neighborhood.radius = eps > 0 ? eps : 3.5 * s.sigma.maxCoeff();  // paper: ε = 3.5σ
   s.neighborhood.min_points = s.min_fit_points;
   // k nearest below the fit's minimum never made an update: every trial perturbed θ0, in silence.

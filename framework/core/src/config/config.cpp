@@ -70,6 +70,29 @@ void check_utf8(const YAML::Node& n, const std::string& name) {
                                 at(name, n.Mark()), static_cast<unsigned char>(n.Scalar()[at_byte]), at_byte));
 }
 
+/// A core-schema tag must describe its node: yaml-cpp keeps the tag but not its meaning, so `task: !!null branin`
+/// ran Branin where PyYAML reads null, and `algorithm: !!seq {type: random}` ran the map (red team, session 34).
+/// Scalar tags (!!int, !!bool, ...) on a scalar are checked against the option's type where it is read.
+void check_tag_matches(const YAML::Node& n, const std::string& name) {
+  static const std::string core = "tag:yaml.org,2002:";
+  const std::string& tag = n.Tag();
+  if (tag.rfind(core, 0) != 0) return;
+  const std::string t = tag.substr(core.size());
+  const char* kind = n.IsMap() ? "a map" : n.IsSequence() ? "a list" : "a value";
+  const bool scalar_tag = t == "str" || t == "int" || t == "float" || t == "bool" || t == "null";
+  const std::string& v = n.IsScalar() ? n.Scalar() : std::string();
+  const bool fits = t == "map"        ? n.IsMap()
+                    : t == "seq"      ? n.IsSequence()
+                    : t == "null"     ? (n.IsNull() || (n.IsScalar() && (v.empty() || v == "~" || v == "null" ||
+                                                                         v == "Null" || v == "NULL")))
+                    : scalar_tag      ? (n.IsScalar() || n.IsNull())
+                                      : true;
+  if (!fits)
+    throw ConfigError(fmt::format("{}: the tag !!{} does not describe this node ({}{}); a configuration uses plain "
+                                  "values: remove the tag",
+                                  at(name, n.Mark()), t, kind, n.IsScalar() ? " '" + v + "'" : std::string()));
+}
+
 /// What yaml-cpp accepts but a configuration must not hold: a key given twice (the first would win silently),
 /// a key that is not a plain scalar, an unknown tag, absurd nesting or alias expansion.
 void check_structure(const YAML::Node& n, const std::string& name, int depth, WalkBudget& budget) {
@@ -78,6 +101,7 @@ void check_structure(const YAML::Node& n, const std::string& name, int depth, Wa
   if (!known_tag(n.Tag()))
     throw ConfigError(fmt::format("{}: unknown YAML tag '{}' (a configuration uses plain values, no tags)",
                                   at(name, n.Mark()), n.Tag()));
+  check_tag_matches(n, name);
   if (n.IsScalar()) check_utf8(n, name);
   if (n.IsMap()) {
     std::vector<std::pair<std::string, YAML::Mark>> seen;

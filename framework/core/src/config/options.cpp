@@ -203,6 +203,16 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     case OptionType::Int: {
       long v;
       if (!n.is_scalar()) bad();
+      {
+        // `budget: 010` ran 10 trials, where YAML 1.1 (PyYAML, rosparam) reads octal 8 (red team, session 34):
+        // the number is ambiguous, so it is refused.
+        const std::string& t = n.scalar();
+        const std::size_t d = !t.empty() && (t[0] == '-' || t[0] == '+') ? 1 : 0;
+        if (t.size() > d + 1 && t[d] == '0' && t[d + 1] >= '0' && t[d + 1] <= '9')
+          n.fail(fmt::format("expected {}, got {}: a leading zero is ambiguous (YAML 1.1 readers such as PyYAML and "
+                             "rosparam read it as an octal number); write the number without it",
+                             s.expected(), shown(n)));
+      }
       if (!parse_int(n.scalar(), v)) {
         // A whole number past what a long holds: "expected an integer in [0, inf), got 18446744073709551616"
         // read as a contradiction (red team, session 23); say the limit.

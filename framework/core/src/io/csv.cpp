@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "varbo/errors.hpp"
+#include "varbo/regular_file.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/text.hpp"
 
@@ -178,6 +179,7 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
 }
 
 std::vector<std::vector<std::string>> read_csv_cells(const std::string& filename) {
+  require_regular_file(filename, "a CSV file");
   std::ifstream in(filename);
   std::vector<std::vector<std::string>> rows;
   std::string line;

@@ -1,4 +1,5 @@
 #include "varbo/log.hpp"
+#include "varbo/regular_file.hpp"
 #include "varbo/text.hpp"
 
 #include <atomic>
@@ -53,7 +54,12 @@ void set_log_file(const std::string& path) {
   auto& f = log_file();
   if (f.is_open()) f.close();
   log_file_path() = path;
-  if (!path.empty()) {
+  if (!path.empty() && !absent_or_regular_file(path)) {
+    // A FIFO blocked `run --resume` forever (and SIGTERM with it), a device would take every message (red team,
+    // session 34). Said on the terminal; the run goes on.
+    if (g_level.load() <= static_cast<int>(LogLevel::Warn))
+      std::fprintf(stderr, "[varbo warning] %s: not a regular file; messages go to the terminal only\n", path.c_str());
+  } else if (!path.empty()) {
     f.open(path, std::ios::app);
     // Another user's run folder resumed: log.txt kept only the first user's lines, in silence (red team, session
     // 29). Said on the terminal; the run goes on.

@@ -12,6 +12,7 @@
 
 #include "varbo/loader.hpp"
 #include "varbo/plugin.hpp"
+#include "varbo/regular_file.hpp"
 
 namespace fs = std::filesystem;
 
@@ -48,7 +49,9 @@ std::optional<std::vector<IndexedLibrary>> list_plugin_files(const std::string& 
 }
 
 std::optional<std::vector<IndexedLibrary>> read_plugin_index(const std::string& dir) {
-  std::ifstream in(fs::path(dir) / kPluginIndexFile);
+  const std::string file = (fs::path(dir) / kPluginIndexFile).string();
+  if (!absent_or_regular_file(file)) return std::nullopt;  // a FIFO would block every command
+  std::ifstream in(file);
   if (!in) return std::nullopt;
   std::string line;
   if (!std::getline(in, line) || line != header()) return std::nullopt;

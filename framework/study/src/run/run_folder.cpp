@@ -16,6 +16,7 @@
 
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/regular_file.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/math.hpp"
@@ -46,6 +47,11 @@ double parse_number(const std::string& text, const std::string& where) {
 std::vector<Hyperparameters> read_model_yaml(const std::string& file) {
   std::vector<Hyperparameters> out;
   if (!fs::exists(file)) return out;
+  if (!absent_or_regular_file(file)) {  // a FIFO blocked forever, a directory was an internal error
+    log_warn("{}: not a regular file; the model is fitted from its defaults, without the run's last hyperparameters",
+             file);
+    return out;
+  }
   YAML::Node root;
   try {
     root = YAML::LoadFile(file);
@@ -155,6 +161,7 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
   run.initial_point = run.study.initial_point ? run.study.initial_point : task->initial_point();
   for (Index i = static_cast<Index>(run.names.size()); i < d; ++i) run.names.push_back(fmt::format("x{}", i + 1));
 
+  require_regular_file(csv, "the run's table of trials, a CSV file");
   std::ifstream in(csv);
   std::string line;
   if (!std::getline(in, line)) throw InputError(fmt::format("{}: empty file (expected a header line)", csv));

@@ -12,6 +12,7 @@
 
 #include "owner_identity.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/regular_file.hpp"
 
 namespace varbo {
 
@@ -26,6 +27,7 @@ std::string owner_line() {
 }  // namespace
 
 std::string RunLock::owner_of(const std::string& lock_path) {
+  if (!absent_or_regular_file(lock_path)) return "";  // a FIFO would block
   std::ifstream in(lock_path);
   std::string line;
   std::getline(in, line);

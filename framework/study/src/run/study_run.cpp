@@ -24,6 +24,7 @@
 #include "../study/study_impl.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/regular_file.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
@@ -109,7 +110,9 @@ std::optional<std::string> other_studys_folder(const std::string& folder, const 
   // The folder's own study.db is its study, whatever summary.json says: a copied or moved run folder names the
   // original's path there until it is resumed.
   if (same_file((std::filesystem::path(folder) / "study.db").string(), store_path)) return std::nullopt;
-  std::ifstream in(std::filesystem::path(folder) / "summary.json");
+  const std::string summary = (std::filesystem::path(folder) / "summary.json").string();
+  if (!absent_or_regular_file(summary)) return std::nullopt;  // a FIFO would block
+  std::ifstream in(summary);
   if (!in) return std::nullopt;
   nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
   if (j.is_discarded() || !j.is_object() || !j.contains("study") || !j["study"].is_string()) return std::nullopt;
@@ -125,7 +128,9 @@ bool this_studys_folder(const std::string& folder, const std::string& store_path
   namespace fs = std::filesystem;
   if (same_file((fs::path(folder) / "study.db").string(), store_path)) return true;
   if (const auto out = store.meta(store_key::kOutput); out && same_file(*out, folder)) return true;
-  std::ifstream in(fs::path(folder) / "summary.json");
+  const std::string summary = (fs::path(folder) / "summary.json").string();
+  if (!absent_or_regular_file(summary)) return false;  // a FIFO would block
+  std::ifstream in(summary);
   if (!in) return false;
   nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
   return !j.is_discarded() && j.is_object() && j.contains("study") && j["study"].is_string() &&

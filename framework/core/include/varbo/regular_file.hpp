@@ -1,0 +1,16 @@
+#pragma once
+// Files a command reads (or appends to) by name: only a regular file, or a link to one. A FIFO blocked `select`,
+// `plot` and `run --resume` forever, a directory ended in "internal error: basic_filebuf::underflow" (red team,
+// session 34); /dev/zero would be read forever.
+#include <string>
+
+namespace varbo {
+
+/// Throws InputError "<path>: not a regular file (<what>, e.g. a directory or a FIFO)" when `path` exists and is
+/// not a regular file (links are followed). Returns whether it exists.
+bool require_regular_file(const std::string& path, const std::string& what);
+
+/// The same test without throwing: true when `path` does not exist or is a regular file.
+bool absent_or_regular_file(const std::string& path);
+
+}  // namespace varbo
