@@ -331,7 +331,7 @@ Runner add_abandon(CLI::App& app) {
     // team, session 28).
     const std::string location = a->store;
     const bool run_live = is_database_url(location) ? database_run_is_live(location)
-                                                    : RunLock::held(location + ".lock");
+                                                    : RunLock::held(RunLock::lock_file_of(location));
     std::vector<std::string> spared;
     auto live = [&](const TrialRecord& t) {
       if (t.worker.empty()) return false;

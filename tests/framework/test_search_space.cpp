@@ -441,4 +441,9 @@ TEST_CASE("int bounds beyond 2^53 are refused: not every integer there is a doub
             .find("parameter 'n' (int): -9223372036854775808 is beyond ±2^53 = 9007199254740992") !=
         std::string::npos);
   CHECK(error_of("- {name: n, type: int, low: -9007199254740992, high: 9007199254740992}").empty());
+  // Tested as written: 2^53 + 1 read as a double is 2^53 (red team, session 34).
+  CHECK(error_of("- {name: n, type: int, low: 0, high: 9007199254740993}")
+            .find("9007199254740993 is beyond ±2^53") != std::string::npos);
+  CHECK(error_of("- {name: n, type: int, low: -9007199254740993, high: 0}")
+            .find("-9007199254740993 is beyond ±2^53") != std::string::npos);
 }

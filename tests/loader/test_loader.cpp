@@ -330,6 +330,38 @@ TEST_CASE("a registration that throws something other than a std::exception is a
   CHECK(contains(m, "failed to register: it threw something that is not a std::exception"));
 }
 
+TEST_CASE("a third-party library that crashes while loading is refused; only a test process dies") {
+  // load_probe.hpp: damaged relocations or a crashing static initializer killed every command with SIGSEGV (red
+  // team, session 34). The library is first loaded in a child process.
+  for (const char* which : {"crashinit", "crashreg"}) {
+    CAPTURE(which);
+    Registry r;
+    PluginLoader l(r);
+    try {
+      l.load_file(fixture(which));
+      FAIL("loaded");
+    } catch (const PluginLoadError& e) {
+      CHECK(contains(e.what(), fixture(which)));
+      CHECK(contains(e.what(), "signal 11 (SIGSEGV)"));
+    }
+    CHECK(l.loaded().empty());
+    CHECK(r.try_find(Kind::Acquisition, "fixture_constant") == nullptr);
+  }
+  // In a folder it is skipped with that reason; the folder's good library still loads.
+  const fs::path dir = fs::temp_directory_path() / ("varbo_crash_folder_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  fs::copy_file(fixture("good"), dir / "libvarbo_fixture_good.so");
+  fs::copy_file(fixture("crashinit"), dir / "libvarbo_fixture_zcrash.so");
+  Registry r;
+  PluginLoader l(r);
+  l.load_directory(dir.string());
+  CHECK(l.loaded().size() == 1);
+  REQUIRE(l.skipped().size() == 1);
+  CHECK(contains(l.skipped()[0].reason, "SIGSEGV"));
+  fs::remove_all(dir);
+}
+
 TEST_CASE("option declarations are checked when the plugin loads") {
   // An option named `type` was written beside the component's `type:` into config.resolved.yaml and the stored
   // study, which then no longer parsed ("duplicate key 'type'").
@@ -421,10 +453,11 @@ TEST_CASE("scanning a folder loads the good library once and records every bad o
   Registry r;
   PluginLoader l(r);
   l.load_directory(VARBO_FIXTURE_DIR);
-  // Sorted: abi, build, clash, emptyname, foreign, good, slashname, text, throws. clash and good load; "throws"
-  // carries the same plugin name as good, so it is shadowed (first wins) and never runs; six are skipped.
+  // Sorted: abi, build, clash, crashinit, crashreg, emptyname, foreign, good, slashname, text, throws. clash and
+  // good load; "throws" carries the same plugin name as good, so it is shadowed (first wins) and never runs;
+  // eight are skipped (the two that crash in a test process among them).
   CHECK(l.loaded().size() == 2);
-  CHECK(l.skipped().size() == 6);
+  CHECK(l.skipped().size() == 8);
   for (const auto& s : l.skipped()) CHECK(contains(s.reason, s.path));
 }
 

@@ -55,9 +55,20 @@ TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the o
   CHECK(contains(msg, out + "/study.db.lock"));
   // External workers are not locked out: the store stays readable while the run drives it.
   CHECK(test::run({V, "-q", "status", out + "/study.db"}, dir + "/status.log").exit_code == 0);
+  // Through a symbolic link to the study file: the same lock, beside the file the link leads to (a second run
+  // took a lock of the link's name and drove the study too; red team, session 34).
+  fs::create_symlink(out + "/study.db", dir + "/link.db");
+  CHECK(test::run({V, "-q", "run", "--resume", dir + "/link.db", "--no-progress"}, dir + "/link.log").exit_code == 2);
+  CHECK(contains(slurp(dir + "/link.log"), "in use by another run"));
 
   kill(first, SIGKILL);  // the kernel releases the lock with the process
   test::wait_for(first);
+  // A hard link is a second name for the file: SQLite's journal and the lock would follow the name, so it is
+  // refused (session 34: 4 of 8 trials lost).
+  fs::create_hard_link(out + "/study.db", dir + "/hard.db");
+  CHECK(test::run({V, "-q", "run", "--resume", dir + "/hard.db", "--no-progress"}, dir + "/hard.log").exit_code == 2);
+  CHECK(contains(slurp(dir + "/hard.log"), "2 names (hard links)"));
+  fs::remove(dir + "/hard.db");
   const std::size_t before = trial_count(out + "/study.db");
   CHECK(before >= 1);
   // What killed runs were writing aside stays no longer (one set per SIGKILL accumulated): the resume holds the

@@ -14,6 +14,7 @@
 #include <set>
 
 #include "elf_check.hpp"
+#include "load_probe.hpp"
 #include "on_demand.hpp"
 #include "plugin_index.hpp"
 #include "plugin_meta.hpp"
@@ -141,6 +142,18 @@ void PluginLoader::load_file(const std::string& path, bool builtin) {
   // Built-in plugins were linked with varbo itself (-z defs, same build): their functions are bound lazily,
   // which saves a few ms of symbol lookups per process (`varbo suggest`, docs/studies.md). A third-party library
   // is bound at once, so that a missing symbol is a load error naming it, never a crash mid-study.
+  if (!builtin) {
+    // First in a child process (load_probe.hpp): a damaged library kills the child, not every command.
+    const auto register_in_child = [&](void* h) {
+      auto fn = reinterpret_cast<varbo_plugin_register_fn>(dlsym(h, VARBO_PLUGIN_REGISTER_SYMBOL));
+      if (fn == nullptr) return;
+      PluginRegistrar registrar(registry_, name, path);
+      char error[1024] = {0};
+      fn(&registrar, error, sizeof error);
+    };
+    if (const std::optional<std::string> why = detail::load_crashes(path, register_in_child))
+      throw PluginLoadError(fmt::format("{}: plugin '{}' not loaded: {}", path, name, *why));
+  }
   void* handle = dlopen(path.c_str(), (builtin ? RTLD_LAZY : RTLD_NOW) | RTLD_LOCAL);
   if (handle == nullptr) {
     const char* err = dlerror();

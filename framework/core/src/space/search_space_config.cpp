@@ -3,7 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 #include <set>
 
 #include "varbo/csv.hpp"
@@ -58,16 +60,24 @@ Parameter parse_parameter(const ConfigNode& item) {
     p.low = number_of(item.child("low"), t == "int" ? "an integer" : "a finite number");
     p.high = number_of(item.child("high"), t == "int" ? "an integer" : "a finite number");
     // θ holds doubles: beyond 2^53 not every integer is one (a range of ±9.2e18 gave values like 7.14865037247871e+18
-    // in trials.csv), and the model's cells of width 1 vanish in rounding.
-    // The test is on the value as read, a double: 2^53 + 1 is read as 2^53, so 2^53 itself is refused too (2^53 + 1
-    // passed and ran with 2^53; red team, session 34).
-    constexpr double kMaxInt = 9007199254740991.0;  // 2^53 - 1
+    // in trials.csv), and the model's cells of width 1 vanish in rounding. An integer is tested as written: read as
+    // a double, 2^53 + 1 became 2^53 and passed (red team, session 34).
+    constexpr double kMaxInt = 9007199254740992.0;  // 2^53
     if (p.type == ParameterType::Int)
-      for (const char* k : {"low", "high"})
-        if (std::abs(k[0] == 'l' ? p.low : p.high) > kMaxInt)
-          item.child(k).fail(fmt::format("parameter '{}' (int): {} is beyond ±(2^53 - 1) = {:.0f}, where not every "
-                                         "integer is exact in a double; rescale the parameter",
-                                         p.name, item.child(k).scalar(), kMaxInt));
+      for (const char* k : {"low", "high"}) {
+        const std::string text = item.child(k).is_scalar() ? item.child(k).scalar() : std::string();
+        char* end = nullptr;
+        errno = 0;
+        const long long written = text.empty() ? 0 : std::strtoll(text.c_str(), &end, 10);
+        const bool exact = !text.empty() && end && *end == '\0' && errno == 0;
+        constexpr long long kMaxExact = 9007199254740992LL;
+        const bool beyond = exact ? (written > kMaxExact || written < -kMaxExact)
+                                  : std::abs(k[0] == 'l' ? p.low : p.high) > kMaxInt;
+        if (beyond)
+          item.child(k).fail(fmt::format("parameter '{}' (int): {} is beyond ±2^53 = {:.0f}, where not every integer "
+                                         "is exact in a double; rescale the parameter",
+                                         p.name, text, kMaxInt));
+      }
     if (item.has("log")) p.log = boolean_of(item.child("log"));
   } else if (t == "categorical") {
     p.type = ParameterType::Categorical;

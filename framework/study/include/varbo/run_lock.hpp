@@ -17,6 +17,9 @@ class RunLock {
   static std::string owner_of(const std::string& lock_path);
   /// Whether a process holds the lock on `lock_path` now (a live `varbo run`); takes nothing.
   static bool held(const std::string& lock_path);
+  /// The lock file of the study file `store`: beside the file links lead to, so that a study named through a
+  /// link (`run --resume link.db`) is locked as the study it is (two drivers ran at once; red team, session 34).
+  static std::string lock_file_of(const std::string& store);
 
   RunLock(RunLock&& other) noexcept;
   RunLock& operator=(RunLock&& other) noexcept;

@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 
 #include "owner_identity.hpp"
@@ -32,6 +33,12 @@ std::string RunLock::owner_of(const std::string& lock_path) {
   std::string line;
   std::getline(in, line);
   return line;
+}
+
+std::string RunLock::lock_file_of(const std::string& store) {
+  std::error_code ec;
+  const std::filesystem::path real = std::filesystem::weakly_canonical(store, ec);
+  return (ec ? store : real.string()) + ".lock";
 }
 
 bool RunLock::held(const std::string& lock_path) {

@@ -281,10 +281,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   if (is_database_url(store_path))
     database_lock.emplace(DatabaseRunLock::acquire(store_path));
   else
-    locks.push_back(RunLock::acquire(store_path + ".lock", fmt::format("the study {}", store_path)));
+    locks.push_back(RunLock::acquire(RunLock::lock_file_of(store_path), fmt::format("the study {}", store_path)));
   const std::string folder_store = study.output + "/study.db";
   if (!own_store && !same_file(folder_store, store_path))
-    locks.push_back(RunLock::acquire(folder_store + ".lock", fmt::format("the run folder {}", study.output)));
+    locks.push_back(RunLock::acquire(RunLock::lock_file_of(folder_store), fmt::format("the run folder {}", study.output)));
   if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
     if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov, study_identity(study));
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite

@@ -260,6 +260,15 @@ class SqliteStore final : public StudyStore {
       throw InputError(fmt::format("{}: a folder, not a study file{}", path,
                                    fs::exists(inside, ec) ? " (this run folder's study is " + inside + ")" : ""));
     }
+    // SQLite names a database's journal (-wal, -shm) and varbo its run lock after the name used: through a hard
+    // link a second `varbo run` took its own lock and journal, both drove the study and 4 of 8 trials were lost,
+    // with `study verify` ok (red team, session 34). One file, one name.
+    struct stat links {};
+    if (!create && ::stat(path.c_str(), &links) == 0 && S_ISREG(links.st_mode) && links.st_nlink > 1)
+      throw InputError(fmt::format("{}: the study file has {} names (hard links); SQLite keeps its journal and varbo "
+                                   "its run lock under the name used, so two names would let two writers in. Open it "
+                                   "by one name: remove the other links, or `cp` the file for an independent copy",
+                                   path, static_cast<unsigned long>(links.st_nlink)));
     const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
     if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
       const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
