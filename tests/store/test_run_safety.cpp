@@ -1,14 +1,18 @@
 // `varbo run` as the one writer of its run folder and study (issue 11, item 3), and inputs that must be refused
 // before anything is created (item 5): each case runs the built executable.
+#include <signal.h>
+#include <sqlite3.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 #include "process.hpp"
 #include "study_helpers.hpp"
@@ -630,4 +634,36 @@ TEST_CASE("every view of a study agrees: θ to the last digit, the recommended t
     CHECK(contains(slurp(run + "/summary.json"), fmt::format("\"best_theta\": [\n    {},", exact(t[0].theta[0]))));
   }
   fs::remove_all(dir);
+}
+
+TEST_CASE("a stop signal ends the wait for the study's write lock; the finished result is said with its command") {
+  // Red team, session 34: after a trial, `varbo run` waited for the write lock another process held (an `sqlite3`
+  // shell, a backup) and ignored SIGTERM for as long as the lock was held.
+  const std::string dir = scratch("lock_wait_signal");
+  const std::string cfg = dir + "/cfg.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: 'touch " << dir
+                     << "/started; sleep 1; echo 1.25', dim: 1, timeout: 30}\nbudget: 2\nseed: 1\nalgorithm: random\n";
+  const pid_t run = test::spawn({VARBO_EXE, "run", cfg, "-o", out, "--no-progress"}, dir + "/run.log");
+  for (int i = 0; i < 3000 && !fs::exists(dir + "/started"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(fs::exists(dir + "/started"));
+  sqlite3* db = nullptr;
+  REQUIRE(sqlite3_open((out + "/study.db").c_str(), &db) == SQLITE_OK);
+  sqlite3_busy_timeout(db, 5000);
+  REQUIRE(sqlite3_exec(db, "BEGIN EXCLUSIVE", nullptr, nullptr, nullptr) == SQLITE_OK);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // the trial has answered; the run waits
+  const auto t0 = std::chrono::steady_clock::now();
+  kill(run, SIGTERM);
+  const test::ProcessResult r = test::wait_for(run);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  sqlite3_exec(db, "ROLLBACK", nullptr, nullptr, nullptr);
+  sqlite3_close(db);
+  CHECK(r.exit_code == 128 + SIGTERM);
+  CHECK(seconds < 8);  // the lock was held for as long as the test liked: the signal, not the lock, ended it
+  const std::string log = slurp(dir + "/run.log");
+  CHECK(contains(log, "varbo observe"));
+  CHECK(contains(log, " 0 1.25"));  // trial 0's cost, ready to paste
+  CHECK(contains(log, "interrupted by SIGTERM"));
+  const auto trials = open_sqlite_store(out + "/study.db")->trials();
+  REQUIRE(trials.size() == 1);
+  CHECK(trials[0].state == TrialState::Pending);
 }

@@ -22,6 +22,7 @@
 #include <thread>
 
 #include "varbo/errors.hpp"
+#include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
 #include "varbo/store.hpp"
 #include "varbo/text.hpp"
@@ -36,6 +37,7 @@ using namespace store_codec;
 
 constexpr const char* kFormat = "varbo-study";
 constexpr int kBusyTimeoutMs = 10000;
+constexpr int kInterruptedWaitMs = 2000;  // after a stop signal (busy_wait)
 constexpr int kBeginAttempts = 60;  // × up to 10 s of busy waiting each: a writer may hold the lock for a fit
 
 bool on_read_only_filesystem(const std::string& path) {
@@ -298,7 +300,7 @@ class SqliteStore final : public StudyStore {
       if (why.empty()) why = read_only_reason(path);
       if (!why.empty()) reopen_read_only(why);
     }
-    sqlite3_busy_timeout(db_, kBusyTimeoutMs);
+    sqlite3_busy_handler(db_, &SqliteStore::busy_wait, this);
     try {
       if (create) {
         exec("PRAGMA journal_mode=WAL");  // persistent: every later connection uses WAL too
@@ -605,10 +607,34 @@ class SqliteStore final : public StudyStore {
     }
   }
 
+  // SQLite's busy timeout (kBusyTimeoutMs per attempt), but one that a stop signal ends: a SIGTERM to `varbo run`
+  // waiting for the write lock after a trial (an `sqlite3` shell or a backup holding it) was ignored for as long
+  // as the lock was held, and a second signal then killed it with the trial's result neither stored nor said (red
+  // team, session 34). Once a signal has arrived the wait goes on for at most kInterruptedWaitMs (a result is still
+  // stored if the lock comes free at once); then the caller throws Interrupted and the run says how to record it.
+  static int busy_wait(void* self, int count) {
+    auto* store = static_cast<SqliteStore*>(self);
+    const auto now = std::chrono::steady_clock::now();
+    if (count == 0) store->busy_since_ = now;
+    const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(now - store->busy_since_).count();
+    if (waited >= kBusyTimeoutMs) return 0;
+    if (interrupt_signal() != 0) {
+      if (store->interrupted_at_ == std::chrono::steady_clock::time_point{}) store->interrupted_at_ = now;
+      const auto since = std::chrono::duration_cast<std::chrono::milliseconds>(now - store->interrupted_at_).count();
+      if (since >= kInterruptedWaitMs) return 0;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(std::min(1 + count, 25)));
+    return 1;
+  }
+  void stop_if_interrupted() const {
+    if (const int sig = interrupt_signal(); sig != 0) throw Interrupted(sig);
+  }
+
   void begin_immediate(const OpenTransactions::Key& file = {}) {
     for (int attempt = 1;; ++attempt) {
       const int rc = sqlite3_exec(db_, "BEGIN IMMEDIATE", nullptr, nullptr, nullptr);
       if (rc == SQLITE_OK) return;
+      if (rc == SQLITE_BUSY || rc == SQLITE_LOCKED) stop_if_interrupted();
       if ((rc != SQLITE_BUSY && rc != SQLITE_LOCKED) || attempt >= kBeginAttempts)
         throw InputError(fmt::format("{}: cannot start a transaction after {} attempts: {}", path_, attempt,
                                      sqlite3_errmsg(db_)));
@@ -634,6 +660,7 @@ class SqliteStore final : public StudyStore {
     for (int attempt = 1;; ++attempt) {
       const int rc = sqlite3_exec(db_, "COMMIT", nullptr, nullptr, nullptr);
       if (rc == SQLITE_OK) return;
+      if (rc == SQLITE_BUSY) stop_if_interrupted();
       if (rc != SQLITE_BUSY || attempt >= kBeginAttempts)
         throw InputError(fmt::format("{}: commit failed: {}", path_, sqlite3_errmsg(db_)));
       say_still_waiting(attempt);
@@ -732,6 +759,7 @@ class SqliteStore final : public StudyStore {
 
   std::string path_;
   sqlite3* db_ = nullptr;
+  std::chrono::steady_clock::time_point busy_since_{}, interrupted_at_{};  // busy_wait's clocks
   int depth_ = 0;
   bool read_only_ = false;  ///< on a read-only file system or not writable by this user: reads only (reopen_read_only)
   std::string read_only_why_;
