@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 
 #include "varbo/errors.hpp"
@@ -13,10 +14,24 @@ namespace varbo::cli {
 
 double parse_number(const std::string& text, const std::string& what) {
   const std::optional<double> v = parse_decimal(text);
+  // Out of a double's range is said as such: 1e400 was "malformed", and 1e-400 was stored as 0 without a word
+  // (red team, session 34).
+  errno = 0;
+  char* end = nullptr;
+  const double read = strtod_c(text.c_str(), &end);
+  const bool whole = !text.empty() && end == text.c_str() + text.size();
+  if (!v && whole && errno == ERANGE && std::isinf(read))
+    throw InputError(fmt::format("{}: '{}' is beyond the largest number a double holds (about ±1.8e308); nothing "
+                                 "written",
+                                 what, printable(text)));
   if (!v)
     throw InputError(fmt::format("{}: malformed number '{}' (expected a decimal number such as 0.25 or -1.5e-3); "
                                  "nothing written",
                                  what, printable(text)));  // a CR from a CRLF file is shown, not obeyed
+  if (*v == 0 && whole && errno == ERANGE && text.find_first_of("123456789") < text.find_first_of("eE"))
+    throw InputError(fmt::format("{}: '{}' is below the smallest number a double holds (about 4.9e-324) and would "
+                                 "be stored as 0; write 0 if that is meant; nothing written",
+                                 what, printable(text)));
   return *v;
 }
 

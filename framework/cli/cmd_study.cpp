@@ -1,6 +1,7 @@
 // External evaluation of a study: `varbo study create`, `suggest`, `observe`, `fail`, `abandon`.
 // Every command opens the study file, does one transaction and exits, so several workers may share a study.
 #include <fmt/format.h>
+#include <signal.h>
 
 #include <map>
 
@@ -333,11 +334,20 @@ Runner add_abandon(CLI::App& app) {
     const bool run_live = is_database_url(location) ? database_run_is_live(location)
                                                     : RunLock::held(RunLock::lock_file_of(location));
     std::vector<std::string> spared;
+    // A worker of this host whose process is gone is dead whatever its last heartbeat: a SIGKILLed worker's
+    // trial was spared as "held by a live worker" for a whole heartbeat_timeout (red team, session 34). ESRCH only,
+    // as `varbo run` judges leftovers: EPERM is another user's live process.
+    const std::string me = default_worker_name();
+    const std::string this_host = me.substr(0, me.rfind(':'));
+    auto gone_here = [&](const std::string& worker) {
+      const auto [host, pid] = worker_host_pid(worker);
+      return host == this_host && pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
+    };
     auto live = [&](const TrialRecord& t) {
       if (t.worker.empty()) return false;
       if (run_live && s.store().meta("run_worker/" + t.worker)) return true;
       const auto it = beat.find(t.worker);
-      return it != beat.end() && now - it->second < window;
+      return it != beat.end() && now - it->second < window && !gone_here(t.worker);
     };
     auto holder = [&](const TrialRecord& t) {
       return beat.count(t.worker) ? fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id, printable(t.worker),

@@ -667,3 +667,22 @@ TEST_CASE("a stop signal ends the wait for the study's write lock; the finished 
   REQUIRE(trials.size() == 1);
   CHECK(trials[0].state == TrialState::Pending);
 }
+
+TEST_CASE("abandon: a worker of this host whose process is gone holds nothing, however fresh its heartbeat") {
+  // Red team, session 34: after `kill -9` of a worker, `varbo abandon` spared its trial as "held by a live worker"
+  // for the whole heartbeat_timeout.
+  const std::string dir = scratch("abandon_dead_worker");
+  const std::string cfg = dir + "/s.yaml", db = dir + "/s.db";
+  std::ofstream(cfg) << "task: {type: external, command: 'touch " << dir
+                     << "/started; sleep 30', dim: 1, timeout: 60}\nbudget: 3\nseed: 1\nalgorithm: random\n";
+  REQUIRE(test::run({VARBO_EXE, "-q", "study", "create", db, cfg}, dir + "/create.log").exit_code == 0);
+  const pid_t worker = test::spawn({VARBO_EXE, "-q", "worker", db}, dir + "/worker.log");
+  for (int i = 0; i < 3000 && !fs::exists(dir + "/started"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(fs::exists(dir + "/started"));
+  kill(worker, SIGKILL);
+  test::wait_for(worker);
+  REQUIRE(test::run({VARBO_EXE, "abandon", db}, dir + "/abandon.log").exit_code == 0);
+  const std::string out = slurp(dir + "/abandon.log");
+  CHECK(contains(out, "abandoned 1 trial(s): 0"));
+  CHECK_FALSE(contains(out, "live worker"));
+}
