@@ -298,12 +298,14 @@ void close_all_but(const int* keep, int n) {
   for (int s : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&wake, s);
   int shell_status = 0;
   bool shell_done = shell <= 0;
+  const long deadline = p.deadline_ms >= 0 ? now_ms() + p.deadline_ms : -1;
   while (!shell_done && !stop) {
     const timespec tick{0, 100 * 1000000L};
     const int s = ::sigtimedwait(&wake, nullptr, &tick);
     if (s == SIGTERM || s == SIGINT || s == SIGHUP) stop = true;
     reap(shell, shell_status, shell_done);
     if (::getppid() != p.parent) stop = true;
+    if (deadline >= 0 && now_ms() >= deadline) stop = true;
   }
   const bool reported = shell_done && shell > 0;
   if (reported) report(p.report_fd, kStatus, shell_status);  // the verdict first: varbo may be waiting

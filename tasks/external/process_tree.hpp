@@ -23,6 +23,10 @@ struct SupervisorPlan {
   int report_fd = -1;                  ///< write end of the report pipe (O_CLOEXEC)
   pid_t parent = 0;                    ///< varbo's pid
   long grace_ms = 200;                 ///< SIGTERM -> SIGKILL delay when told to stop
+  /// The supervisor's own deadline, in ms from its start (-1: none): it stops the command then, as when told to.
+  /// varbo enforces the trial's timeout itself; this is the backstop for a varbo that cannot (stopped by Ctrl-Z or
+  /// by the command: `kill -STOP $PPID`'s parent ran on past its timeout; red team, session 34).
+  long deadline_ms = -1;
   /// The trial's cgroup (trial_cgroup.hpp), open directory, or -1: the shell enters it before exec, and the
   /// supervisor kills through it (cgroup.kill) before its tree walk, then removes it.
   int cgroup_fd = -1;

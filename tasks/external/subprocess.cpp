@@ -281,6 +281,8 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   plan.report_fd = report_w.fd;
   plan.parent = ::getpid();
   plan.grace_ms = static_cast<long>(std::max(0.0, options.kill_grace_seconds) * 1000);
+  // The backstop half a second after varbo's own deadline (1e9 s: no limit in practice, as below).
+  plan.deadline_ms = static_cast<long>(std::min(options.timeout_seconds, 1e9) * 1000) + 500;
   const std::string token_entry = fmt::format("{}={}", kTokenVar, new_token());
   Environment env(token_entry, options.environment);
   plan.envp = env.pointers.data();
@@ -401,6 +403,11 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
     }
   }
   in_w.close();
+  // Ended by the supervisor's own deadline (SupervisorPlan::deadline_ms) while varbo could not act (stopped): a
+  // timeout all the same, not "killed by signal 15".
+  if (!r.timed_out && !r.interrupted && rep.command_ended() && Clock::now() >= deadline && rep.have_status &&
+      WIFSIGNALED(rep.status))
+    r.timed_out = true;
 
   // The supervisor ends on its own once the command has ended (after killing what it left); otherwise it is
   // told to stop the tree: SIGTERM, then SIGKILL after the grace. It is our child and not yet reaped, so its

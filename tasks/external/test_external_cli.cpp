@@ -352,3 +352,26 @@ TEST_CASE("varbo run: empty trial cgroups of a varbo that is gone are removed, a
   ::waitpid(sleeper, nullptr, 0);
   CHECK(::rmdir(busy.c_str()) == 0);
 }
+
+TEST_CASE("varbo run: the timeout holds while varbo itself is stopped (Ctrl-Z): the supervisor ends the command") {
+  // Red team, session 34: only varbo enforced the deadline; stopped by Ctrl-Z (or by the command, `kill -STOP` on
+  // its parent), it let a command with `timeout: 2` run on; the trial ended only when varbo was continued.
+  const std::string dir = test::temp_folder("stopped_varbo_" + std::to_string(::getpid()));
+  const std::string cfg = dir + "/cfg.yaml", pids = dir + "/pids";
+  std::ofstream(cfg) << "task: {type: external, command: 'echo $$ >> " << pids
+                     << "; exec sleep 60', dim: 1, timeout: 1, grace: 0.2}\nbudget: 1\nseed: 1\nalgorithm: random\n";
+  const pid_t v = spawn({VARBO_EXE, "run", cfg, "-o", dir + "/run", "--no-progress"}, dir + "/run.log");
+  REQUIRE(wait_for_lines(pids, 1, 30));
+  ::kill(v, SIGSTOP);
+  const pid_t command = pids_in(pids)[0];
+  const auto t0 = Clock::now();
+  while (alive(command) && seconds_since(t0) < 10) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK_FALSE(alive(command));  // ended by its supervisor at the timeout (+ 0.5 s backstop + grace)
+  CHECK(seconds_since(t0) < 5);
+  ::kill(v, SIGCONT);
+  CHECK(wait_exit(v, 30) == 0);
+  const auto trials = open_sqlite_store(dir + "/run/study.db")->trials();
+  REQUIRE(trials.size() == 1);
+  CHECK(trials[0].state == TrialState::Failed);
+  CHECK(trials[0].error.find("timed out after") != std::string::npos);
+}
