@@ -256,6 +256,7 @@ Runner add_worker(CLI::App& app) {
       const TrialRecord& t = asked.front();
       Rng rng = Rng(study.config().seed).stream(0x7a5c).stream(static_cast<std::uint64_t>(t.id));
       const auto t0 = std::chrono::steady_clock::now();
+      bool stopped_by_signal = false;
       if (auto* aware = dynamic_cast<TrialAware*>(task.get())) aware->set_next_trial(static_cast<long>(t.id), static_cast<long>(t.id));
       Evaluation e;
       try {
@@ -266,13 +267,19 @@ Runner add_worker(CLI::App& app) {
           return study.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, "the task could not run");
         });
         throw InputError(fmt::format("trial {}: {}; the trial is abandoned, not failed", t.id, err.what()));
+      } catch (const Interrupted& err) {  // stopped by the signal: no result (task.hpp)
+        e = Evaluation{};
+        e.ok = false;
+        e.error = err.what();
+        stopped_by_signal = true;
       } catch (const std::exception& err) {  // a failed trial, never a crash (task.hpp)
         e = Evaluation{};
         e.ok = false;
         e.error = err.what();
       }
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      if (const int sig = interrupt_signal(); sig != 0 && !e.ok) {
+      // Only a trial the signal cut short: one that failed on its own (a timeout) stays failed (session 34).
+      if (const int sig = interrupt_signal(); sig != 0 && stopped_by_signal) {
         // Stopped by a second signal: no result. Abandoned, not failed, as `varbo run` does: it does not count
         // against the budget and the failure model learns nothing false from it.
         const std::string reason = fmt::format("interrupted by {}", signal_name(sig));

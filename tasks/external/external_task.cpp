@@ -102,7 +102,9 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
     e.error = abbreviate(printable(msg), 2048);
     return e;
   };
-  if (r.interrupted) return fail(fmt::format("varbo was asked to stop ({})", signal_name(r.interrupted)));
+  // Stopped because varbo was asked to stop: no result of θ. Said by throwing Interrupted (task.hpp), so that the
+  // runner abandons the trial; a trial that failed on its own (a timeout) while the signal came stays failed.
+  if (r.interrupted) throw Interrupted(r.interrupted);
   if (!r.started)  // no θ was evaluated: a failed trial would spend budget and teach the failure model a lie
     throw TaskSetupError(abbreviate(
         printable(fmt::format("external task: the command could not be started ({}); nothing was evaluated. Check "

@@ -375,3 +375,20 @@ TEST_CASE("varbo run: the timeout holds while varbo itself is stopped (Ctrl-Z): 
   CHECK(trials[0].state == TrialState::Failed);
   CHECK(trials[0].error.find("timed out after") != std::string::npos);
 }
+
+TEST_CASE("varbo run: a trial that timed out stays failed when Ctrl-C comes during its grace") {
+  // Red team, session 34: the SIGINT turned it into "abandoned", and --resume ran the θ that hung again.
+  const std::string dir = test::temp_folder("grace_interrupt_" + std::to_string(::getpid()));
+  const std::string cfg = dir + "/cfg.yaml", pids = dir + "/pids";
+  std::ofstream(cfg) << "task: {type: external, command: \"trap '' TERM; echo $$ >> " << pids
+                     << "; sleep 30\", dim: 1, timeout: 1, grace: 4}\nbudget: 2\nseed: 1\nalgorithm: random\n";
+  const pid_t v = spawn({VARBO_EXE, "run", cfg, "-o", dir + "/run", "--no-progress"}, dir + "/run.log");
+  REQUIRE(wait_for_lines(pids, 1, 30));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // past the timeout, inside the grace
+  ::kill(v, SIGINT);
+  CHECK(wait_exit(v, 30) == 128 + SIGINT);
+  const auto trials = open_sqlite_store(dir + "/run/study.db")->trials();
+  REQUIRE(trials.size() == 1);
+  CHECK(trials[0].state == TrialState::Failed);
+  CHECK(trials[0].error.find("no answer within the timeout") != std::string::npos);
+}

@@ -36,7 +36,9 @@ struct Optimum {
 /// instance is never entered concurrently, so evaluate() may keep state (a simulator, a device handle, a
 /// counter) without locks. Parallel trials are separate processes (`varbo study` workers, docs/studies.md),
 /// each with its own instance. A failure is reported as Evaluation{ok = false, error}; an exception thrown by
-/// evaluate() is also recorded as a failed trial (its what() as the reason), never a crash.
+/// evaluate() is also recorded as a failed trial (its what() as the reason), never a crash. A task that stops
+/// because varbo was asked to stop (interrupt.hpp) throws varbo::Interrupted: that trial has no result and is
+/// recorded abandoned (suggested again on resume), while one that failed on its own stays failed.
 class Task {
  public:
   virtual ~Task();

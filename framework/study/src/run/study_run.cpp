@@ -569,6 +569,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     const Index index = summary.evaluations;
     Rng trng = task_rng.stream(static_cast<std::uint64_t>(index));
     Evaluation evaluation;
+    bool stopped_by_signal = false;
     const auto t0 = std::chrono::steady_clock::now();
     if (auto* aware = dynamic_cast<TrialAware*>(&task)) aware->set_next_trial(static_cast<long>(index), static_cast<long>(t.id));
     try {
@@ -582,6 +583,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       throw TaskSetupError(fmt::format("trial {}: {}; the trial is abandoned, not failed (`varbo run --resume {}` "
                                        "suggests it again once the task can run)",
                                        trial_label(index, t.id), e.what(), resume_target));
+    } catch (const Interrupted& e) {  // stopped by the signal: no result (task.hpp)
+      evaluation = Evaluation{};
+      evaluation.ok = false;
+      evaluation.error = e.what();
+      stopped_by_signal = true;
     } catch (const std::exception& e) {
       evaluation = Evaluation{};
       evaluation.ok = false;
@@ -592,7 +598,9 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       evaluation.error = "the task threw something that is not a std::exception";
     }
     const double evaluation_seconds = seconds_since(t0);
-    if ((stop_signal = stop_requested()) != 0 && !evaluation.ok) {
+    // Only a trial the signal cut short is abandoned: one that had timed out when Ctrl-C came during its grace was
+    // recorded abandoned, and --resume ran the θ that hung again (red team, session 34).
+    if ((stop_signal = stop_requested()) != 0 && stopped_by_signal) {
       const std::string reason = fmt::format("interrupted by {}", signal_name(stop_signal));
       retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, {}, [&] {
         return st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
