@@ -183,7 +183,9 @@ void leave_if_forked(const Objective& objective, py::error_already_set* raised) 
 Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<std::string>& names,
                     const SearchSpace* space) {
   py::gil_scoped_acquire gil;
-  if (objective->check_signals()) return failed("interrupted");
+  // Stopped (Ctrl-C, a KeyboardInterrupt or SystemExit from the objective): no result of θ, said by throwing
+  // Interrupted (task.hpp), so that the run abandons the trial rather than recording it failed.
+  if (objective->check_signals()) throw Interrupted(objective->stop ? objective->stop : SIGINT);
   Evaluation ev;
   try {
     py::object r = objective->fun(params_of(theta, names, space));
@@ -194,7 +196,7 @@ Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<st
     if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
       objective->stop = SIGINT;
       objective->error = std::make_unique<py::error_already_set>(std::move(e));
-      return failed("interrupted");
+      throw Interrupted(SIGINT);
     }
     return failed(describe(e));
   } catch (const std::exception& e) {

@@ -278,8 +278,12 @@ void close_all_but(const int* keep, int n) {
   {
     // Only our four pipe ends stay open: varbo's other descriptors (another trial's pipes, in a
     // multi-threaded varbo) must not be held by us or the command.
-    const int keep[5] = {p.stdin_fd, p.stdout_fd, p.stderr_fd, p.report_fd, p.cgroup_fd};
-    close_all_but(keep, p.cgroup_fd >= 0 ? 5 : 4);
+    int keep[8] = {p.stdin_fd, p.stdout_fd, p.stderr_fd, p.report_fd};
+    int n = 4;
+    if (p.cgroup_fd >= 0) keep[n++] = p.cgroup_fd;
+    for (const int fd : p.lock_fds)
+      if (fd >= 0) keep[n++] = fd;
+    close_all_but(keep, n);
   }
   const pid_t shell = stop ? -1 : ::fork();
   if (shell == 0) exec_command(p);

@@ -32,6 +32,9 @@ struct SupervisorPlan {
   int cgroup_fd = -1;
   const char* cgroup_path = nullptr;
   bool cgroup_required = false;        ///< the shell exits 126 (saying why) if it cannot enter the cgroup
+  /// varbo's run locks (held_locks.hpp), kept open by the supervisor until the command's tree is gone: a varbo
+  /// killed by SIGKILL keeps its run lock while its last trial's command is being stopped.
+  int lock_fds[3] = {-1, -1, -1};
 };
 
 enum SupervisorReport : int { kPid = 1, kStatus = 2, kStartError = 3, kCgroupError = 4 };

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "process_tree.hpp"
+#include "varbo/held_locks.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/log.hpp"
 
@@ -283,6 +284,10 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   plan.grace_ms = static_cast<long>(std::max(0.0, options.kill_grace_seconds) * 1000);
   // The backstop half a second after varbo's own deadline (1e9 s: no limit in practice, as below).
   plan.deadline_ms = static_cast<long>(std::min(options.timeout_seconds, 1e9) * 1000) + 500;
+  {
+    const std::vector<int> locks = locks_held_for_trials();
+    for (std::size_t i = 0; i < locks.size() && i < 3; ++i) plan.lock_fds[i] = locks[i];
+  }
   const std::string token_entry = fmt::format("{}={}", kTokenVar, new_token());
   Environment env(token_entry, options.environment);
   plan.envp = env.pointers.data();

@@ -392,3 +392,30 @@ TEST_CASE("varbo run: a trial that timed out stays failed when Ctrl-C comes duri
   CHECK(trials[0].state == TrialState::Failed);
   CHECK(trials[0].error.find("no answer within the timeout") != std::string::npos);
 }
+
+TEST_CASE("varbo run killed by SIGKILL keeps its run lock until its last trial's command is gone") {
+  // Red team, session 34: the lock died with varbo while the command was still in its grace period, and an
+  // immediate --resume started the next trial beside it (two commands driving one robot).
+  const std::string dir = test::temp_folder("kill_keeps_lock_" + std::to_string(::getpid()));
+  const std::string cfg = dir + "/cfg.yaml", pids = dir + "/pids", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: \"if [ -e " << dir << "/fast ]; then echo 1; else trap '' TERM; "
+                     << "echo $$ >> " << pids << "; sleep 30; fi\", dim: 1, timeout: 60, grace: 3}\nbudget: 2\n"
+                     << "seed: 1\nalgorithm: random\n";
+  const pid_t v = spawn({VARBO_EXE, "run", cfg, "-o", out, "--no-progress"}, dir + "/run.log");
+  REQUIRE(wait_for_lines(pids, 1, 30));
+  ::kill(v, SIGKILL);
+  CHECK(wait_exit(v, 10) == 1000 + SIGKILL);
+  const pid_t command = pids_in(pids)[0];
+  CHECK(alive(command));  // in its grace period (it ignores SIGTERM)
+  CHECK(run_varbo({"run", "--resume", out, "--no-progress"}, dir + "/early.log") == 2);
+  const std::string early = read_file(dir + "/early.log");
+  CHECK(early.find("in use by another run") != std::string::npos);
+  CHECK(early.find("that process has ended") != std::string::npos);
+  CHECK(pids_in(pids).size() == 1);  // no second command started
+  const auto t0 = Clock::now();
+  while (alive(command) && seconds_since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  CHECK_FALSE(alive(command));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the supervisor exits after the tree
+  std::ofstream(dir + "/fast") << "";  // the resumed trials answer at once
+  CHECK(run_varbo({"run", "--resume", out, "--no-progress"}, dir + "/late.log") == 0);
+}

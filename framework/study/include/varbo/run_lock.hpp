@@ -30,7 +30,7 @@ class RunLock {
   const std::string& path() const { return path_; }
 
  private:
-  RunLock(int fd, std::string path) : fd_(fd), path_(std::move(path)) {}
+  RunLock(int fd, std::string path);
   int fd_ = -1;
   std::string path_;
 };

@@ -236,6 +236,17 @@ RunFolder load_run_folder(const std::string& folder, const Registry& registry) {
     const Vec t = theta_of_row();
     const double y = parse_number(cells[cost_col], where);
     if (!t.allFinite() || !std::isfinite(y)) continue;
+    // The runner keeps θ in the domain: a θ far outside it (x1 = 1e6 for Branin) is not this run's record, and
+    // was fitted as given, in silence, changing the selection (red team, session 34). Tolerance: the last digits
+    // of a number written in user units.
+    if (!run.space)
+      for (Index j = 0; j < d; ++j) {
+        const double lo = run.domain.box.lower[j], hi = run.domain.box.upper[j], slack = 1e-9 * (hi - lo);
+        if (t[j] < lo - slack || t[j] > hi + slack)
+          throw InputError(fmt::format("{}: {} = {} lies outside the domain [{}, {}]; this row is not a trial of the "
+                                       "run (edited or damaged file?)",
+                                       where, printable(run.names[static_cast<std::size_t>(j)]), t[j], lo, hi));
+      }
     Vec v(static_cast<Index>(run.components.size()));
     for (Index j = 0; j < v.size(); ++j) {
       const std::string& cell = cells[ok_col + 1 + static_cast<std::size_t>(j)];

@@ -1,6 +1,7 @@
 #include "varbo/run_lock.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <fmt/format.h>
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -13,6 +14,7 @@
 
 #include "owner_identity.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/held_locks.hpp"
 #include "varbo/regular_file.hpp"
 
 namespace varbo {
@@ -23,6 +25,24 @@ std::string owner_line() {
   // The program's name too: the holder may be `varbo run`, a worker or a Python `varbo.minimize` (python3).
   return fmt::format("{} pid {} on host {}, started {}", detail::run_owner_program(), static_cast<long>(getpid()),
                      detail::machine_name(), detail::utc_timestamp());
+}
+
+/// When the owner line names a process of this host that has ended, the lock is held by what it started: a
+/// killed run's trial supervisor stopping its last command (held_locks.hpp). Said, so that the message does not
+/// name a process that does not exist as the holder (red team, session 34).
+std::string owner_gone_note(const std::string& owner) {
+  const auto at = owner.find(" pid "), on = owner.find(" on host ");
+  if (at == std::string::npos || on == std::string::npos || on < at) return "";
+  const std::string pid_text = owner.substr(at + 5, on - at - 5);
+  const auto comma = owner.find(',', on);
+  const std::string host = owner.substr(on + 9, comma == std::string::npos ? std::string::npos : comma - on - 9);
+  if (pid_text.empty() || pid_text.find_first_not_of("0123456789") != std::string::npos || pid_text.size() > 9 ||
+      host != detail::machine_name())
+    return "";
+  const pid_t pid = static_cast<pid_t>(std::stol(pid_text));
+  if (::kill(pid, 0) == 0 || errno != ESRCH) return "";
+  return fmt::format("; that process has ended, and a process it started still holds the lock (a trial's "
+                     "command being stopped within its grace period): try again in a few seconds");
 }
 
 }  // namespace
@@ -107,9 +127,9 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
         throw InputError(fmt::format("{}: cannot lock: {}", lock_path, std::strerror(err)));
       std::string owner = owner_of(lock_path);
       if (owner.empty()) owner = "another process (starting up)";
-      throw InputError(fmt::format("{} is in use by another run ({}); wait for it to end or stop it; "
+      throw InputError(fmt::format("{} is in use by another run ({}){}; wait for it to end or stop it; "
                                    "only one run may drive a study (lock file {})",
-                                   what, owner, lock_path));
+                                   what, owner, owner_gone_note(owner), lock_path));
     }
     struct stat held {}, named {};
     if (fstat(fd, &held) != 0 || lstat(lock_path.c_str(), &named) != 0 || held.st_ino != named.st_ino ||
@@ -138,8 +158,11 @@ RunLock& RunLock::operator=(RunLock&& other) noexcept {
   return *this;
 }
 
+RunLock::RunLock(int fd, std::string path) : fd_(fd), path_(std::move(path)) { hold_lock_in_trials(fd_); }
+
 RunLock::~RunLock() {
   if (fd_ < 0) return;
+  release_lock_from_trials(fd_);
   ::unlink(path_.c_str());  // while still holding the lock: see acquire()
   ::close(fd_);
   fd_ = -1;
