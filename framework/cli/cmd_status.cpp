@@ -92,8 +92,13 @@ Runner add_status(CLI::App& app) {
         for (const auto& t : trials) pending += t.state == TrialState::Pending && t.worker == w.id;
         const bool silent = w.state == "running" && s.config().heartbeat_timeout > 0 &&
                             now - w.heartbeat_at > s.config().heartbeat_timeout;
-        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", terminal_line(w.id).c_str(), silent ? "silent" : w.state.c_str(),
-                    now - w.heartbeat_at, pending, silent && pending ? " (abandoned at the next ask)" : "");
+        // A worker of this host whose process is gone (SIGKILL) read "running, 1 s ago" (red team, session 34).
+        const bool gone = w.state == "running" && !silent && worker_process_gone(w.id);
+        std::printf("    %-40s %-8s %10.0f ago  %ld%s\n", terminal_line(w.id).c_str(),
+                    silent ? "silent" : gone ? "gone" : w.state.c_str(), now - w.heartbeat_at, pending,
+                    silent && pending ? " (abandoned at the next ask)"
+                    : gone && pending ? " (its process has ended: `varbo abandon` frees its trials)"
+                                      : "");
       }
     }
     std::printf("  recent:\n    %-6s %-10s %-10s %14s  %s\n", "id", "state", "phase", "cost", "theta");

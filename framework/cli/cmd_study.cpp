@@ -335,19 +335,12 @@ Runner add_abandon(CLI::App& app) {
                                                     : RunLock::held(RunLock::lock_file_of(location));
     std::vector<std::string> spared;
     // A worker of this host whose process is gone is dead whatever its last heartbeat: a SIGKILLed worker's
-    // trial was spared as "held by a live worker" for a whole heartbeat_timeout (red team, session 34). ESRCH only,
-    // as `varbo run` judges leftovers: EPERM is another user's live process.
-    const std::string me = default_worker_name();
-    const std::string this_host = me.substr(0, me.rfind(':'));
-    auto gone_here = [&](const std::string& worker) {
-      const auto [host, pid] = worker_host_pid(worker);
-      return host == this_host && pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
-    };
+    // trial was spared as "held by a live worker" for a whole heartbeat_timeout (red team, session 34).
     auto live = [&](const TrialRecord& t) {
       if (t.worker.empty()) return false;
       if (run_live && s.store().meta("run_worker/" + t.worker)) return true;
       const auto it = beat.find(t.worker);
-      return it != beat.end() && now - it->second < window && !gone_here(t.worker);
+      return it != beat.end() && now - it->second < window && !worker_process_gone(t.worker);
     };
     auto holder = [&](const TrialRecord& t) {
       return beat.count(t.worker) ? fmt::format("{} (worker {}, heartbeat {:.0f} s ago)", t.id, printable(t.worker),

@@ -681,6 +681,8 @@ TEST_CASE("abandon: a worker of this host whose process is gone holds nothing, h
   REQUIRE(fs::exists(dir + "/started"));
   kill(worker, SIGKILL);
   test::wait_for(worker);
+  REQUIRE(test::run({VARBO_EXE, "status", db}, dir + "/status.log").exit_code == 0);
+  CHECK(contains(slurp(dir + "/status.log"), "gone"));  // not "running, 1 s ago"
   REQUIRE(test::run({VARBO_EXE, "abandon", db}, dir + "/abandon.log").exit_code == 0);
   const std::string out = slurp(dir + "/abandon.log");
   CHECK(contains(out, "abandoned 1 trial(s): 0"));

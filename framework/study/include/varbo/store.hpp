@@ -177,6 +177,9 @@ std::string default_worker_name();
 std::string new_worker_id(const std::string& host = "");
 /// The host and pid of a worker name "host:pid" or "host:pid:nonce"; pid 0 when the name has another form.
 std::pair<std::string, long> worker_host_pid(const std::string& worker);
+/// Whether `worker` names a process of this host (host_id()) that no longer exists (ESRCH: EPERM is another user's
+/// live process). A SIGKILLed worker's heartbeat stays fresh for a while; its process is known gone at once.
+bool worker_process_gone(const std::string& worker);
 /// Seconds since the epoch.
 double unix_time();
 

@@ -137,7 +137,10 @@ void warn_if_behind_its_study(const RunFolder& run) {
                "nothing of the study, and what is computed here follows the file",
                run.folder, study_detail::first_difference(*identity, study_identity(run.study)));
   } catch (const std::exception& e) {
-    log_debug("{}: not compared with its study: {}", run.folder, e.what());
+    // A study.db of random bytes skipped the comparison in silence (red team, session 34): said, the command goes on.
+    log_warn("{}: the run folder's study.db cannot be read ({}); trials.csv is used without checking that it is up "
+             "to date with its study",
+             run.folder, safe_text(e.what(), 200));
   }
 }
 }  // namespace

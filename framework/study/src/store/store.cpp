@@ -1,7 +1,9 @@
 // Backend-independent parts of the study store.
 #include <fmt/format.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
 #include <random>
@@ -69,6 +71,11 @@ std::pair<std::string, long> worker_host_pid(const std::string& worker) {
   if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos || pid.size() > 9)
     return {worker.substr(0, first), 0};
   return {worker.substr(0, first), std::stol(pid)};
+}
+
+bool worker_process_gone(const std::string& worker) {
+  const auto [host, pid] = worker_host_pid(worker);
+  return host == host_id() && pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH;
 }
 
 double unix_time() {
