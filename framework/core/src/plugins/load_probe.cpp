@@ -23,6 +23,11 @@ std::optional<std::string> load_crashes(const std::string& path, const std::func
     // The child: its messages (ld.so's assertion, a crashing initializer's output) would repeat the parent's
     // report, so they go nowhere. Only async-signal-safe calls before dlopen; _exit skips the parent's atexit
     // handlers and stdio buffers.
+    // A crash kills the child by its signal: the parent's handlers for it (a sanitizer's, which reports and exits
+    // 1; a host program's crash reporter) are not the child's business.
+    struct sigaction dfl {};
+    dfl.sa_handler = SIG_DFL;
+    for (const int sig : {SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT, SIGTRAP, SIGSYS}) ::sigaction(sig, &dfl, nullptr);
     const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
     if (null >= 0) {
       ::dup2(null, STDOUT_FILENO);
