@@ -65,6 +65,7 @@ Runner add_rescore(CLI::App& app) {
     // rescore's --rollouts, is a failed trial saying why). They refused such runs (red team, session 25).
     if (!registry.try_find(Kind::Task, "python")) add_host_python_task(registry);
     const ComponentRun run = load_component_run(a->run, registry);
+    if (a->continue_steps > 0) check_continuable(run, registry);  // before the fit and the selection's output
     OfflineRequest request;
     request.weight_changes = parse_weight_list(a->weights, run.components);
     request.kappas = a->kappa.empty() ? std::vector<double>{0.0, 2.0} : decimal_items(a->kappa, "--kappa", "0,2");

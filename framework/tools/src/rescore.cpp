@@ -322,14 +322,24 @@ PolicyStats evaluate_policy(Task& task, const Vec& theta, Index rollouts, std::u
   return s;
 }
 
+void check_continuable(const ComponentRun& run, const Registry& registry) {
+  continuing_algorithm(run, registry);
+  // Said before any fitting or printing, and for what it is: the continuation runs the task again, and only a task
+  // that takes weights scores its new trials with the re-scored weights (an external task with components read
+  // "a continued run cannot use new weights" although none were given, after the whole selection; audit, session 34).
+  if (!declares_option(*run.study.task.info, "weights"))
+    throw ConfigError(fmt::format(
+        "rescore --continue runs the task again under the re-scored weights, and task '{}' has no `weights:` option "
+        "to take them (its command computes the cost itself); re-score offline without --continue",
+        run.study.task.info->name));
+}
+
 RunSummary continue_run(const ComponentRun& run, const Weights& weights, const Vec& costs, const Vec& start,
                         double kappa, Index steps, const std::string& folder, std::uint64_t seed,
                         const Registry& registry) {
+  check_continuable(run, registry);
   const ComponentInfo& continuing = continuing_algorithm(run, registry);
   const bool own = &continuing == run.study.algorithm.info;
-  if (!declares_option(*run.study.task.info, "weights"))
-    throw ConfigError(fmt::format("task '{}' has no `weights:` option, so a continued run cannot use new weights",
-                                  run.study.task.info->name));
   fs::create_directories(folder);
   const std::string history = fs::absolute(folder + "/history.csv").string();
   {

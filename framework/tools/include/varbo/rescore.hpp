@@ -151,6 +151,10 @@ struct PolicyStats {
 };
 PolicyStats evaluate_policy(Task& task, const Vec& theta, Index rollouts, std::uint64_t seed);
 
+/// Throws ConfigError, saying why, when `run` cannot be continued: no loaded algorithm offers RunContinuation, or
+/// the task has no `weights:` option (the continuation evaluates new trials under the re-scored weights).
+void check_continuable(const ComponentRun& run, const Registry& registry);
+
 /// Writes `folder`/study.yaml (the run's resolved config with the new weights, initial_point = `start`,
 /// budget `steps`, and the algorithm block of the continuing algorithm — the run's own when it offers
 /// RunContinuation, else the first loaded one that does (rssgd) — at risk `kappa` with the re-scored trials as
