@@ -84,7 +84,7 @@ TEST_CASE("read_csv: a BOM is dropped, another separator is named, a FIFO is ref
   const std::string fifo = dir + "/fifo.csv";
   std::remove(fifo.c_str());
   REQUIRE(std::system(("mkfifo " + fifo).c_str()) == 0);
-  CHECK_THROWS_WITH_AS(read_csv(fifo), (fifo + ": not a regular file (expected a CSV file)").c_str(), InputError);
+  CHECK_THROWS_WITH_AS(read_csv(fifo), (fifo + ": not a regular file (a FIFO; expected a CSV file)").c_str(), InputError);
 }
 
 TEST_CASE("terminal_text: escape sequences and C1 controls shown, never obeyed; lines and tabs kept") {

@@ -2,9 +2,15 @@
 // Files a command reads (or appends to) by name: only a regular file, or a link to one. A FIFO blocked `select`,
 // `plot` and `run --resume` forever, a directory ended in "internal error: basic_filebuf::underflow" (red team,
 // session 34); /dev/zero would be read forever.
+#include <optional>
 #include <string>
 
 namespace varbo {
+
+/// What `path` is when it exists and is not a regular file (links are followed): "a directory", "a FIFO", "a socket",
+/// "a block device", "a character device"; nullopt when it is a regular file or does not exist. The one test behind
+/// the two below and the configuration loader's (which throws ConfigError).
+std::optional<std::string> irregular_file_kind(const std::string& path);
 
 /// Throws InputError "<path>: not a regular file (<what>, e.g. a directory or a FIFO)" when `path` exists and is
 /// not a regular file (links are followed). Returns whether it exists.

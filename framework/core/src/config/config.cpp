@@ -4,7 +4,6 @@
 #include <yaml-cpp/eventhandler.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <set>
@@ -13,6 +12,7 @@
 #include "../io/utf8.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/regular_file.hpp"
 #include "varbo/text.hpp"
 
 namespace varbo {
@@ -259,10 +259,8 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
 
 ConfigNode ConfigNode::load_file(const std::string& filename) {
   // Only a regular file (or a link to one): opening a FIFO or a device would block or read forever.
-  std::error_code ec;
-  const auto st = std::filesystem::status(filename, ec);
-  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
-    throw ConfigError(fmt::format("{}: not a regular file (expected a YAML configuration file)", filename));
+  if (const auto k = irregular_file_kind(filename))
+    throw ConfigError(fmt::format("{}: not a regular file ({}; expected a YAML configuration file)", filename, *k));
   std::ifstream in(filename);
   if (!in) throw ConfigError(fmt::format("{}: cannot open configuration file", filename));
   std::stringstream ss;

@@ -5,7 +5,6 @@
 #include <cerrno>
 #include <cstdlib>
 #include <algorithm>
-#include <filesystem>
 #include <fstream>
 #include <limits>
 
@@ -84,10 +83,7 @@ bool next_line(std::istream& in, std::string& line) {
 
 CsvTable read_csv(const std::string& filename, const std::function<bool(const std::string&)>& used) {
   // Only a regular file: a FIFO would block forever, /dev/zero would fill memory with one endless line.
-  std::error_code ec;
-  const auto st = std::filesystem::status(filename, ec);
-  if (!ec && std::filesystem::exists(st) && !std::filesystem::is_regular_file(st))
-    throw InputError(fmt::format("{}: not a regular file (expected a CSV file)", filename));
+  require_regular_file(filename, "a CSV file");
   std::ifstream in(filename);
   if (!in) throw InputError(fmt::format("{}: cannot open CSV file", filename));
   CsvTable t;

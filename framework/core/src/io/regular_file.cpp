@@ -21,19 +21,20 @@ const char* kind(std::filesystem::file_type t) {
 }
 }  // namespace
 
-bool absent_or_regular_file(const std::string& path) {
+std::optional<std::string> irregular_file_kind(const std::string& path) {
   std::error_code ec;
   const auto st = std::filesystem::status(path, ec);
-  return ec || !std::filesystem::exists(st) || std::filesystem::is_regular_file(st);
+  if (ec || !std::filesystem::exists(st) || std::filesystem::is_regular_file(st)) return std::nullopt;
+  return std::string(kind(st.type()));
 }
 
+bool absent_or_regular_file(const std::string& path) { return !irregular_file_kind(path); }
+
 bool require_regular_file(const std::string& path, const std::string& what) {
+  if (const auto k = irregular_file_kind(path))
+    throw InputError(fmt::format("{}: not a regular file ({}; expected {})", path, *k, what));
   std::error_code ec;
-  const auto st = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(st)) return false;
-  if (!std::filesystem::is_regular_file(st))
-    throw InputError(fmt::format("{}: not a regular file ({}; expected {})", path, kind(st.type()), what));
-  return true;
+  return std::filesystem::exists(path, ec);
 }
 
 }  // namespace varbo

@@ -307,17 +307,14 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // in progress — abandoning it ran its point again and turned the operator's result into a late one (red team,
   // session 23). Studies from before this record (no `run_workers` key) keep the earlier rule.
   const std::string me = default_worker_name();
-  const std::string host = me.substr(0, me.rfind(':'));
   const bool runs_recorded = st.meta("run_workers").has_value();
   std::set<std::int64_t> leftovers;  // decided before the transaction (which may run its body again)
   std::vector<std::int64_t> others_pending;
   for (const TrialRecord& t : st.store().pending_trials()) {
-    const auto [worker_host, pid] = worker_host_pid(t.worker);
-    const bool dead_here =
-        // ESRCH only: EPERM is another user's live process (a colleague's Python Study on a shared machine),
-        // whose trial was abandoned and ran twice (red team, session 29).
-        worker_host == host && pid > 0 &&
-        ((kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) || pid == static_cast<long>(getpid()));
+    // A process of this host that is gone (ESRCH only: EPERM is another user's live process, a colleague's Python
+    // Study on a shared machine, whose trial was abandoned and ran twice; red team, session 29), or this very one.
+    const bool dead_here = worker_process_gone(t.worker) ||
+                           worker_host_pid(t.worker) == std::pair<std::string, long>(host_id(), getpid());
     const bool recorded_run = runs_recorded && st.meta("run_worker/" + t.worker).has_value();
     // A recorded run session's trial is a dead session's, on whatever host it ran: this run holds the study's run
     // lock, which a live run would hold (a run killed on host A and resumed on host B left its trial pending
