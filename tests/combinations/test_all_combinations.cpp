@@ -2,7 +2,13 @@
 // surrogate × acquisition × region × acquisition optimizer × initial-design sampler, and separately
 // surrogate × fit optimizer and surrogate × kernel. The lists come from the registry at run time, so a new plugin adds its
 // combinations with no edit here; only combinations whose capability tags don't match are skipped.
+//
+// VARBO_COMBINATIONS_WITH=NAME[,NAME...] runs only the combinations that include one of the named components (by
+// name, plugin/name, or every component of a plugin by its plugin name): a third-party plugin's author checks the
+// plugin's combinations without the whole matrix, e.g.
+//   VARBO_PLUGIN_PATH=$PWD/build VARBO_COMBINATIONS_WITH=myplugin build/bin/test_all_combinations
 #include <cmath>
+#include <cstdlib>
 #include <fmt/format.h>
 
 #include "study_helpers.hpp"
@@ -12,6 +18,52 @@
 using namespace varbo;
 
 namespace {
+
+std::vector<std::string> wanted_components() {
+  std::vector<std::string> out;
+  const char* env = std::getenv("VARBO_COMBINATIONS_WITH");
+  std::string item;
+  for (const char* c = env ? env : ""; ; ++c) {
+    if (*c == ',' || *c == '\0') {
+      if (!item.empty()) out.push_back(item);
+      item.clear();
+      if (*c == '\0') break;
+    } else if (*c != ' ') {
+      item += *c;
+    }
+  }
+  return out;
+}
+
+/// Whether VARBO_COMBINATIONS_WITH (unset: everything) names one of `parts`.
+bool selected(std::initializer_list<const ComponentInfo*> parts) {
+  static const std::vector<std::string> wanted = wanted_components();
+  if (wanted.empty()) return true;
+  for (const ComponentInfo* p : parts)
+    for (const auto& w : wanted)
+      if (w == p->name || w == p->full_name() || w == p->plugin) return true;
+  return false;
+}
+
+/// Whether VARBO_COMBINATIONS_WITH names a component of one of these kinds.
+bool names_a(std::initializer_list<Kind> kinds) {
+  for (const Kind k : kinds)
+    for (const auto* c : test::registry().components(k))
+      if (selected({c})) return true;
+  return false;
+}
+
+/// At the end of each case. Under a filter a case may take none of the named components (an acquisition plugin has no
+/// kernel combinations): then it checks just that; a named component that took part in no combination fails it.
+void check_ran(int ran, std::initializer_list<Kind> kinds) {
+  if (wanted_components().empty()) {
+    CHECK(ran > 0);
+  } else if (ran == 0) {
+    INFO("VARBO_COMBINATIONS_WITH=" << std::getenv("VARBO_COMBINATIONS_WITH"));
+    CHECK_MESSAGE(!names_a(kinds), "a named component takes part in this case but ran in no combination (all "
+                                   "incompatible by capability tags?)");
+  }
+}
 
 bool has_option(const ComponentInfo& c, const std::string& name) {
   for (const auto& o : c.options)
@@ -79,6 +131,19 @@ bool same_with_1_and_2_threads(const std::string& algorithm_yaml, const std::str
 
 }  // namespace
 
+TEST_CASE("VARBO_COMBINATIONS_WITH names loaded components") {
+  Registry& r = test::registry();
+  for (const auto& w : wanted_components()) {
+    bool found = false;
+    for (const Kind kind : {Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Optimizer, Kind::Sampler,
+                            Kind::Algorithm, Kind::Kernel})
+      for (const auto* c : r.components(kind)) found = found || (w == c->name || w == c->full_name() || w == c->plugin);
+    INFO("VARBO_COMBINATIONS_WITH item '" << w << "'");
+    CHECK_MESSAGE(found, "names no loaded surrogate, acquisition, region, optimizer, sampler, algorithm or kernel "
+                         "(is its folder on VARBO_PLUGIN_PATH?)");
+  }
+}
+
 TEST_CASE("every surrogate x region x acquisition optimizer, and every algorithm, is the same with 1 and 2 threads") {
   set_log_level(LogLevel::Error);
   Registry& r = test::registry();
@@ -95,7 +160,7 @@ TEST_CASE("every surrogate x region x acquisition optimizer, and every algorithm
   for (const auto* s : r.components(Kind::Surrogate))
     for (const auto* g : r.components(Kind::Region))
       for (const auto* o : r.components(Kind::Optimizer)) {
-        if (!compatible({s, ei, g, o, sobol})) continue;
+        if (!compatible({s, ei, g, o, sobol}) || !selected({s, ei, g, o, sobol})) continue;
         INFO(s->name << " + " << g->name << " + " << o->name);
         const std::string algo = fmt::format(
             "{{type: bo, initial_points: 5, initial_design: {}, surrogate: {}, region: {}, acquisition_optimizer: {}}}",
@@ -104,13 +169,13 @@ TEST_CASE("every surrogate x region x acquisition optimizer, and every algorithm
         ++ran;
       }
   for (const auto* a : r.components(Kind::Algorithm)) {
-    if (a->name == "bo") continue;  // covered above
+    if (a->name == "bo" || !selected({a})) continue;  // bo: covered above
     INFO(a->name);
     CHECK(same_with_1_and_2_threads(fmt::format("{{type: {}}}", a->full_name()), out, 12));
     ++ran;
   }
   MESSAGE(fmt::format("compared {} configurations across thread counts", ran));
-  CHECK(ran > 0);
+  check_ran(ran, {Kind::Surrogate, Kind::Region, Kind::Optimizer, Kind::Algorithm});
 }
 
 TEST_CASE("every compatible surrogate x acquisition x region x optimizer x sampler combination improves on Branin") {
@@ -135,6 +200,7 @@ TEST_CASE("every compatible surrogate x acquisition x region x optimizer x sampl
         for (const auto* o : optimizers)
           for (const auto* m : samplers) {
             std::string why;
+            if (!selected({s, a, g, o, m})) continue;
             if (!compatible({s, a, g, o, m}, &why)) {
               ++skipped;
               continue;
@@ -153,7 +219,7 @@ TEST_CASE("every compatible surrogate x acquisition x region x optimizer x sampl
             ++ran;
           }
   MESSAGE(fmt::format("ran {} combinations, skipped {} with unmet capability tags", ran, skipped));
-  CHECK(ran > 0);
+  check_ran(ran, {Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Optimizer, Kind::Sampler});
 }
 
 TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitter") {
@@ -168,7 +234,7 @@ TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitte
   for (const auto* s : r.components(Kind::Surrogate)) {
     if (!has_option(*s, "fit_optimizer")) continue;
     for (const auto* o : r.components(Kind::Optimizer)) {
-      if (!compatible({&fit_problem, o})) continue;
+      if (!compatible({&fit_problem, o}) || !selected({s, o})) continue;
       INFO(s->name << " fitted by " << o->name);
       const std::string algo = fmt::format("{{type: bo, initial_points: 5, surrogate: {}}}",
                                            surrogate_yaml(*s, o->full_name()));
@@ -179,7 +245,7 @@ TEST_CASE("every surrogate fits with every optimizer as its hyperparameter fitte
       ++ran;
     }
   }
-  CHECK(ran > 0);
+  check_ran(ran, {Kind::Optimizer});
 }
 
 TEST_CASE("every kernel option of every surrogate runs with every kernel, the same with 1 and 2 threads") {
@@ -196,6 +262,7 @@ TEST_CASE("every kernel option of every surrogate runs with every kernel, the sa
     for (const auto& option : s->options) {
       if (option.type != OptionType::Component || option.component_kind != Kind::Kernel) continue;
       for (const auto* k : kernels) {
+        if (!selected({s, k})) continue;
         // A composite gets two plain terms; any other kernel its defaults.
         const std::string kernel = has_option(*k, "terms")
                                        ? fmt::format("{{type: {}, terms: [se_ard, constant]}}", k->full_name())
@@ -222,5 +289,6 @@ TEST_CASE("every kernel option of every surrogate runs with every kernel, the sa
       }
     }
   MESSAGE(fmt::format("ran {} surrogate x kernel combinations, {} refused by the surrogate", ran, refused));
-  CHECK(ran >= static_cast<int>(kernels.size()));
+  if (wanted_components().empty()) CHECK(ran >= static_cast<int>(kernels.size()));
+  else check_ran(ran + refused, {Kind::Kernel});
 }
