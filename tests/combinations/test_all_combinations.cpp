@@ -35,13 +35,18 @@ std::vector<std::string> wanted_components() {
   return out;
 }
 
+/// Whether an item of VARBO_COMBINATIONS_WITH names component `c`: its name, plugin/name or plugin.
+bool names_component(const std::string& item, const ComponentInfo& c) {
+  return item == c.name || item == c.full_name() || item == c.plugin;
+}
+
 /// Whether VARBO_COMBINATIONS_WITH (unset: everything) names one of `parts`.
 bool selected(std::initializer_list<const ComponentInfo*> parts) {
   static const std::vector<std::string> wanted = wanted_components();
   if (wanted.empty()) return true;
   for (const ComponentInfo* p : parts)
     for (const auto& w : wanted)
-      if (w == p->name || w == p->full_name() || w == p->plugin) return true;
+      if (names_component(w, *p)) return true;
   return false;
 }
 
@@ -137,7 +142,7 @@ TEST_CASE("VARBO_COMBINATIONS_WITH names loaded components") {
     bool found = false;
     for (const Kind kind : {Kind::Surrogate, Kind::Acquisition, Kind::Region, Kind::Optimizer, Kind::Sampler,
                             Kind::Algorithm, Kind::Kernel})
-      for (const auto* c : r.components(kind)) found = found || (w == c->name || w == c->full_name() || w == c->plugin);
+      for (const auto* c : r.components(kind)) found = found || names_component(w, *c);
     INFO("VARBO_COMBINATIONS_WITH item '" << w << "'");
     CHECK_MESSAGE(found, "names no loaded surrogate, acquisition, region, optimizer, sampler, algorithm or kernel "
                          "(is its folder on VARBO_PLUGIN_PATH?)");
