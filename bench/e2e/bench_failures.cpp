@@ -13,6 +13,9 @@
 // --with-failures-only skips the failure-free runs (their columns read nan): for comparing variants of the
 // failure handling, which cannot change a run in which no trial fails.
 //
+// A run that `stop_after_failures` ends (its default, 10 failed trials in a row) counts as stuck with regret inf and is
+// listed in a note below the table.
+//
 // Prints a Markdown table (README and docs/failures.md) and each region's measured volume fraction, then (with the
 // failure-free runs) a second table that splits the seeds by whether the region hides the failure-free run's best
 // design point, where the failing run has lost the observation that led that run to its basin.
@@ -95,6 +98,7 @@ const std::vector<Problem> kWider = {
 struct Result {
   double regret_recommended = NAN, regret_best = NAN;
   int failed_after_design = 0, after_design = 0, failed = 0;
+  bool stopped = false;  ///< `stop_after_failures` ended the run before its budget
   std::vector<double> design_cost;  ///< the initial design's costs in trial order, NaN where the trial failed
 };
 
@@ -119,17 +123,27 @@ Result run(const Registry& reg, const std::string& task_yaml, const std::string&
   const std::string yaml =
       fmt::format("task: {{{}}}\nbudget: {}\nseed: {}\nalgorithm: {}\n", task_yaml, budget, seed, algorithm);
   StudyConfig s = parse_study(ConfigNode::parse(yaml, "<bench>"), reg);
-  const RunSummary summary = run_study(s, reg, ov);
   Result r;
-  r.failed = static_cast<int>(summary.failed);
-  if (summary.regret_best_observed) r.regret_best = *summary.regret_best_observed;
-  if (summary.regret_recommended) r.regret_recommended = *summary.regret_recommended;
+  try {
+    const RunSummary summary = run_study(s, reg, ov);
+    r.failed = static_cast<int>(summary.failed);
+    if (summary.regret_best_observed) r.regret_best = *summary.regret_best_observed;
+    if (summary.regret_recommended) r.regret_recommended = *summary.regret_recommended;
+  } catch (const InputError& e) {
+    // `stop_after_failures` (default 10 in a row) ended the run, as it would end a user's: what the user has then is
+    // a stopped study, so the run counts as stuck (regret +inf) and is counted in the table's note. Before session
+    // 36 this escaped and ended the benchmark (terminate).
+    std::fprintf(stderr, "seed %d: %s\n", seed, e.what());
+    r.stopped = true;
+    r.regret_best = r.regret_recommended = INFINITY;
+  }
   const auto rows = read_csv_cells(out + "/trials.csv");
   const auto col = [&](const std::string& n) {
     return static_cast<std::size_t>(std::find(rows[0].begin(), rows[0].end(), n) - rows[0].begin());
   };
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const bool ok = rows[i][col("ok")] == "1";
+    r.failed += r.stopped && !ok;
     if (rows[i][col("phase")] != "initial") {
       ++r.after_design;
       r.failed_after_design += !ok;
@@ -193,6 +207,7 @@ int main(int argc, char** argv) {
       (std::filesystem::temp_directory_path() / fmt::format("varbo_bench_failures_{}", getpid())).string();
   std::printf("algorithm: %s; seeds %d-%d; threads %d\n\n", algorithm.c_str(), first_seed, first_seed + seeds - 1,
               threads);
+  std::vector<std::string> stopped;  // regions with runs that `stop_after_failures` ended: a note below the table
   std::vector<std::string> split;  // the second table: seeds split by whether the design's best point is hidden
   std::printf("| problem (budget) | failure region (measured volume) | failed after the design: median [q1, q3] (pooled) "
               "| regret of the recommended θ, with failures | without | ratio of medians | best-observed regret, with "
@@ -204,7 +219,7 @@ int main(int argc, char** argv) {
     const std::string failing = p.task + ", failure_region: " + p.failure_region;
     std::vector<double> rate, rec_with, rec_without, best_with, best_without;
     std::vector<double> hidden_with, hidden_without, shown_with, shown_without;
-    int failed_pooled = 0, after_pooled = 0, stuck_with = 0, stuck_without = 0;
+    int failed_pooled = 0, after_pooled = 0, stuck_with = 0, stuck_without = 0, stopped_with = 0, stopped_without = 0;
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
       const Result w = run(reg, failing, algorithm, p.budget, seed, threads, fmt::format("{}/{}_f_{}", tmp, p.key, seed));
       const std::string free_key = fmt::format("{} {} {}", p.task, p.budget, seed);
@@ -213,6 +228,8 @@ int main(int argc, char** argv) {
       const Result o = with_only ? Result{} : failure_free[free_key];
       stuck_with += w.regret_recommended >= p.stuck;
       stuck_without += o.regret_recommended >= p.stuck;
+      stopped_with += w.stopped;
+      stopped_without += o.stopped;
       rate.push_back(static_cast<double>(w.failed_after_design) / std::max(1, w.after_design));
       failed_pooled += w.failed_after_design;
       after_pooled += w.after_design;
@@ -233,6 +250,10 @@ int main(int argc, char** argv) {
                 100 * quantile(rate, 0.25), 100 * quantile(rate, 0.75), 100.0 * failed_pooled / std::max(1, after_pooled),
                 cell(rec_with).c_str(), cell(rec_without).c_str(), quantile(rec_with, 0.5) / quantile(rec_without, 0.5),
                 cell(best_with).c_str(), cell(best_without).c_str(), stuck_with, with_only ? 0 : stuck_without);
+    if (stopped_with + stopped_without > 0)
+      stopped.push_back(fmt::format("- {}: {} run(s) with failures and {} without stopped after `stop_after_failures` "
+                                    "failed trials in a row (counted as stuck, regret inf)",
+                                    p.name, stopped_with, stopped_without));
     if (!with_only) {
       const auto group = [](const std::vector<double>& a, const std::vector<double>& b) {
         if (a.empty()) return std::string("–");
@@ -243,6 +264,8 @@ int main(int argc, char** argv) {
     }
     std::fflush(stdout);
   }
+  if (!stopped.empty()) std::printf("\n");
+  for (const std::string& line : stopped) std::printf("%s\n", line.c_str());
   if (!split.empty()) {
     // Where the failure-free run's best design point lies inside the failure region, the failing run has lost the
     // observation that would have led it to that basin: a gap there is information, not the handling of failures.

@@ -18,7 +18,10 @@ inline double quantile(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
   const double pos = q * static_cast<double>(v.size() - 1);
   const std::size_t lo = static_cast<std::size_t>(pos), hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
+  const double t = pos - static_cast<double>(lo);
+  // Without the shortcut a quantile at an infinite value (a stopped run of bench_failures) reads inf − inf = nan.
+  if (t == 0 || v[hi] == v[lo]) return v[lo];
+  return v[lo] + t * (v[hi] - v[lo]);
 }
 
 }  // namespace varbo::bench
