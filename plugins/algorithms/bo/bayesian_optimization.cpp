@@ -19,6 +19,7 @@
 #include "acquisition_scale.hpp"
 #include "bo_streams.hpp"
 #include "pending_exclusion.hpp"
+#include "values_only.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
@@ -33,18 +34,6 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-/// A prepared acquisition offered by its values only (the surrogate under it gives no gradients).
-class ValuesOnly final : public Acquisition {
- public:
-  explicit ValuesOnly(const Acquisition& a) : a_(a) {}
-  void prepare(const AcquisitionContext&) override {}
-  double evaluate(const Vec& x, Vec*) const override { return a_.evaluate(x, nullptr); }
-  bool has_gradient() const override { return false; }
-  std::string state() const override { return a_.state(); }
-
- private:
-  const Acquisition& a_;
-};
 }  // namespace
 
 BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext& ctx)
@@ -184,6 +173,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                               "lowest_bound_evaluated`, and this run's rule is '{}'",
                               o.node("recommendation_kappa").where(), settings.recommendation_kappa,
                               o.str("recommendation")));
+  if (failure_settings_.global_probe) probe_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+  whole_box_ = std::make_unique<BoxRegion>(Box::unit(dim_));
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
   round_in_model_ = !o.is_set("discrete") || o.str("discrete") == "transform";
@@ -200,6 +191,8 @@ void BayesianOptimization::set_search_space(SharedSpace space) {
   const SharedSpace model_space = round_in_model_ ? space_ : nullptr;
   surrogate_ = respect_types(std::move(surrogate_), model_space);
   if (observed_model_) observed_model_ = respect_types(std::move(observed_model_), model_space);
+  if (probe_model_) probe_model_ = respect_types(std::move(probe_model_), model_space);
+  whole_box_ = respect_constraints(std::move(whole_box_), space_);
   region_ = respect_constraints(std::move(region_), space_);
   recommender_->wrap_model(model_space);
   // An integer parameter's cell in the unit cube: a point pending elsewhere (or earlier in the batch) is kept out
@@ -482,9 +475,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     data.y.minCoeff(&best);
     if (best >= fresh_from_) begin_refinement(k, data);
   }
+  if (fresh_starts_ > 0 && !refining_ && k - fresh_trial_ < restart_points_) follow_global_probe(k);
+
   if (fresh_starts_ > 0 && !refining_ && k - fresh_trial_ < restart_points_) {
     s.x = fresh_design_point(k, refit);
-    s.phase = "restart";
+    s.phase = probe_trial_ == k ? "probe" : "restart";
     return s;
   }
   if (fresh_region && !refining_ && !final_stretch && refit)
@@ -557,7 +552,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     log_info("bo: trial {}: the region restarts afresh ({}): a new design of {} points, then a model of the new "
              "points", k, fresh_starts_, restart_points_);
     s.x = fresh_design_point(k, refit);
-    s.phase = "restart";
+    s.phase = probe_trial_ == k ? "probe" : "restart";
     s.acquisition_seconds = seconds_since(t_acq);
     return s;
   }
@@ -745,7 +740,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     log_info("bo: trial {}: {}; the region restarts afresh ({}): a new design of {} points", k, why, fresh_starts_,
              restart_points_);
     s.x = fresh_design_point(k, refit);
-    s.phase = "restart";
+    s.phase = probe_trial_ == k ? "probe" : "restart";
     return s;
   };
   const bool may_restart = fresh_region && !refining_ && !final_stretch && restart_points_ > 0;

@@ -94,6 +94,14 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Ends the attempt and begins one anchored at data point `probe` (the trust region's anchor), without a design;
   /// false (nothing changed but, possibly, the region) if the region would not restart.
   bool follow_probe(Index k, Index probe, const Dataset& data, Rng& region_rng);
+  /// failure_model.global_probe (bo_global_probe.cpp): the first point of a fresh start's design, if any.
+  std::optional<Vec> global_probe(Index k, bool refit);
+  /// The trial of the latest global probe (-1: none); at the design's next trial, a successful probe that improved on
+  /// every earlier trial ends the design: the attempt continues from it (follow_global_probe).
+  Index probe_trial_ = -1;
+  void follow_global_probe(Index k);
+  std::unique_ptr<Surrogate> probe_model_;  ///< global_probe's model of every successful trial
+  std::unique_ptr<RegionConstraint> whole_box_;  ///< global_probe's region: the box (with the space's constraints)
   /// The data index of the current attempt's first model-based point (after its design's successes).
   Index attempt_model_from(const Dataset& data) const;
   /// The data point the current attempt began at (follow_probe), -1 for an attempt with a design.

@@ -36,6 +36,11 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   const Mat design = restart_away_ ? design_away_from_minima(drng)
                                    : design_sample(restart_points_, drng);
   const Index last = design.rows() - 1, row = k - fresh_trial_;
+  if (row == 0)
+    if (std::optional<Vec> probe = global_probe(k, refit)) {
+      probe_trial_ = k;
+      return *probe;
+    }
   const Vec x = design.row(replicate_design_ && last >= 1 && row == last ? 0 : row).transpose();
   // A design point where failure is likely (the failure model of every trial so far) is replaced by a point where
   // success is likely: a new design must not repeat known failures (issue 11). By default (design_repair: nearest,
@@ -150,6 +155,9 @@ Dataset BayesianOptimization::model_data_of(const Dataset& data) const {
     Dataset refined = refinement_data(data);
     if (refined.size() >= 2) return refined;
   }
+  if (fresh_starts_ > 0 && !refining_ && follow_anchor_ >= 0 && follow_anchor_ == fresh_from_ &&
+      follow_anchor_ < data.size())
+    return data;  // an attempt continued from a global probe (bo_global_probe.cpp): the model that chose the probe
   if (fresh_starts_ > 0 && !refining_ && follow_anchor_ >= 0 && follow_anchor_ < data.size()) {
     // failure_model.follow_probe (session fail15): an attempt begun at a probe has no design of its own; its model
     // sees every point but those next to an earlier attempt's best (the basin it leaves), and the probe.

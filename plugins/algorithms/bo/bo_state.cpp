@@ -66,6 +66,7 @@ std::optional<std::string> BayesianOptimization::save_state() const {
     m.put("limited_trials", limited);
   }
   if (follow_anchor_ >= 0) m.put_int("follow_anchor", follow_anchor_);  // follow_probe (absent without it)
+  if (probe_trial_ >= 0) m.put_int("probe_trial", probe_trial_);  // global_probe (absent without it)
   if (failure_settings_.feasible_region != "off") m.put_int("region_counted_to", region_counted_to_);
   m.put("surrogate", surrogate->save_state());
   save_if_stateful(m, "region", region_.get());
@@ -116,6 +117,8 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
   follow_anchor_ = m.has("follow_anchor") ? static_cast<Index>(m.integer("follow_anchor")) : -1;
   if (follow_anchor_ < -1 || follow_anchor_ >= data_.size())
     throw InputError("bo state: 'follow_anchor' is not a successful observation");
+  probe_trial_ = m.has("probe_trial") ? static_cast<Index>(m.integer("probe_trial")) : -1;
+  if (probe_trial_ < -1 || probe_trial_ >= told_) throw InputError("bo state: 'probe_trial' is not an observed trial");
   region_counted_to_ = m.has("region_counted_to") ? static_cast<Index>(m.integer("region_counted_to")) : 0;
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");
