@@ -159,8 +159,9 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "(boundary_restart's test) keeps later attempts boundary_tabu away from that point"),
       opt::boolean("global_probe", &FailureModelSettings::global_probe,
                    "once a trial has failed, a fresh start's first design point is the maximizer over the whole box of "
-                   "the acquisition weighted by P(success) on a model of every successful trial; if it improves on "
-                   "every earlier trial, the attempt continues from it without the rest of its design"),
+                   "the acquisition weighted by P(success) on a model of every successful trial, if that model is "
+                   "confident of an improvement there (mean + 3 sd below the incumbent); if it improves on every "
+                   "earlier trial, the attempt continues from it without the rest of its design"),
       opt::choice("design_repair", &FailureModelSettings::design_repair, {"farthest", "nearest"},
                   "where a fresh start's design point with P(success) below the exclusion threshold moves: the likely "
                   "success farthest from the other design points and earlier minima, or the nearest likely success"),

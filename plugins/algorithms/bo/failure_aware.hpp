@@ -140,10 +140,11 @@ struct FailureModelSettings {
   /// basin beside it begins).
   std::string design_repair = "nearest";
   /// Once a trial has failed, a fresh start's first design point is the maximizer over the whole box of the phase's
-  /// acquisition, weighted by P(success), on a model of every successful trial (bo_global_probe.cpp): an attempt
-  /// models only its own points, and an earlier attempt held at a failure boundary may already show where the costs
-  /// fall beyond it (Hartmann-3 with a ball across its valley, docs/failures.md, session 36).
-  bool global_probe = false;
+  /// acquisition, weighted by P(success), on a model of every successful trial, where that model is confident of an
+  /// improvement (bo_global_probe.cpp): an attempt models only its own points, and an earlier attempt held at a
+  /// failure boundary may already show where the costs fall beyond it (Hartmann-3 with a ball across its valley: 16
+  /// → 11 stuck runs of 40; docs/failures.md, session 36). The default since session 36.
+  bool global_probe = true;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

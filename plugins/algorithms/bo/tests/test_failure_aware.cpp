@@ -450,9 +450,9 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
         }
     return n;
   };
-  const auto first_restart = [](const std::vector<Trial>& t) {
+  const auto first_restart = [](const std::vector<Trial>& t) {  // a fresh start's first point may be a global probe
     for (std::size_t i = 0; i < t.size(); ++i)
-      if (t[i].phase == "restart") return i;
+      if (t[i].phase == "restart" || t[i].phase == "probe") return i;
     return t.size();
   };
   const std::vector<Trial> plain = trials("rd_plain", matern_bo(), task);
