@@ -118,7 +118,8 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
   if (follow_anchor_ < -1 || follow_anchor_ >= data_.size())
     throw InputError("bo state: 'follow_anchor' is not a successful observation");
   probe_trial_ = m.has("probe_trial") ? static_cast<Index>(m.integer("probe_trial")) : -1;
-  if (probe_trial_ < -1 || probe_trial_ >= told_) throw InputError("bo state: 'probe_trial' is not an observed trial");
+  // A state is also saved with the probe asked and its result not yet told (a study saves it with the suggestion).
+  if (probe_trial_ < -1 || probe_trial_ > told_) throw InputError("bo state: 'probe_trial' is not an asked trial");
   region_counted_to_ = m.has("region_counted_to") ? static_cast<Index>(m.integer("region_counted_to")) : 0;
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");

@@ -99,7 +99,9 @@ TEST_CASE("global_probe: a run in which no trial fails is unchanged") {
   CHECK(restarts > 0);  // the run has fresh starts, where a probe would go
 }
 
-TEST_CASE("global_probe: a run continues from a state saved after the probe exactly as without saving") {
+TEST_CASE("global_probe: a run continues from a state saved with the probe exactly as without saving") {
+  // Saved twice: with the probe asked and its result not yet told (a study saves its state with each suggestion),
+  // and after its result.
   set_log_level(LogLevel::Error);
   BuildContext ctx;
   ctx.registry = &test::registry();
@@ -107,43 +109,50 @@ TEST_CASE("global_probe: a run continues from a state saved after the probe exac
   ctx.budget = 50;
   ctx.seed = 1;
   auto task = test::registry().create<Task>("{type: hartmann3, failure_region: " + kBall + "}", ctx);
+  const auto observe = [&](const Vec& x) {
+    Rng rng(5);
+    const Evaluation e = task->evaluate(x, rng);  // Hartmann-3's domain is the unit cube
+    return Observation{x, e.cost, e.ok, {}};
+  };
   auto a = test::registry().create<Algorithm>(kProbe, ctx);
   std::vector<Observation> told;
-  Rng rng(5);
-  std::optional<std::string> saved;
-  std::vector<Observation> told_at_save;
-  std::vector<Suggestion> after_save;
-  for (Index k = 0; k < 50; ++k) {
+  struct Saved {
+    std::string state;
+    std::vector<Observation> told;
+    bool asked = false;  ///< saved with the probe asked, its result not told
+  };
+  std::vector<Saved> saved;
+  std::vector<Suggestion> later;  // the original run's suggestions from the probe on
+  for (Index k = 0; k < 50 && later.size() < 4; ++k) {
     const Suggestion s = a->ask(1).front();
-    if (saved) after_save.push_back(s);
-    if (after_save.size() == 3) break;
-    const Evaluation e = task->evaluate(s.x, rng);  // Hartmann-3's domain is the unit cube
-    const Observation o{s.x, e.cost, e.ok, {}};
+    if (!saved.empty()) later.push_back(s);
+    if (s.phase == "probe") {
+      later.push_back(s);
+      saved.push_back({*dynamic_cast<AlgorithmState&>(*a).save_state(), told, true});
+      CHECK(StateMap::parse(saved.back().state, "bo state").integer("probe_trial") == k);
+    }
+    const Observation o = observe(s.x);
     a->tell({o});
     told.push_back(o);
-    if (s.phase == "probe") {
-      saved = dynamic_cast<AlgorithmState&>(*a).save_state();
-      REQUIRE(saved.has_value());
-      CHECK(StateMap::parse(*saved, "bo state").integer("probe_trial") == k);
-      told_at_save = told;
+    if (s.phase == "probe") saved.push_back({*dynamic_cast<AlgorithmState&>(*a).save_state(), told, false});
+  }
+  REQUIRE(saved.size() == 2);
+  REQUIRE(later.size() == 4);
+  for (const Saved& from : saved) {
+    CAPTURE(from.asked);
+    auto b = test::registry().create<Algorithm>(kProbe, ctx);
+    dynamic_cast<AlgorithmState&>(*b).restore_state(from.state, from.told);
+    if (from.asked) b->tell({observe(later[0].x)});  // the outstanding probe's result
+    for (std::size_t i = 1; i < later.size(); ++i) {
+      const Suggestion s = b->ask(1).front();
+      CHECK((s.x - later[i].x).norm() == 0.0);
+      CHECK(s.phase == later[i].phase);
+      b->tell({observe(s.x)});
     }
   }
-  REQUIRE(saved.has_value());
-  REQUIRE(after_save.size() == 3);
-  auto b = test::registry().create<Algorithm>(kProbe, ctx);
-  dynamic_cast<AlgorithmState&>(*b).restore_state(*saved, told_at_save);
-  for (std::size_t i = 0; i < after_save.size(); ++i) {
-    const Suggestion s = b->ask(1).front();
-    CHECK((s.x - after_save[i].x).norm() == 0.0);
-    CHECK(s.phase == after_save[i].phase);
-    if (i + 1 < after_save.size()) {
-      const Evaluation e = task->evaluate(s.x, rng);
-      b->tell({Observation{s.x, e.cost, e.ok, {}}});
-    }
-  }
-  // A state whose probe trial was never observed is refused.
-  StateMap bad = StateMap::parse(*saved, "bo state");
+  // A state whose probe trial was never asked is refused.
+  StateMap bad = StateMap::parse(saved.back().state, "bo state");
   bad.put_int("probe_trial", 1000);
   auto c = test::registry().create<Algorithm>(kProbe, ctx);
-  CHECK_THROWS_AS(dynamic_cast<AlgorithmState&>(*c).restore_state(bad.text(), told_at_save), InputError);
+  CHECK_THROWS_AS(dynamic_cast<AlgorithmState&>(*c).restore_state(bad.text(), saved.back().told), InputError);
 }
