@@ -223,7 +223,7 @@ const Phase& BayesianOptimization::phase_at(Index evaluation) const {
   return phases_.back();
 }
 
-Mat BayesianOptimization::starts_near(const Mat& seeds, Rng& rng) const {
+Mat BayesianOptimization::starts_near(const Mat& seeds, const RegionConstraint& region, Rng& rng) const {
   // The seeds (usually the data) plus a feasible copy of each moved by N(0, 0.01²) per coordinate: at a data
   // point EI and PI are exactly flat (zero value, zero gradient), so a local optimizer started there alone
   // would never move.
@@ -232,7 +232,7 @@ Mat BayesianOptimization::starts_near(const Mat& seeds, Rng& rng) const {
   for (Index i = 0; i < seeds.rows(); ++i) {
     out.row(n++) = seeds.row(i);
     const Vec moved = Box::unit(dim_).clamp(seeds.row(i).transpose() + 0.01 * rng.normal_vec(dim_));
-    if (region_->contains(moved)) out.row(n++) = moved.transpose();
+    if (region.contains(moved)) out.row(n++) = moved.transpose();
   }
   return out.topRows(n);
 }
@@ -641,7 +641,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const double scale = acquisition_scale(*surrogate_);  // 1 unless the costs are tiny (acquisition_scale.hpp)
   const ScaledFunction f(unscaled, scale);
   Rng orng = rng_.stream(kOptimize, uk * 2);
-  const Mat starts = starts_near(region_->seeds(), orng);
+  const Mat starts = starts_near(region_->seeds(), *region_, orng);
   OptimizeResult res = optimizer_->maximize(f, *region_, starts, orng);
   res.value /= scale;
   if (!res.success) {

@@ -64,7 +64,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Which design rows an evaluated (successful or failed) or pending point already took (ask()).
   std::vector<bool> design_rows_taken() const;
   void draw_initial_design();
-  Mat starts_near(const Mat& seeds, Rng& rng) const;
+  /// The seeds and a copy of each moved by N(0, 0.01²) per coordinate that lies in `region`.
+  Mat starts_near(const Mat& seeds, const RegionConstraint& region, Rng& rng) const;
   /// The start inside the region with the highest finite f (the first inside one if none is finite).
   std::optional<Vec> best_feasible(const DifferentiableFunction& f, const Mat& starts) const;
   Suggestion suggest(Index evaluation, const Dataset& data, bool refit);

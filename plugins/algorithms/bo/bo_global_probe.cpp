@@ -61,14 +61,7 @@ std::optional<Vec> BayesianOptimization::global_probe(Index k, bool refit) {
   const ScaledFunction f(unscaled, scale);
   Rng orng = rng_.stream(kGlobalProbe, 3 * uk + 2);
   // Starts at every successful trial and a jittered copy (EI is flat at a data point), as for the attempts.
-  Mat starts(2 * data_.size(), dim_);
-  Index n = 0;
-  for (Index i = 0; i < data_.size(); ++i) {
-    starts.row(n++) = data_.X.row(i);
-    const Vec moved = Box::unit(dim_).clamp(data_.X.row(i).transpose() + 0.01 * orng.normal_vec(dim_));
-    if (whole_box_->contains(moved)) starts.row(n++) = moved.transpose();
-  }
-  const OptimizeResult res = optimizer_->maximize(f, *whole_box_, starts.topRows(n), orng);
+  const OptimizeResult res = optimizer_->maximize(f, *whole_box_, starts_near(data_.X, *whole_box_, orng), orng);
   if (!res.success || res.x.size() != dim_ || !res.x.allFinite()) {
     log_debug("bo: trial {}: no global probe (the acquisition optimizer: {})", k, res.message);
     return std::nullopt;
