@@ -10,6 +10,9 @@
 // is run once and shared by its regions.
 //
 // --budget N replaces every problem's budget (Branin 60, Hartmann-6 100, Hartmann-3 50).
+// --task YAML --region YAML runs one problem of your own instead of a set (session 37: regions drawn at random, not
+// tuned on): e.g. --task 'type: hartmann6' --region '{shape: ball, center: [...], radius: 0.6}' --budget 100; a run is
+// stuck at regret >= --stuck (default 0.1 for hartmann6, else 0.01).
 // --with-failures-only skips the failure-free runs (their columns read nan): for comparing variants of the
 // failure handling, which cannot change a run in which no trial fails.
 //
@@ -177,7 +180,8 @@ std::string cell(std::vector<double> v) {
 
 int main(int argc, char** argv) {
   int seeds = 10, first_seed = 1, threads = 0, budget = 0;
-  std::string only, algorithm = "{type: bo}", set = "main";
+  std::string only, algorithm = "{type: bo}", set = "main", task, region;
+  double stuck = -1;
   bool with_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -189,13 +193,24 @@ int main(int argc, char** argv) {
     else if (a == "--set" && i + 1 < argc) set = argv[++i];
     else if (a == "--algorithm" && i + 1 < argc) algorithm = argv[++i];
     else if (a == "--with-failures-only") with_only = true;
+    else if (a == "--task" && i + 1 < argc) task = argv[++i];
+    else if (a == "--region" && i + 1 < argc) region = argv[++i];
+    else if (a == "--stuck" && i + 1 < argc) stuck = std::atof(argv[++i]);
     else {
       std::fprintf(stderr,
                    "usage: %s [--seeds N] [--first-seed S] [--threads N] [--budget N] [--set main|wider] "
-                   "[--only KEY] [--algorithm YAML] [--with-failures-only]\n",
+                   "[--only KEY] [--algorithm YAML] [--with-failures-only] [--task YAML --region YAML [--stuck X]]\n",
                    argv[0]);
       return 2;
     }
+  }
+  if (task.empty() != region.empty()) {
+    std::fprintf(stderr, "--task and --region go together\n");
+    return 2;
+  }
+  if (!task.empty() && budget <= 0) {
+    std::fprintf(stderr, "--task needs --budget\n");
+    return 2;
   }
   if (set != "main" && set != "wider") {
     std::fprintf(stderr, "--set %s: expected main or wider\n", set.c_str());
@@ -213,7 +228,12 @@ int main(int argc, char** argv) {
               "| regret of the recommended θ, with failures | without | ratio of medians | best-observed regret, with "
               "| without | stuck with / without |\n|---|---|---|---|---|---|---|---|---|\n");
   std::map<std::string, Result> failure_free;  // by task, budget and seed: shared by the regions of a task
-  for (Problem p : set == "wider" ? kWider : kProblems) {
+  std::vector<Problem> problems = set == "wider" ? kWider : kProblems;
+  if (!task.empty()) {
+    const bool h6 = task.find("hartmann6") != std::string::npos;
+    problems = {{"custom", task, task, region, budget, stuck >= 0 ? stuck : h6 ? 0.1 : 0.01}};
+  }
+  for (Problem p : problems) {
     if (budget > 0) p.budget = budget;  // --budget: every problem's budget
     if (!only.empty() && only != p.key) continue;
     const std::string failing = p.task + ", failure_region: " + p.failure_region;
