@@ -113,6 +113,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   failure_settings_ = parse_failure_model(o, &r);
   feasibility_ = std::make_unique<FeasibilityModel>(dim_);
   feasibility_->set_ard(failure_settings_.lengthscales == "ard");
+  feasibility_->set_fit_failures(failure_settings_.fit_failures);
 
   if (o.is_set("phases")) {
     ConfigNode list = o.node("phases");
@@ -744,6 +745,19 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     return s;
   };
   const bool may_restart = fresh_region && !refining_ && !final_stretch && restart_points_ > 0;
+  if (may_restart && failure_settings_.failure_run > 0 && !failed_.empty() && feasibility_on_ &&
+      data.size() > fresh_from_) {
+    // failure_model.failure_run (session 37): Hartmann-6 with a ball whose face passes through the local minimum
+    // (seed 70): the incumbent's level of P(success) fell with the incumbent's own P as failures gathered beside it,
+    // the trust region does not shrink on failed trials, and 10 trials in a row failed next to the incumbent until
+    // stop_after_failures ended the run. On a robot, each is a fall.
+    const Index stuck = attempt_best(data);
+    const Index run = failed_in_a_row(k, data.X.row(stuck).transpose());
+    if (run >= failure_settings_.failure_run && restart_on_known(data, stuck, region_rule, region_rng)) {
+      remember_if_blocked(k, data);  // later attempts keep off it if a failure blocks its descent (blocked_tabu)
+      return restart_afresh(fmt::format("the attempt's last {} trials failed beside its best point", run).c_str());
+    }
+  }
   if (may_restart && converged_on_repeat(k, s.x, data, *model_data, region_rule, region_rng))
     return restart_afresh("the attempt proposed a point it has evaluated: converged");
   if (may_restart && feasible && blocked_at_boundary(k, s.x, data, p_min)) {
@@ -953,6 +967,7 @@ std::optional<Vec> BayesianOptimization::recommendation() const {
       failure_settings_.active(static_cast<Index>(failed_.size()))) {
     odds_model.emplace(dim_);
     odds_model->set_ard(failure_settings_.lengthscales == "ard");
+    odds_model->set_fit_failures(failure_settings_.fit_failures);
     if (fit_feasibility(*odds_model)) {
       const FeasibilityModel& f = *odds_model;
       odds.probability = [&f](const Vec& x, Vec* grad) { return f.probability(x, grad); };

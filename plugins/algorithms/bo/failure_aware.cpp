@@ -162,6 +162,16 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "the acquisition weighted by P(success) on a model of every successful trial, if that model is "
                    "confident of an improvement there (mean + 3 sd below the incumbent); if it improves on every "
                    "earlier trial, the attempt continues from it without the rest of its design"),
+      opt::integer("failure_run", &FailureModelSettings::failure_run,
+                   "an attempt whose last this many model-based trials all failed within 0.15 (max-norm, unit cube) of "
+                   "its best point ends: a fresh start (and, with blocked_tabu, later attempts keep off that point if a "
+                   "failure blocks its descent), not one fall after another until stop_after_failures ends the run; "
+                   "0 = never")
+          .at_least(0),
+      opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
+                   "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
+                   "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
+                   "evidence alone may explain a failure beside successes away as noise and suggest its θ again"),
       opt::choice("design_repair", &FailureModelSettings::design_repair, {"farthest", "nearest"},
                   "where a fresh start's design point with P(success) below the exclusion threshold moves: the likely "
                   "success farthest from the other design points and earlier minima, or the nearest likely success"),
@@ -190,7 +200,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, failure_run: n, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -145,6 +145,14 @@ struct FailureModelSettings {
   /// failure boundary may already show where the costs fall beyond it (Hartmann-3 with a ball across its valley: 16
   /// → 11 stuck runs of 40; docs/failures.md, session 36). The default since session 36.
   bool global_probe = true;
+  /// Once a trial has failed, an attempt whose last `failure_run` model-based trials all failed within 0.15
+  /// (max-norm) of its best point ends: the region restarts afresh, and (blocked_tabu) later attempts keep
+  /// boundary_tabu away from that point if an observed failure blocks its descent; 0 = never (session 37).
+  int failure_run = 0;
+  /// The classifier's hyperparameters must put every failed θ without a success within 0.01 below P(success) 0.5
+  /// (among those, the evidence decides; if none do, the evidence alone): a failure is not explained away as label
+  /// noise (session 37).
+  bool fit_failures = false;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

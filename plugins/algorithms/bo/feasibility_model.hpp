@@ -57,6 +57,10 @@ class FeasibilityModel {
   /// (coordinate ascent of the Laplace evidence over dim_factor ∈ ard_factors(), two sweeps): a failure region
   /// bounded in a few coordinates (a slab x6 > 0.7) is learned as such, with long lengthscales along the others.
   void set_ard(bool ard) { ard_ = ard; }
+  /// With `fit` true, fit(select = true) prefers hyperparameters under which every failed point without a
+  /// success within 0.01 (max-norm) has a negative latent mode (P(success) < 0.5 there) to any that explain such a
+  /// failure away as noise; among those alike, the evidence decides (session 37).
+  void set_fit_failures(bool fit) { fit_failures_ = fit; }
   /// The per-dimension multipliers searched when set_ard(true).
   static std::vector<double> ard_factors();
 
@@ -88,6 +92,9 @@ class FeasibilityModel {
   double prior_rate_ = std::numeric_limits<double>::quiet_NaN();
   double log_evidence_ = 0;
   bool ard_ = false;
+  bool fit_failures_ = false;
+  std::vector<Index> must_fit_;  ///< failed points without a success within 0.01 (set_fit_failures)
+  bool fits_failures_ = true;    ///< laplace(): every point of must_fit_ has a negative mode
   kernels::ArdKernel kernel_;
   Mat X_;
   Vec f_;           ///< mode

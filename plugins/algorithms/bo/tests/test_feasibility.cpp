@@ -201,3 +201,65 @@ TEST_CASE("per-dimension lengthscales (ard): a slab failing in one coordinate is
   FunctionRef p(3, [&](const Vec& x, Vec* g) { return ard.probability(x, g); });
   for (int t = 0; t < 5; ++t) CHECK(check_gradient(p, rng.uniform_vec(3), 1e-6, 1e-8).max_abs_error < 1e-7);
 }
+
+TEST_CASE("fit_failures: a failure among successes is not explained away as label noise") {
+  // 1-D, successes every 0.05 on [0, 1] but at 0.55, where a trial failed: on the evidence alone the smoothest
+  // explanation is a success everywhere and one noisy label, P(success) above 0.5 at the failed θ (the trial would
+  // be suggested again). With set_fit_failures the chosen hyperparameters put that θ below 0.5 (session 37). The
+  // cost model's lengthscale 0.23 is where the grid's best evidence reads the failure as noise while other grid
+  // points fit it; the choice is checked against every grid point fitted on its own.
+  std::vector<double> xs;
+  std::vector<bool> ok;
+  for (int i = 0; i <= 20; ++i) {
+    xs.push_back(0.05 * i);
+    ok.push_back(i != 11);
+  }
+  const Mat X = column(xs);
+  FeasibilityModel plain(1), fitted(1);
+  fitted.set_fit_failures(true);
+  REQUIRE(plain.fit(X, ok, vec1(0.23)));
+  REQUIRE(fitted.fit(X, ok, vec1(0.23)));
+  CHECK(plain.probability(vec1(0.55)) > 0.5);  // the failure read as noise
+  CHECK(fitted.probability(vec1(0.55)) < 0.5);
+  CHECK(fitted.mode()(11) < 0);
+  // The rule by brute force: the highest evidence among the grid points whose mode is negative at the failure.
+  double best_evidence = -1e300;
+  FeasibilityModel::Hyper expected{};
+  int fitting = 0;
+  for (const FeasibilityModel::Hyper& h : FeasibilityModel::grid()) {
+    FeasibilityModel one(1);
+    REQUIRE(one.fit(X, ok, vec1(0.23), false, h));
+    if (one.mode()(11) >= 0) continue;
+    ++fitting;
+    if (one.log_evidence() > best_evidence) best_evidence = one.log_evidence(), expected = h;
+  }
+  REQUIRE(fitting > 0);
+  REQUIRE(fitting < static_cast<int>(FeasibilityModel::grid().size()));
+  CHECK(fitted.hyper().lengthscale_factor == expected.lengthscale_factor);
+  CHECK(fitted.hyper().signal_std == expected.signal_std);
+  CHECK(fitted.log_evidence() == doctest::Approx(best_evidence).epsilon(1e-12));
+  CHECK(plain.log_evidence() > fitted.log_evidence());
+  // The successes stay likely away from the failure (the dip is local, not the whole line).
+  CHECK(fitted.probability(vec1(0.2)) > 0.8);
+  CHECK(fitted.probability(vec1(0.9)) > 0.8);
+  // Refitting gives the same choice (deterministic: a fixed grid, ties to the earlier candidate).
+  FeasibilityModel again(1);
+  again.set_fit_failures(true);
+  REQUIRE(again.fit(X, ok, vec1(0.23)));
+  CHECK(again.hyper().lengthscale_factor == fitted.hyper().lengthscale_factor);
+  CHECK(again.hyper().signal_std == fitted.hyper().signal_std);
+  CHECK(again.probability(vec1(0.55)) == fitted.probability(vec1(0.55)));
+
+  // A failure with a success within 0.01 of it (the same θ failing and succeeding: a stochastic failure) is not
+  // forced: the choice is the evidence's, as without the option.
+  xs.push_back(0.555);
+  ok.push_back(true);
+  const Mat Y = column(xs);
+  FeasibilityModel plain2(1), fitted2(1);
+  fitted2.set_fit_failures(true);
+  REQUIRE(plain2.fit(Y, ok, vec1(0.23)));
+  REQUIRE(fitted2.fit(Y, ok, vec1(0.23)));
+  CHECK(fitted2.hyper().lengthscale_factor == plain2.hyper().lengthscale_factor);
+  CHECK(fitted2.hyper().signal_std == plain2.hyper().signal_std);
+  CHECK(fitted2.probability(vec1(0.55)) == plain2.probability(vec1(0.55)));
+}
