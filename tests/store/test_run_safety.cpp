@@ -715,3 +715,21 @@ TEST_CASE("closed standard descriptors: a run started with 0, 1 or 2 closed comp
   CHECK_FALSE(contains(fd2, ".lock"));
   fs::remove_all(dir);
 }
+
+TEST_CASE("a run stopped by SIGTERM during a trial says the reason once") {
+  // Red team, session 37: "trial 0 abandoned: interrupted by SIGTERM (interrupted by SIGTERM)".
+  const std::string dir = scratch("sigterm_reason_once");
+  const std::string cfg = dir + "/cfg.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: 'touch " << dir
+                     << "/started; sleep 30; echo 1', dim: 1, timeout: 60}\nbudget: 2\nseed: 1\nalgorithm: random\n";
+  const pid_t run = test::spawn({VARBO_EXE, "run", cfg, "-o", out, "--no-progress"}, dir + "/run.log");
+  for (int i = 0; i < 3000 && !fs::exists(dir + "/started"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(fs::exists(dir + "/started"));
+  kill(run, SIGTERM);
+  CHECK(test::wait_for(run).exit_code == 128 + SIGTERM);
+  const std::string log = slurp(dir + "/run.log");
+  CAPTURE(log);
+  CHECK(contains(log, "abandoned: interrupted by SIGTERM"));
+  CHECK_FALSE(contains(log, "(interrupted by SIGTERM)"));
+  fs::remove_all(dir);
+}

@@ -634,7 +634,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, {}, [&] {
         return st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
       });
-      log_warn("trial {} abandoned: {} ({})", trial_label(index, t.id), reason, safe_text(evaluation.error, 300));
+      // The evaluation's error is most often the reason itself: said once ("interrupted by SIGTERM (interrupted by
+      // SIGTERM)", red team, session 37).
+      const std::string detail = safe_text(evaluation.error, 300);
+      log_warn("trial {} abandoned: {}{}", trial_label(index, t.id), reason,
+               detail.empty() || detail == reason ? "" : " (" + detail + ")");
       break;
     }
     if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);
