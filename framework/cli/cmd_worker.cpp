@@ -286,8 +286,12 @@ Runner add_worker(CLI::App& app) {
         retrying(reconnect, id, [&] {
           return study.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
         });
-        std::fprintf(stderr, "trial %lld (%s): abandoned: %s (%s)\n", static_cast<long long>(t.id), t.phase.c_str(),
-                     reason.c_str(), safe_text(e.error, 200).c_str());
+        // The evaluation's error is most often the reason itself: said once ("interrupted by SIGINT (interrupted
+        // by SIGINT)", red team, session 37).
+        const std::string detail = safe_text(e.error, 200);
+        const std::string more = detail.empty() || detail == reason ? "" : " (" + detail + ")";
+        std::fprintf(stderr, "trial %lld (%s): abandoned: %s%s\n", static_cast<long long>(t.id), t.phase.c_str(),
+                     reason.c_str(), more.c_str());
         exit_code = 128 + sig;
         break;
       }

@@ -1,5 +1,7 @@
 // varbo: risk-aware and cautious Bayesian optimization from YAML configurations.
+#include <fcntl.h>
 #include <malloc.h>
+#include <unistd.h>
 
 #include <cctype>
 #include <csignal>
@@ -44,6 +46,15 @@ void hint_non_finite_numbers(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Standard descriptors closed by the caller (`varbo run ... 1>&-`, a daemon's launcher) are opened on /dev/null
+  // before anything opens a file: a complete, recorded run ended with exit 2 "standard output: write failed", and
+  // with all three closed the run lock became fd 2, inherited by the trial supervisor and written to by every
+  // message (red team, session 37). open() returns the lowest free descriptor, the one closed.
+  for (int fd = 0; fd <= 2; ++fd)
+    if (::fcntl(fd, F_GETFD) == -1 && errno == EBADF) {
+      const int got = ::open("/dev/null", O_RDWR);
+      if (got >= 0 && got != fd) ::close(got);  // cannot happen (0 … fd − 1 are open by now); never kept if it did
+    }
   // Keep freed blocks in the heap. glibc gives a big block (a GP fit's N × N matrices: 1.3 MB at N = 400) back
   // to the kernel when it is freed and maps fresh zeroed pages for the next one until its dynamic threshold has
   // adapted, which a short process never does: `varbo suggest` took 33,000 page faults and ~30 % more CPU for

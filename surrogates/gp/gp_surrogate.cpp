@@ -207,7 +207,21 @@ FitReport GpSurrogate::report_for(const Posterior& post, const Vec& p) const {
   rep.log_likelihood = post.log_likelihood - static_cast<double>(n) * std::log(post.stdz.scale);
   rep.log_prior = settings_.priors.log_density(*kernel_, p, nullptr);
   rep.objective = rep.log_likelihood + rep.log_prior;
-  if (post.jitter > 0) rep.message = "jitter " + std::to_string(post.jitter) + " added to the diagonal";
+  if (post.jitter > 0) {
+    // {:.3g}: std::to_string printed a 300-digit number for inputs near 1e150 (red team, session 37).
+    rep.message = fmt::format("jitter {:.3g} added to the diagonal", post.jitter);
+    // A jitter above the kernel's own prior variance (standardized units, at the centre of the cube: σ_f² of a
+    // stationary kernel, as signal_variance()) outweighs the covariance it was added to: the model no longer
+    // follows the data. Said in the report; `ok` stays true, which means the model was installed (false: the
+    // previous one was kept), and it was.
+    const double signal = post.kernel ? post.kernel->diagonal(Vec::Constant(post.X.cols(), 0.5)) : 0.0;
+    if (!(post.jitter <= signal))
+      rep.message += fmt::format(
+          "; warning: more than the kernel's signal variance ({:.3g}, standardized costs): the fit is dominated by "
+          "the jitter and does not follow the data (inputs of very different scales? rescale them, or choose "
+          "another kernel)",
+          signal);
+  }
   return rep;
 }
 

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -687,4 +688,48 @@ TEST_CASE("abandon: a worker of this host whose process is gone holds nothing, h
   const std::string out = slurp(dir + "/abandon.log");
   CHECK(contains(out, "abandoned 1 trial(s): 0"));
   CHECK_FALSE(contains(out, "live worker"));
+}
+
+TEST_CASE("closed standard descriptors: a run started with 0, 1 or 2 closed completes with exit 0") {
+  // Red team, session 37: with stdout closed a complete, recorded run ended with exit 2 "standard output: write
+  // failed"; with all three closed the lock file became fd 2, inherited by the trial supervisor. varbo now opens
+  // closed standard descriptors on /dev/null first. The task's command reads varbo's fd 2 (its parent is the trial
+  // supervisor, whose parent is varbo): /dev/null, not the run's lock file.
+  const std::string dir = scratch("closed_fds");
+  const std::string cfg = dir + "/cfg.yaml";
+  std::ofstream(cfg) << R"(task: {type: external, command: "readlink /proc/$(awk '/^PPid/{print $2}' /proc/$PPID/status)/fd/2 >> )"
+                     << dir << "/fd2.txt; echo 1.5\", dim: 1}\nbudget: 2\nseed: 1\nalgorithm: random\n";
+  int k = 0;
+  for (const char* closing : {"1>&- 2>/dev/null", "0<&- 1>&- 2>&-", "2>&- >/dev/null"}) {
+    CAPTURE(closing);
+    const std::string out = dir + "/run" + std::to_string(k++);
+    const std::string line = fmt::format("'{}' run '{}' -o '{}' --no-progress {}", VARBO_EXE, cfg, out, closing);
+    CHECK(std::system(line.c_str()) == 0);  // through sh -c
+    CHECK(trial_count(out + "/study.db") == 2);
+    CHECK(fs::exists(out + "/summary.json"));
+    CHECK_FALSE(fs::exists(out + "/study.db.lock"));
+  }
+  const std::string fd2 = slurp(dir + "/fd2.txt");
+  CAPTURE(fd2);
+  CHECK(contains(fd2, "/dev/null"));
+  CHECK_FALSE(contains(fd2, ".lock"));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("a run stopped by SIGTERM during a trial says the reason once") {
+  // Red team, session 37: "trial 0 abandoned: interrupted by SIGTERM (interrupted by SIGTERM)".
+  const std::string dir = scratch("sigterm_reason_once");
+  const std::string cfg = dir + "/cfg.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: 'touch " << dir
+                     << "/started; sleep 30; echo 1', dim: 1, timeout: 60}\nbudget: 2\nseed: 1\nalgorithm: random\n";
+  const pid_t run = test::spawn({VARBO_EXE, "run", cfg, "-o", out, "--no-progress"}, dir + "/run.log");
+  for (int i = 0; i < 3000 && !fs::exists(dir + "/started"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(fs::exists(dir + "/started"));
+  kill(run, SIGTERM);
+  CHECK(test::wait_for(run).exit_code == 128 + SIGTERM);
+  const std::string log = slurp(dir + "/run.log");
+  CAPTURE(log);
+  CHECK(contains(log, "abandoned: interrupted by SIGTERM"));
+  CHECK_FALSE(contains(log, "(interrupted by SIGTERM)"));
+  fs::remove_all(dir);
 }

@@ -162,6 +162,11 @@ TEST_CASE("workers: a second SIGINT stops the running command's tree; its trial 
   REQUIRE(trials.size() == 1);
   CHECK(trials[0].state == TrialState::Abandoned);
   CHECK(trials[0].error.find("interrupted by SIGINT") != std::string::npos);
+  // Said once (red team, session 37: "abandoned: interrupted by SIGINT (interrupted by SIGINT)").
+  const std::string worker_log = test::slurp(dir + "/worker.log");
+  CAPTURE(worker_log);
+  CHECK(worker_log.find("abandoned: interrupted by SIGINT") != std::string::npos);
+  CHECK(worker_log.find("(interrupted by SIGINT)") == std::string::npos);
   std::ifstream in(pidfile);
   int n = 0;
   for (pid_t p; in >> p; ++n) CHECK(kill(p, 0) != 0);  // gone

@@ -19,4 +19,9 @@ bool require_regular_file(const std::string& path, const std::string& what);
 /// The same test without throwing: true when `path` does not exist or is a regular file.
 bool absent_or_regular_file(const std::string& path);
 
+/// Like irregular_file_kind, of the name itself (lstat, links not followed): "a symbolic link" too. For files a
+/// library opens by a name derived from another (SQLite's journal beside a study), where a planted link or FIFO
+/// must be refused before the library blocks in open() or writes through it (red team, session 37).
+std::optional<std::string> irregular_entry_kind(const std::string& path);
+
 }  // namespace varbo

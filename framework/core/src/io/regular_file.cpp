@@ -16,6 +16,7 @@ const char* kind(std::filesystem::file_type t) {
     case std::filesystem::file_type::socket: return "a socket";
     case std::filesystem::file_type::block: return "a block device";
     case std::filesystem::file_type::character: return "a character device";
+    case std::filesystem::file_type::symlink: return "a symbolic link";
     default: return "not a regular file";
   }
 }
@@ -29,6 +30,13 @@ std::optional<std::string> irregular_file_kind(const std::string& path) {
 }
 
 bool absent_or_regular_file(const std::string& path) { return !irregular_file_kind(path); }
+
+std::optional<std::string> irregular_entry_kind(const std::string& path) {
+  std::error_code ec;
+  const auto st = std::filesystem::symlink_status(path, ec);
+  if (ec || !std::filesystem::exists(st) || std::filesystem::is_regular_file(st)) return std::nullopt;
+  return std::string(kind(st.type()));
+}
 
 bool require_regular_file(const std::string& path, const std::string& what) {
   if (const auto k = irregular_file_kind(path))

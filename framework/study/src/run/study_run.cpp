@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <unordered_map>
+#include <vector>
 #include <optional>
 #include <set>
 #include <filesystem>
@@ -84,6 +85,35 @@ std::string RunSummary::report() const {
 }
 
 namespace {
+
+/// The run folder and those above it that this command makes, removed again (empty ones only, innermost first)
+/// when the command is rejected before its study exists: a `-o` path whose study SQLite refused as too long left
+/// its whole empty folder tree behind (red team, session 37).
+class MadeFolders {
+ public:
+  explicit MadeFolders(const std::string& folder) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    fs::path prefix;
+    for (const fs::path& part : fs::absolute(folder, ec)) {
+      prefix /= part;
+      if (!fs::exists(fs::symlink_status(prefix, ec))) made_.push_back(prefix);
+    }
+  }
+  MadeFolders(const MadeFolders&) = delete;
+  MadeFolders& operator=(const MadeFolders&) = delete;
+  ~MadeFolders() {
+    if (kept_) return;
+    std::error_code ec;
+    for (auto it = made_.rbegin(); it != made_.rend(); ++it) std::filesystem::remove(*it, ec);  // not if not empty
+  }
+  /// The study is in place: the folders are the run's.
+  void keep() { kept_ = true; }
+
+ private:
+  std::vector<std::filesystem::path> made_;
+  bool kept_ = false;
+};
 
 void remove_store_files(const std::string& path) {
   std::error_code ec;
@@ -268,6 +298,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   }
   if (!ov.overwrite && !same_file(study.output + "/study.db", store_path))
     refuse_other_studys_folder(study.output, store_path, ov);
+  MadeFolders made_folders(study.output);  // before the locks: their files go first when it is rejected
   {
     std::error_code ec;
     std::filesystem::create_directories(study.output, ec);
@@ -295,6 +326,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // recorded (a warning names the first difference) instead of refusing the study as another configuration's.
   if (ov.resume) study_detail::adopt_current_resolution(store_path, study, registry);
   Study st = Study::attach(store_path, study, registry);
+  made_folders.keep();
   st.set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
   const Domain& shown = st.domain();
@@ -602,7 +634,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       retry_while_unreachable(ov.reconnect_seconds, "run " + study.output, {}, [&] {
         return st.abandon_where([&](const TrialRecord& p) { return p.id == t.id; }, reason);
       });
-      log_warn("trial {} abandoned: {} ({})", trial_label(index, t.id), reason, safe_text(evaluation.error, 300));
+      // The evaluation's error is most often the reason itself: said once ("interrupted by SIGTERM (interrupted by
+      // SIGTERM)", red team, session 37).
+      const std::string detail = safe_text(evaluation.error, 300);
+      log_warn("trial {} abandoned: {}{}", trial_label(index, t.id), reason,
+               detail.empty() || detail == reason ? "" : " (" + detail + ")");
       break;
     }
     if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);

@@ -8,8 +8,11 @@
 
 #include <cerrno>
 #include <filesystem>
+#include <vector>
 
+#include "varbo/errors.hpp"
 #include "varbo/log.hpp"
+#include "varbo/regular_file.hpp"
 
 namespace varbo {
 
@@ -64,6 +67,22 @@ std::string clear_foreign_side_files(const std::string& study_path) {
                      "with `umask 002`)",
                      whose, in_use ? ", and a process of theirs has the study open" : ", holding changes not yet in the study file",
                      study_path);
+}
+
+void require_plain_side_files(const std::string& study_path) {
+  std::vector<std::string> names{study_path};
+  std::error_code ec;
+  const std::string resolved = std::filesystem::weakly_canonical(study_path, ec).string();
+  if (!ec && !resolved.empty() && resolved != std::filesystem::absolute(study_path, ec).lexically_normal().string())
+    names.push_back(resolved);
+  for (const std::string& name : names)
+    for (const char* suffix : {"-journal", "-wal", "-shm"}) {
+      const std::string side = name + suffix;
+      if (const auto k = irregular_entry_kind(side))
+        throw InputError(fmt::format("{}: not a regular file ({}; expected SQLite's {} of the study {}, a plain "
+                                     "file, or nothing); SQLite would open it: remove it",
+                                     side, *k, suffix + 1, study_path));
+    }
 }
 
 }  // namespace varbo

@@ -11,4 +11,11 @@ namespace varbo {
 /// why the study cannot be written now: whose files they are and what clears them. "" when nothing is in the way.
 std::string clear_foreign_side_files(const std::string& study_path);
 
+/// Throws InputError naming the file when the study's -journal, -wal or -shm exists and is not a plain file (a
+/// FIFO, a directory, a socket or a symbolic link, the name itself: lstat). SQLite opens them by name: a FIFO
+/// named study.db-journal made every command on the run hang in open(), past the first Ctrl-C (red team,
+/// session 37); through a link it would write another file. Checked beside the name given and beside the file a
+/// symbolic link to the study leads to (SQLite names the journal after the resolved name).
+void require_plain_side_files(const std::string& study_path);
+
 }  // namespace varbo

@@ -271,6 +271,8 @@ class SqliteStore final : public StudyStore {
                                    "its run lock under the name used, so two names would let two writers in. Open it "
                                    "by one name: remove the other links, or `cp` the file for an independent copy",
                                    path, static_cast<unsigned long>(links.st_nlink)));
+    // Before SQLite opens them: a FIFO as the study's -journal hung every command (red team, session 37).
+    require_plain_side_files(path);
     const int flags = SQLITE_OPEN_READWRITE | (create ? SQLITE_OPEN_CREATE : 0) | SQLITE_OPEN_FULLMUTEX;
     if (sqlite3_open_v2(path.c_str(), &db_, flags, nullptr) != SQLITE_OK) {
       const std::string msg = db_ ? sqlite3_errmsg(db_) : "out of memory";
