@@ -747,15 +747,17 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   const bool may_restart = fresh_region && !refining_ && !final_stretch && restart_points_ > 0;
   if (may_restart && failure_settings_.failure_run > 0 && !failed_.empty() && feasibility_on_ &&
       data.size() > fresh_from_) {
-    // failure_model.failure_run (session 37): Hartmann-6 with a ball whose face passes through the local minimum
-    // (seed 70): the incumbent's level of P(success) fell with the incumbent's own P as failures gathered beside it,
-    // the trust region does not shrink on failed trials, and 10 trials in a row failed next to the incumbent until
-    // stop_after_failures ended the run. On a robot, each is a fall.
+    // failure_model.failure_run (session 37; docs/failures.md, item 9). Held-out regions of Hartmann-6: where a
+    // failure boundary passes through the incumbent, the incumbent's level of P(success) fell with the incumbent's
+    // own P as failures gathered beside it, the trust region does not shrink on failed trials, and 10 trials in a
+    // row failed (P(success) 0.5–0.65 each) until stop_after_failures ended the run (region 3 seed 70, region 5
+    // seed 59). On a robot, each is a fall. Not 3: attempts still approaching a minimiser beside a failure face
+    // fail 3–5 times in a row while the classifier learns the face, and cutting them lost the basin.
+    const Index run = failed_in_a_row(k);
     const Index stuck = attempt_best(data);
-    const Index run = failed_in_a_row(k, data.X.row(stuck).transpose());
     if (run >= failure_settings_.failure_run && restart_on_known(data, stuck, region_rule, region_rng)) {
       remember_if_blocked(k, data);  // later attempts keep off it if a failure blocks its descent (blocked_tabu)
-      return restart_afresh(fmt::format("the attempt's last {} trials failed beside its best point", run).c_str());
+      return restart_afresh(fmt::format("the attempt's last {} trials failed", run).c_str());
     }
   }
   if (may_restart && converged_on_repeat(k, s.x, data, *model_data, region_rule, region_rng))

@@ -81,8 +81,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// counted as a stall) until it does, on the real data; false (region unchanged) if it would not.
   bool restart_on_known(const Dataset& data, Index near, const ValueStall& rule, Rng& region_rng);
   /// failure_model.failure_run: the failed trials in a row that end trial k - 1, within the current attempt's
-  /// model-based trials and beside its best point `best`.
-  Index failed_in_a_row(Index k, const Vec& best) const;
+  /// model-based trials.
+  Index failed_in_a_row(Index k) const;
   /// failure_model.boundary_restart: whether the attempt's best point is blocked by the failure boundary.
   bool blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const;
   void remember_if_blocked(Index k, const Dataset& data);

@@ -59,21 +59,12 @@ void BayesianOptimization::force_region_failures(Index k) {
   log_debug("bo: trial {}: {} failed or limited trial(s) count as trust region failures", k, events);
 }
 
-Index BayesianOptimization::failed_in_a_row(Index k, const Vec& best) const {
-  // Only failures beside the attempt's best point (within kFailureRunReach, max-norm): the first model-based trials
-  // of an attempt that meet a failure region not yet seen are how the classifier learns it (Hartmann-3 with the
-  // ball, seeds 37 and 40: three or four failures in a row 0.15–0.45 from the best point, then the global basin;
-  // ending those attempts lost it).
-  constexpr double kFailureRunReach = 0.15;
+Index BayesianOptimization::failed_in_a_row(Index k) const {
   const Index attempt_from = fresh_starts_ > 0 ? fresh_trial_ + restart_points_ : design_.rows();
   Index n = 0;
-  for (Index t = k - 1; t >= attempt_from; --t) {
-    const auto at = std::find(failed_trials_.begin(), failed_trials_.end(), t);
-    if (at == failed_trials_.end()) break;
-    const Vec& x = failed_[static_cast<std::size_t>(at - failed_trials_.begin())];
-    if (x.size() != best.size() || (x - best).lpNorm<Eigen::Infinity>() > kFailureRunReach) break;
+  while (k - 1 - n >= attempt_from &&
+         std::find(failed_trials_.begin(), failed_trials_.end(), k - 1 - n) != failed_trials_.end())
     ++n;
-  }
   return n;
 }
 

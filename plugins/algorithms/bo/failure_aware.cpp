@@ -163,10 +163,9 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "confident of an improvement there (mean + 3 sd below the incumbent); if it improves on every "
                    "earlier trial, the attempt continues from it without the rest of its design"),
       opt::integer("failure_run", &FailureModelSettings::failure_run,
-                   "an attempt whose last this many model-based trials all failed within 0.15 (max-norm, unit cube) of "
-                   "its best point ends: a fresh start (and, with blocked_tabu, later attempts keep off that point if a "
-                   "failure blocks its descent), not one fall after another until stop_after_failures ends the run; "
-                   "0 = never")
+                   "an attempt whose last this many model-based trials all failed ends (a fresh start; with "
+                   "blocked_tabu later attempts keep off its best point if a failure blocks its descent), not one "
+                   "fall after another until stop_after_failures ends the run; 0 = never")
           .at_least(0),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "

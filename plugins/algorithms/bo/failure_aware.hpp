@@ -145,10 +145,11 @@ struct FailureModelSettings {
   /// failure boundary may already show where the costs fall beyond it (Hartmann-3 with a ball across its valley: 16
   /// → 11 stuck runs of 40; docs/failures.md, session 36). The default since session 36.
   bool global_probe = true;
-  /// Once a trial has failed, an attempt whose last `failure_run` model-based trials all failed within 0.15
-  /// (max-norm) of its best point ends: the region restarts afresh, and (blocked_tabu) later attempts keep
-  /// boundary_tabu away from that point if an observed failure blocks its descent; 0 = never (session 37).
-  int failure_run = 0;
+  /// Once a trial has failed, an attempt whose last `failure_run` model-based trials all failed ends: the region
+  /// restarts afresh, and (blocked_tabu) later attempts keep boundary_tabu away from its best point if an observed
+  /// failure blocks its descent; 0 = never. The default (6) since session 37: held-out regions' runs failed 10 trials
+  /// in a row beside their incumbent and stop_after_failures ended them (docs/failures.md, item 9).
+  int failure_run = 6;
   /// The classifier's hyperparameters must put every failed θ without a success within 0.01 below P(success) 0.5
   /// (among those, the evidence decides; if none do, the evidence alone): a failure is not explained away as label
   /// noise (session 37).

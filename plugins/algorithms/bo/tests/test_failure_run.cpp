@@ -1,7 +1,7 @@
 // failure_model.failure_run (bo_restart_rules.cpp, session 37): Hartmann-6 with a ball of 30 % of the box whose face
 // passes through the local minimum (a region drawn at random for a held-out check, not one tuned on), seed 70: the
 // attempt at the local minimum proposed one failing θ after another beside its incumbent until stop_after_failures
-// (10 in a row) ended the run. With the rule, an attempt whose last three model-based trials failed ends there.
+// (10 in a row) ended the run. With the rule (default 6), an attempt whose last 6 model-based trials failed ends.
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -21,15 +21,20 @@ namespace {
 
 const std::string kBall = "{shape: ball, center: [0.498, 0.6, 0.539, 0.339, 0.553, 0.218], radius: 0.67}";
 
+constexpr int kDefault = 6;  // failure_model.failure_run's default
+
+// failure_run < 0: the default (the key not given).
 std::string yaml(int failure_run, int stop_after) {
   return "task: {type: hartmann6, failure_region: " + kBall + "}\nbudget: 100\nseed: 70\nstop_after_failures: " +
-         std::to_string(stop_after) + "\nalgorithm: {type: bo, failure_model: {failure_run: " +
-         std::to_string(failure_run) + "}}\n";
+         std::to_string(stop_after) + "\nalgorithm: " +
+         (failure_run < 0 ? std::string("{type: bo}")
+                          : "{type: bo, failure_model: {failure_run: " + std::to_string(failure_run) + "}}") +
+         "\n";
 }
 
 std::vector<std::vector<std::string>> run(int failure_run, int stop_after, int threads = 1) {
   RunOverrides ov;
-  ov.output = test::temp_folder("failure_run_" + std::to_string(failure_run) + "_" + std::to_string(stop_after) + "_" +
+  ov.output = test::temp_folder("failure_run_" + std::to_string(failure_run + 1) + "_" + std::to_string(stop_after) + "_" +
                                 std::to_string(threads));
   ov.threads = threads;
   test::run_yaml(yaml(failure_run, stop_after), test::registry(), ov);
@@ -60,18 +65,19 @@ TEST_CASE("failure_run: an attempt failing trial after trial beside its incumben
   REQUIRE(without.size() == 101);
   CHECK(longest_failure_run(without, {"ei"}) >= 10);
 
-  const auto with = run(3, 10), two = run(3, 10, 2);
+  const auto with = run(-1, 10), two = run(-1, 10, 2);
   REQUIRE(with.size() == 101);  // the whole budget
-  CHECK(longest_failure_run(with, {"ei"}) <= 3);
-  // The trials up to the end of the first run of three failures are the run's without the rule.
+  CHECK(longest_failure_run(with, {"ei"}) <= kDefault);
+  // The trials up to the end of the first run of kDefault failures are the run's without the rule.
   const auto phase = static_cast<std::size_t>(test::column_of(with[0], "phase"));
   const auto ok = static_cast<std::size_t>(test::column_of(with[0], "ok"));
   const auto x1 = static_cast<std::size_t>(test::column_of(with[0], "x1"));
   std::size_t ended = 0;
-  for (std::size_t r = 3; r < with.size() && ended == 0; ++r)
-    if (with[r][ok] == "0" && with[r - 1][ok] == "0" && with[r - 2][ok] == "0" && with[r][phase] == "ei" &&
-        with[r - 1][phase] == "ei" && with[r - 2][phase] == "ei")
-      ended = r;
+  for (std::size_t r = kDefault; r < with.size() && ended == 0; ++r) {
+    bool all_failed = true;
+    for (std::size_t j = r + 1 - kDefault; j <= r; ++j) all_failed = all_failed && with[j][ok] == "0" && with[j][phase] == "ei";
+    if (all_failed) ended = r;
+  }
   REQUIRE(ended > 0);
   for (std::size_t r = 1; r <= ended; ++r)
     for (std::size_t d = 0; d < 6; ++d) CHECK(with[r][x1 + d] == without[r][x1 + d]);
@@ -101,7 +107,7 @@ TEST_CASE("failure_run: a run continues from a state saved after the attempt end
     const Evaluation e = task->evaluate(x, rng);
     return Observation{x, e.cost, e.ok, {}};
   };
-  const std::string algorithm = "{type: bo, failure_model: {failure_run: 3}}";
+  const std::string algorithm = "{type: bo}";  // failure_run: kDefault
   auto a = test::registry().create<Algorithm>(algorithm, ctx);
   std::vector<Observation> told;
   std::string state;
@@ -115,7 +121,7 @@ TEST_CASE("failure_run: a run continues from a state saved after the attempt end
     a->tell({o});
     told.push_back(o);
     in_a_row = s.phase == "ei" && !o.ok ? in_a_row + 1 : 0;
-    if (in_a_row == 3 && state.empty()) {  // saved with the attempt's third failure in a row told
+    if (in_a_row == kDefault && state.empty()) {  // saved with the attempt's last failure in a row told
       state = *dynamic_cast<AlgorithmState&>(*a).save_state();
       told_at_save = told;
     }
