@@ -152,7 +152,7 @@ bool FeasibilityModel::fit(const Mat& X, const std::vector<bool>& success, const
   Hyper chosen = candidates.front();
   for (const Hyper& h : candidates) {
     const double e = laplace(X, y, base_lengthscales, h);
-    if (std::isfinite(e) && (better(e, fits_failures_, 0.0) || !std::isfinite(best))) {
+    if (std::isfinite(e) && better(e, fits_failures_, 0.0)) {
       best = e;
       best_fits = fits_failures_;
       chosen = h;
