@@ -106,8 +106,9 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   if (settings.restart_points > initial_points_)
     log_warn_once(fmt::format("bo: restart_points {} is more than initial_points ({}): each fresh start draws {}",
                               settings.restart_points, initial_points_, initial_points_));
-  restart_points_ =
+  configured_restart_points_ =
       settings.restart_points >= 0 ? std::min(settings.restart_points, initial_points_) : initial_points_;
+  restart_points_ = configured_restart_points_;
   restart_away_ = settings.restart_design == "away";
   replicate_design_ = settings.replicate_design.value_or(surrogate_->tests_noise_on_replicates());
   failure_settings_ = parse_failure_model(o, &r);
@@ -951,6 +952,10 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
     if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));
     data_.add(o.x, o.cost);
   }
+  // failure_model.short_restarts: a function of the trials told (a restored bo gets them back through tell()).
+  const bool shorten = failure_settings_.short_restarts && !failed_trials_.empty() &&
+                       failure_settings_.enabled != FailureModelSettings::Enabled::Off;
+  restart_points_ = shorten ? std::min<Index>(configured_restart_points_, dim_ + 1) : configured_restart_points_;
 }
 
 std::optional<Vec> BayesianOptimization::recommendation() const {

@@ -177,7 +177,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::vector<Phase> phases_;
   Index initial_points_ = 0;
   std::optional<Vec> initial_point_;  ///< BuildContext::initial_point: the design's first point
-  Index restart_points_ = 0;  ///< see BoSettings::restart_points
+  Index restart_points_ = 0;  ///< a fresh start's design size now (short_restarts shortens it once a trial failed)
+  Index configured_restart_points_ = 0;  ///< BoSettings::restart_points, resolved
   bool restart_away_ = false;  ///< restart_design: away
   bool replicate_design_ = false;  ///< the designs' last point repeats their first
   Index refit_every_ = 1;

@@ -167,6 +167,10 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "blocked_tabu later attempts keep off its best point if a failure blocks its descent), not one "
                    "fall after another until stop_after_failures ends the run; 0 = never")
           .at_least(0),
+      opt::boolean("short_restarts", &FailureModelSettings::short_restarts,
+                   "once a trial has failed, a fresh start's design has d + 1 points (at most restart_points): the "
+                   "failures took trials from the budget and a failure region lengthens the way to a basin, so a later "
+                   "attempt keeps them for its search; false = restart_points whether or not trials failed"),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
@@ -199,7 +203,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, failure_run: n, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, failure_run: n, short_restarts: bool, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

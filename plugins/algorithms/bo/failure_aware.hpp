@@ -154,6 +154,11 @@ struct FailureModelSettings {
   /// (among those, the evidence decides; if none do, the evidence alone): a failure is not explained away as label
   /// noise (session 37).
   bool fit_failures = false;
+  /// Once a trial has failed, a fresh start's design has d + 1 points (at most bo's restart_points) instead of
+  /// restart_points: failures take trials from the budget and a failure region lengthens the way to a basin, so a
+  /// later attempt needs its trials for the way more than for a design of 2(d + 1) points. The default since session 38
+  /// (Hartmann-6 with a box cutting x2 between the minimiser and the rest: 44 → 34 stuck runs of 80; docs/failures.md).
+  bool short_restarts = true;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -1,0 +1,129 @@
+// failure_model.short_restarts (session 38): once a trial has failed, a fresh start's design has d + 1 points
+// instead of restart_points (2(d + 1) by default). Hartmann-6 with held-out region 0 of session 37 (a box cutting x2
+// between the global minimiser and the rest of the box), seed 1: the run restarts after failures in its design.
+#include <string>
+#include <vector>
+
+#include "study_helpers.hpp"
+#include "varbo/algorithm.hpp"
+#include "varbo/log.hpp"
+#include "varbo/registry.hpp"
+#include "varbo/state.hpp"
+#include "varbo/task.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+const std::string kBox = "{shape: box, lower: [0.0, 0.186, 0.0, 0.0, 0.0, 0.0], upper: [1.0, 0.736, 1.0, 0.545, 1.0, 1.0]}";
+
+using Rows = std::vector<std::vector<std::string>>;
+
+Rows run(bool region, const std::string& failure_model, int threads = 1) {
+  RunOverrides ov;
+  ov.output = test::temp_folder("short_restarts_" + std::to_string(region) + "_" + std::to_string(failure_model.size()) +
+                                "_" + std::to_string(threads));
+  ov.threads = threads;
+  const std::string yaml = std::string("task: {type: hartmann6") + (region ? ", failure_region: " + kBox : "") +
+                           "}\nbudget: 100\nseed: 1\nalgorithm: {type: bo" +
+                           (failure_model.empty() ? "" : ", failure_model: " + failure_model) + "}\n";
+  test::run_yaml(yaml, test::registry(), ov);
+  return test::read_rows(*ov.output + "/trials.csv");
+}
+
+// The lengths of the blocks of consecutive rows of phase "restart" (a fresh start's design).
+std::vector<int> restart_blocks(const Rows& rows) {
+  const auto phase = static_cast<std::size_t>(test::column_of(rows[0], "phase"));
+  std::vector<int> blocks;
+  int current = 0;
+  for (std::size_t r = 1; r <= rows.size(); ++r) {
+    if (r < rows.size() && rows[r][phase] == "restart") {
+      ++current;
+    } else if (current > 0) {
+      blocks.push_back(current);
+      current = 0;
+    }
+  }
+  return blocks;
+}
+
+bool same_thetas(const Rows& a, const Rows& b) {
+  if (a.size() != b.size()) return false;
+  const auto x1 = static_cast<std::size_t>(test::column_of(a[0], "x1"));
+  for (std::size_t r = 1; r < a.size(); ++r)
+    for (std::size_t d = 0; d < 6; ++d)
+      if (a[r][x1 + d] != b[r][x1 + d]) return false;
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("short_restarts: after failures a fresh start's design has d + 1 points; without failures nothing changes") {
+  set_log_level(LogLevel::Error);
+  const Rows with = run(true, ""), two = run(true, "", 2), off = run(true, "{short_restarts: false}");
+  REQUIRE(with.size() == 101);
+  REQUIRE(off.size() == 101);
+  const std::vector<int> short_blocks = restart_blocks(with), long_blocks = restart_blocks(off);
+  REQUIRE(!short_blocks.empty());
+  REQUIRE(!long_blocks.empty());
+  // The design of every fresh start: d + 1 = 7 points (fewer only where a global probe ended it, or the budget).
+  for (const int n : short_blocks) CHECK(n <= 7);
+  CHECK(short_blocks.front() == 7);
+  // Without the rule, restart_points = initial_points = 2(d + 1) = 14.
+  CHECK(long_blocks.front() == 14);
+  // The design's trials are the same up to the first fresh start (the rule changes nothing before it).
+  const auto phase = static_cast<std::size_t>(test::column_of(with[0], "phase"));
+  const auto x1 = static_cast<std::size_t>(test::column_of(with[0], "x1"));
+  for (std::size_t r = 1; r < with.size() && with[r][phase] != "restart"; ++r)
+    for (std::size_t d = 0; d < 6; ++d) CHECK(with[r][x1 + d] == off[r][x1 + d]);
+  // A seed fixes the run whatever the thread count.
+  CHECK(same_thetas(with, two));
+  // A run without failures is unchanged, trial for trial.
+  CHECK(same_thetas(run(false, ""), run(false, "{short_restarts: false}")));
+}
+
+TEST_CASE("short_restarts: a run continues from a state saved inside a shortened fresh design exactly as without saving") {
+  set_log_level(LogLevel::Error);
+  BuildContext ctx;
+  ctx.registry = &test::registry();
+  ctx.dim = 6;
+  ctx.budget = 100;
+  ctx.seed = 1;
+  auto task = test::registry().create<Task>("{type: hartmann6, failure_region: " + kBox + "}", ctx);
+  const auto observe = [&](const Vec& x) {
+    Rng rng(5);
+    const Evaluation e = task->evaluate(x, rng);
+    return Observation{x, e.cost, e.ok, {}};
+  };
+  auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
+  std::vector<Observation> told, told_at_save;
+  std::string state;
+  std::vector<Suggestion> later;
+  int in_design = 0;
+  for (Index k = 0; k < 100 && later.size() < 10; ++k) {
+    const Suggestion s = a->ask(1).front();
+    if (!state.empty()) later.push_back(s);
+    const Observation o = observe(s.x);
+    a->tell({o});
+    told.push_back(o);
+    in_design = s.phase == "restart" ? in_design + 1 : 0;
+    if (in_design == 3 && state.empty()) {  // three points into the first fresh design
+      state = *dynamic_cast<AlgorithmState&>(*a).save_state();
+      told_at_save = told;
+    }
+  }
+  REQUIRE(!state.empty());
+  REQUIRE(later.size() == 10);
+  // The design ends after its 7th point: 4 more design points, then the model's trials.
+  for (int i = 0; i < 4; ++i) CHECK(later[static_cast<std::size_t>(i)].phase == "restart");
+  CHECK(later[4].phase != "restart");
+  auto b = test::registry().create<Algorithm>("{type: bo}", ctx);
+  dynamic_cast<AlgorithmState&>(*b).restore_state(state, told_at_save);
+  for (const Suggestion& expected : later) {
+    const Suggestion s = b->ask(1).front();
+    CHECK((s.x - expected.x).norm() == 0.0);
+    CHECK(s.phase == expected.phase);
+    b->tell({observe(s.x)});
+  }
+}
