@@ -1,11 +1,12 @@
 #pragma once
-// The fixtures the bo tests share: a bowl with its minimum at 0.3 in every coordinate, and a 2-D bo built
-// from its YAML with a fixed seed.
+// The fixtures the bo tests share: a bowl with its minimum at 0.3 in every coordinate, a 2-D bo built
+// from its YAML with a fixed seed, and a task that turns a suggested θ into its observation.
 #include <memory>
 #include <string>
 
 #include "varbo/algorithm.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/task.hpp"
 #include "varbo_test.hpp"
 
 namespace varbo::test {
@@ -19,5 +20,20 @@ inline std::unique_ptr<Algorithm> make_bo(const std::string& algorithm, Index bu
   ctx.seed = 5;
   return registry().create<Algorithm>(algorithm, ctx);
 }
+
+/// A task built from its YAML, called on θ for the observation a bo is told (evaluated with a fixed Rng, so the
+/// same θ gives the same observation): the tests that drive a bo by ask and tell, saving and restoring its state.
+class TaskObserver {
+ public:
+  TaskObserver(const std::string& task, const BuildContext& ctx) : task_(registry().create<Task>(task, ctx)) {}
+  Observation operator()(const Vec& x) const {
+    Rng rng(5);
+    const Evaluation e = task_->evaluate(x, rng);
+    return Observation{x, e.cost, e.ok, {}};
+  }
+
+ private:
+  std::unique_ptr<Task> task_;
+};
 
 }  // namespace varbo::test

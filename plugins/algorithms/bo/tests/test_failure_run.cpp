@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "bo_on_bowl.hpp"
 #include "study_helpers.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/errors.hpp"
@@ -101,12 +102,7 @@ TEST_CASE("failure_run: a run continues from a state saved after the attempt end
   ctx.dim = 6;
   ctx.budget = 100;
   ctx.seed = 70;
-  auto task = test::registry().create<Task>("{type: hartmann6, failure_region: " + kBall + "}", ctx);
-  const auto observe = [&](const Vec& x) {
-    Rng rng(5);
-    const Evaluation e = task->evaluate(x, rng);
-    return Observation{x, e.cost, e.ok, {}};
-  };
+  const test::TaskObserver observe("{type: hartmann6, failure_region: " + kBall + "}", ctx);
   const std::string algorithm = "{type: bo}";  // failure_run: kDefault
   auto a = test::registry().create<Algorithm>(algorithm, ctx);
   std::vector<Observation> told;

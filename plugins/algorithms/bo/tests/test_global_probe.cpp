@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "bo_on_bowl.hpp"
 #include "study_helpers.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
@@ -108,12 +109,7 @@ TEST_CASE("global_probe: a run continues from a state saved with the probe exact
   ctx.dim = 3;
   ctx.budget = 50;
   ctx.seed = 1;
-  auto task = test::registry().create<Task>("{type: hartmann3, failure_region: " + kBall + "}", ctx);
-  const auto observe = [&](const Vec& x) {
-    Rng rng(5);
-    const Evaluation e = task->evaluate(x, rng);  // Hartmann-3's domain is the unit cube
-    return Observation{x, e.cost, e.ok, {}};
-  };
+  const test::TaskObserver observe("{type: hartmann3, failure_region: " + kBall + "}", ctx);
   auto a = test::registry().create<Algorithm>(kProbe, ctx);
   std::vector<Observation> told;
   struct Saved {

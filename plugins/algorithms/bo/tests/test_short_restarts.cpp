@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "bo_on_bowl.hpp"
 #include "study_helpers.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
@@ -90,12 +91,7 @@ TEST_CASE("short_restarts: a run continues from a state saved inside a shortened
   ctx.dim = 6;
   ctx.budget = 100;
   ctx.seed = 1;
-  auto task = test::registry().create<Task>("{type: hartmann6, failure_region: " + kBox + "}", ctx);
-  const auto observe = [&](const Vec& x) {
-    Rng rng(5);
-    const Evaluation e = task->evaluate(x, rng);
-    return Observation{x, e.cost, e.ok, {}};
-  };
+  const test::TaskObserver observe("{type: hartmann6, failure_region: " + kBox + "}", ctx);
   auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
   std::vector<Observation> told, told_at_save;
   std::string state;
