@@ -193,8 +193,10 @@ std::string ratio_cell(const std::vector<double>& with, const std::vector<double
       a[static_cast<std::size_t>(i)] = with[k];
       b[static_cast<std::size_t>(i)] = without[k];
     }
-    ratios.push_back(quantile(a, 0.5) / quantile(b, 0.5));
+    const double r_resampled = quantile(a, 0.5) / quantile(b, 0.5);
+    if (!std::isnan(r_resampled)) ratios.push_back(r_resampled);  // 0/0 or inf/inf: no ratio (stopped runs are inf)
   }
+  if (ratios.empty()) return fmt::format("{:.2g}", ratio);
   return fmt::format("{:.2g} [{:.2g}, {:.2g}]", ratio, quantile(ratios, 0.05), quantile(ratios, 0.95));
 }
 
