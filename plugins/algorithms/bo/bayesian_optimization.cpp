@@ -71,7 +71,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   const BoSettings settings = bo_options().read(o);
   const double epsilon = settings.epsilon;
   refit_every_ = settings.refit_every;
-  refine_last_ = settings.refine_last >= 0 ? settings.refine_last : dim_ + 1;
+  configured_refine_last_ = settings.refine_last >= 0 ? settings.refine_last : dim_ + 1;
+  refine_last_ = configured_refine_last_;
   refine_early_ = settings.refine_early;
   refine_weighted_ = settings.refine_feasibility == "weight";
   refine_attempt_model_ = settings.refine_model != "all";
@@ -956,6 +957,10 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
   const bool shorten = failure_settings_.short_restarts && !failed_trials_.empty() &&
                        failure_settings_.enabled != FailureModelSettings::Enabled::Off;
   restart_points_ = shorten ? std::min<Index>(configured_restart_points_, dim_ + 1) : configured_restart_points_;
+  // failure_model.refine_last: likewise, once a trial failed the final refinement takes at least 2(d + 1) trials.
+  const bool failures_seen = !failed_trials_.empty() && failure_settings_.enabled != FailureModelSettings::Enabled::Off;
+  const Index failure_refine = failure_settings_.refine_last >= 0 ? failure_settings_.refine_last : 2 * (dim_ + 1);
+  refine_last_ = failures_seen ? std::max(configured_refine_last_, failure_refine) : configured_refine_last_;
 }
 
 std::optional<Vec> BayesianOptimization::recommendation() const {

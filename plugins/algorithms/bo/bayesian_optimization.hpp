@@ -197,7 +197,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// latest began (its design comes first) and the number of successful observations before it.
   int fresh_starts_ = 0;
   Index fresh_trial_ = 0, fresh_from_ = 0;
-  Index refine_last_ = 0;  ///< see BoSettings::refine_last
+  Index refine_last_ = 0;  ///< see BoSettings::refine_last; lengthened once a trial failed (failure_model.refine_last)
+  Index configured_refine_last_ = 0;  ///< BoSettings::refine_last, resolved
   bool refine_early_ = true;  ///< see BoSettings::refine_early
   std::unique_ptr<Acquisition> refine_acquisition_;
   bool refine_weighted_ = false;  ///< refine_feasibility: weight

@@ -171,6 +171,11 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "once a trial has failed, a fresh start's design has d + 1 points (at most restart_points): the "
                    "failures took trials from the budget and a failure region lengthens the way to a basin, so a later "
                    "attempt keeps them for its search; false = restart_points whether or not trials failed"),
+      opt::integer("refine_last", &FailureModelSettings::refine_last,
+                   "once a trial has failed, bo's final refinement (refine_last) takes at least this many trials: "
+                   "failures cut attempts short, so the last one often reaches its basin late; -1 = 2(d + 1), 0 = "
+                   "bo's refine_last unchanged")
+          .at_least(-1),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
@@ -203,7 +208,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, failure_run: n, short_restarts: bool, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, failure_run: n, short_restarts: bool, refine_last: n, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -56,8 +56,10 @@ struct FailureModelSettings {
   /// (their standard deviation) or "recent" (the range of its last 2(d + 1) costs; offset-free, and not set by a
   /// few far costs).
   std::string stall_scale = "recent";
-  /// Only trials that do not improve the attempt's best at all count as value stalls.
-  bool stall_strict = true;
+  /// Only trials that do not improve the attempt's best at all count as value stalls. Off by default since session
+  /// 40, together with refine_last: an attempt creeping by tiny improvements (along a failure boundary, or down a
+  /// flat valley) hands over sooner, and the longer final refinement polishes the basin it was in (docs/failures.md).
+  bool stall_strict = false;
   /// ≥ 0: value stalls count only while the attempt's best is more than stall_incumbent × stall_scale above the
   /// incumbent of all the data; < 0 = always.
   double stall_incumbent = -1;
@@ -159,6 +161,10 @@ struct FailureModelSettings {
   /// later attempt needs its trials for the way more than for a design of 2(d + 1) points. The default since session 38
   /// (Hartmann-6 with a box cutting x2 between the minimiser and the rest: 44 → 34 stuck runs of 80; docs/failures.md).
   bool short_restarts = true;
+  /// Once a trial has failed, bo's final refinement (refine_last) takes at least this many trials; -1 = 2(d + 1).
+  /// Failed trials cut attempts short, and a run whose last attempt reached the global basin late ends it
+  /// unpolished with d + 1 refinement trials (session 40, docs/failures.md). 0 = bo's refine_last unchanged.
+  int refine_last = -1;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

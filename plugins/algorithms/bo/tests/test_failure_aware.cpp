@@ -410,14 +410,15 @@ TEST_CASE("stall_value and its variants: no change without failures; they reach 
       70, 1);
   REQUIRE(gated.size() == h.size());
   for (std::size_t i = 0; i <= 35; ++i) CHECK((gated[i].u - sv[i].u).norm() == 0.0);
-  // The default (session 19) is the strict attempt-gated rule on the recent scale, trial for trial; it acts at the
+  // The default (session 19; not strict since session 40) is the attempt-gated rule on the recent scale, trial for
+  // trial; it acts at the
   // benchmark's budget of 100 (bench_failures, seed 1: the first attempt, converged in Hartmann-6's local basin,
   // hands over sooner than with the rule off).
   const std::vector<Trial> off100 = run("sv_h6_off100", task, unit, off, 100, 1, 1);
   const std::vector<Trial> plain_h6 = run("sv_h6_default", task, unit, "{type: bo}", 100, 1, 1);
   const std::vector<Trial> written = run(
       "sv_h6_written", task, unit,
-      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: recent, stall_strict: true, stall_attempt: true}}",
+      "{type: bo, failure_model: {stall_value: 0.001, stall_scale: recent, stall_strict: false, stall_attempt: true}}",
       100, 1, 1);
   REQUIRE(plain_h6.size() == off100.size());
   REQUIRE(written.size() == off100.size());

@@ -2,6 +2,7 @@
 // passes through the local minimum (a region drawn at random for a held-out check, not one tuned on), seed 70: the
 // attempt at the local minimum proposed one failing θ after another beside its incumbent until stop_after_failures
 // (10 in a row) ended the run. With the rule (default 6), an attempt whose last 6 model-based trials failed ends.
+// The scenario is session 37's, with its value stalls and refinement (test::kSession39Stalls).
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -28,8 +29,8 @@ constexpr int kDefault = 6;  // failure_model.failure_run's default
 std::string yaml(int failure_run, int stop_after) {
   return "task: {type: hartmann6, failure_region: " + kBall + "}\nbudget: 100\nseed: 70\nstop_after_failures: " +
          std::to_string(stop_after) + "\nalgorithm: " +
-         (failure_run < 0 ? std::string("{type: bo}")
-                          : "{type: bo, failure_model: {failure_run: " + std::to_string(failure_run) + "}}") +
+         "{type: bo, failure_model: {" + test::kSession39Stalls +
+         (failure_run < 0 ? std::string() : ", failure_run: " + std::to_string(failure_run)) + "}}" +
          "\n";
 }
 

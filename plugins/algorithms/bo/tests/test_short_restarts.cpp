@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "bo_on_bowl.hpp"
+#include "failing_hartmann6.hpp"
 #include "study_helpers.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
@@ -17,21 +18,7 @@ using namespace varbo;
 
 namespace {
 
-const std::string kBox = "{shape: box, lower: [0.0, 0.186, 0.0, 0.0, 0.0, 0.0], upper: [1.0, 0.736, 1.0, 0.545, 1.0, 1.0]}";
-
-using Rows = std::vector<std::vector<std::string>>;
-
-Rows run(bool region, const std::string& failure_model, int threads = 1) {
-  RunOverrides ov;
-  ov.output = test::temp_folder("short_restarts_" + std::to_string(region) + "_" + std::to_string(failure_model.size()) +
-                                "_" + std::to_string(threads));
-  ov.threads = threads;
-  const std::string yaml = std::string("task: {type: hartmann6") + (region ? ", failure_region: " + kBox : "") +
-                           "}\nbudget: 100\nseed: 1\nalgorithm: {type: bo" +
-                           (failure_model.empty() ? "" : ", failure_model: " + failure_model) + "}\n";
-  test::run_yaml(yaml, test::registry(), ov);
-  return test::read_rows(*ov.output + "/trials.csv");
-}
+using test::Rows;
 
 // The lengths of the blocks of consecutive rows of phase "restart" (a fresh start's design).
 std::vector<int> restart_blocks(const Rows& rows) {
@@ -49,20 +36,12 @@ std::vector<int> restart_blocks(const Rows& rows) {
   return blocks;
 }
 
-bool same_thetas(const Rows& a, const Rows& b) {
-  if (a.size() != b.size()) return false;
-  const auto x1 = static_cast<std::size_t>(test::column_of(a[0], "x1"));
-  for (std::size_t r = 1; r < a.size(); ++r)
-    for (std::size_t d = 0; d < 6; ++d)
-      if (a[r][x1 + d] != b[r][x1 + d]) return false;
-  return true;
-}
-
 }  // namespace
 
 TEST_CASE("short_restarts: after failures a fresh start's design has d + 1 points; without failures nothing changes") {
   set_log_level(LogLevel::Error);
-  const Rows with = run(true, ""), two = run(true, "", 2), off = run(true, "{short_restarts: false}");
+  const Rows with = test::run_hartmann6("short_restarts", true, ""), two = test::run_hartmann6("short_restarts", true, "", 2),
+             off = test::run_hartmann6("short_restarts_off", true, "{short_restarts: false}");
   REQUIRE(with.size() == 101);
   REQUIRE(off.size() == 101);
   const std::vector<int> short_blocks = restart_blocks(with), long_blocks = restart_blocks(off);
@@ -79,9 +58,10 @@ TEST_CASE("short_restarts: after failures a fresh start's design has d + 1 point
   for (std::size_t r = 1; r < with.size() && with[r][phase] != "restart"; ++r)
     for (std::size_t d = 0; d < 6; ++d) CHECK(with[r][x1 + d] == off[r][x1 + d]);
   // A seed fixes the run whatever the thread count.
-  CHECK(same_thetas(with, two));
+  CHECK(test::same_thetas(with, two));
   // A run without failures is unchanged, trial for trial.
-  CHECK(same_thetas(run(false, ""), run(false, "{short_restarts: false}")));
+  CHECK(test::same_thetas(test::run_hartmann6("short_restarts", false, ""),
+                         test::run_hartmann6("short_restarts_off", false, "{short_restarts: false}")));
 }
 
 TEST_CASE("short_restarts: a run continues from a state saved inside a shortened fresh design exactly as without saving") {
@@ -91,7 +71,7 @@ TEST_CASE("short_restarts: a run continues from a state saved inside a shortened
   ctx.dim = 6;
   ctx.budget = 100;
   ctx.seed = 1;
-  const test::TaskObserver observe("{type: hartmann6, failure_region: " + kBox + "}", ctx);
+  const test::TaskObserver observe("{type: hartmann6, failure_region: " + test::kHartmann6Box + "}", ctx);
   auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
   std::vector<Observation> told, told_at_save;
   std::string state;
