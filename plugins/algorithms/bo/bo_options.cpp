@@ -80,7 +80,8 @@ const OptionSet<BoSettings>& bo_options() {
       opt::component("acquisition_optimizer", Kind::Optimizer, "multistart", "maximizer of the acquisition"),
       opt::integer("refine_last", &BoSettings::refine_last,
                    "when the region restarts afresh (trust_region with restart_center: new_points), the last "
-                   "trials of the budget start no new attempt and refine the incumbent of all the data (-1 = d + 1)")
+                   "trials of the budget start no new attempt and refine the incumbent of all the data (-1 = d + 1; once a "
+                   "trial has failed, at least failure_model.refine_last)")
           .at_least(-1),
       opt::boolean("refine_early", &BoSettings::refine_early,
                    "when fewer trials remain than a fresh start's design and the current attempt holds the incumbent "
@@ -140,9 +141,11 @@ const OptionSet<BoSettings>& bo_options() {
                 "failure; the acquisition is weighted by P(success | θ) from a GP classifier of successes and "
                 "failures and θ with P < min_probability are never suggested; once a trial has failed, an attempt "
                 "converged in value (stall_*) hands over to a fresh start sooner, a fresh design's likely failures "
-                "move to the nearest likely success (design_repair) and attempts that ended blocked by the failure "
-                "boundary are kept off (blocked_tabu); the other keys are measured variants, off by default "
-                "(docs/failures.md)"),
+                "move to the nearest likely success (design_repair), attempts that ended blocked by the failure "
+                "boundary are kept off (blocked_tabu), a fresh start first probes where a model of every trial is "
+                "confident of a gain (global_probe), six failures in a row end an attempt (failure_run), fresh designs "
+                "have d + 1 points (short_restarts) and the final refinement at least 2(d + 1) trials (refine_last); "
+                "the other keys are measured variants, off by default (docs/failures.md)"),
   };
   return set;
 }
