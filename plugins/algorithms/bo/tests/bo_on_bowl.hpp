@@ -2,10 +2,13 @@
 // The fixtures the bo tests share: a bowl with its minimum at 0.3 in every coordinate, a 2-D bo built
 // from its YAML with a fixed seed, and a task that turns a suggested θ into its observation.
 #include <memory>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "varbo/algorithm.hpp"
 #include "varbo/registry.hpp"
+#include "varbo/state.hpp"
 #include "varbo/task.hpp"
 #include "varbo_test.hpp"
 
@@ -40,5 +43,30 @@ class TaskObserver {
  private:
   std::unique_ptr<Task> task_;
 };
+
+/// The context of a bo driven by ask and tell: the registry, dimension, budget and seed.
+inline BuildContext bo_context(Index dim, Index budget, std::uint64_t seed) {
+  BuildContext ctx;
+  ctx.registry = &registry();
+  ctx.dim = dim;
+  ctx.budget = budget;
+  ctx.seed = seed;
+  return ctx;
+}
+
+/// A bo built from `algorithm` and restored from `state` (saved after the observations `told`) asks exactly the
+/// suggestions `expected`, each told its observation in turn: a run continues from a saved state as without saving.
+inline void check_continues_as(const std::string& algorithm, const BuildContext& ctx, const std::string& state,
+                               const std::vector<Observation>& told, const std::vector<Suggestion>& expected,
+                               const TaskObserver& observe) {
+  auto b = registry().create<Algorithm>(algorithm, ctx);
+  dynamic_cast<AlgorithmState&>(*b).restore_state(state, told);
+  for (const Suggestion& e : expected) {
+    const Suggestion s = b->ask(1).front();
+    CHECK((s.x - e.x).norm() == 0.0);
+    CHECK(s.phase == e.phase);
+    b->tell({observe(s.x)});
+  }
+}
 
 }  // namespace varbo::test

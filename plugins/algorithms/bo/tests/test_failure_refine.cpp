@@ -57,11 +57,7 @@ TEST_CASE("failure_model.refine_last: after failures the final refinement is at 
 TEST_CASE("failure_model.refine_last: a run continues from a state saved inside the lengthened refinement exactly as "
           "without saving") {
   set_log_level(LogLevel::Error);
-  BuildContext ctx;
-  ctx.registry = &test::registry();
-  ctx.dim = 6;
-  ctx.budget = 100;
-  ctx.seed = 1;
+  const BuildContext ctx = test::bo_context(6, 100, 1);
   const test::TaskObserver observe("{type: hartmann6, failure_region: " + test::kHartmann6Box + "}", ctx);
   auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
   std::vector<Observation> told, told_at_save;
@@ -80,12 +76,5 @@ TEST_CASE("failure_model.refine_last: a run continues from a state saved inside 
   }
   REQUIRE(later.size() == 10);
   for (const Suggestion& s : later) CHECK(s.phase == "refine");
-  auto b = test::registry().create<Algorithm>("{type: bo}", ctx);
-  dynamic_cast<AlgorithmState&>(*b).restore_state(state, told_at_save);
-  for (const Suggestion& expected : later) {
-    const Suggestion s = b->ask(1).front();
-    CHECK((s.x - expected.x).norm() == 0.0);
-    CHECK(s.phase == expected.phase);
-    b->tell({observe(s.x)});
-  }
+  test::check_continues_as("{type: bo}", ctx, state, told_at_save, later, observe);
 }

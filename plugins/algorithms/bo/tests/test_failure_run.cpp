@@ -98,11 +98,7 @@ TEST_CASE("failure_run: an attempt failing trial after trial beside its incumben
 
 TEST_CASE("failure_run: a run continues from a state saved after the attempt ended exactly as without saving") {
   set_log_level(LogLevel::Error);
-  BuildContext ctx;
-  ctx.registry = &test::registry();
-  ctx.dim = 6;
-  ctx.budget = 100;
-  ctx.seed = 70;
+  const BuildContext ctx = test::bo_context(6, 100, 70);
   const test::TaskObserver observe("{type: hartmann6, failure_region: " + kBall + "}", ctx);
   const std::string algorithm = "{type: bo}";  // failure_run: kDefault
   auto a = test::registry().create<Algorithm>(algorithm, ctx);
@@ -126,12 +122,5 @@ TEST_CASE("failure_run: a run continues from a state saved after the attempt end
   REQUIRE(!state.empty());
   REQUIRE(later.size() == 6);
   CHECK(later[0].phase != "ei");  // the fresh start
-  auto b = test::registry().create<Algorithm>(algorithm, ctx);
-  dynamic_cast<AlgorithmState&>(*b).restore_state(state, told_at_save);
-  for (const Suggestion& expected : later) {
-    const Suggestion s = b->ask(1).front();
-    CHECK((s.x - expected.x).norm() == 0.0);
-    CHECK(s.phase == expected.phase);
-    b->tell({observe(s.x)});
-  }
+  test::check_continues_as(algorithm, ctx, state, told_at_save, later, observe);
 }

@@ -106,11 +106,7 @@ TEST_CASE("global_probe: a run continues from a state saved with the probe exact
   // Saved twice: with the probe asked and its result not yet told (a study saves its state with each suggestion),
   // and after its result.
   set_log_level(LogLevel::Error);
-  BuildContext ctx;
-  ctx.registry = &test::registry();
-  ctx.dim = 3;
-  ctx.budget = 50;
-  ctx.seed = 1;
+  const BuildContext ctx = test::bo_context(3, 50, 1);
   const test::TaskObserver observe("{type: hartmann3, failure_region: " + kBall + "}", ctx);
   auto a = test::registry().create<Algorithm>(kProbe, ctx);
   std::vector<Observation> told;

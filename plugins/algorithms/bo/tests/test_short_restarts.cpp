@@ -66,11 +66,7 @@ TEST_CASE("short_restarts: after failures a fresh start's design has d + 1 point
 
 TEST_CASE("short_restarts: a run continues from a state saved inside a shortened fresh design exactly as without saving") {
   set_log_level(LogLevel::Error);
-  BuildContext ctx;
-  ctx.registry = &test::registry();
-  ctx.dim = 6;
-  ctx.budget = 100;
-  ctx.seed = 1;
+  const BuildContext ctx = test::bo_context(6, 100, 1);
   const test::TaskObserver observe("{type: hartmann6, failure_region: " + test::kHartmann6Box + "}", ctx);
   auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
   std::vector<Observation> told, told_at_save;
@@ -94,12 +90,5 @@ TEST_CASE("short_restarts: a run continues from a state saved inside a shortened
   // The design ends after its 7th point: 4 more design points, then the model's trials.
   for (int i = 0; i < 4; ++i) CHECK(later[static_cast<std::size_t>(i)].phase == "restart");
   CHECK(later[4].phase != "restart");
-  auto b = test::registry().create<Algorithm>("{type: bo}", ctx);
-  dynamic_cast<AlgorithmState&>(*b).restore_state(state, told_at_save);
-  for (const Suggestion& expected : later) {
-    const Suggestion s = b->ask(1).front();
-    CHECK((s.x - expected.x).norm() == 0.0);
-    CHECK(s.phase == expected.phase);
-    b->tell({observe(s.x)});
-  }
+  test::check_continues_as("{type: bo}", ctx, state, told_at_save, later, observe);
 }
