@@ -4,9 +4,11 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "bo_on_bowl.hpp"
 #include "study_helpers.hpp"
 #include "varbo_test.hpp"
 
@@ -39,5 +41,32 @@ inline bool same_thetas(const Rows& a, const Rows& b) {
       if (a[r][x1 + d] != b[r][x1 + d]) return false;
   return true;
 }
+
+/// The plain default bo on that task (seed 1, budget 100), driven by ask and tell: the tests that save and restore it.
+struct FailingHartmann6Bo {
+  BuildContext ctx = bo_context(6, 100, 1);
+  TaskObserver observe{"{type: hartmann6, failure_region: " + kHartmann6Box + "}", ctx};
+  std::unique_ptr<Algorithm> bo = registry().create<Algorithm>("{type: bo}", ctx);
+  std::vector<Observation> told;  ///< every observation told so far
+
+  /// Asks one trial and tells its observation.
+  Suggestion step() {
+    const Suggestion s = bo->ask(1).front();
+    const Observation o = observe(s.x);
+    bo->tell({o});
+    told.push_back(o);
+    return s;
+  }
+  /// The state saved now, and the observations told before it (what restore_state takes).
+  struct Saved {
+    std::string state;
+    std::vector<Observation> told;
+  };
+  Saved save() const { return {*dynamic_cast<const AlgorithmState&>(*bo).save_state(), told}; }
+  /// A bo restored from `saved` asks exactly `later` (test::check_continues_as).
+  void check_continues_as(const Saved& saved, const std::vector<Suggestion>& later) const {
+    test::check_continues_as("{type: bo}", ctx, saved.state, saved.told, later, observe);
+  }
+};
 
 }  // namespace varbo::test

@@ -57,24 +57,15 @@ TEST_CASE("failure_model.refine_last: after failures the final refinement is at 
 TEST_CASE("failure_model.refine_last: a run continues from a state saved inside the lengthened refinement exactly as "
           "without saving") {
   set_log_level(LogLevel::Error);
-  const BuildContext ctx = test::bo_context(6, 100, 1);
-  const test::TaskObserver observe("{type: hartmann6, failure_region: " + test::kHartmann6Box + "}", ctx);
-  auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
-  std::vector<Observation> told, told_at_save;
-  std::string state;
+  test::FailingHartmann6Bo run;
+  test::FailingHartmann6Bo::Saved saved;
   std::vector<Suggestion> later;
   for (Index k = 0; k < 100; ++k) {
-    if (k == 90) {  // 10 trials left: inside 2(d + 1) = 14, before d + 1 = 7
-      state = *dynamic_cast<AlgorithmState&>(*a).save_state();
-      told_at_save = told;
-    }
-    const Suggestion s = a->ask(1).front();
+    if (k == 90) saved = run.save();  // 10 trials left: inside 2(d + 1) = 14, before d + 1 = 7
+    const Suggestion s = run.step();
     if (k >= 90) later.push_back(s);
-    const Observation o = observe(s.x);
-    a->tell({o});
-    told.push_back(o);
   }
   REQUIRE(later.size() == 10);
   for (const Suggestion& s : later) CHECK(s.phase == "refine");
-  test::check_continues_as("{type: bo}", ctx, state, told_at_save, later, observe);
+  run.check_continues_as(saved, later);
 }

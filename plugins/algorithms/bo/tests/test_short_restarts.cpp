@@ -1,6 +1,7 @@
 // failure_model.short_restarts (session 38): once a trial has failed, a fresh start's design has d + 1 points
 // instead of restart_points (2(d + 1) by default). Hartmann-6 with held-out region 0 of session 37 (a box cutting x2
 // between the global minimiser and the rest of the box), seed 1: the run restarts after failures in its design.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -66,29 +67,20 @@ TEST_CASE("short_restarts: after failures a fresh start's design has d + 1 point
 
 TEST_CASE("short_restarts: a run continues from a state saved inside a shortened fresh design exactly as without saving") {
   set_log_level(LogLevel::Error);
-  const BuildContext ctx = test::bo_context(6, 100, 1);
-  const test::TaskObserver observe("{type: hartmann6, failure_region: " + test::kHartmann6Box + "}", ctx);
-  auto a = test::registry().create<Algorithm>("{type: bo}", ctx);
-  std::vector<Observation> told, told_at_save;
-  std::string state;
+  test::FailingHartmann6Bo run;
+  std::optional<test::FailingHartmann6Bo::Saved> saved;
   std::vector<Suggestion> later;
   int in_design = 0;
   for (Index k = 0; k < 100 && later.size() < 10; ++k) {
-    const Suggestion s = a->ask(1).front();
-    if (!state.empty()) later.push_back(s);
-    const Observation o = observe(s.x);
-    a->tell({o});
-    told.push_back(o);
+    const Suggestion s = run.step();
+    if (saved) later.push_back(s);
     in_design = s.phase == "restart" ? in_design + 1 : 0;
-    if (in_design == 3 && state.empty()) {  // three points into the first fresh design
-      state = *dynamic_cast<AlgorithmState&>(*a).save_state();
-      told_at_save = told;
-    }
+    if (in_design == 3 && !saved) saved = run.save();  // three points into the first fresh design
   }
-  REQUIRE(!state.empty());
+  REQUIRE(saved);
   REQUIRE(later.size() == 10);
   // The design ends after its 7th point: 4 more design points, then the model's trials.
   for (int i = 0; i < 4; ++i) CHECK(later[static_cast<std::size_t>(i)].phase == "restart");
   CHECK(later[4].phase != "restart");
-  test::check_continues_as("{type: bo}", ctx, state, told_at_save, later, observe);
+  run.check_continues_as(*saved, later);
 }
