@@ -953,12 +953,13 @@ void BayesianOptimization::tell(const std::vector<Observation>& observations) {
     if (o.x.size() != dim_) throw InputError(fmt::format("bo: observation of dimension {}, expected {}", o.x.size(), dim_));
     data_.add(o.x, o.cost);
   }
-  // failure_model.short_restarts: a function of the trials told (a restored bo gets them back through tell()).
-  const bool shorten = failure_settings_.short_restarts && !failed_trials_.empty() &&
-                       failure_settings_.enabled != FailureModelSettings::Enabled::Off;
-  restart_points_ = shorten ? std::min<Index>(configured_restart_points_, dim_ + 1) : configured_restart_points_;
-  // failure_model.refine_last: likewise, once a trial failed the final refinement takes at least 2(d + 1) trials.
+  // The rules that change once a trial has failed are functions of the trials told (a restored bo gets them back
+  // through tell()): failure_model.short_restarts shortens a fresh start's design to d + 1 points, and
+  // failure_model.refine_last lengthens the final refinement to at least 2(d + 1) trials.
   const bool failures_seen = !failed_trials_.empty() && failure_settings_.enabled != FailureModelSettings::Enabled::Off;
+  restart_points_ = failures_seen && failure_settings_.short_restarts
+                        ? std::min<Index>(configured_restart_points_, dim_ + 1)
+                        : configured_restart_points_;
   const Index failure_refine = failure_settings_.refine_last >= 0 ? failure_settings_.refine_last : 2 * (dim_ + 1);
   refine_last_ = failures_seen ? std::max(configured_refine_last_, failure_refine) : configured_refine_last_;
 }

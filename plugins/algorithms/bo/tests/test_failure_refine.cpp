@@ -5,12 +5,9 @@
 #include <string>
 #include <vector>
 
-#include "bo_on_bowl.hpp"
 #include "failing_hartmann6.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
-#include "varbo/registry.hpp"
-#include "varbo/state.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
