@@ -176,7 +176,7 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                               "lowest_bound_evaluated`, and this run's rule is '{}'",
                               o.node("recommendation_kappa").where(), settings.recommendation_kappa,
                               o.str("recommendation")));
-  if (failure_settings_.global_probe) probe_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+  if (failure_settings_.global_probe || failure_settings_.probe_every != 0) probe_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
   whole_box_ = std::make_unique<BoxRegion>(Box::unit(dim_));
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));
@@ -820,6 +820,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
                   exclusion_threshold_, t_end);
       }
   }
+  if (may_restart && feasible)
+    if (std::optional<Vec> probe = attempt_probe(k, data, refit)) {
+      s.x = *probe;
+      s.phase = "probe";
+      return s;
+    }
   if (feasible && !refining_ && failure_settings_.feasible_region != "off" &&
       feasibility_->probability(s.x) <= p_min + failure_settings_.feasible_margin) {
     // failure_model.feasible_region: limited: the step was held back by the failure model, not by the cost model.

@@ -99,11 +99,16 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// false (nothing changed but, possibly, the region) if the region would not restart.
   bool follow_probe(Index k, Index probe, const Dataset& data, Rng& region_rng);
   /// failure_model.global_probe (bo_global_probe.cpp): the first point of a fresh start's design, if any.
-  std::optional<Vec> global_probe(Index k, bool refit);
+  /// `role` names the trial in the log; with `away_from` (probe_every), only a point farther than
+  /// kAttemptProbeDistance from each of them where the model's sd is small (bo_global_probe.cpp).
+  std::optional<Vec> global_probe(Index k, bool refit, const char* role, const std::vector<Vec>* away_from = nullptr);
   /// The trial of the latest global probe (-1: none); at the design's next trial, a successful probe that improved on
   /// every earlier trial ends the design: the attempt continues from it (follow_global_probe).
   Index probe_trial_ = -1;
   void follow_global_probe(Index k);
+  /// failure_model.probe_every (bo_global_probe.cpp): at every probe_every-th trial of an attempt past its design, the
+  /// global probe, if it lies away from the attempt's best point.
+  std::optional<Vec> attempt_probe(Index k, const Dataset& data, bool refit);
   std::unique_ptr<Surrogate> probe_model_;  ///< global_probe's model of every successful trial
   std::unique_ptr<RegionConstraint> whole_box_;  ///< global_probe's region: the box (with the space's constraints)
   /// The data index of the current attempt's first model-based point (after its design's successes).

@@ -36,8 +36,8 @@ Vec BayesianOptimization::fresh_design_point(Index k, bool refit) {
   const Mat design = restart_away_ ? design_away_from_minima(drng)
                                    : design_sample(restart_points_, drng);
   const Index last = design.rows() - 1, row = k - fresh_trial_;
-  if (row == 0)
-    if (std::optional<Vec> probe = global_probe(k, refit)) {
+  if (row == 0 && failure_settings_.global_probe)
+    if (std::optional<Vec> probe = global_probe(k, refit, "the fresh start's first point")) {
       probe_trial_ = k;
       return *probe;
     }

@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "acquisition_scale.hpp"
 #include "bo_streams.hpp"
@@ -25,9 +26,16 @@ namespace {
 /// A probe only where the model of every trial is confident of an improvement: its mean + this many standard
 /// deviations below the incumbent (the probability of improvement ≥ 0.9987).
 constexpr double kProbeConfidence = 3;
+/// failure_model.probe_every: a probe this close (max-norm, unit cube) to an attempt's best point is in a basin an
+/// attempt has searched (the current one: its own trust region's search); the boundary_tabu distance.
+constexpr double kAttemptProbeDistance = 0.15;
+/// failure_model.probe_every: the model knows the probe's place: its sd at most this × the range of the successful
+/// costs (the confident probes behind Hartmann-3's ball: 0.02–0.05 × the range).
+constexpr double kAttemptProbeSpread = 0.1;
 }  // namespace
 
-std::optional<Vec> BayesianOptimization::global_probe(Index k, bool refit) {
+std::optional<Vec> BayesianOptimization::global_probe(Index k, bool refit, const char* role,
+                                                      const std::vector<Vec>* away_from) {
   const FailureModelSettings& fs = failure_settings_;
   if (!probe_model_ || failed_.empty() || !fs.active(static_cast<Index>(failed_.size())) || data_.size() < 2)
     return std::nullopt;
@@ -83,9 +91,29 @@ std::optional<Vec> BayesianOptimization::global_probe(Index k, bool refit) {
               k, at.mean, sd, data_.y(best));
     return std::nullopt;
   }
-  log_info("bo: trial {}: the fresh start's first point is a global probe: the model of every successful trial "
-           "predicts {:.6g} ± {:.3g} there (incumbent {:.6g}), P(success) {:.3g}",
-           k, at.mean, sd, data_.y(best), p);
+  if (away_from) {
+    // An attempt's probe (probe_every) replaces a trial of an attempt at work, so it asks more than a fresh start's
+    // design point (exploration either way): a place the model knows, its sd at most kAttemptProbeSpread × the range
+    // of the successful costs (held-out box 0 of Hartmann-6, seed 45: −6.99 ± 0.77 promised against −3.20 and the
+    // costs' range 3.2, −0.45 measured, and the run lost the global basin it reached without the probe), and another
+    // basin than every attempt's best (seed 30 of held-out box 1: −3.0946 ± 0.0001 promised 0.01 from the incumbent,
+    // at P(success) 0.5, a failure — polishing the incumbent is the final refinement's job).
+    const double range = data_.y.maxCoeff() - data_.y.minCoeff();
+    if (!(sd <= kAttemptProbeSpread * range)) {
+      log_debug("bo: trial {}: no probe during the attempt: the model of every successful trial predicts {:.6g} ± "
+                "{:.3g} there, an sd above {:g} × the costs' range {:.3g}", k, at.mean, sd, kAttemptProbeSpread, range);
+      return std::nullopt;
+    }
+    for (const Vec& a : *away_from)
+      if ((x - a).lpNorm<Eigen::Infinity>() <= kAttemptProbeDistance) {
+        log_debug("bo: trial {}: no probe during the attempt: the global probe lies within {:g} of an attempt's best "
+                  "point", k, kAttemptProbeDistance);
+        return std::nullopt;
+      }
+  }
+  log_info("bo: trial {}: {} is a global probe: the model of every successful trial predicts {:.6g} ± {:.3g} there "
+           "(incumbent {:.6g}), P(success) {:.3g}",
+           k, role, at.mean, sd, data_.y(best), p);
   return x;
 }
 
@@ -105,6 +133,25 @@ void BayesianOptimization::follow_global_probe(Index k) {
   fresh_trial_ = k - restart_points_;  // no more design trials: the attempt's model-based trials begin now
   log_info("bo: trial {}: the global probe (trial {}) improved on every earlier trial ({:.6g} < {:.6g}): the attempt "
            "continues from it without the rest of its design", k, probe_trial_, data_.y(fresh_from_), before);
+}
+
+std::optional<Vec> BayesianOptimization::attempt_probe(Index k, const Dataset& data, bool refit) {
+  // Why (session 41, docs/failures.md): an attempt keeps to P(success) ≥ min(refine_min_probability, the incumbent's
+  // P) (incumbent_level: always), so the far side of a failure region — unexplored, where P(success) is the design's
+  // success rate — is never in its search, and the global probe ran only at a fresh start, which an attempt creeping
+  // along the failure region's face by small improvements does not reach. Hartmann-3 with the ball, seed 1: the first
+  // attempt crept along the ball's face on the blocked side (−3.60 → −3.66) for its whole budget, while the model of
+  // its successes was confident of −3.85 behind the ball (the probe there at trial 32: −3.851; regret 0.19 → 1.7e-06).
+  // Every probe_every trials, not at every trial: one model fit and whole-box search each, and where the model is
+  // confidently wrong (Hartmann-6 seed 45 of a held-out box: −0.45 where it promised better than −3.20) one trial.
+  const FailureModelSettings& fs = failure_settings_;
+  const Index every = fs.probe_every < 0 ? dim_ + 1 : fs.probe_every;
+  if (every == 0 || !feasibility_on_ || failed_.empty() || !fs.active(static_cast<Index>(failed_.size())) ||
+      (k - fresh_trial_) % every != 0 || data.size() <= fresh_from_)
+    return std::nullopt;
+  std::vector<Vec> minima = earlier_minima();
+  minima.push_back(data.X.row(attempt_best(data)).transpose());
+  return global_probe(k, refit, "this trial of the attempt (probe_every)", &minima);
 }
 
 }  // namespace varbo::bo

@@ -143,7 +143,8 @@ const OptionSet<BoSettings>& bo_options() {
                 "converged in value (stall_*) hands over to a fresh start sooner, a fresh design's likely failures "
                 "move to the nearest likely success (design_repair), attempts that ended blocked by the failure "
                 "boundary are kept off (blocked_tabu), a fresh start first probes where a model of every trial is "
-                "confident of a gain (global_probe), six failures in a row end an attempt (failure_run), fresh designs "
+                "confident of a gain (global_probe) and so does every (d + 1)-th trial of an attempt where that point lies in "
+                "another basin (probe_every), six failures in a row end an attempt (failure_run), fresh designs "
                 "have d + 1 points (short_restarts) and the final refinement at least 2(d + 1) trials (refine_last); "
                 "the other keys are measured variants, off by default (docs/failures.md)"),
   };

@@ -162,6 +162,13 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "the acquisition weighted by P(success) on a model of every successful trial, if that model is "
                    "confident of an improvement there (mean + 3 sd below the incumbent); if it improves on every "
                    "earlier trial, the attempt continues from it without the rest of its design"),
+      opt::integer("probe_every", &FailureModelSettings::probe_every,
+                   "once a trial has failed, every this many trials of an attempt past its design, the global probe "
+                   "(global_probe's point: the model of every successful trial confident of an improvement there) is "
+                   "taken instead of the attempt's own proposal if it lies farther than 0.15 (max-norm, unit cube) "
+                   "from the attempt's best point: the attempt keeps to P(success) near the incumbent's, so the far "
+                   "side of a failure region is otherwise never searched; -1 = d + 1, 0 = never")
+          .at_least(-1),
       opt::integer("failure_run", &FailureModelSettings::failure_run,
                    "an attempt whose last this many model-based trials all failed ends (a fresh start; with "
                    "blocked_tabu later attempts keep off its best point if a failure blocks its descent), not one "
@@ -208,7 +215,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, failure_run: n, short_restarts: bool, refine_last: n, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -147,6 +147,15 @@ struct FailureModelSettings {
   /// failure boundary may already show where the costs fall beyond it (Hartmann-3 with a ball across its valley: 16
   /// → 11 stuck runs of 40; docs/failures.md, session 36). The default since session 36.
   bool global_probe = true;
+  /// Once a trial has failed, every `probe_every` trials of an attempt past its design (-1 = d + 1; 0 = never) the
+  /// same probe is tried during the attempt: the maximizer over the whole box of the acquisition weighted by P(success)
+  /// on a model of every successful trial, taken only where that model is confident of an improvement and farther
+  /// than kAttemptProbeDistance from the attempt's best point (bo_global_probe.cpp). An attempt searches its trust
+  /// region at P(success) ≥ min(refine_min_probability, the incumbent's P) (incumbent_level: always), so where a
+  /// failure region lies between its basin and a better one, the far side, where P(success) is only the design's
+  /// success rate, is never searched, however clearly the costs measured so far point there; the first attempt of
+  /// Hartmann-3 with the ball crept along the ball's face for its whole budget (session 41, docs/failures.md).
+  int probe_every = -1;
   /// Once a trial has failed, an attempt whose last `failure_run` model-based trials all failed ends: the region
   /// restarts afresh, and (blocked_tabu) later attempts keep boundary_tabu away from its best point if an observed
   /// failure blocks its descent; 0 = never. The default (6) since session 37: held-out regions' runs failed 10 trials

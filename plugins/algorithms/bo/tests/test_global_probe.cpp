@@ -21,10 +21,11 @@ using namespace varbo;
 namespace {
 
 const std::string kBall = "{shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}";
-// The scenario is session 36's, with its value stalls and refinement (test::kSession39Stalls); global_probe is on by
-// default since session 36.
-const std::string kProbe = "{type: bo, failure_model: {" + test::kSession39Stalls + "}}";
-const std::string kPlain = "{type: bo, failure_model: {global_probe: false, " + test::kSession39Stalls + "}}";
+// The scenario is session 36's, with its value stalls and refinement (test::kSession39Stalls) and without the probes
+// during an attempt (test::kNoAttemptProbes, session 41); global_probe is on by default since session 36.
+const std::string kSession36 = test::kSession39Stalls + ", " + test::kNoAttemptProbes;
+const std::string kProbe = "{type: bo, failure_model: {" + kSession36 + "}}";
+const std::string kPlain = "{type: bo, failure_model: {global_probe: false, " + kSession36 + "}}";
 
 std::vector<std::vector<std::string>> run(const std::string& algorithm, bool failing, int threads) {
   const std::string yaml = std::string("task: {type: hartmann3") + (failing ? ", failure_region: " + kBall : "") +

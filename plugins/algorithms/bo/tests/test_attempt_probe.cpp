@@ -1,0 +1,160 @@
+// failure_model.probe_every (bo_global_probe.cpp, session 41): on Hartmann-3 with bench_failures' ball across the
+// global valley (seed 1, budget 50), the first attempt creeps along the ball's face on the blocked side for its whole
+// budget without the rule; with it, a probe during that attempt goes behind the ball, where the model of every
+// successful trial is confident the costs fall, and the run ends in the global basin. A run without failures is
+// unchanged; the run is the same with 1 and 2 threads and continues from a saved state exactly.
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "bo_on_bowl.hpp"
+#include "study_helpers.hpp"
+#include "varbo/algorithm.hpp"
+#include "varbo/errors.hpp"
+#include "varbo/log.hpp"
+#include "varbo/registry.hpp"
+#include "varbo/state.hpp"
+#include "varbo_test.hpp"
+
+using namespace varbo;
+
+namespace {
+
+const std::string kBall = "{shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}";
+const std::string kDefault = "{type: bo}";  // probe_every: -1 (d + 1) by default since session 41
+const std::string kOff = "{type: bo, failure_model: {probe_every: 0}}";
+
+using Rows = std::vector<std::vector<std::string>>;
+
+Rows run(const std::string& algorithm, bool failing, int threads) {
+  const std::string yaml = std::string("task: {type: hartmann3") + (failing ? ", failure_region: " + kBall : "") +
+                           "}\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n";
+  RunOverrides ov;
+  ov.output = test::temp_folder("attempt_probe_" + std::to_string(failing) + "_" + std::to_string(threads) + "_" +
+                                std::to_string(algorithm.size()));
+  ov.threads = threads;
+  test::run_yaml(yaml, test::registry(), ov);
+  return test::read_rows(*ov.output + "/trials.csv");
+}
+
+std::size_t col(const Rows& rows, const char* name) {
+  const int c = test::column_of(rows[0], name);
+  REQUIRE(c >= 0);
+  return static_cast<std::size_t>(c);
+}
+
+/// The lowest successful cost of rows [1, end).
+double best_cost(const Rows& rows, std::size_t end) {
+  double best = 0;
+  for (std::size_t r = 1; r < end; ++r)
+    if (rows[r][col(rows, "ok")] == "1") best = std::min(best, std::stod(rows[r][col(rows, "cost")]));
+  return best;
+}
+
+bool same_thetas(const Rows& a, const Rows& b, std::size_t end) {
+  const std::size_t x1 = col(a, "x1");
+  for (std::size_t r = 1; r < end; ++r)
+    for (std::size_t d = 0; d < 3; ++d)
+      if (a[r][x1 + d] != b[r][x1 + d]) return false;
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("probe_every: a probe during the first attempt goes behind the failure region and the run ends there") {
+  set_log_level(LogLevel::Error);
+  const Rows off = run(kOff, true, 1), on = run(kDefault, true, 1), two = run(kDefault, true, 2);
+  REQUIRE(off.size() == 51);
+  REQUIRE(on.size() == 51);
+  REQUIRE(two.size() == 51);
+  const std::size_t phase = col(on, "phase"), x1 = col(on, "x1"), ok = col(on, "ok"), cost = col(on, "cost"),
+                    regret = col(on, "regret_recommended");
+  // Without the rule the run is stuck on the ball's blocked side: the global minimizer is (0.115, 0.556, 0.853),
+  // cost −3.8628; the best trial is −3.66 at x1 ≈ 0.76 and the recommendation's regret ≈ 0.19.
+  CHECK(best_cost(off, off.size()) > -3.7);
+  CHECK(std::stod(off.back()[regret]) > 0.1);
+  // The first probe comes during the first attempt: no fresh start's design trial before it.
+  std::size_t at = 0;
+  for (std::size_t r = 1; r < on.size() && at == 0; ++r) {
+    REQUIRE(on[r][phase] != "restart");
+    if (on[r][phase] == "probe") at = r;
+  }
+  REQUIRE(at > 0);
+  // The trials before it are the run's without the rule (nothing acts earlier).
+  CHECK(same_thetas(on, off, at));
+  // Behind the ball (x1 below the ball's extent, 0.169, at x2 = 0.556, x3 = 0.853), a success better than every
+  // trial before it, close to the global minimum.
+  CHECK(std::stod(on[at][x1]) < 0.169);
+  REQUIRE(on[at][ok] == "1");
+  CHECK(std::stod(on[at][cost]) < best_cost(on, at));
+  CHECK(std::stod(on[at][cost]) < -3.8);
+  // The run ends in the global basin (regret of the recommended θ against the feasible optimum).
+  CHECK(std::stod(on.back()[regret]) < 1e-3);
+  // The same trials with 2 threads.
+  CHECK(same_thetas(on, two, on.size()));
+}
+
+TEST_CASE("probe_every: a run in which no trial fails is unchanged") {
+  set_log_level(LogLevel::Error);
+  const Rows off = run(kOff, false, 1), on = run(kDefault, false, 1);
+  REQUIRE(off.size() == 51);
+  REQUIRE(on.size() == off.size());
+  const std::size_t phase = col(on, "phase");
+  for (std::size_t r = 1; r < on.size(); ++r) CHECK(on[r][phase] == off[r][phase]);
+  CHECK(same_thetas(on, off, on.size()));
+}
+
+TEST_CASE("probe_every: a run continues from a state saved at the probe exactly as without saving") {
+  // Saved with the probe asked and its result not yet told (a study saves its state with each suggestion), and
+  // after its result; the rule keeps no state of its own (its trials are counted from the attempt's start).
+  set_log_level(LogLevel::Error);
+  const BuildContext ctx = test::bo_context(3, 50, 1);
+  const test::TaskObserver observe("{type: hartmann3, failure_region: " + kBall + "}", ctx);
+  auto a = test::registry().create<Algorithm>(kDefault, ctx);
+  std::vector<Observation> told;
+  std::string asked_state, told_state;
+  std::vector<Observation> asked_told;
+  std::vector<Suggestion> later;  // the original run's suggestions from the probe on
+  for (Index k = 0; k < 50 && later.size() < 5; ++k) {
+    const Suggestion s = a->ask(1).front();
+    const bool first_probe = s.phase == "probe" && asked_state.empty();
+    if (!asked_state.empty()) later.push_back(s);
+    if (first_probe) {
+      later.push_back(s);
+      asked_state = *dynamic_cast<AlgorithmState&>(*a).save_state();
+      asked_told = told;
+    }
+    const Observation o = observe(s.x);
+    a->tell({o});
+    told.push_back(o);
+    if (first_probe) told_state = *dynamic_cast<AlgorithmState&>(*a).save_state();
+  }
+  REQUIRE(later.size() == 5);
+  // Asked, not told: the outstanding probe's result first, then the rest.
+  {
+    auto b = test::registry().create<Algorithm>(kDefault, ctx);
+    dynamic_cast<AlgorithmState&>(*b).restore_state(asked_state, asked_told);
+    b->tell({observe(later[0].x)});
+    std::vector<Observation> with_probe = asked_told;
+    with_probe.push_back(observe(later[0].x));
+    test::check_continues_as(kDefault, ctx, told_state, with_probe,
+                             std::vector<Suggestion>(later.begin() + 1, later.end()), observe);
+    for (std::size_t i = 1; i < later.size(); ++i) {
+      const Suggestion s = b->ask(1).front();
+      CHECK((s.x - later[i].x).norm() == 0.0);
+      CHECK(s.phase == later[i].phase);
+      b->tell({observe(s.x)});
+    }
+  }
+}
+
+TEST_CASE("probe_every: a value below -1 is refused, naming the key") {
+  const BuildContext ctx = test::bo_context(3, 50, 1);
+  try {
+    (void)test::registry().create<Algorithm>("{type: bo, failure_model: {probe_every: -2}}", ctx);
+    FAIL("probe_every: -2 was accepted");
+  } catch (const ConfigError& e) {
+    CHECK(std::string(e.what()).find("failure_model.probe_every") != std::string::npos);
+    CHECK(std::string(e.what()).find("[-1, inf)") != std::string::npos);
+  }
+}
