@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "bo_on_bowl.hpp"
-#include "study_helpers.hpp"
+#include "failing_hartmann3.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -20,21 +20,13 @@ using namespace varbo;
 
 namespace {
 
-const std::string kBall = "{shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}";
 const std::string kDefault = "{type: bo}";  // probe_every: -1 (d + 1) by default since session 41
 const std::string kOff = "{type: bo, failure_model: {probe_every: 0}}";
 
 using Rows = std::vector<std::vector<std::string>>;
 
 Rows run(const std::string& algorithm, bool failing, int threads) {
-  const std::string yaml = std::string("task: {type: hartmann3") + (failing ? ", failure_region: " + kBall : "") +
-                           "}\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n";
-  RunOverrides ov;
-  ov.output = test::temp_folder("attempt_probe_" + std::to_string(failing) + "_" + std::to_string(threads) + "_" +
-                                std::to_string(algorithm.size()));
-  ov.threads = threads;
-  test::run_yaml(yaml, test::registry(), ov);
-  return test::read_rows(*ov.output + "/trials.csv");
+  return test::run_hartmann3(algorithm == kOff ? "attempt_probe_off" : "attempt_probe_on", algorithm, failing, threads);
 }
 
 std::size_t col(const Rows& rows, const char* name) {
@@ -109,7 +101,7 @@ TEST_CASE("probe_every: a run continues from a state saved at the probe exactly 
   // after its result; the rule keeps no state of its own (its trials are counted from the attempt's start).
   set_log_level(LogLevel::Error);
   const BuildContext ctx = test::bo_context(3, 50, 1);
-  const test::TaskObserver observe("{type: hartmann3, failure_region: " + kBall + "}", ctx);
+  const test::TaskObserver observe("{type: hartmann3, failure_region: " + test::kHartmann3Ball + "}", ctx);
   auto a = test::registry().create<Algorithm>(kDefault, ctx);
   std::vector<Observation> told;
   std::string asked_state, told_state;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "bo_on_bowl.hpp"
+#include "failing_hartmann3.hpp"
 #include "study_helpers.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
@@ -187,15 +188,7 @@ TEST_CASE("follow_probe: a run on Hartmann-3 with bench_failures' ball is the sa
   // so the run differs from the plain one, and a seed fixes it whatever the thread count.
   set_log_level(LogLevel::Error);
   const auto run = [](const std::string& algorithm, int threads) {
-    const std::string yaml =
-        "task: {type: hartmann3, failure_region: {shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}}\n"
-        "budget: 50\nseed: 7\nalgorithm: " + algorithm + "\n";
-    RunOverrides ov;
-    ov.output = test::temp_folder("follow_probe_threads_" + std::to_string(threads) + "_" +
-                                  std::to_string(algorithm.size()));
-    ov.threads = threads;
-    test::run_yaml(yaml, test::registry(), ov);
-    return test::read_rows(*ov.output + "/trials.csv");
+    return test::run_hartmann3("follow_probe_threads_" + std::to_string(algorithm.size()), algorithm, true, threads, 7);
   };
   // With the value stalls and refinement of the session that found it (test::kSession39Stalls), without session 41's
   // probes during an attempt (test::kNoAttemptProbes: seed 7 takes another path with one).

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "bo_on_bowl.hpp"
+#include "failing_hartmann3.hpp"
 #include "study_helpers.hpp"
 #include "varbo/algorithm.hpp"
 #include "varbo/log.hpp"
@@ -20,7 +21,7 @@ using namespace varbo;
 
 namespace {
 
-const std::string kBall = "{shape: ball, center: [0.45, 0.55, 0.55], radius: 0.415}";
+const std::string& kBall = test::kHartmann3Ball;
 // The scenario is session 36's, with its value stalls and refinement (test::kSession39Stalls) and without the probes
 // during an attempt (test::kNoAttemptProbes, session 41); global_probe is on by default since session 36.
 const std::string kSession36 = test::kSession39Stalls + ", " + test::kNoAttemptProbes;
@@ -28,14 +29,7 @@ const std::string kProbe = "{type: bo, failure_model: {" + kSession36 + "}}";
 const std::string kPlain = "{type: bo, failure_model: {global_probe: false, " + kSession36 + "}}";
 
 std::vector<std::vector<std::string>> run(const std::string& algorithm, bool failing, int threads) {
-  const std::string yaml = std::string("task: {type: hartmann3") + (failing ? ", failure_region: " + kBall : "") +
-                           "}\nbudget: 50\nseed: 1\nalgorithm: " + algorithm + "\n";
-  RunOverrides ov;
-  ov.output = test::temp_folder("global_probe_" + std::to_string(failing) + "_" + std::to_string(threads) + "_" +
-                                std::to_string(algorithm.size()));
-  ov.threads = threads;
-  test::run_yaml(yaml, test::registry(), ov);
-  return test::read_rows(*ov.output + "/trials.csv");
+  return test::run_hartmann3(algorithm == kProbe ? "global_probe_on" : "global_probe_off", algorithm, failing, threads);
 }
 
 }  // namespace
