@@ -176,7 +176,8 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
                               "lowest_bound_evaluated`, and this run's rule is '{}'",
                               o.node("recommendation_kappa").where(), settings.recommendation_kappa,
                               o.str("recommendation")));
-  if (failure_settings_.global_probe || failure_settings_.probe_every != 0) probe_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
+  if (failure_settings_.global_probe || failure_settings_.probe_every != 0)
+    probe_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
   whole_box_ = std::make_unique<BoxRegion>(Box::unit(dim_));
   recommender_ = std::make_unique<Recommender>(settings.recommendation, settings.recommendation_kappa,
                                                r.create<Surrogate>(o.component("surrogate"), ctx));

@@ -107,7 +107,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Index probe_trial_ = -1;
   void follow_global_probe(Index k);
   /// failure_model.probe_every (bo_global_probe.cpp): at every probe_every-th trial of an attempt past its design, the
-  /// global probe, if it lies away from the attempt's best point.
+  /// global probe, if it lies away from every attempt's best point at a place the model knows.
   std::optional<Vec> attempt_probe(Index k, const Dataset& data, bool refit);
   std::unique_ptr<Surrogate> probe_model_;  ///< global_probe's model of every successful trial
   std::unique_ptr<RegionConstraint> whole_box_;  ///< global_probe's region: the box (with the space's constraints)
