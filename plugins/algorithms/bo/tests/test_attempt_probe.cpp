@@ -122,21 +122,20 @@ TEST_CASE("probe_every: a run continues from a state saved at the probe exactly 
     if (first_probe) told_state = *dynamic_cast<AlgorithmState&>(*a).save_state();
   }
   REQUIRE(later.size() == 5);
-  // Asked, not told: the outstanding probe's result first, then the rest.
-  {
-    auto b = test::registry().create<Algorithm>(kDefault, ctx);
-    dynamic_cast<AlgorithmState&>(*b).restore_state(asked_state, asked_told);
-    b->tell({observe(later[0].x)});
-    std::vector<Observation> with_probe = asked_told;
-    with_probe.push_back(observe(later[0].x));
-    test::check_continues_as(kDefault, ctx, told_state, with_probe,
-                             std::vector<Suggestion>(later.begin() + 1, later.end()), observe);
-    for (std::size_t i = 1; i < later.size(); ++i) {
-      const Suggestion s = b->ask(1).front();
-      CHECK((s.x - later[i].x).norm() == 0.0);
-      CHECK(s.phase == later[i].phase);
-      b->tell({observe(s.x)});
-    }
+  const std::vector<Suggestion> after_probe(later.begin() + 1, later.end());
+  // Saved after the probe's result.
+  std::vector<Observation> with_probe = asked_told;
+  with_probe.push_back(observe(later[0].x));
+  test::check_continues_as(kDefault, ctx, told_state, with_probe, after_probe, observe);
+  // Saved with the probe asked, not told: the outstanding probe's result first, then the rest.
+  auto b = test::registry().create<Algorithm>(kDefault, ctx);
+  dynamic_cast<AlgorithmState&>(*b).restore_state(asked_state, asked_told);
+  b->tell({observe(later[0].x)});
+  for (const Suggestion& e : after_probe) {
+    const Suggestion s = b->ask(1).front();
+    CHECK((s.x - e.x).norm() == 0.0);
+    CHECK(s.phase == e.phase);
+    b->tell({observe(s.x)});
   }
 }
 
