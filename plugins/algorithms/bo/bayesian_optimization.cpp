@@ -467,7 +467,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // The last refine_last trials of the budget refine the best basin found (minimizing the posterior mean by
   // default) instead of starting or continuing an attempt.
   const bool final_stretch = fresh_region && budget_ > 0 && k >= budget_ - refine_last_;
-  if (fresh_starts_ > 0 && final_stretch && !refining_) begin_refinement(k, data);
+  if (fresh_starts_ > 0 && final_stretch && !refining_) {
+    if (refinement_waits(k, data))
+      log_debug("bo: trial {}: the final refinement waits: the current attempt still improves", k);
+    else
+      begin_refinement(k, data);
+  }
   // refine_early: once fewer trials remain than a fresh start's design, no later attempt could begin and be
   // followed up; if the current attempt (past its design) holds the incumbent of all the data, the refinement
   // begins now instead of EI probing the rest of its trust region (Hartmann-6 seed 13: a basin found at trial 80
@@ -609,6 +614,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   // failure boundary beside the minimizer (docs/defaults.md).
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
   double p_min = exclusion_threshold_;
+  std::ptrdiff_t refine_failures = 0;  // failure_model.refine_backoff: failed trials of the refinement so far
   if (weighted && (refining_ || failure_settings_.incumbent_level != "refinement") && data_.size() > 0) {
     // Success as likely as at the incumbent (up to refine_min_probability), not merely more likely than failure:
     // the refinement's mean minimum beside a failure boundary otherwise lay on the P = min_probability contour
@@ -623,6 +629,15 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     const bool fixed = failure_settings_.incumbent_level == "fixed" && !refining_;
     p_min = std::max(p_min, fixed ? failure_settings_.refine_min_probability
                                   : std::min(failure_settings_.refine_min_probability, p_incumbent));
+    if (refining_ && failure_settings_.refine_backoff && refine_trial_ >= 0) {
+      // failure_model.refine_backoff (session 42; docs/failures.md, item 13): the incumbent's P falls with every
+      // failure beside it, and with it the level, so a refinement at a failure face proposed its points at the
+      // falling contour one after another (Hartmann-6, held-out ball 5, seed 26: P 0.75 → 0.61 over six trials,
+      // 13 of 14 failed). Each failure of the refinement halves the probability of failure it accepts instead.
+      refine_failures = std::count_if(failed_trials_.begin(), failed_trials_.end(),
+                                      [&](Index t) { return t >= refine_trial_ && t < k; });
+      p_min = 1.0 - (1.0 - p_min) * std::ldexp(1.0, -static_cast<int>(std::min<std::ptrdiff_t>(refine_failures, 60)));
+    }
   }
   if (weighted)
     feasible = std::make_unique<FeasibilityWeightedAcquisition>(
@@ -714,6 +729,20 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     // parameters its rounding): never suggest it; a random point where success is likely.
     // The level applied is named with its value: "< min_probability" was printed where the incumbent's level
     // (refine_min_probability, 0.8) applied and min_probability was 0.5 (red team, session 24).
+    if (refining_ && refine_failures > 0) {
+      // No point of the refinement's box is as likely to succeed as refine_backoff asks: the incumbent, a known
+      // success, is measured again. A random point of the whole box instead failed 19 of 31 times (held-out ball 5
+      // of Hartmann-6, 80 seeds, session 42), and in the last trials of a run it could not be followed up anyway.
+      Index best = 0;
+      data_.y.minCoeff(&best);
+      log_info("bo: trial {}: the refinement's best point has P(success) {:.3g} < {:.3g} (the incumbent's level, the "
+               "probability of failure halved for each of the refinement's {} failed trials: refine_backoff); the "
+               "incumbent is measured again", k, feasibility_->probability(evaluated_point(res.x)), p_min,
+               refine_failures);
+      s.x = data_.X.row(best).transpose();
+      s.phase = "refine";
+      return s;
+    }
     log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < {:.3g} ({}); choosing at random", k,
              feasibility_->probability(evaluated_point(res.x)), p_min,
              p_min > exclusion_threshold_ ? "the incumbent's level, at most refine_min_probability"

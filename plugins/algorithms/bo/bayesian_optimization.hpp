@@ -18,6 +18,11 @@
 
 namespace varbo::bo {
 
+/// Two points of a run farther apart than this (max-norm, unit cube) are taken to lie in different basins: a probe
+/// during an attempt (probe_every) must be this far from every attempt's best point, and the final refinement waits
+/// (refine_waits) only for an attempt this far from the incumbent; the boundary_tabu distance.
+inline constexpr double kAnotherBasin = 0.15;
+
 /// A stretch of the run: `evaluations` trials chosen at random or by an acquisition (with probability ε at
 /// random instead, Kuindersma 2013, section 3.4.2).
 struct Phase {
@@ -100,7 +105,7 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   bool follow_probe(Index k, Index probe, const Dataset& data, Rng& region_rng);
   /// failure_model.global_probe (bo_global_probe.cpp): the first point of a fresh start's design, if any.
   /// `role` names the trial in the log; with `away_from` (probe_every), only a point farther than
-  /// kAttemptProbeDistance from each of them where the model's sd is small (bo_global_probe.cpp).
+  /// kAnotherBasin from each of them where the model's sd is small (bo_global_probe.cpp).
   std::optional<Vec> global_probe(Index k, bool refit, const char* role, const std::vector<Vec>* away_from = nullptr);
   /// The trial of the latest global probe (-1: none); at the design's next trial, a successful probe that improved on
   /// every earlier trial ends the design: the attempt continues from it (follow_global_probe).
@@ -135,6 +140,9 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   double lie(const Vec& x) const;
   /// Starts the final refinement of the incumbent of all the data (see BoSettings::refine_last).
   void begin_refinement(Index k, const Dataset& data);
+  /// failure_model.refine_waits: whether the final refinement, due at trial k, waits for the current attempt, which
+  /// still improves (its best among its last d + 1 successes) without holding the incumbent (bo_attempts.cpp).
+  bool refinement_waits(Index k, const Dataset& data) const;
   /// What the model is fitted to at this stage of the run: the refinement's data, the current attempt's points
   /// (since the last fresh start) or all of them; suggest() and a batch's first fit both use it.
   Dataset model_data_of(const Dataset& data) const;
@@ -227,6 +235,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// The final refinement's model (refine_model: attempt): observations [refine_lo_, refine_hi_) (the attempt
   /// that found the incumbent) and those from refine_from_ on (the refinement's own).
   Index refine_lo_ = 0, refine_hi_ = 0, refine_from_ = 0;  ///< the final refinement after fresh starts has begun
+  /// The trial at which the final refinement began (failure_model.refine_backoff counts its failures from there).
+  Index refine_trial_ = -1;
   ModelSnapshot snapshot_;
   std::unique_ptr<Recommender> recommender_;  ///< its own model: recommending changes no trial
 };

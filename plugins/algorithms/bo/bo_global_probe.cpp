@@ -28,9 +28,6 @@ namespace {
 /// A probe only where the model of every trial is confident of an improvement: its mean + this many standard
 /// deviations below the incumbent (the probability of improvement ≥ 0.9987).
 constexpr double kProbeConfidence = 3;
-/// failure_model.probe_every: a probe this close (max-norm, unit cube) to an attempt's best point is in a basin an
-/// attempt has searched (the current one: its own trust region's search); the boundary_tabu distance.
-constexpr double kAttemptProbeDistance = 0.15;
 /// failure_model.probe_every: the model knows the probe's place: its sd at most this × the range of the successful
 /// costs (behind Hartmann-3's ball, seed 1: 0.076 against a range of 3.6).
 constexpr double kAttemptProbeSpread = 0.1;
@@ -107,9 +104,9 @@ std::optional<Vec> BayesianOptimization::global_probe(Index k, bool refit, const
       return std::nullopt;
     }
     for (const Vec& a : *away_from)
-      if ((x - a).lpNorm<Eigen::Infinity>() <= kAttemptProbeDistance) {
+      if ((x - a).lpNorm<Eigen::Infinity>() <= kAnotherBasin) {
         log_debug("bo: trial {}: no probe during the attempt: the global probe lies within {:g} of an attempt's best "
-                  "point", k, kAttemptProbeDistance);
+                  "point", k, kAnotherBasin);
         return std::nullopt;
       }
   }

@@ -49,6 +49,7 @@ std::optional<std::string> BayesianOptimization::save_state() const {
   m.put_int("refine_lo", refine_lo_);
   m.put_int("refine_hi", refine_hi_);
   m.put_int("refine_from", refine_from_);
+  if (refine_trial_ >= 0) m.put_int("refine_trial", refine_trial_);  // refine_backoff (absent before session 42)
   if (!blocked_.empty()) {  // failure_model.boundary_restart's blocked points, flattened (absent without any)
     Vec flat(static_cast<Index>(blocked_.size()) * dim_);
     for (std::size_t i = 0; i < blocked_.size(); ++i) flat.segment(static_cast<Index>(i) * dim_, dim_) = blocked_[i];
@@ -98,6 +99,11 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
       refine_hi_ = static_cast<Index>(m.integer("refine_hi"));
       refine_from_ = static_cast<Index>(m.integer("refine_from"));
     }
+    // Saved before session 42 inside a refinement: it began at most refine_last trials before the end.
+    refine_trial_ = m.has("refine_trial") ? static_cast<Index>(m.integer("refine_trial"))
+                    : refining_         ? std::max<Index>(0, budget_ - refine_last_)
+                                        : -1;
+    if (refine_trial_ < -1 || refine_trial_ > told_) throw InputError("bo state: 'refine_trial' is not an asked trial");
   }
   blocked_.clear();
   if (m.has("blocked")) {

@@ -183,6 +183,16 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "failures cut attempts short, so the last one often reaches its basin late; -1 = 2(d + 1), 0 = "
                    "bo's refine_last unchanged")
           .at_least(-1),
+      opt::boolean("refine_backoff", &FailureModelSettings::refine_backoff,
+                   "each failed trial of bo's final refinement halves the probability of failure it accepts (its "
+                   "level of P(success) becomes 1 - (1 - level)/2^f after f failures): the level is the incumbent's "
+                   "own P, which failures beside the incumbent lower, and the refinement's points followed it into "
+                   "the failures; false = the level as outside the refinement"),
+      opt::boolean("refine_waits", &FailureModelSettings::refine_waits,
+                   "once a trial has failed, the final refinement (failure_model.refine_last trials before the end) "
+                   "waits while the current attempt, past its design and farther than 0.15 (max-norm, unit cube) "
+                   "from the incumbent, would pass the incumbent within d + 1 trials at the pace of its last d + 1 "
+                   "successes (to the end of the budget if it keeps that pace)"),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
@@ -215,7 +225,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -150,7 +150,7 @@ struct FailureModelSettings {
   /// Once a trial has failed, every `probe_every` trials of an attempt past its design (-1 = d + 1; 0 = never) the
   /// same probe is tried during the attempt: the maximizer over the whole box of the acquisition weighted by P(success)
   /// on a model of every successful trial, taken only where that model is confident of an improvement and farther
-  /// than kAttemptProbeDistance from the attempt's best point (bo_global_probe.cpp). An attempt searches its trust
+  /// than kAnotherBasin from the attempt's best point (bo_global_probe.cpp). An attempt searches its trust
   /// region at P(success) ≥ min(refine_min_probability, the incumbent's P) (incumbent_level: always), so where a
   /// failure region lies between its basin and a better one, the far side, where P(success) is only the design's
   /// success rate, is never searched, however clearly the costs measured so far point there; the first attempt of
@@ -174,6 +174,18 @@ struct FailureModelSettings {
   /// Failed trials cut attempts short, and a run whose last attempt reached the global basin late ends it
   /// unpolished with d + 1 refinement trials (session 40, docs/failures.md). 0 = bo's refine_last unchanged.
   int refine_last = -1;
+  /// Each failed trial of bo's final refinement halves the probability of failure the refinement accepts: after f
+  /// of them its level of P(success) is 1 − (1 − level)/2^f. The level is the incumbent's own P (incumbent_level),
+  /// which every failure beside the incumbent lowers, so without this a refinement at a failure face proposed its
+  /// points ever closer to the failures: 13 of 14 refinement trials failed on a Hartmann-6 ball region, for no gain
+  /// (session 42, docs/failures.md, item 13). The default since session 42.
+  bool refine_backoff = true;
+  /// Once a trial has failed, the final refinement, due refine_last (2(d + 1)) trials before the end, waits while the
+  /// current attempt, past its design and in another basin than the incumbent (kAnotherBasin away), would pass the
+  /// incumbent within d + 1 trials at the pace of its last d + 1 successes (to the end of the budget if it keeps that
+  /// pace): the extra refinement trials otherwise cut short a last attempt on its way into a better basin (session 42,
+  /// docs/failures.md, item 13).
+  bool refine_waits = true;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -1,9 +1,11 @@
 // Hartmann-6 with held-out failure region 0 of session 37 (a box cutting x2 between the global minimiser and the
 // rest of the box), seed 1, budget 100: a run that restarts after failures in its design. Shared by the tests of the
-// rules that apply once a trial has failed (short_restarts, refine_last).
+// rules that apply once a trial has failed (short_restarts, refine_last); other regions and seeds for the final
+// refinement's rules (refine_backoff, refine_waits: held-out ball 5).
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,17 +18,23 @@ namespace varbo::test {
 
 inline const std::string kHartmann6Box =
     "{shape: box, lower: [0.0, 0.186, 0.0, 0.0, 0.0, 0.0], upper: [1.0, 0.736, 1.0, 0.545, 1.0, 1.0]}";
+/// Held-out region 5 of session 37: a ball of radius 0.871 that leaves the global minimiser 0.037 outside it and
+/// covers part of the local minimum's basin (−3.20), whose feasible best lies at the ball's face.
+inline const std::string kHartmann6Ball5 =
+    "{shape: ball, center: [0.274, 0.567, 0.919, 0.938, 0.208, 0.649], radius: 0.871}";
 
 using Rows = std::vector<std::vector<std::string>>;
 
-/// trials.csv of `{type: bo, failure_model: failure_model}` on Hartmann-6, with the box as failure region or without;
-/// `tag` names the run's folder (one tag per failure_model).
-inline Rows run_hartmann6(const std::string& tag, bool region, const std::string& failure_model, int threads = 1) {
+/// trials.csv of `{type: bo, failure_model: failure_model}` on Hartmann-6, with `failure_region` (the box by
+/// default) or without; `tag` names the run's folder (one tag per failure_model and region).
+inline Rows run_hartmann6(const std::string& tag, bool region, const std::string& failure_model, int threads = 1,
+                          std::uint64_t seed = 1, const std::string& failure_region = kHartmann6Box) {
   RunOverrides ov;
-  ov.output = temp_folder(tag + "_" + std::to_string(region) + "_" + std::to_string(threads));
+  ov.output = temp_folder(tag + "_" + std::to_string(region) + "_" + std::to_string(threads) + "_" +
+                          std::to_string(seed));
   ov.threads = threads;
-  const std::string yaml = std::string("task: {type: hartmann6") + (region ? ", failure_region: " + kHartmann6Box : "") +
-                           "}\nbudget: 100\nseed: 1\nalgorithm: {type: bo" +
+  const std::string yaml = std::string("task: {type: hartmann6") + (region ? ", failure_region: " + failure_region : "") +
+                           "}\nbudget: 100\nseed: " + std::to_string(seed) + "\nalgorithm: {type: bo" +
                            (failure_model.empty() ? "" : ", failure_model: " + failure_model) + "}\n";
   run_yaml(yaml, registry(), ov);
   return read_rows(*ov.output + "/trials.csv");
@@ -42,11 +50,16 @@ inline bool same_thetas(const Rows& a, const Rows& b) {
   return true;
 }
 
-/// The plain default bo on that task (seed 1, budget 100), driven by ask and tell: the tests that save and restore it.
+/// The plain default bo on that task (seed 1, budget 100; or another region and seed), driven by ask and tell: the
+/// tests that save and restore it.
 struct FailingHartmann6Bo {
-  BuildContext ctx = bo_context(6, 100, 1);
-  TaskObserver observe{"{type: hartmann6, failure_region: " + kHartmann6Box + "}", ctx};
-  std::unique_ptr<Algorithm> bo = registry().create<Algorithm>("{type: bo}", ctx);
+  explicit FailingHartmann6Bo(const std::string& failure_region = kHartmann6Box, std::uint64_t seed = 1)
+      : ctx(bo_context(6, 100, seed)),
+        observe("{type: hartmann6, failure_region: " + failure_region + "}", ctx),
+        bo(registry().create<Algorithm>("{type: bo}", ctx)) {}
+  BuildContext ctx;
+  TaskObserver observe;
+  std::unique_ptr<Algorithm> bo;
   std::vector<Observation> told;  ///< every observation told so far
 
   /// Asks one trial and tells its observation.
