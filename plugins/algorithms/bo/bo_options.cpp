@@ -145,8 +145,10 @@ const OptionSet<BoSettings>& bo_options() {
                 "boundary are kept off (blocked_tabu), a fresh start first probes where a model of every trial is "
                 "confident of a gain (global_probe) and so does every (d + 1)-th trial of an attempt where that point lies in "
                 "another basin (probe_every), six failures in a row end an attempt (failure_run), fresh designs "
-                "have d + 1 points (short_restarts) and the final refinement at least 2(d + 1) trials (refine_last); "
-                "the other keys are measured variants, off by default (docs/failures.md)"),
+                "have d + 1 points (short_restarts) and the final refinement at least 2(d + 1) trials (refine_last), "
+                "which halves the failure probability it accepts after each of its failures (refine_backoff) and "
+                "waits for a last attempt about to pass the incumbent (refine_waits); the other keys are measured "
+                "variants, off by default (docs/failures.md)"),
   };
   return set;
 }
