@@ -131,15 +131,18 @@ bool BayesianOptimization::refinement_waits(Index k, const Dataset& data) const 
   // successes, 0.15 from the global minimiser, when the refinement returned to the incumbent, a local minimum
   // (−3.19) beside the ball that it could not improve. The extra trials go to such an attempt first: the refinement
   // waits while the attempt, past its design, is in another basin than the incumbent and at the pace of its last
-  // d + 1 successes would pass the incumbent within d + 1 more — if need be to the end of the budget: held at bo's
-  // own last refine_last trials, seed 26's attempt reached −3.14 in the global basin at the last trial before them,
-  // and the refinement returned to the local minimum. Not for every attempt still improving: a young attempt
-  // improves quickly anywhere, and waiting for it took the polish from incumbents already at the global minimum (12
-  // of the 80 seeds worse by 2× or more, 4 stuck runs rescued; with the pace and the basin, none worse, 4 rescued).
+  // d + 1 successes would pass the incumbent within d + 1 more, but never into bo's own last refine_last (d + 1)
+  // trials, the refinement of a run without failures. Without that floor seed 26's attempt reached the global basin
+  // and the refinement there (0.135 → 0.002), but on Branin, whose three minima are equal, an attempt in another
+  // global basin always seemed about to pass the incumbent, and incumbents lost their polish (the disc at the
+  // centre, 80 seeds: median 4.3e-10 → 1.1e-09, seed 21 1.4e-10 → 3.3e-04; with the floor 5.3e-10). Not for every
+  // attempt still improving: a young attempt improves quickly anywhere, and waiting for it took the polish from
+  // incumbents already at the global minimum (12 of the 80 seeds worse by 2× or more, 4 stuck runs rescued; with
+  // the pace and the basin, none worse, 2 rescued).
   if (!failure_settings_.refine_waits || refining_ || fresh_starts_ == 0 || budget_ <= 0 || failed_.empty() ||
       !failure_settings_.active(static_cast<Index>(failed_.size())))
     return false;  // once a trial has failed only: a run without failures is unchanged
-  if (k - fresh_trial_ < restart_points_) return false;
+  if (k >= budget_ - configured_refine_last_ || k - fresh_trial_ < restart_points_) return false;
   const Index from = std::min(fresh_from_, data.size());
   const Index window = dim_ + 1;
   if (data.size() - from < 2) return false;

@@ -192,7 +192,7 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "once a trial has failed, the final refinement (failure_model.refine_last trials before the end) "
                    "waits while the current attempt, past its design and farther than 0.15 (max-norm, unit cube) "
                    "from the incumbent, would pass the incumbent within d + 1 trials at the pace of its last d + 1 "
-                   "successes (to the end of the budget if it keeps that pace)"),
+                   "successes, until bo's own refine_last trials remain"),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "

@@ -182,8 +182,8 @@ struct FailureModelSettings {
   bool refine_backoff = true;
   /// Once a trial has failed, the final refinement, due refine_last (2(d + 1)) trials before the end, waits while the
   /// current attempt, past its design and in another basin than the incumbent (kAnotherBasin away), would pass the
-  /// incumbent within d + 1 trials at the pace of its last d + 1 successes (to the end of the budget if it keeps that
-  /// pace): the extra refinement trials otherwise cut short a last attempt on its way into a better basin (session 42,
+  /// incumbent within d + 1 trials at the pace of its last d + 1 successes, until bo's own refine_last trials remain:
+  /// the extra refinement trials otherwise cut short a last attempt on its way into a better basin (session 42,
   /// docs/failures.md, item 13).
   bool refine_waits = true;
   /// Active for a run with `failures` failed trials so far.
