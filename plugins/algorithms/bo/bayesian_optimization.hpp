@@ -141,7 +141,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   /// Starts the final refinement of the incumbent of all the data (see BoSettings::refine_last).
   void begin_refinement(Index k, const Dataset& data);
   /// failure_model.refine_waits: whether the final refinement, due at trial k, waits for the current attempt, which
-  /// still improves (its best among its last d + 1 successes) without holding the incumbent (bo_attempts.cpp).
+  /// lies in another basin than the incumbent and at the pace of its last d + 1 successes would pass it within d + 1
+  /// trials (bo_attempts.cpp).
   bool refinement_waits(Index k, const Dataset& data) const;
   /// What the model is fitted to at this stage of the run: the refinement's data, the current attempt's points
   /// (since the last fresh start) or all of them; suggest() and a batch's first fit both use it.
