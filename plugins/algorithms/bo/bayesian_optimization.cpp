@@ -25,6 +25,7 @@
 #include "varbo/option_set.hpp"
 #include "varbo/constrained_sampling.hpp"
 #include "varbo/space_wrappers.hpp"
+#include "varbo/side_cap.hpp"
 #include "varbo/value_stall.hpp"
 
 namespace varbo::bo {
@@ -533,6 +534,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     rule.strict = failure_settings_.stall_strict;
     rule.incumbent = failure_settings_.stall_incumbent;
     value_stall->set_value_stall(rule);
+  }
+  // failure_model.length_max: once trials have failed, the trust region grows no larger (item 14).
+  if (auto* capped = dynamic_cast<SideCapRegion*>(region_.get())) {
+    const bool cap = failure_settings_.length_max > 0 && !failed_.empty() &&
+                     failure_settings_.active(static_cast<Index>(failed_.size()));
+    capped->set_side_cap(cap ? failure_settings_.length_max : std::numeric_limits<double>::infinity());
   }
   force_region_failures(k);
   {

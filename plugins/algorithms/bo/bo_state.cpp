@@ -1,7 +1,8 @@
 // Exact snapshots of bo (varbo/state.hpp): a study continues from the state after its latest trial instead of
 // replaying one model fit per finished trial. The observations come back through tell(); the state holds what
 // they do not determine: the fit counter (refit_every), the latest model snapshot, and the states of the
-// components that carry one from call to call (the surrogate's warm start, a trust region, hit-and-run chains).
+// components that carry one from call to call (the surrogate's and the global probe's model's warm starts, a trust
+// region, hit-and-run chains).
 // The failure classifier is refitted at every ask, so it needs no state. The recommender (its cache, its own
 // optimizer) is left out: recommendation() is called by `varbo run` and not by a replay, so its state is not a
 // function of the trials; a restored bo recomputes a recommendation from the same data and model.
@@ -70,6 +71,9 @@ std::optional<std::string> BayesianOptimization::save_state() const {
   if (probe_trial_ >= 0) m.put_int("probe_trial", probe_trial_);  // global_probe (absent without it)
   if (failure_settings_.feasible_region != "off") m.put_int("region_counted_to", region_counted_to_);
   m.put("surrogate", surrogate->save_state());
+  // The global probe's model is warm-started from its previous fit like the surrogate (absent before session 43: a
+  // run restored between two probes fitted the second from scratch and probed 1e-4 away, test_attempt_probe.cpp).
+  if (probe_model_) save_if_stateful(m, "probe_model", probe_model_.get());
   save_if_stateful(m, "region", region_.get());
   save_if_stateful(m, "design_sampler", design_sampler_.get());
   save_if_stateful(m, "acquisition_optimizer", optimizer_.get());
@@ -130,6 +134,7 @@ void BayesianOptimization::restore_state(const std::string& text, const std::vec
   ComponentState* surrogate = state_of(surrogate_.get());
   if (!surrogate) throw InputError("bo state: the surrogate takes no state");
   surrogate->restore_state(m.str("surrogate"));
+  if (probe_model_) restore_if_saved(m, "probe_model", probe_model_.get());
   restore_if_saved(m, "region", region_.get());
   restore_if_saved(m, "design_sampler", design_sampler_.get());
   restore_if_saved(m, "acquisition_optimizer", optimizer_.get());

@@ -193,6 +193,11 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "waits while the current attempt, past its design and farther than 0.15 (max-norm, unit cube) "
                    "from the incumbent, would pass the incumbent within d + 1 trials at the pace of its last d + 1 "
                    "successes, until bo's own refine_last trials remain"),
+      opt::real("length_max", &FailureModelSettings::length_max,
+                "once a trial has failed, the trust region's side is at most this (unit cube; the region's own "
+                "length_max, 1.6, makes its box the whole cube, where EI proposes the box's corners); 0 = the "
+                "region's own limit")
+          .at_least(0),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
@@ -225,7 +230,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, length_max: L, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

@@ -186,6 +186,12 @@ struct FailureModelSettings {
   /// the extra refinement trials otherwise cut short a last attempt on its way into a better basin (session 42,
   /// docs/failures.md, item 13).
   bool refine_waits = true;
+  /// Once a trial has failed, the trust region's side L is at most this (the region's own length_max is 1.6, TuRBO's
+  /// L_max): a region grown past the unit cube makes the attempt's search global, and EI there proposes the box's
+  /// corners, where the model knows least (Hartmann-6: 4–5 corner trials per run, none informative). On a robot
+  /// that is a jump to an untried extreme after a fall; kept near the attempt's best, the trials polish the basin
+  /// being found (session 43, docs/failures.md, item 14). 0 = the region's own limit.
+  double length_max = 0.8;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

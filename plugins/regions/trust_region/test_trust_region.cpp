@@ -1,3 +1,4 @@
+#include <limits>
 #include <sstream>
 
 #include "trust_region.hpp"
@@ -124,6 +125,40 @@ TEST_CASE("trust_region: restart_length sets L after a collapse; 2 makes the box
   observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 5.0);
   CHECK(tr.length() == 1.0);
   CHECK(tr.bounds().lower.isApprox((Vec(2) << 0.4, 0.45).finished()));
+}
+
+TEST_CASE("trust_region: a side cap (bo's failure_model.length_max) bounds L; lifting it restores the doubling") {
+  TrustRegionOptions keep;
+  keep.restart_center = "incumbent";
+  TrustRegion tr(2, keep);
+  Dataset data = Dataset::empty(2);
+  observe(tr, data, (Vec(2) << 0.5, 0.5).finished(), 10.0);
+  // Three successes would double L to 1.6 (the test above); with a cap of 0.8 L stays 0.8, the count resets.
+  tr.set_side_cap(0.8);
+  for (double c : {9.0, 8.0, 7.0}) observe(tr, data, (Vec(2) << 0.5 + 0.01 * (10 - c), 0.5).finished(), c);
+  CHECK(tr.length() == doctest::Approx(0.8));
+  CHECK(tr.successes() == 0);
+  CHECK(tr.bounds().upper[0] - tr.bounds().lower[0] == doctest::Approx(0.8));
+  // Without the cap the next three double it, and a cap set later shrinks it at the next update, whatever
+  // that update counts (here one more success).
+  tr.set_side_cap(std::numeric_limits<double>::infinity());
+  for (double c : {6.0, 5.0, 4.0}) observe(tr, data, (Vec(2) << 0.5 + 0.01 * (10 - c), 0.5).finished(), c);
+  CHECK(tr.length() == doctest::Approx(1.6));
+  tr.set_side_cap(0.5);
+  observe(tr, data, (Vec(2) << 0.6, 0.5).finished(), 3.0);
+  CHECK(tr.length() == doctest::Approx(0.5));
+  CHECK(tr.bounds().lower.isApprox((Vec(2) << 0.35, 0.25).finished()));
+  CHECK(tr.bounds().upper.isApprox((Vec(2) << 0.85, 0.75).finished()));
+  // A cap below length_min is held at length_min: the region does not restart at every update.
+  tr.set_side_cap(1e-6);
+  observe(tr, data, (Vec(2) << 0.6, 0.6).finished(), 2.0);
+  CHECK(tr.length() == doctest::Approx(TrustRegionOptions{}.length_min));
+  CHECK(tr.restarts() == 0);
+  // The cap is not part of the saved state: a restored region has the very box.
+  TrustRegion copy(2, keep);
+  copy.restore_state(tr.save_state());
+  CHECK(copy.bounds().lower.isApprox(tr.bounds().lower));
+  CHECK(copy.length() == tr.length());
 }
 
 TEST_CASE("trust_region: restart_center new_points restarts afresh around the points found since the restart") {

@@ -32,6 +32,8 @@ Box TrustRegion::rebuilt_box() const {
 
 void TrustRegion::set_box() { box_ = rebuilt_box(); }
 
+double TrustRegion::side_cap() const { return std::max(side_cap_, options_.length_min); }
+
 void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   if (data.size() == 0) return;
   if (data.dim() != box_.dim())
@@ -53,6 +55,7 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
     else data.y.minCoeff(&arg);
     seen_ = data.size();
     center_ = data.X.row(arg).transpose();
+    length_ = std::min(length_, side_cap());
     set_box();
     return;
   }
@@ -88,7 +91,7 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
     }
     best_ = std::min(best_, best);
     if (successes_ >= options_.success_tolerance) {
-      length_ = std::min(2.0 * length_, options_.length_max);
+      length_ = std::min({2.0 * length_, options_.length_max, side_cap()});
       successes_ = 0;
     } else if (failures_ >= failure_tolerance_) {
       // One halving per τ_fail failures: several at once only when failures were forced (bo's feasible_region).
@@ -122,6 +125,7 @@ void TrustRegion::update(const Surrogate*, const Dataset& data, Rng&) {
   }
   seen_ = data.size();
   center_ = data.X.row(arg).transpose();
+  length_ = std::min(length_, side_cap());  // a cap set since the last update, or restart_length above it
   set_box();
 }
 

@@ -6,9 +6,11 @@
 // points, and refines the incumbent of all the data in its last trials); `restart_center: incumbent` keeps the
 // incumbent and the data instead (docs/defaults.md).
 // It is a plain box region (no constraint), so every optimizer can search it.
+#include <limits>
 #include <string>
 
 #include "varbo/region.hpp"
+#include "varbo/side_cap.hpp"
 #include "varbo/state.hpp"
 #include "varbo/value_stall.hpp"
 
@@ -48,7 +50,7 @@ struct TrustRegionOptions {
 };
 
 class TrustRegion final : public RegionConstraint, public ComponentState, public FreshStartRegion,
-                          public ValueStallRegion {
+                          public ValueStallRegion, public SideCapRegion {
  public:
   TrustRegion(Index dim, TrustRegionOptions options);
   /// Compares the best cost in `data` with the best at the previous update (only when new points arrived),
@@ -77,6 +79,9 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   /// in x3) a converged attempt's points differ by ~0.01 in θ and no distance test sees them as next to the
   /// incumbent; their costs do (docs/failures.md).
   void set_value_stall(const ValueStall& rule) override { value_stall_ = rule; }
+  /// A cap on L below length_max (side_cap.hpp; bo's failure_model.length_max, once trials have failed): L never
+  /// doubles past it, and a larger L shrinks to it at the next update. Not part of the saved state either.
+  void set_side_cap(double side) override { side_cap_ = side; }
   /// Whether a trial costing `y` is a value stall for an attempt whose best so far is `best` (before this update),
   /// whose costs are `attempt` and whose data's best overall is `overall` (the rule above; false when off).
   /// `window`: how many of the attempt's last costs Scale::Recent spans (2(d + 1) in use).
@@ -102,6 +107,9 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   void set_box();
   /// The box that centre and length give (set_box's).
   Box rebuilt_box() const;
+  /// The side cap in force (set_side_cap), never below length_min: a cap below it would restart the region at
+  /// every update.
+  double side_cap() const;
 
   TrustRegionOptions options_;
   int failure_tolerance_;
@@ -114,6 +122,7 @@ class TrustRegion final : public RegionConstraint, public ComponentState, public
   bool returned_ = false;  ///< return_to_incumbent() was called: no fresh start any more
   int successes_ = 0, failures_ = 0, restarts_ = 0;
   ValueStall value_stall_;
+  double side_cap_ = std::numeric_limits<double>::infinity();  ///< see set_side_cap()
   int stalls_ = 0;  ///< consecutive stalls (see TrustRegionOptions::stall_distance)
   int forced_failures_ = 0, forced_halvings_ = 0;  ///< see forced_failures()
   Index anchor_ = -1;  ///< see anchor()

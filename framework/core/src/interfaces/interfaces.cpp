@@ -14,6 +14,7 @@
 #include "varbo/sampler.hpp"
 #include "varbo/surrogate.hpp"
 #include "varbo/task.hpp"
+#include "varbo/side_cap.hpp"
 #include "varbo/value_stall.hpp"
 
 namespace varbo {
@@ -30,6 +31,7 @@ Acquisition::~Acquisition() = default;
 RegionConstraint::~RegionConstraint() = default;
 FreshStartRegion::~FreshStartRegion() = default;
 ValueStallRegion::~ValueStallRegion() = default;
+SideCapRegion::~SideCapRegion() = default;
 Sampler::~Sampler() = default;
 Optimizer::~Optimizer() = default;
 Task::~Task() = default;

@@ -22,11 +22,17 @@ namespace {
 
 const std::string kDefault = "{type: bo}";  // probe_every: -1 (d + 1) by default since session 41
 const std::string kOff = "{type: bo, failure_model: {probe_every: 0}}";
+// Seed 1's scenario with the trust region of session 41 (with session 43's cap the first probe comes later).
+const std::string kPinned = "{type: bo, failure_model: {" + test::kNoSideCap + "}}";
+const std::string kPinnedOff = "{type: bo, failure_model: {probe_every: 0, " + test::kNoSideCap + "}}";
 
 using Rows = std::vector<std::vector<std::string>>;
 
 Rows run(const std::string& algorithm, bool failing, int threads) {
-  return test::run_hartmann3(algorithm == kOff ? "attempt_probe_off" : "attempt_probe_on", algorithm, failing, threads);
+  const std::string tag = algorithm == kOff ? "attempt_probe_off" : algorithm == kDefault ? "attempt_probe_on"
+                          : algorithm == kPinnedOff                                ? "attempt_probe_pinned_off"
+                                                                                   : "attempt_probe_pinned";
+  return test::run_hartmann3(tag, algorithm, failing, threads);
 }
 
 std::size_t col(const Rows& rows, const char* name) {
@@ -55,7 +61,7 @@ bool same_thetas(const Rows& a, const Rows& b, std::size_t end) {
 
 TEST_CASE("probe_every: a probe during the first attempt goes behind the failure region and the run ends there") {
   set_log_level(LogLevel::Error);
-  const Rows off = run(kOff, true, 1), on = run(kDefault, true, 1), two = run(kDefault, true, 2);
+  const Rows off = run(kPinnedOff, true, 1), on = run(kPinned, true, 1), two = run(kPinned, true, 2);
   REQUIRE(off.size() == 51);
   REQUIRE(on.size() == 51);
   REQUIRE(two.size() == 51);

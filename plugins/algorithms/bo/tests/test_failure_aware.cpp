@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "bo_on_bowl.hpp"
 #include "failure_aware.hpp"
 #include "study_helpers.hpp"
 #include "varbo/errors.hpp"
@@ -456,7 +457,8 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
       if (t[i].phase == "restart" || t[i].phase == "probe") return i;
     return t.size();
   };
-  // Without session 41's probes during an attempt (probe_every: 0), which take seed 1 behind the ball before it creeps.
+  // Without session 41's probes during an attempt (probe_every: 0), which take seed 1 behind the ball before it creeps,
+  // and without session 43's cap on the trust region (test::kNoSideCap).
   const std::vector<Trial> plain = trials("rd_plain", matern_bo("failure_model: {probe_every: 0}"), task);
   const std::vector<Trial> rule =
       trials("rd_rule", matern_bo("failure_model: {repeat_distance: 1e-9, probe_every: 0}"), task);
@@ -604,10 +606,13 @@ TEST_CASE("boundary_jump: edge probes the box's face past the failure zone once,
   const auto trials = [&](const std::string& name, const std::string& algorithm) {
     return hartmann3_trials(name, algorithm, task);
   };
-  // Without session 41's probes during an attempt (probe_every: 0), which take seed 1 behind the ball before it creeps.
-  const std::vector<Trial> plain = trials("bj_plain", matern_bo("failure_model: {probe_every: 0}"));
-  const std::vector<Trial> edge = trials("bj_edge", matern_bo("failure_model: {boundary_jump: edge, probe_every: 0}"));
-  const std::vector<Trial> far = trials("bj_far", matern_bo("failure_model: {boundary_jump: far, probe_every: 0}"));
+  // Without session 41's probes during an attempt (probe_every: 0), which take seed 1 behind the ball before it creeps,
+  // and without session 43's cap on the trust region (test::kNoSideCap).
+  const std::vector<Trial> plain = trials("bj_plain", matern_bo("failure_model: {probe_every: 0, " + test::kNoSideCap + "}"));
+  const std::vector<Trial> edge =
+      trials("bj_edge", matern_bo("failure_model: {boundary_jump: edge, probe_every: 0, " + test::kNoSideCap + "}"));
+  const std::vector<Trial> far =
+      trials("bj_far", matern_bo("failure_model: {boundary_jump: far, probe_every: 0, " + test::kNoSideCap + "}"));
   REQUIRE(edge.size() == plain.size());
   REQUIRE(far.size() == plain.size());
   std::vector<std::size_t> jumps;

@@ -2,7 +2,8 @@
 // passes through the local minimum (a region drawn at random for a held-out check, not one tuned on), seed 70: the
 // attempt at the local minimum proposed one failing θ after another beside its incumbent until stop_after_failures
 // (10 in a row) ended the run. With the rule (default 6), an attempt whose last 6 model-based trials failed ends.
-// The scenario is session 37's, with its value stalls and refinement (test::kSession39Stalls).
+// The scenario is session 37's, with its value stalls and refinement (test::kSession39Stalls) and its trust region
+// (test::kNoSideCap).
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -29,7 +30,7 @@ constexpr int kDefault = 6;  // failure_model.failure_run's default
 std::string yaml(int failure_run, int stop_after) {
   return "task: {type: hartmann6, failure_region: " + kBall + "}\nbudget: 100\nseed: 70\nstop_after_failures: " +
          std::to_string(stop_after) + "\nalgorithm: " +
-         "{type: bo, failure_model: {" + test::kSession39Stalls +
+         "{type: bo, failure_model: {" + test::kSession39Stalls + ", " + test::kNoSideCap +
          (failure_run < 0 ? std::string() : ", failure_run: " + std::to_string(failure_run)) + "}}" +
          "\n";
 }
@@ -100,7 +101,8 @@ TEST_CASE("failure_run: a run continues from a state saved after the attempt end
   set_log_level(LogLevel::Error);
   const BuildContext ctx = test::bo_context(6, 100, 70);
   const test::TaskObserver observe("{type: hartmann6, failure_region: " + kBall + "}", ctx);
-  const std::string algorithm = "{type: bo}";  // failure_run: kDefault
+  // failure_run: kDefault; the region as in session 37 (with session 43's cap the attempt ends otherwise).
+  const std::string algorithm = "{type: bo, failure_model: {" + test::kNoSideCap + "}}";
   auto a = test::registry().create<Algorithm>(algorithm, ctx);
   std::vector<Observation> told;
   std::string state;
