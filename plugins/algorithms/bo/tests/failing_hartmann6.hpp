@@ -25,6 +25,13 @@ inline const std::string kHartmann6Ball5 =
 
 using Rows = std::vector<std::vector<std::string>>;
 
+/// The index of trials.csv's column `name` (required to exist).
+inline std::size_t column(const Rows& rows, const char* name) {
+  const int c = column_of(rows[0], name);
+  REQUIRE(c >= 0);
+  return static_cast<std::size_t>(c);
+}
+
 /// trials.csv of `{type: bo, failure_model: failure_model}` on Hartmann-6, with `failure_region` (the box by
 /// default) or without; `tag` names the run's folder (one tag per failure_model and region).
 inline Rows run_hartmann6(const std::string& tag, bool region, const std::string& failure_model, int threads = 1,

@@ -22,11 +22,7 @@ namespace {
 
 using test::Rows;
 
-std::size_t col(const Rows& rows, const char* name) {
-  const int c = test::column_of(rows[0], name);
-  REQUIRE(c >= 0);
-  return static_cast<std::size_t>(c);
-}
+std::size_t col(const Rows& rows, const char* name) { return test::column(rows, name); }
 
 std::vector<double> theta(const Rows& rows, std::size_t r) {
   std::vector<double> x;

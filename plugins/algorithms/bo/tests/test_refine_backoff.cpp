@@ -27,11 +27,7 @@ namespace {
 
 using test::Rows;
 
-std::size_t col(const Rows& rows, const char* name) {
-  const int c = test::column_of(rows[0], name);
-  REQUIRE(c >= 0);
-  return static_cast<std::size_t>(c);
-}
+std::size_t col(const Rows& rows, const char* name) { return test::column(rows, name); }
 
 /// `failure_model`'s keys (e.g. "refine_backoff: false") with session 42's trust region (test::kNoSideCap), under
 /// which the seeded scenarios were found.
