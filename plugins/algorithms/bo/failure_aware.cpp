@@ -196,7 +196,7 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
       opt::real("length_max", &FailureModelSettings::length_max,
                 "once a trial has failed, the trust region's side is at most this (unit cube; the region's own "
                 "length_max, 1.6, makes its box the whole cube, where EI proposes the box's corners); 0 = the "
-                "region's own limit")
+                "region's own limit; other regions (box, confidence) take no cap")
           .at_least(0),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
