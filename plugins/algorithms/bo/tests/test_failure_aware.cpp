@@ -457,8 +457,7 @@ TEST_CASE("repeat_distance: an attempt that proposes its own point restarts afre
       if (t[i].phase == "restart" || t[i].phase == "probe") return i;
     return t.size();
   };
-  // Without session 41's probes during an attempt (probe_every: 0), which take seed 1 behind the ball before it creeps,
-  // and without session 43's cap on the trust region (test::kNoSideCap).
+  // Without session 41's probes during an attempt (probe_every: 0), which take seed 1 behind the ball before it creeps.
   const std::vector<Trial> plain = trials("rd_plain", matern_bo("failure_model: {probe_every: 0}"), task);
   const std::vector<Trial> rule =
       trials("rd_rule", matern_bo("failure_model: {repeat_distance: 1e-9, probe_every: 0}"), task);
