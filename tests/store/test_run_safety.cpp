@@ -103,6 +103,39 @@ TEST_CASE("run lock: a second varbo run on a running folder exits 2 naming the o
   fs::remove_all(dir);
 }
 
+TEST_CASE("run lock: a run whose lock file was deleted still holds its study (the store's guard)") {
+  // The "in use" message names the lock file, and scripts clean `*.lock`: deleted while its run lived, it let a
+  // `--resume` lock a new file and drive the study beside the first run — a θ evaluated twice, a row missing from
+  // trials.csv, both exit 0 (audit, session 44). The store's own guard (store_guard.hpp) holds whatever the path.
+  const std::string dir = scratch("run_lock_deleted");
+  const std::string cfg = dir + "/slow.yaml", out = dir + "/run";
+  std::ofstream(cfg) << "task: {type: external, command: 'sleep 0.2; echo 1.5', dim: 1}\nbudget: 12\nseed: 1\n"
+                        "algorithm: {type: random}\n";
+  const std::string V = VARBO_EXE;
+  const pid_t first = test::spawn({V, "-q", "run", cfg, "-o", out, "--no-progress"}, dir + "/first.log");
+  for (int i = 0; i < 3000 && !(fs::exists(out + "/study.db") && trial_count(out + "/study.db") >= 1); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(fs::remove(out + "/study.db.lock"));
+  const std::string second = dir + "/second.log";
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress"}, second).exit_code == 2);
+  CHECK(test::run({V, "-q", "run", cfg, "-o", out, "--no-progress", "--overwrite"}, second).exit_code == 2);
+  const std::string msg = slurp(second);
+  CHECK(contains(msg, "in use by another run, whose lock file"));
+  CHECK(contains(msg, "was removed while it ran"));
+  CHECK_FALSE(fs::exists(out + "/study.db.lock"));  // the refused runs leave no lock file of their own
+  // `abandon` still sees the run as live and spares its trial in flight.
+  test::run({V, "abandon", out + "/study.db", "--older-than", "0"}, dir + "/abandon.log");
+  CHECK(contains(slurp(dir + "/abandon.log"), "abandoned 0 trial(s)"));
+  CHECK(test::wait_for(first).exit_code == 0);
+  // The first run completes its budget alone: every trial once, every row in trials.csv.
+  CHECK(trial_count(out + "/study.db") == 12);
+  CHECK(csv_rows(out + "/trials.csv") == 12);
+  // With the run ended the study is free again.
+  CHECK(test::run({V, "-q", "run", "--resume", out, "--no-progress", "--budget", "13"}, dir + "/third.log").exit_code ==
+        0);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("a configuration's description is in the run folder: config.resolved.yaml and summary.json") {
   // Documented "free text, copied to the run folder", it was copied nowhere (red team, session 30).
   const std::string dir = scratch("run_description");

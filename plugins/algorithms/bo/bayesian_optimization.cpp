@@ -679,6 +679,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     if (start) res.x = *start;
     else res.x = Vec();  // chosen at random below
   }
+  // A refinement point already measured, of a deterministic cost: the attempts' acquisition's best new point instead.
+  if (refining_ && feasible && res.x.size() == dim_ && res.x.allFinite())
+    if (const std::optional<Vec> fresh = refine_past_known(k, *phase.acquisition, actx, p_min, model_gradients, starts,
+                                                           res.x, model_data->y))
+      res.x = *fresh;
   // With the failure model off (`failure_model: {enabled: off}`) a failed θ is not in the data, and the acquisition's
   // best point stayed where it was: 24 of 30 trials fell at one θ (red team, session 30). A failed θ is then kept
   // out as a pending one is.

@@ -90,6 +90,11 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   Index failed_in_a_row(Index k) const;
   /// failure_model.boundary_restart: whether the attempt's best point is blocked by the failure boundary.
   bool blocked_at_boundary(Index k, const Vec& x, const Dataset& data, double level) const;
+  /// failure_model.refine_known (bo_refine_known.cpp): a refinement proposal that is an evaluated θ of a deterministic
+  /// cost is replaced by `acquisition`'s best new point at P(success) ≥ p_min; nullopt = keep the proposal.
+  std::optional<Vec> refine_past_known(Index k, Acquisition& acquisition, const AcquisitionContext& actx, double p_min,
+                                       bool model_gradients, const Mat& starts, const Vec& proposal,
+                                       const Vec& model_y);
   void remember_if_blocked(Index k, const Dataset& data);
   /// The test itself, without boundary_restart's gates: the cost model's descent from the attempt's best (∞-norm 1)
   /// and the distance along it to the blocking failed trial.

@@ -198,6 +198,10 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                 "length_max, 1.6, makes its box the whole cube, where EI proposes the box's corners); 0 = the "
                 "region's own limit; other regions (box, confidence) take no cap")
           .at_least(0),
+      opt::boolean("refine_known", &FailureModelSettings::refine_known,
+                   "once a trial has failed, a final refinement trial whose best point is a θ already evaluated, on a "
+                   "cost the model treats as deterministic, takes the best new point of the attempts' acquisition "
+                   "(EI) at the same level of P(success) instead; false = measure that θ again"),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
@@ -230,7 +234,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, length_max: L, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, refine_known: bool, length_max: L, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

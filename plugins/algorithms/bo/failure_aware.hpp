@@ -192,6 +192,13 @@ struct FailureModelSettings {
   /// that is a jump to an untried extreme after a fall; kept near the attempt's best, the trials polish the basin
   /// being found (session 43, docs/failures.md, item 14). 0 = the region's own limit.
   double length_max = 0.8;
+  /// Once a trial has failed, a final refinement trial whose best point is a θ already evaluated, on a cost the model
+  /// treats as deterministic (its noise negligible), takes the attempts' acquisition's (EI's) best new point at the
+  /// same level of P(success) instead: the refinement's level passes through the incumbent, and where the model's
+  /// descent there points at the failures the posterior mean's constrained minimum is the incumbent, measured again
+  /// to no purpose (Hartmann-6, slab x6 > 0.7, seed 19: 7 of 8 refinement trials; session 44, docs/failures.md,
+  /// item 15). false = measure it again.
+  bool refine_known = true;
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -30,7 +30,8 @@ RecommendationRule recommendation_rule(const std::string& name);
 Index lowest_mean_evaluated(const Surrogate& model, const Dataset& data);
 
 /// Whether a model with noise std `noise_std` treats costs `y` as deterministic: the noise at most 1e-5 of their
-/// standard deviation (the recommendation and failure_model.repeat_distance use this test; needs ≥ 2 costs).
+/// standard deviation (the recommendation, failure_model.repeat_distance and refine_known use this test; needs ≥ 2
+/// costs).
 bool treats_cost_as_deterministic(double noise_std, const Vec& y);
 
 /// Sets `target` up to be conditioned on `n` points with `fitted`'s hyperparameters: all but a constant mean, and

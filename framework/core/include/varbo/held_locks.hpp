@@ -13,6 +13,6 @@ void release_lock_from_trials(int fd);
 /// The registered descriptors now (prepared before a fork: the child may keep them open).
 std::vector<int> locks_held_for_trials();
 
-constexpr int kMaxHeldLocks = 3;
+constexpr int kMaxHeldLocks = 4;  // a study's and a run folder's lock files, the store guard (store_guard.hpp)
 
 }  // namespace varbo

@@ -13,6 +13,7 @@
 #include <fstream>
 
 #include "owner_identity.hpp"
+#include "store_guard.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/held_locks.hpp"
 #include "varbo/regular_file.hpp"
@@ -62,6 +63,11 @@ std::string RunLock::lock_file_of(const std::string& store) {
 }
 
 bool RunLock::held(const std::string& lock_path) {
+  // A run whose lock file was deleted still holds its store's guard (store_guard.hpp).
+  const std::string suffix = ".lock";
+  if (lock_path.size() > suffix.size() && lock_path.compare(lock_path.size() - suffix.size(), suffix.size(), suffix) == 0 &&
+      detail::StoreGuard::held(lock_path.substr(0, lock_path.size() - suffix.size())))
+    return true;
   const int fd = ::open(lock_path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
   if (fd < 0) return false;  // no lock file: no run
   const bool busy = flock(fd, LOCK_SH | LOCK_NB) != 0 && errno == EWOULDBLOCK;

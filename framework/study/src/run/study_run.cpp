@@ -19,6 +19,7 @@
 
 #include "owner_identity.hpp"
 #include "run_writer.hpp"
+#include "store_guard.hpp"
 #include "../store/store_url.hpp"
 #include "../study/stored_plugin_paths.hpp"
 #include "../study/plugin_code.hpp"
@@ -313,6 +314,12 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     database_lock.emplace(DatabaseRunLock::acquire(store_path));
   else
     locks.push_back(RunLock::acquire(RunLock::lock_file_of(store_path), fmt::format("the study {}", store_path)));
+  // The store's own guard too (store_guard.hpp): a run whose lock file was deleted still holds the study. Checked
+  // before anything is written or removed, taken again on the file Study::attach leaves (it may be a new one).
+  std::optional<detail::StoreGuard> store_guard;
+  if (!is_database_url(store_path))
+    store_guard.emplace(detail::StoreGuard::take(store_path, fmt::format("the study {}", store_path),
+                                                 RunLock::lock_file_of(store_path)));
   const std::string folder_store = study.output + "/study.db";
   if (!own_store && !same_file(folder_store, store_path))
     locks.push_back(RunLock::acquire(RunLock::lock_file_of(folder_store), fmt::format("the run folder {}", study.output)));
@@ -326,6 +333,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // recorded (a warning names the first difference) instead of refusing the study as another configuration's.
   if (ov.resume) study_detail::adopt_current_resolution(store_path, study, registry);
   Study st = Study::attach(store_path, study, registry);
+  if (store_guard && !store_guard->guards(store_path)) {
+    *store_guard = detail::StoreGuard();  // an OFD lock of another open file of the same inode would conflict
+    *store_guard = detail::StoreGuard::take(store_path, fmt::format("the study {}", store_path),
+                                            RunLock::lock_file_of(store_path));
+  }
   made_folders.keep();
   st.set_meta(store_key::kOutput, std::filesystem::absolute(study.output).string());
   Task& task = st.task();
