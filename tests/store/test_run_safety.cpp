@@ -190,6 +190,39 @@ TEST_CASE("run folder with trials: a plain run refuses (pointing at --resume and
   fs::remove_all(dir);
 }
 
+TEST_CASE("--overwrite with --study replaces a study file, not another file nor another run folder's study") {
+  // Each exited 0 before (audit, session 44): the configuration became an SQLite database, another run's trials.csv
+  // too, and run A's trials were erased by a run with its own folder B.
+  const std::string dir = scratch("overwrite_study");
+  const std::string cfg = dir + "/cfg.yaml", V = VARBO_EXE;
+  std::ofstream(cfg) << "task: branin\nbudget: 4\nalgorithm: {type: random}\n";
+  const std::string text = slurp(cfg);
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", dir + "/A", "--no-progress"}, dir + "/a.log").exit_code == 0);
+  const std::string csv = slurp(dir + "/A/trials.csv");
+  const std::string log = dir + "/refused.log";
+  CHECK(test::run({V, "-q", "run", cfg, "-o", dir + "/out", "--study", cfg, "--overwrite", "--no-progress"}, log)
+            .exit_code == 2);
+  CHECK(contains(slurp(log), "is not one (not an SQLite database)"));
+  CHECK(slurp(cfg) == text);
+  CHECK(test::run({V, "-q", "run", cfg, "-o", dir + "/B", "--study", dir + "/A/trials.csv", "--overwrite",
+                   "--no-progress"}, log).exit_code == 2);
+  CHECK(slurp(dir + "/A/trials.csv") == csv);
+  CHECK(test::run({V, "-q", "run", cfg, "-o", dir + "/B", "--study", dir + "/A/study.db", "--overwrite", "--seed",
+                   "5", "--no-progress"}, log).exit_code == 2);
+  CHECK(contains(slurp(log), "this is the study of the run folder"));
+  CHECK(trial_count(dir + "/A/study.db") == 4);
+  CHECK_FALSE(fs::exists(dir + "/B"));  // refused before anything was created
+  CHECK_FALSE(fs::exists(dir + "/out"));
+  // What --overwrite is for still works: a run folder's own study, and a study file of this run's own.
+  CHECK(test::run({V, "-q", "run", cfg, "-o", dir + "/A", "--overwrite", "--seed", "7", "--no-progress"}, log)
+            .exit_code == 0);
+  CHECK(test::run({V, "-q", "run", cfg, "-o", dir + "/C", "--study", dir + "/c.db", "--no-progress"}, log)
+            .exit_code == 0);
+  CHECK(test::run({V, "-q", "run", cfg, "-o", dir + "/C", "--study", dir + "/c.db", "--overwrite", "--seed", "3",
+                   "--no-progress"}, log).exit_code == 0);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("resuming a moved or copied run folder writes where the folder is now") {
   const std::string dir = scratch("run_moved");
   const std::string cfg = dir + "/c.yaml", a = dir + "/a", b = dir + "/b", c = dir + "/c";

@@ -177,6 +177,37 @@ void refuse_other_studys_folder(const std::string& folder, const std::string& st
                                ov.resume ? std::string() : ", or " + ov.overwrite_hint + " to replace them"));
 }
 
+/// `--overwrite` replaces a study file: not a file that is no study at all, and not the study of another run folder
+/// (`run CFG -o B --study A/study.db --overwrite` erased run A's trials, and `--study cfg.yaml --overwrite` turned
+/// the configuration into a database, both with exit 0; audit, session 44).
+void refuse_to_overwrite_foreign(const std::string& folder, const std::string& store_path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(fs::symlink_status(store_path, ec))) return;
+  if (!fs::is_regular_file(store_path, ec))
+    throw InputError(fmt::format("{}: --overwrite replaces a study file, and this is not a plain file; give --study a "
+                                 "study's file or a new path", store_path));
+  const auto size = fs::file_size(store_path, ec);
+  if (!ec && size > 0) {
+    char head[16] = {};
+    std::ifstream in(store_path, std::ios::binary);
+    in.read(head, sizeof head);
+    if (in.gcount() != static_cast<std::streamsize>(sizeof head) ||
+        std::string(head, sizeof head) != std::string("SQLite format 3\0", 16))
+      throw InputError(fmt::format("{}: --overwrite replaces a study file, and this is not one (not an SQLite "
+                                   "database); give --study a study's file or a new path", store_path));
+  }
+  // The study of another run folder: its own study.db, in a folder with run files.
+  const fs::path parent = fs::path(store_path).parent_path().empty() ? fs::path(".") : fs::path(store_path).parent_path();
+  if (fs::path(store_path).filename() != "study.db" || same_file(parent.string(), folder)) return;
+  for (const char* name : {"trials.csv", "summary.json", "config.resolved.yaml"})
+    if (fs::exists(parent / name, ec))
+      throw InputError(fmt::format("{}: this is the study of the run folder {}; --overwrite here would erase that "
+                                   "run's trials. Give this run a study file of its own (--study NEW.db), or replace "
+                                   "that run in its own folder (varbo run CONFIG -o {} --overwrite)",
+                                   store_path, parent.string(), shell_word(parent.string())));
+}
+
 /// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
 void refuse_to_replace(const std::string& folder, const std::string& store_path, const RunOverrides& ov,
                        const std::string& identity_now) {
@@ -284,6 +315,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   const std::string resume_target = shell_word(ov.store ? *ov.store : study.output);
   if (ov.resume && !store_exists(store_path))
     throw InputError(fmt::format("{}: no study store to resume", store_path));
+  if (ov.overwrite && !ov.resume && !is_database_url(store_path)) refuse_to_overwrite_foreign(study.output, store_path);
   if (own_store && !ov.resume && !ov.overwrite && !std::filesystem::exists(store_path)) {
     // Files a run writes, in a folder without its study: someone's own files (a project folder given as the run
     // folder: its model.yaml and summary.json were replaced in silence; red team, session 30), or a run whose
