@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -24,14 +25,14 @@ double parse_number(const std::string& text, const std::string& what) {
     throw InputError(fmt::format("{}: '{}' is beyond the largest number a double holds (about ±1.8e308); nothing "
                                  "written",
                                  what, printable(text)));
+  if (underflows_to_zero(text))
+    throw InputError(fmt::format("{}: '{}' is below the smallest number a double holds (about 4.9e-324) and would "
+                                 "be stored as 0; write 0 if that is meant; nothing written",
+                                 what, printable(text)));
   if (!v)
     throw InputError(fmt::format("{}: malformed number '{}' (expected a decimal number such as 0.25 or -1.5e-3); "
                                  "nothing written",
                                  what, printable(text)));  // a CR from a CRLF file is shown, not obeyed
-  if (*v == 0 && whole && errno == ERANGE && text.find_first_of("123456789") < text.find_first_of("eE"))
-    throw InputError(fmt::format("{}: '{}' is below the smallest number a double holds (about 4.9e-324) and would "
-                                 "be stored as 0; write 0 if that is meant; nothing written",
-                                 what, printable(text)));
   return *v;
 }
 
@@ -40,7 +41,11 @@ std::int64_t parse_id(const std::string& text) {
   char* end = nullptr;
   errno = 0;
   const long long v = std::strtoll(s, &end, 10);
-  if (text.empty() || end == s || *end != '\0' || errno == ERANGE || v < 0)
+  // strtoll skips leading blanks: ' 1' and a tab before the id were taken (audit, session 44); digits only (a
+  // '+' sign aside, accepted since session 11).
+  const std::size_t first = !text.empty() && text[0] == '+' ? 1 : 0;
+  if (text.size() <= first || !std::isdigit(static_cast<unsigned char>(text[first])) || end == s || *end != '\0' ||
+      errno == ERANGE || v < 0)
     throw InputError(fmt::format("ID: malformed trial id '{}' (expected a non-negative integer as printed by "
                                  "`varbo suggest`); nothing written",
                                  printable(text)));

@@ -4,6 +4,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <memory>
 #include <vector>
@@ -51,6 +52,35 @@ nlohmann::json::parser_callback_t duplicate_key_finder(std::string& duplicate) {
   };
 }
 
+/// The first number token of `text` (a JSON answer) that overflows a double or is nonzero below its smallest (reads
+/// as 0), or "".
+std::string out_of_range_number(const std::string& text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const char c = text[i];
+    const bool starts = std::isdigit(static_cast<unsigned char>(c)) ||
+                        (c == '-' && i + 1 < text.size() && std::isdigit(static_cast<unsigned char>(text[i + 1])));
+    const bool inside_word = i > 0 && (std::isalnum(static_cast<unsigned char>(text[i - 1])) || text[i - 1] == '_' ||
+                                       text[i - 1] == '.');
+    if (!starts || inside_word) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j < text.size() && (std::isdigit(static_cast<unsigned char>(text[j])) || text[j] == '.' || text[j] == 'e' ||
+                               text[j] == 'E' || ((text[j] == '+' || text[j] == '-') && (text[j - 1] == 'e' || text[j - 1] == 'E'))))
+      ++j;
+    const std::string token = text.substr(i, j - i);
+    errno = 0;
+    char* end = nullptr;
+    const double v = strtod_c(token.c_str(), &end);
+    if (end == token.c_str() + token.size() && errno == ERANGE && std::isinf(v)) return token;
+    if (underflows_to_zero(token)) return token;
+    i = j;
+  }
+  return "";
+}
+
 std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
   if (!j.is_object()) {
     why = "the JSON answer is not an object";
@@ -58,7 +88,13 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
   }
   // `"error": null` or `""` is no error: Python's json.dumps({"cost": c, "error": None}) writes exactly that, and
   // every trial of such a script failed with "the command reported an error: null" (red team, session 23).
-  if (j.contains("error") && !j["error"].is_null() && !(j["error"].is_string() && j["error"].get<std::string>().empty())) {
+  // `false` and 0 are no error either: a script's "no error" flag (`"error": False`) failed every trial with "the
+  // command reported an error: false" (audit, session 44).
+  const auto no_error = [](const nlohmann::json& e) {
+    return e.is_null() || (e.is_string() && e.get<std::string>().empty()) || (e.is_boolean() && !e.get<bool>()) ||
+           (e.is_number() && e.get<double>() == 0);
+  };
+  if (j.contains("error") && !no_error(j["error"])) {
     why = "the command reported an error: " +
           abbreviate(j["error"].is_string() ? j["error"].get<std::string>() : j["error"].dump(), 512);
     return std::nullopt;
@@ -172,12 +208,27 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
       const auto j = nlohmann::json::parse(stdout_text.substr(brace), duplicate_key_finder(duplicate),
                                            /*allow_exceptions=*/false);
       if (j.is_discarded()) continue;
+      // nlohmann reads 1e-400 as 0 without a word: such a number is said, as on a plain last line.
+      if (const std::string tiny = out_of_range_number(stdout_text.substr(brace)); !tiny.empty()) {
+        why = fmt::format("the JSON answer holds the number '{}', below the smallest number a double holds (about "
+                          "4.9e-324): it would read as 0", abbreviate(tiny, 64));
+        return std::nullopt;
+      }
       if (!duplicate.empty()) {
         why = fmt::format("the JSON answer gives the key \"{}\" twice; which one is meant is unknown",
                           abbreviate(duplicate, 512));
         return std::nullopt;
       }
       return from_json(j, why);
+    }
+    // A number out of a double's range inside the object makes the JSON parser refuse it all: said as such
+    // ({"components": {"a": 1e999}} read "neither a number nor a valid JSON object"; audit, session 44).
+    const std::size_t open = stdout_text.find('{');
+    if (const std::string bad = out_of_range_number(stdout_text.substr(open == std::string::npos ? 0 : open));
+        !bad.empty()) {
+      why = fmt::format("the JSON answer holds the number '{}', beyond the range of a double (about ±1.8e308)",
+                        abbreviate(bad, 64));
+      return std::nullopt;
     }
     why = fmt::format("the answer '{}' is neither a number nor a valid JSON object", abbreviate(last, 512));
     return std::nullopt;
@@ -192,6 +243,11 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
       why = fmt::format("the cost '{}' is beyond the range of a double (about ±1.8e308)", abbreviate(last, 512));
       return std::nullopt;
     }
+  }
+  if (underflows_to_zero(last)) {
+    why = fmt::format("the cost '{}' is below the smallest number a double holds (about 4.9e-324) and would read as 0; "
+                      "print 0 if that is meant", abbreviate(last, 512));
+    return std::nullopt;
   }
   std::string with_point = last;
   double ignored = 0;

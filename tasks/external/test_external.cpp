@@ -121,7 +121,30 @@ TEST_CASE("parse_answer") {
     }
     CHECK(!parse_answer("{\"error\": null}\n", why));  // and still no cost
     CHECK(contains(why, "no \"cost\""));
-    CHECK(!parse_answer("{\"cost\": 1.5, \"error\": false}\n", why));  // any other value is a reason
+    // false and 0 are a script's "no error" flag too (audit, session 44: `"error": False` failed every trial).
+    for (const char* text : {"{\"cost\": 1.5, \"error\": false}\n", "{\"cost\": 1.5, \"error\": 0}\n"}) {
+      const auto ok = parse_answer(text, why);
+      REQUIRE(ok);
+      CHECK(ok->cost == 1.5);
+    }
+    for (const char* text : {"{\"cost\": 1.5, \"error\": true}\n", "{\"cost\": 1.5, \"error\": 2}\n"}) {
+      CHECK(!parse_answer(text, why));  // any other value is a reason
+      CHECK(contains(why, "reported an error"));
+    }
+  }
+  SUBCASE("numbers beyond a double's range, or nonzero below its smallest, are said as such") {
+    CHECK(!parse_answer("{\"cost\": 1, \"components\": {\"a\": 1e999}}\n", why));
+    CHECK(contains(why, "'1e999', beyond the range of a double"));
+    CHECK(!parse_answer("1e-400\n", why));
+    CHECK(contains(why, "below the smallest number a double holds"));
+    CHECK(!parse_answer("{\"cost\": 1e-400}\n", why));
+    CHECK(contains(why, "'1e-400', below the smallest number"));
+    const auto subnormal = parse_answer("1e-310\n", why);  // representable (subnormal): kept
+    REQUIRE(subnormal);
+    CHECK(subnormal->cost == 1e-310);
+    const auto zero = parse_answer("{\"cost\": 0e-400, \"components\": {\"a\": 1.0e+2}}\n", why);
+    REQUIRE(zero);
+    CHECK(zero->cost == 0);
   }
   SUBCASE("a key given twice in one object is refused (nlohmann::json kept the last one)") {
     CHECK(!parse_answer("{\"cost\": 1, \"cost\": 2}\n", why));

@@ -11,8 +11,14 @@ namespace varbo {
 /// The value of `text` when the whole text is a decimal number: optional sign, digits with an optional
 /// point, an optional exponent (e.g. 12, -0.5, .25, 3., 1.5e-3), or one of nan / inf / infinity (any case,
 /// with a sign) so that the caller can reject non-finite values with its own message. Nothing else: no
-/// hexadecimal, no blanks, no overflow (1e999); an underflow reads as the nearest representable value.
+/// hexadecimal, no blanks, no overflow (1e999), no underflow to 0 (1e-400: below the smallest double); a subnormal
+/// (1e-310) reads as the nearest representable value. underflows_to_zero says which of the last two it was.
 std::optional<double> parse_decimal(const std::string& text);
+/// Whether `text` is a decimal number whose value is nonzero but below the smallest double (it would read as 0).
+bool underflows_to_zero(const std::string& text);
+/// Whether `text` is a whole number written with a leading zero (`010`, `-07`): YAML 1.1 readers (PyYAML, rosparam)
+/// read it as octal (or, `08`, as a string), so a configuration that means 10 by it is ambiguous.
+bool ambiguous_leading_zero(const std::string& text);
 
 /// std::strtod as in the "C" locale, whatever the process's LC_NUMERIC: a host that calls setlocale (a Qt, GTK or
 /// ROS GUI, Python's locale.setlocale) with a decimal-comma locale made strtod stop at the '.', so "0.01" read as 0

@@ -176,6 +176,25 @@ static ConfigNode key_node(const ConfigNode& node, const std::string& name) {
   return node.child(name);
 }
 
+/// `010`: YAML 1.1 readers (PyYAML, rosparam) read it as octal 8 (and `08` as a string), varbo as 10 — ambiguous,
+/// so refused, for integer and real settings alike (`timeout: 010` ran 10 s; audit, session 44). `0.5`, `0`,
+/// `-0` and `010.5` (a float in YAML 1.1 too) are fine.
+static void refuse_leading_zero(const OptionSpec& s, const ConfigNode& n, const std::string& expected) {
+  if (ambiguous_leading_zero(n.scalar()))
+    n.fail(fmt::format("expected {}, got {}: a leading zero is ambiguous (YAML 1.1 readers such as PyYAML and "
+                       "rosparam read it as an octal number); write the number without it",
+                       expected, shown(n)));
+  (void)s;
+}
+
+/// 1e-400: nonzero, below the smallest double, read as 0 (parse_decimal refuses it); said as such.
+static void refuse_underflow(const ConfigNode& n, const std::string& expected) {
+  if (underflows_to_zero(n.scalar()))
+    n.fail(fmt::format("expected {}, got {}: below the smallest number a double holds (about 4.9e-324), it would be "
+                       "read as 0; write 0 if that is meant",
+                       expected, shown(n)));
+}
+
 // Checks one value; returns the normalized YAML value.
 static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
   auto bad = [&]() { n.fail(fmt::format("expected {}, got {}", s.expected(), shown(n))); };
@@ -203,16 +222,8 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     case OptionType::Int: {
       long v;
       if (!n.is_scalar()) bad();
-      {
-        // `budget: 010` ran 10 trials, where YAML 1.1 (PyYAML, rosparam) reads octal 8 (red team, session 34):
-        // the number is ambiguous, so it is refused.
-        const std::string& t = n.scalar();
-        const std::size_t d = !t.empty() && (t[0] == '-' || t[0] == '+') ? 1 : 0;
-        if (t.size() > d + 1 && t[d] == '0' && t[d + 1] >= '0' && t[d + 1] <= '9')
-          n.fail(fmt::format("expected {}, got {}: a leading zero is ambiguous (YAML 1.1 readers such as PyYAML and "
-                             "rosparam read it as an octal number); write the number without it",
-                             s.expected(), shown(n)));
-      }
+      // `budget: 010` ran 10 trials, where YAML 1.1 (PyYAML, rosparam) reads octal 8 (red team, session 34).
+      refuse_leading_zero(s, n, s.expected());
       if (!parse_int(n.scalar(), v)) {
         // A whole number past what a long holds: "expected an integer in [0, inf), got 18446744073709551616"
         // read as a contradiction (red team, session 23); say the limit.
@@ -227,6 +238,10 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     case OptionType::Real: {
       double v;
       // Non-finite values (.inf, .nan) are never a setting: an infinite noise_std made every trial fail.
+      if (n.is_scalar()) {
+        refuse_leading_zero(s, n, s.expected());
+        refuse_underflow(n, s.expected());
+      }
       if (!n.is_scalar() || !parse_real(n.scalar(), v) || !std::isfinite(v) || !in_range(s, v)) bad();
       return YAML::Node(yaml_scalar(v));
     }
@@ -248,6 +263,10 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
       for (std::size_t i = 0; i < n.size(); ++i) {
         ConfigNode it = n.item(i);
         double v;
+        if (it.is_scalar()) {
+          refuse_leading_zero(s, it, "a finite real number");
+          refuse_underflow(it, "a finite real number");
+        }
         if (!it.is_scalar() || !parse_real(it.scalar(), v) || !std::isfinite(v))
           it.fail(fmt::format("expected a finite real number, got {}", shown(it)));
         if (!in_range(s, v)) it.fail(fmt::format("value {} out of range: expected {}", v, s.expected()));

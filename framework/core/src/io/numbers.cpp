@@ -66,7 +66,25 @@ std::optional<double> parse_decimal(const std::string& text) {
   const double v = strtod_c(text.c_str(), &end);
   if (end != text.c_str() + text.size()) return std::nullopt;
   if (errno == ERANGE && std::isinf(v)) return std::nullopt;  // overflow, not a typed "inf"
+  // A nonzero number below the smallest double (1e-400) read as 0 in a configuration, a CSV cell or a task's answer,
+  // while the command line refused it (audit, session 44): refused everywhere. Subnormals (1e-310) are kept.
+  if (errno == ERANGE && v == 0 && decimal_syntax(text) && text.find_first_of("123456789") < text.find_first_of("eE"))
+    return std::nullopt;
   return v;
+}
+
+bool underflows_to_zero(const std::string& text) {
+  if (!decimal_syntax(text)) return false;
+  errno = 0;
+  char* end = nullptr;
+  const double v = strtod_c(text.c_str(), &end);
+  return end == text.c_str() + text.size() && errno == ERANGE && v == 0 &&
+         text.find_first_of("123456789") < text.find_first_of("eE");
+}
+
+bool ambiguous_leading_zero(const std::string& text) {
+  const std::size_t d = !text.empty() && (text[0] == '-' || text[0] == '+') ? 1 : 0;
+  return text.size() > d + 1 && text[d] == '0' && text.find_first_not_of("0123456789", d) == std::string::npos;
 }
 
 }  // namespace varbo

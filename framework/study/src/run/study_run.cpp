@@ -321,7 +321,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     // folder: its model.yaml and summary.json were replaced in silence; red team, session 30), or a run whose
     // study.db is gone. Writing the run here replaced them (session 20: trials.csv).
     std::vector<std::string> found;
-    for (const char* name : {"trials.csv", "model.yaml", "summary.json", "config.resolved.yaml"})
+    // log.txt too: a run writes it from its first line (replaced in silence; audit, session 44).
+    for (const char* name : {"trials.csv", "model.yaml", "summary.json", "config.resolved.yaml", "log.txt"})
       if (std::filesystem::exists(study.output + "/" + name)) found.push_back(name);
     if (!found.empty())
       throw InputError(fmt::format("{}: the folder holds {} but no study.db; a run here would replace {}. Choose "
