@@ -2,6 +2,7 @@
 // cost components, select policies offline by minimizing J̃ + κ r̃ in the local ε-ball around the learned
 // policy (Kuindersma 2013, section 5.4.2), optionally continue with N risk-sensitive RSSGD steps.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -68,6 +69,21 @@ Runner add_rescore(CLI::App& app) {
     if (a->continue_steps > 0) check_continuable(run, registry);  // before the fit and the selection's output
     OfflineRequest request;
     request.weight_changes = parse_weight_list(a->weights, run.components);
+    {
+      // Every weight 0: every re-scored cost 0, and a model, a "noise selected" line and κ selections that mean
+      // nothing, with exit 0 (audit, session 44).
+      bool any = false;
+      for (const auto& c : run.components) {
+        const auto changed = request.weight_changes.find(c);
+        const double w = changed != request.weight_changes.end() ? changed->second : run.weights.at(c);
+        any = any || w != 0;
+      }
+      if (!any && !run.components.empty())
+        throw InputError(fmt::format("--weights: every component's weight would be 0 ({}), so every re-scored cost "
+                                     "is 0 and no policy can be preferred; give at least one component a nonzero "
+                                     "weight",
+                                     fmt::join(run.components, ", ")));
+    }
     request.kappas = a->kappa.empty() ? std::vector<double>{0.0, 2.0} : decimal_items(a->kappa, "--kappa", "0,2");
     request.epsilon = a->epsilon;
     if (!a->critic.empty()) request.critic = registry.resolve(Kind::Surrogate, ConfigNode::parse(a->critic, "--critic"));

@@ -47,11 +47,13 @@ Runner add_select(CLI::App& app) {
                   "risk factor(s): > 0 risk-averse, < 0 risk-seeking, 0 neutral; repeat or comma-separate "
                   "(default: 2, 0, -2)")
       ->type_name("DECIMAL[,DECIMAL...]");
-  cmd->add_flag("--surrogate-from-config", a->from_config,
+  CLI::Option* from_config = cmd->add_flag("--surrogate-from-config", a->from_config,
                 "fit the surrogate of config.resolved.yaml from its defaults only (default: start the fit from "
                 "the last hyperparameters in model.yaml)");
+  // Both given, --surrogate won and the flag was ignored in silence (audit, session 44).
   cmd->add_option("--surrogate", a->surrogate,
-                  "a different surrogate: inline YAML ('gp', '{type: vhgp, restarts: 16}') or a YAML file");
+                  "a different surrogate: inline YAML ('gp', '{type: vhgp, restarts: 16}') or a YAML file")
+      ->excludes(from_config);
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s): inline YAML or a YAML file")
       ->capture_default_str();
   cmd->add_option("--seed", a->seed, "random seed of the fit and the optimizer (same seed, same answer)")

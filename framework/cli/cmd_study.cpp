@@ -266,7 +266,7 @@ Runner add_fail(CLI::App& app) {
     const std::int64_t id = parse_id(a->id);
     Study s = Study::open(a->store);
     s.fail(id, a->reason);
-    std::printf("trial %lld: failed (%s)\n", static_cast<long long>(id), a->reason.c_str());
+    std::printf("trial %lld: failed (%s)\n", static_cast<long long>(id), printable(a->reason).c_str());
     return 0;
   };
 }

@@ -81,9 +81,11 @@ int main(int argc, char** argv) {
     return std::string("varbo " VARBO_VERSION_STRING "\nplugin build fingerprint: ") + varbo::host_fingerprint();
   });
   bool verbose = false, quiet = false;
-  app.add_flag("-v,--verbose", verbose, "debug logging");
+  CLI::Option* verbose_flag = app.add_flag("-v,--verbose", verbose, "debug logging");
+  // Both given, -q won in silence (audit, session 44): they contradict each other.
   app.add_flag("-q,--quiet", quiet, "warnings and errors only (before the subcommand: `varbo -q run ...`; the "
-                                    "per-trial progress lines are `run --no-progress`)");
+                                    "per-trial progress lines are `run --no-progress`)")
+      ->excludes(verbose_flag);
   std::map<CLI::App*, varbo::cli::Runner> runners;
   auto reg = [&](varbo::cli::Runner (*add)(CLI::App&)) {
     const std::size_t before = app.get_subcommands({}).size();

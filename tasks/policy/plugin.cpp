@@ -53,7 +53,8 @@ const OptionSet<tasks::GpSampleSettings>& gp_sample_options() {
       opt::integer("features", &S::features, "random Fourier features (at most 10^5: a dim × features matrix is held)")
           .at_least(1)
           .at_most(1e5),
-      opt::real("lengthscale", &S::lengthscale, "Matern lengthscale (user units)").above(0),
+      // 1e-300 made every feature overflow: every trial "non-finite cost -nan" (audit, session 44).
+      opt::real("lengthscale", &S::lengthscale, "Matern lengthscale (user units; at least 1e-6: shorter ones overflow the features)").at_least(1e-6),
       opt::real("start_distance", &S::start_distance, "distance of the initial point from the optimum").at_least(0),
       opt::integer("search_points", &S::search_points, "dense-search points for the optimum (0 = 20000*d; at most 10^7)")
           .at_least(0)

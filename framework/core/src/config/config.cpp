@@ -232,6 +232,17 @@ static std::string syntax_hint(const std::string& text, const YAML::Exception& e
 
 static ConfigNode parse_impl(const std::string& text, const std::string& name) {
   auto file = std::make_shared<const std::string>(name);
+  // A carriage return that does not end a CRLF line: old-Mac line endings ("illegal map value" at some column of
+  // line 1), or a last line of a CRLF file ending in CR alone ("unknown algorithm 'random\r'"; audit, session 44).
+  for (std::size_t i = text.find('\r'); i != std::string::npos; i = text.find('\r', i + 1))
+    if (i + 1 >= text.size() || text[i + 1] != '\n') {
+      const std::size_t line = static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(i), '\n'));
+      const std::size_t start = text.rfind('\n', i == 0 ? 0 : i - 1);
+      const std::size_t column = start == std::string::npos || start > i ? i : i - start - 1;
+      throw ConfigError(fmt::format("{}:{}:{}: a carriage return (CR) that does not end a CRLF line (old Mac line "
+                                    "endings?); save the file with LF (Unix) or CRLF (Windows) line endings",
+                                    name, line + 1, column + 1));
+    }
   YAML::Node root;
   try {
     // At most two documents are looked at: yaml-cpp 0.7's LoadAll never ends on a stray ',' after the document

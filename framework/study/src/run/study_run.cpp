@@ -858,9 +858,25 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
   const bool url = is_database_url(target);
   if (!url && std::filesystem::is_directory(target))
     store_path = (std::filesystem::path(target) / "study.db").string();
-  if (!url && !std::filesystem::exists(store_path))
+  if (!url && !std::filesystem::exists(store_path)) {
+    // A run on a study kept elsewhere (`--study s.db`): its folder's summary.json names the study; said, with the
+    // command that resumes it (audit, session 44: "nothing to resume" only).
+    if (std::filesystem::is_directory(target)) {
+      const std::string summary = (std::filesystem::path(target) / "summary.json").string();
+      if (absent_or_regular_file(summary)) {
+        std::ifstream in(summary);
+        const nlohmann::json j = in ? nlohmann::json::parse(in, nullptr, false) : nlohmann::json();
+        if (!j.is_discarded() && j.is_object() && j.contains("study") && j["study"].is_string() &&
+            (is_database_url(j["study"].get<std::string>()) || std::filesystem::exists(j["study"].get<std::string>())))
+          throw InputError(fmt::format("{}: the folder holds no study.db: its run's study is {} (summary.json); "
+                                       "resume with `varbo run --resume {}`",
+                                       target, j["study"].get<std::string>(),
+                                       shell_word(j["study"].get<std::string>())));
+      }
+    }
     throw InputError(fmt::format("{}: nothing to resume (expected a run folder holding study.db, or a study file)",
                                  target));
+  }
   std::unique_ptr<StudyStore> store = open_store(store_path);
   const auto text = store->meta(store_key::kConfig);
   if (!text) throw InputError(fmt::format("{}: the study store holds no configuration", store_path));
