@@ -19,6 +19,9 @@ bool underflows_to_zero(const std::string& text);
 /// Whether `text` is a whole number written with a leading zero (`010`, `-07`): YAML 1.1 readers (PyYAML, rosparam)
 /// read it as octal (or, `08`, as a string), so a configuration that means 10 by it is ambiguous.
 bool ambiguous_leading_zero(const std::string& text);
+/// Why a number written as `text` in a configuration is refused although it reads: a leading zero (ambiguous) or an
+/// underflow to 0; "" when neither. One wording for the settings (options.cpp) and the parameters' bounds and values.
+std::string configured_number_problem(const std::string& text);
 
 /// std::strtod as in the "C" locale, whatever the process's LC_NUMERIC: a host that calls setlocale (a Qt, GTK or
 /// ROS GUI, Python's locale.setlocale) with a decimal-comma locale made strtod stop at the '.', so "0.01" read as 0

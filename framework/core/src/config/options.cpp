@@ -177,22 +177,11 @@ static ConfigNode key_node(const ConfigNode& node, const std::string& name) {
 }
 
 /// `010`: YAML 1.1 readers (PyYAML, rosparam) read it as octal 8 (and `08` as a string), varbo as 10 — ambiguous,
-/// so refused, for integer and real settings alike (`timeout: 010` ran 10 s; audit, session 44). `0.5`, `0`,
-/// `-0` and `010.5` (a float in YAML 1.1 too) are fine.
-static void refuse_leading_zero(const OptionSpec& s, const ConfigNode& n, const std::string& expected) {
-  if (ambiguous_leading_zero(n.scalar()))
-    n.fail(fmt::format("expected {}, got {}: a leading zero is ambiguous (YAML 1.1 readers such as PyYAML and "
-                       "rosparam read it as an octal number); write the number without it",
-                       expected, shown(n)));
-  (void)s;
-}
-
-/// 1e-400: nonzero, below the smallest double, read as 0 (parse_decimal refuses it); said as such.
-static void refuse_underflow(const ConfigNode& n, const std::string& expected) {
-  if (underflows_to_zero(n.scalar()))
-    n.fail(fmt::format("expected {}, got {}: below the smallest number a double holds (about 4.9e-324), it would be "
-                       "read as 0; write 0 if that is meant",
-                       expected, shown(n)));
+/// so refused, for integer and real settings alike (`timeout: 010` ran 10 s; audit, session 44); `0.5`, `0`, `-0` and
+/// `010.5` (a float in YAML 1.1 too) are fine. And 1e-400: nonzero, below the smallest double, read as 0.
+static void refuse_ambiguous_number(const ConfigNode& n, const std::string& expected) {
+  if (const std::string why = configured_number_problem(n.scalar()); !why.empty())
+    n.fail(fmt::format("expected {}, got {}: {}", expected, shown(n), why));
 }
 
 // Checks one value; returns the normalized YAML value.
@@ -223,7 +212,7 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
       long v;
       if (!n.is_scalar()) bad();
       // `budget: 010` ran 10 trials, where YAML 1.1 (PyYAML, rosparam) reads octal 8 (red team, session 34).
-      refuse_leading_zero(s, n, s.expected());
+      refuse_ambiguous_number(n, s.expected());
       if (!parse_int(n.scalar(), v)) {
         // A whole number past what a long holds: "expected an integer in [0, inf), got 18446744073709551616"
         // read as a contradiction (red team, session 23); say the limit.
@@ -238,10 +227,7 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     case OptionType::Real: {
       double v;
       // Non-finite values (.inf, .nan) are never a setting: an infinite noise_std made every trial fail.
-      if (n.is_scalar()) {
-        refuse_leading_zero(s, n, s.expected());
-        refuse_underflow(n, s.expected());
-      }
+      if (n.is_scalar()) refuse_ambiguous_number(n, s.expected());
       if (!n.is_scalar() || !parse_real(n.scalar(), v) || !std::isfinite(v) || !in_range(s, v)) bad();
       return YAML::Node(yaml_scalar(v));
     }
@@ -263,10 +249,7 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
       for (std::size_t i = 0; i < n.size(); ++i) {
         ConfigNode it = n.item(i);
         double v;
-        if (it.is_scalar()) {
-          refuse_leading_zero(s, it, "a finite real number");
-          refuse_underflow(it, "a finite real number");
-        }
+        if (it.is_scalar()) refuse_ambiguous_number(it, "a finite real number");
         if (!it.is_scalar() || !parse_real(it.scalar(), v) || !std::isfinite(v))
           it.fail(fmt::format("expected a finite real number, got {}", shown(it)));
         if (!in_range(s, v)) it.fail(fmt::format("value {} out of range: expected {}", v, s.expected()));

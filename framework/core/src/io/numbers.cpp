@@ -87,4 +87,14 @@ bool ambiguous_leading_zero(const std::string& text) {
   return text.size() > d + 1 && text[d] == '0' && text.find_first_not_of("0123456789", d) == std::string::npos;
 }
 
+std::string configured_number_problem(const std::string& text) {
+  if (ambiguous_leading_zero(text))
+    return "a leading zero is ambiguous (YAML 1.1 readers such as PyYAML and rosparam read it as an octal number); "
+           "write the number without it";
+  if (underflows_to_zero(text))
+    return "below the smallest number a double holds (about 4.9e-324), it would be read as 0; write 0 if that is "
+           "meant";
+  return "";
+}
+
 }  // namespace varbo

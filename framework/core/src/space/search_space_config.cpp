@@ -23,12 +23,8 @@ double number_of(const ConfigNode& n, const std::string& what) {
   if (!n.is_scalar()) n.fail("expected " + what);
   // `low: 010` is octal 8 to YAML 1.1 readers (PyYAML, rosparam) and 1e-400 reads as 0: both refused, as the
   // settings are (options.cpp; audit, session 44).
-  if (ambiguous_leading_zero(n.scalar()))
-    n.fail(fmt::format("expected {}, got '{}': a leading zero is ambiguous (YAML 1.1 readers such as PyYAML and "
-                       "rosparam read it as an octal number); write the number without it", what, n.scalar()));
-  if (underflows_to_zero(n.scalar()))
-    n.fail(fmt::format("expected {}, got '{}': below the smallest number a double holds (about 4.9e-324), it would "
-                       "be read as 0; write 0 if that is meant", what, n.scalar()));
+  if (const std::string why = configured_number_problem(n.scalar()); !why.empty())
+    n.fail(fmt::format("expected {}, got '{}': {}", what, n.scalar(), why));
   const auto v = parse_decimal(n.scalar());
   if (!v || !std::isfinite(*v)) n.fail(fmt::format("expected {}, got '{}'", what, n.scalar()));
   return *v;
@@ -105,7 +101,7 @@ Parameter parse_parameter(const ConfigNode& item) {
     const ConfigNode v = item.child("value");
     if (!v.is_scalar() || v.scalar().empty()) v.fail("expected a number or a label");
     // A plain (unquoted) `value: 010` is a number to varbo and octal 8 to YAML 1.1 readers; quoted it is a label.
-    if (v.yaml().Tag() != "!" && (ambiguous_leading_zero(v.scalar()) || underflows_to_zero(v.scalar())))
+    if (v.yaml().Tag() != "!" && !configured_number_problem(v.scalar()).empty())
       (void)number_of(v, "a number or a label");
     if (const auto d = parse_decimal(v.scalar()); d && std::isfinite(*d)) p.value = *d;
     else p.choices = {v.scalar()};
