@@ -745,6 +745,12 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       // No point of the refinement's box is as likely to succeed as refine_backoff asks: the incumbent, a known
       // success, is measured again. A random point of the whole box instead failed 19 of 31 times (held-out ball 5
       // of Hartmann-6, 80 seeds, session 42), and in the last trials of a run it could not be followed up anyway.
+      s.phase = "refine";
+      if (const std::optional<Vec> fresh =
+              backoff_new_point(k, *refine_acquisition_, actx, p_min, model_gradients, model_data->y)) {
+        s.x = *fresh;
+        return s;
+      }
       Index best = 0;
       data_.y.minCoeff(&best);
       log_info("bo: trial {}: the refinement's best point has P(success) {:.3g} < {:.3g} (the incumbent's level, the "

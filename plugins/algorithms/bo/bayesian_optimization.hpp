@@ -95,6 +95,18 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::optional<Vec> refine_past_known(Index k, Acquisition& acquisition, const AcquisitionContext& actx, double p_min,
                                        bool model_gradients, const Mat& starts, const Vec& proposal,
                                        const Vec& model_y);
+  /// failure_model.backoff_fallback: new (bo_refine_known.cpp): where the refinement's backoff leaves no point of its
+  /// box at p_min, `acquisition`'s best new point of the whole box at P(success) ≥ p_min on a deterministic cost;
+  /// nullopt = measure the incumbent again.
+  std::optional<Vec> backoff_new_point(Index k, Acquisition& acquisition, const AcquisitionContext& actx, double p_min,
+                                       bool model_gradients, const Vec& model_y);
+  /// The best point of `acquisition` weighted by P(success) at level p_min, searched in `region` from `starts`:
+  /// nullopt unless it is new (no evaluated θ within 1e-9) and reaches the level.
+  std::optional<Vec> new_point_at_level(Acquisition& acquisition, const AcquisitionContext& actx, double p_min,
+                                        bool model_gradients, const RegionConstraint& region, const Mat& starts,
+                                        Rng& rng) const;
+  /// Whether the model treats the cost as deterministic at evaluated θ number `at` (recommender.hpp's test).
+  bool deterministic_at(Index at, const Vec& model_y) const;
   void remember_if_blocked(Index k, const Dataset& data);
   /// The test itself, without boundary_restart's gates: the cost model's descent from the attempt's best (∞-norm 1)
   /// and the distance along it to the blocking failed trial.

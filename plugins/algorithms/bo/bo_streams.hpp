@@ -7,7 +7,8 @@ namespace varbo::bo {
 
 enum Stream : std::uint64_t {
   kDesign = 1, kFit = 2, kAcquisition = 3, kOptimize = 4, kEpsilon = 5, kRandom = 6, kRecommend = 7, kFreshDesign = 8,
-  kPendingAway = 9, kGlobalProbe = 10, kRefineKnown = 11
+  kPendingAway = 9, kGlobalProbe = 10, kRefineKnown = 11,
+  kBackoffNew = 12
 };
 
 }  // namespace varbo::bo

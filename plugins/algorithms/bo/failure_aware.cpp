@@ -202,6 +202,10 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                    "once a trial has failed, a final refinement trial whose best point is a θ already evaluated, on a "
                    "cost the model treats as deterministic, takes the best new point of the attempts' acquisition "
                    "(EI) at the same level of P(success) instead; false = measure that θ again"),
+      opt::choice("backoff_fallback", &FailureModelSettings::backoff_fallback, {"new", "incumbent"},
+                  "where refine_backoff leaves no point of the final refinement's box at its level of P(success): "
+                  "new = on a cost the model treats as deterministic, the attempts' acquisition's (EI's) best new "
+                  "point of the whole box at that level (else the incumbent); incumbent = measure the incumbent again"),
       opt::boolean("fit_failures", &FailureModelSettings::fit_failures,
                    "the classifier's lengthscales and signal are chosen among those that put every failed θ (without "
                    "a success within 0.01, max-norm) below P(success) 0.5, by the Laplace evidence; without it the "
@@ -234,7 +238,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
-              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, refine_known: bool, length_max: L, fit_failures: bool}");
+              "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, refine_known: bool, backoff_fallback: new|incumbent, length_max: L, fit_failures: bool}");
   return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
 }
 

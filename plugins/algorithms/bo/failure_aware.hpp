@@ -199,6 +199,12 @@ struct FailureModelSettings {
   /// to no purpose (Hartmann-6, slab x6 > 0.7, seed 19: 7 of 8 refinement trials; session 44, docs/failures.md,
   /// item 15). false = measure it again.
   bool refine_known = true;
+  /// Where the final refinement's backoff (refine_backoff) leaves no point of the refinement's box at its level of
+  /// P(success): "new" = on a cost the model treats as deterministic, the attempts' acquisition's (EI's) best new
+  /// point over the whole box at that level, if there is one; "incumbent" = the incumbent measured again (session
+  /// 42's fallback; under noise always, where a repeat is a measurement). Hartmann-6, slab 0.52 < x3 < 0.82, seed 60:
+  /// the incumbent 0.0035 from the slab's face was measured 9 times (session 45, docs/failures.md, item 16).
+  std::string backoff_fallback = "new";
   /// Active for a run with `failures` failed trials so far.
   bool active(Index failures) const {
     return enabled == Enabled::On || (enabled == Enabled::Auto && failures > 0);

@@ -2,7 +2,9 @@
 // ball 5 of session 37 (budget 100):
 // - failure_model.refine_backoff: each failure of the refinement halves the probability of failure it accepts.
 //   Without it the refinement of an incumbent beside the ball's face followed the incumbent's own falling P(success)
-//   into the ball (seed 70: 9 of its 14 trials failed).
+//   into the ball (seed 70: 9 of its 14 trials failed). Where no point of the refinement's box then reaches the
+//   level, failure_model.backoff_fallback (session 45) takes the refinement's best new point of the whole box at it
+//   on a deterministic cost (new, the default), or measures the incumbent again (incumbent, session 42's).
 // - failure_model.refine_waits: the refinement waits for a last attempt, in another basin, that at its pace would
 //   pass the incumbent within d + 1 trials (seed 15: the attempt reaches the global basin and the run its minimum,
 //   instead of a refinement of the local minimum).
@@ -73,40 +75,54 @@ double regret(const Rows& rows) { return std::stod(rows.back()[col(rows, "regret
 
 }  // namespace
 
+/// Refinement rows after `first` whose θ is the best successful θ before them (the incumbent measured again).
+std::size_t incumbent_repeats(const Rows& rows, const std::vector<std::size_t>& refinement, std::size_t first) {
+  std::size_t repeats = 0;
+  const std::size_t x1 = col(rows, "x1");
+  for (const std::size_t r : refinement) {
+    if (r <= first) continue;
+    const std::size_t best = best_row(rows, r);
+    bool same = true;
+    for (std::size_t d = 0; d < 6; ++d) same = same && rows[r][x1 + d] == rows[best][x1 + d];
+    repeats += same;
+  }
+  return repeats;
+}
+
 TEST_CASE("refine_backoff: a refinement beside a failure face fails once, not trial after trial") {
   set_log_level(LogLevel::Error);
   const Rows on = ball5("refine_backoff_on", "", 70), off = ball5("refine_backoff_off", "refine_backoff: false", 70),
-             two = ball5("refine_backoff_on", "", 70, 2);
+             two = ball5("refine_backoff_on", "", 70, 2),
+             repeat = ball5("refine_backoff_repeat", "backoff_fallback: incumbent", 70);
   REQUIRE(on.size() == 101);
   REQUIRE(off.size() == 101);
-  const std::vector<std::size_t> ref_on = refinement_rows(on), ref_off = refinement_rows(off);
+  REQUIRE(repeat.size() == 101);
+  const std::vector<std::size_t> ref_on = refinement_rows(on), ref_off = refinement_rows(off),
+                                 ref_repeat = refinement_rows(repeat);
   REQUIRE(ref_on.size() == 14);  // 2(d + 1) once a trial has failed (refine_last), from trial 86
   REQUIRE(ref_off.size() == 14);
+  REQUIRE(ref_repeat.size() == 14);
   // Without the rule 9 of the 14 refinement trials fail (each one lowering the incumbent's P(success), and with it
-  // the level the next one is held to); with it the first fails and none after it.
+  // the level the next one is held to); with it the first fails and none after it, whichever fallback.
   CHECK(failed_among(off, ref_off) >= 8);
   CHECK(failed_among(on, ref_on) == 1);
+  CHECK(failed_among(repeat, ref_repeat) == 1);
   std::size_t first = 0;
   for (const std::size_t r : ref_on)
     if (first == 0 && on[r][col(on, "ok")] == "0") first = r;
   REQUIRE(first > 0);
   // Nothing acts before the refinement's first failure.
   CHECK(same_until(on, off, first + 1));
-  // Where no point of the refinement's box is then as likely to succeed as the rule asks, the incumbent (the best
-  // successful θ so far) is measured again, not a random point of the box.
-  std::size_t repeats = 0;
-  const std::size_t x1 = col(on, "x1");
-  for (const std::size_t r : ref_on) {
-    if (r <= first) continue;
-    const std::size_t best = best_row(on, r);
-    bool same = true;
-    for (std::size_t d = 0; d < 6; ++d) same = same && on[r][x1 + d] == on[best][x1 + d];
-    repeats += same;
-  }
-  CHECK(repeats >= 1);
+  CHECK(same_until(on, repeat, first + 1));
+  // Where no point of the refinement's box is then as likely to succeed as the rule asks, session 42's fallback
+  // (backoff_fallback: incumbent) measures the incumbent again, not a random point of the box; the default (new:
+  // the cost is deterministic) measures the refinement's best new point of the whole box at that level instead.
+  CHECK(incumbent_repeats(repeat, ref_repeat, first) >= 1);
+  CHECK(incumbent_repeats(on, ref_on, first) == 0);
   // The falls bought almost nothing: without the rule the recommendation is 5e-4 better (0.1927 against 0.1932,
   // both at the local minimum's face).
   CHECK(regret(on) <= regret(off) + 1e-3);
+  CHECK(regret(on) <= regret(repeat) + 1e-12);
   // A seed fixes the run whatever the thread count.
   CHECK(test::same_thetas(on, two));
 }

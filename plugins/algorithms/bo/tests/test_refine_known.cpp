@@ -7,6 +7,12 @@
 // refinement trials measured the incumbent again. A run without failures is unchanged (a noisy cost is left to the
 // repeat: treats_cost_as_deterministic, recommender.hpp); a seed fixes the run whatever the thread count; a state
 // saved inside the refinement continues exactly.
+//
+// failure_model.backoff_fallback (session 45; docs/failures.md, item 16): where the refinement's backoff (item 13)
+// leaves no point of its box at its level of P(success), the refinement's best new point of the whole box at that
+// level, not the incumbent again. Hartmann-6 with the slab 0.52 < x3 < 0.82, seed 60: the incumbent lies 0.0035 from
+// the slab's face, a refinement trial 0.0006 inside it fails at trial 90, and session 42's fallback measured the
+// incumbent at each of trials 91–99 (regret 0.016).
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
@@ -26,6 +32,8 @@ namespace {
 using test::Rows;
 
 const std::string kSlab = "{shape: box, lower: [0, 0, 0, 0, 0, 0.7], upper: [1, 1, 1, 1, 1, 1]}";
+// bench_failures' "Hartmann-6, slab 0.52 < x3 < 0.82" (the minimiser at x3 = 0.477).
+const std::string kSlabX3 = "{shape: box, lower: [0, 0, 0.52, 0, 0, 0], upper: [1, 1, 0.82, 1, 1, 1]}";
 
 std::size_t col(const Rows& rows, const char* name) { return test::column(rows, name); }
 
@@ -84,6 +92,36 @@ TEST_CASE("refine_known: the refinement does not measure a known θ of a determi
   CHECK(regret(off) > 0.01);
   CHECK(regret(on) < 1e-3);
   // A seed fixes the run whatever the thread count.
+  CHECK(test::same_thetas(on, two));
+}
+
+TEST_CASE("backoff_fallback: a refinement held off a failure face measures new points, not the incumbent again") {
+  set_log_level(LogLevel::Error);
+  const Rows on = test::run_hartmann6("backoff_new", true, "", 1, 60, kSlabX3),
+             off = test::run_hartmann6("backoff_incumbent", true, "{backoff_fallback: incumbent}", 1, 60, kSlabX3),
+             two = test::run_hartmann6("backoff_new", true, "", 2, 60, kSlabX3);
+  REQUIRE(on.size() == 101);
+  REQUIRE(off.size() == 101);
+  const std::size_t refine = first_refinement_row(off);
+  REQUIRE(refine < off.size());
+  // The first failure of the refinement; the runs are the same trial for trial until the trial after it.
+  std::size_t failed = refine;
+  while (failed < off.size() && off[failed][col(off, "ok")] != "0") ++failed;
+  REQUIRE(failed + 1 < off.size());
+  CHECK(test::same_thetas(Rows(on.begin(), on.begin() + static_cast<std::ptrdiff_t>(failed + 1)),
+                          Rows(off.begin(), off.begin() + static_cast<std::ptrdiff_t>(failed + 1))));
+  CHECK(refinement_repeats(off) >= 5);
+  CHECK(refinement_repeats(on) == 0);
+  // No more failures than session 42's fallback: the new points keep to the backoff's level.
+  std::size_t failed_on = 0, failed_off = 0;
+  for (std::size_t r = failed + 1; r < on.size(); ++r) {
+    failed_on += on[r][col(on, "ok")] == "0";
+    failed_off += off[r][col(off, "ok")] == "0";
+  }
+  CHECK(failed_on <= failed_off + 1);
+  // The new points reach the minimiser's side of the incumbent: regret 0.016 against 0.0012 in session 45.
+  CHECK(regret(off) > 0.01);
+  CHECK(regret(on) < 0.005);
   CHECK(test::same_thetas(on, two));
 }
 
