@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <limits>
 #include <cstdint>
+#include <filesystem>
+#include <system_error>
 #include <string>
 #include <utility>
 #include <vector>
@@ -59,6 +61,24 @@ inline CLI::Validator decimal_number() {
       },
       "DECIMAL");
 }
+/// CLI11 check for a run folder argument (select, plot, rescore): CLI11's ExistingDirectory said "run: Directory is
+/// actually a file: DIR/trials.csv" for a file of the folder (audit, session 44); this names what is expected and,
+/// for a file, the folder it lies in.
+inline CLI::Validator run_folder() {
+  return CLI::Validator(
+      [](std::string& text) {
+        std::error_code ec;
+        const std::filesystem::path path(text);
+        const auto status = std::filesystem::status(path, ec);
+        if (std::filesystem::is_directory(status)) return std::string();
+        const std::string expected = "expected a run folder written by `varbo run -o DIR` (config.resolved.yaml, trials.csv)";
+        if (!std::filesystem::exists(status)) return fmt::format("'{}' does not exist; {}", text, expected);
+        const std::string parent = path.parent_path().empty() ? std::string(".") : path.parent_path().string();
+        return fmt::format("'{}' is a file, not a folder; {}: its folder, '{}'?", text, expected, parent);
+      },
+      "RUN_FOLDER");
+}
+
 /// The items of a list option given comma-separated and/or repeated ("--kappa 2,0 --kappa -2"). An empty item
 /// ("1,,2", a trailing comma, "") is an error naming the flag: CLI11's own `delimiter` dropped it silently, so a
 /// mistyped list ran with fewer values than written.

@@ -265,7 +265,7 @@ Runner add_plot(CLI::App& app) {
   auto a = std::make_shared<PlotArgs>();
   auto* gp_opt = cmd->add_option("--gp", a->gp, "1-D: the homoscedastic surrogate (inline YAML or file)");
   auto* vh_opt = cmd->add_option("--vhgp", a->vhgp, "1-D: the heteroscedastic surrogate (inline YAML or file)");
-  cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
+  cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(run_folder());
   cmd->add_option("-o,--output", a->output, "SVG file, or - for standard output (default: RUN_DIR/model.svg)");
   cmd->add_option("--kappa", a->kappa_text, "risk factors of the marked CB selections (default: -1.5, 0, 1.5)")
       ->type_name("DECIMAL[,DECIMAL...]");

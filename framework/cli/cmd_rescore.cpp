@@ -41,7 +41,7 @@ Runner add_rescore(CLI::App& app) {
   auto a = std::make_shared<Args>();
   cmd->add_option("run", a->run, "run folder (config.resolved.yaml, trials.csv with component columns)")
       ->required()
-      ->check(CLI::ExistingDirectory);
+      ->check(run_folder());
   cmd->add_option("--weights", a->weights, "new weights, e.g. energy=0.1,tracking=1 (unlisted: the run's)");
   cmd->add_option("--kappa", a->kappa, "risk factors κ for the offline selections (default 0,2)")
       ->type_name("DECIMAL[,DECIMAL...]");

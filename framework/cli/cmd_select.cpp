@@ -42,7 +42,7 @@ Runner add_select(CLI::App& app) {
     int threads = 0;
   };
   auto a = std::make_shared<Args>();
-  cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(CLI::ExistingDirectory);
+  cmd->add_option("run", a->run, "run folder written by `varbo run`")->required()->check(run_folder());
   cmd->add_option("--kappa", a->kappas,
                   "risk factor(s): > 0 risk-averse, < 0 risk-seeking, 0 neutral; repeat or comma-separate "
                   "(default: 2, 0, -2)")

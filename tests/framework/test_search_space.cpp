@@ -447,3 +447,16 @@ TEST_CASE("int bounds beyond 2^53 are refused: not every integer there is a doub
   CHECK(error_of("- {name: n, type: int, low: -9007199254740993, high: 0}")
             .find("-9007199254740993 is beyond ±2^53") != std::string::npos);
 }
+
+TEST_CASE("a quoted fixed value is a label, as YAML reads it; an unquoted number is a number") {
+  // `value: "3.0"` was sent to the command as the number 3 (audit, session 44).
+  const SearchSpace s = parse_search_space(ConfigNode::parse(
+      "- {name: a, type: real, low: 0, high: 1}\n- {name: m, type: fixed, value: \"3.0\"}\n"
+      "- {name: n, type: fixed, value: 3.0}\n- {name: q, type: fixed, value: '010'}\n",
+      "p.yaml"));
+  REQUIRE(s.size() == 4);
+  CHECK(s.parameters()[1].choices == std::vector<std::string>{"3.0"});
+  CHECK(s.parameters()[2].choices.empty());
+  CHECK(s.parameters()[2].value == 3.0);
+  CHECK(s.parameters()[3].choices == std::vector<std::string>{"010"});
+}

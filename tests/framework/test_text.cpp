@@ -93,7 +93,15 @@ TEST_CASE("terminal_text: escape sequences and C1 controls shown, never obeyed; 
   CHECK(terminal_text("no parameter '\x1B]0;owned\x07\x1B[2J'") == "no parameter '\\x1B]0;owned\\x07\\x1B[2J'");
   CHECK(terminal_text("line one\n\tline two") == "line one\n\tline two");
   CHECK(terminal_text("csi \xC2\x9B" "2J and nel \xC2\x85") == "csi \\u009B2J and nel \\u0085");
-  CHECK(terminal_text("caf\xC3\xA9 \xC2\xA0ok") == "caf\xC3\xA9 \xC2\xA0ok");  // é and a no-break space stay
+  CHECK(terminal_text("caf\xC3\xA9 \xCE\xB8 \xE2\x80\x94 ok") == "caf\xC3\xA9 \xCE\xB8 \xE2\x80\x94 ok");  // é, θ, — stay
+  // Characters a terminal shows as nothing or a blank, or that reorder the line (session 45): a name "x1" with a
+  // zero-width space looked like "x1". No-break space, zero-width space, right-to-left override, byte order mark,
+  // ideographic space (4-byte sequences are never among them: an emoji stays).
+  CHECK(terminal_text("unknown parameter 'x\xE2\x80\x8B" "1'") == "unknown parameter 'x\\u200B1'");
+  CHECK(terminal_text("a\xC2\xA0" "b") == "a\\u00A0b");
+  CHECK(terminal_text("\xE2\x80\xAEtxt.exe") == "\\u202Etxt.exe");
+  CHECK(terminal_text("\xEF\xBB\xBFkey \xE3\x80\x80") == "\\uFEFFkey \\u3000");
+  CHECK(terminal_text("ok \xF0\x9F\x98\x80") == "ok \xF0\x9F\x98\x80");
   CHECK(terminal_text("bad \xFF byte\r") == "bad \\xFF byte\\r");
 }
 

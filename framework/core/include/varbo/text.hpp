@@ -23,7 +23,9 @@ std::string abbreviate(std::string_view text, std::size_t keep = 1024);
 /// escapes, other control bytes and bytes that are not UTF-8 become \xHH.
 std::string printable(std::string_view text);
 /// What a terminal shows as text and never obeys: printable(), but line breaks and tabs kept, and the C1 controls
-/// (U+0080–U+009F, e.g. U+009B, a one-character CSI) escaped too. For messages varbo prints to a terminal: a
+/// (U+0080–U+009F, e.g. U+009B, a one-character CSI) escaped too, as \uXXXX, with the characters a terminal shows
+/// as nothing or a blank or that reorder the text (no-break spaces, zero-width characters, directional overrides,
+/// the byte order mark). For messages varbo prints to a terminal: a
 /// parameter name of a study from elsewhere held ESC sequences that retitled and cleared the user's terminal.
 std::string terminal_text(std::string_view text);
 /// terminal_text(printable(text)): one line a terminal shows and never obeys, for a name or label printed inside a

@@ -1,5 +1,6 @@
 #include "varbo/text.hpp"
 
+#include <cstdint>
 #include <cstring>
 
 #include <cctype>
@@ -86,18 +87,45 @@ std::string printable(std::string_view text) {
   return out;
 }
 
+namespace {
+
+/// Code points a terminal shows as nothing, as a blank or by reordering the text around them: C1 controls (U+0080–
+/// U+009F; U+009B is a one-character CSI), no-break and other spaces, the soft hyphen, zero-width characters,
+/// directional marks and overrides (the "Trojan Source" characters), the byte order mark. A name holding one looks
+/// like another name (a parameter "x1" with a zero-width space printed as "x1" in "unknown parameter 'x1'"; audit,
+/// session 44), so varbo's messages show them as \uXXXX.
+bool invisible(char32_t c) {
+  return (c >= 0x80 && c <= 0x9F) || c == 0xA0 || c == 0xAD || c == 0x34F || c == 0x61C || c == 0x115F ||
+         c == 0x1160 || c == 0x17B4 || c == 0x17B5 || c == 0x180E || (c >= 0x2000 && c <= 0x200F) ||
+         (c >= 0x2028 && c <= 0x202F) || (c >= 0x205F && c <= 0x206F) || c == 0x3000 || c == 0x3164 ||
+         c == 0xFEFF || c == 0xFFA0 || (c >= 0xFFF9 && c <= 0xFFFB);
+}
+
+/// The code point of the well-formed UTF-8 sequence of `n` bytes at s[i].
+char32_t code_point(std::string_view s, std::size_t i, std::size_t n) {
+  const auto b = [&](std::size_t k) { return static_cast<char32_t>(static_cast<unsigned char>(s[i + k])); };
+  if (n == 2) return ((b(0) & 0x1F) << 6) | (b(1) & 0x3F);
+  if (n == 3) return ((b(0) & 0x0F) << 12) | ((b(1) & 0x3F) << 6) | (b(2) & 0x3F);
+  return ((b(0) & 0x07) << 18) | ((b(1) & 0x3F) << 12) | ((b(2) & 0x3F) << 6) | (b(3) & 0x3F);
+}
+
+}  // namespace
+
 std::string terminal_text(std::string_view text) {
   std::string out;
   out.reserve(text.size());
   std::size_t start = 0;
   for (std::size_t i = 0; i <= text.size(); ++i) {
     if (i < text.size() && text[i] != '\n' && text[i] != '\t') continue;
-    std::string part = printable(text.substr(start, i - start));
-    for (std::size_t at = part.find('\xC2'); at != std::string::npos; at = part.find('\xC2', at + 1))
-      if (at + 1 < part.size() && static_cast<unsigned char>(part[at + 1]) >= 0x80 &&
-          static_cast<unsigned char>(part[at + 1]) <= 0x9F)
-        part.replace(at, 2, fmt::format("\\u{:04X}", static_cast<unsigned char>(part[at + 1])));
-    out += part;
+    const std::string part = printable(text.substr(start, i - start));
+    for (std::size_t j = 0; j < part.size();) {
+      const std::size_t n = std::max<std::size_t>(detail::utf8_length(part, j), 1);  // printable() output is UTF-8
+      if (n > 1 && invisible(code_point(part, j, n)))
+        out += fmt::format("\\u{:04X}", static_cast<std::uint32_t>(code_point(part, j, n)));
+      else
+        out.append(part, j, n);
+      j += n;
+    }
     if (i < text.size()) out += text[i];
     start = i + 1;
   }

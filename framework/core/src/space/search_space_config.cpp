@@ -101,9 +101,11 @@ Parameter parse_parameter(const ConfigNode& item) {
     const ConfigNode v = item.child("value");
     if (!v.is_scalar() || v.scalar().empty()) v.fail("expected a number or a label");
     // A plain (unquoted) `value: 010` is a number to varbo and octal 8 to YAML 1.1 readers; quoted it is a label.
-    if (v.yaml().Tag() != "!" && !configured_number_problem(v.scalar()).empty())
-      (void)number_of(v, "a number or a label");
-    if (const auto d = parse_decimal(v.scalar()); d && std::isfinite(*d)) p.value = *d;
+    // A quoted value is a label whatever it reads like, as YAML (and ROS's parameter server) reads it: `value: "3.0"`
+    // was sent to the command as the number 3 (audit, session 44).
+    const bool quoted = v.yaml().Tag() == "!";
+    if (!quoted && !configured_number_problem(v.scalar()).empty()) (void)number_of(v, "a number or a label");
+    if (const auto d = quoted ? std::nullopt : parse_decimal(v.scalar()); d && std::isfinite(*d)) p.value = *d;
     else p.choices = {v.scalar()};
   } else {
     const std::string near = closest_match(t, kTypes);
