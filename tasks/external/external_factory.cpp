@@ -30,10 +30,8 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
                   "json: {\"theta\": [...], \"names\": [...], \"trial\": k, \"id\": i} on stdin; args: θ appended as "
                   "arguments (either way VARBO_TRIAL=k and VARBO_TRIAL_ID=i in the environment)"),
       opt::real("timeout", opt::nested(&S::process, &ProcessOptions::timeout_seconds),
-                "seconds before the command and every process it started are killed (a failed trial); at least "
-                "0.001: a shorter one fails every trial before its command has started (1e-9 was accepted; audit, "
-                "session 44)")
-          .at_least(0.001),
+                "seconds before the command and every process it started are killed (a failed trial)")
+          .above(0),
       opt::real("grace", opt::nested(&S::process, &ProcessOptions::kill_grace_seconds),
                 "seconds between SIGTERM and SIGKILL when a trial is stopped (its timeout, Ctrl-C): the time the "
                 "command has to bring the hardware to a safe state")
