@@ -38,8 +38,9 @@ struct SobolSequence::Engine {
 };
 
 SobolSequence::SobolSequence(Index d, bool scramble, Rng& rng) : d_(d) {
-  if (d < 1 || d > 3667)
-    throw ConfigError("sobol: dimension " + std::to_string(d) + " is outside the supported range 1..3667");
+  if (d < 1 || d > kSobolMaxDim)
+    throw ConfigError("sobol: dimension " + std::to_string(d) + " is outside the supported range 1.." +
+                      std::to_string(kSobolMaxDim) + " (its direction numbers); use lhs or uniform");
   engine_ = std::make_unique<Engine>(static_cast<std::size_t>(d));
   shift_.assign(static_cast<std::size_t>(d), 0);
   if (scramble)

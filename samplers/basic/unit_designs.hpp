@@ -13,7 +13,10 @@ Mat uniform_unit(Index n, Index d, Rng& rng);
 /// at a uniform position inside it (McKay, Beckman & Conover 1979).
 Mat latin_hypercube_unit(Index n, Index d, Rng& rng);
 
-/// The Sobol sequence of Boost.Random (Joe–Kuo direction numbers, up to 3667 dimensions). With `scramble`,
+/// The most dimensions SobolSequence has direction numbers for.
+inline constexpr Index kSobolMaxDim = 3667;
+
+/// The Sobol sequence of Boost.Random (Joe–Kuo direction numbers, up to kSobolMaxDim dimensions). With `scramble`,
 /// a random digital shift (an XOR of every coordinate's 64-bit digits with a per-dimension random word,
 /// drawn from rng at construction) randomizes the sequence while keeping its (t, m, s)-net structure.
 class SobolSequence {

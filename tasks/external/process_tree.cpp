@@ -2,6 +2,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -156,6 +157,21 @@ int signal_tree(int sig, pid_t shell) {
   return g_tree_size;
 }
 
+// Reads and discards what the command wrote to varbo's ends of its pipes, without blocking (poll first: the ends
+// are shared with varbo's, whose flags are not ours to change). Only once varbo is gone: then nobody else reads
+// them, and a command whose pipe has no reader dies of SIGPIPE at its next write, a full one blocks.
+void drain(int out_fd, int err_fd) {
+  char sink[4096];
+  for (const int fd : {out_fd, err_fd}) {
+    if (fd < 0) continue;
+    for (int round = 0; round < 64; ++round) {
+      pollfd pfd{fd, POLLIN, 0};
+      if (::poll(&pfd, 1, 0) <= 0 || (pfd.revents & POLLIN) == 0) break;
+      if (::read(fd, sink, sizeof sink) <= 0) break;
+    }
+  }
+}
+
 // strerror is not async-signal-safe: the reasons a chdir or an execve of /bin/sh plausibly fail with.
 const char* errno_text(int e) {
   switch (e) {
@@ -199,7 +215,7 @@ void write_failure(const char* what, const char* path, const char* sep, const ch
 
 void close_all_but(const int* keep, int n) {
   // Closes [0, max) except the kept descriptors, with close_range between them.
-  int sorted[8];
+  int sorted[12];
   for (int i = 0; i < n; ++i) sorted[i] = keep[i];
   for (int i = 1; i < n; ++i)
     for (int j = i; j > 0 && sorted[j - 1] > sorted[j]; --j) {
@@ -278,8 +294,10 @@ void close_all_but(const int* keep, int n) {
   {
     // Only our four pipe ends stay open: varbo's other descriptors (another trial's pipes, in a
     // multi-threaded varbo) must not be held by us or the command.
-    int keep[8] = {p.stdin_fd, p.stdout_fd, p.stderr_fd, p.report_fd};
+    int keep[12] = {p.stdin_fd, p.stdout_fd, p.stderr_fd, p.report_fd};
     int n = 4;
+    for (const int fd : {p.stdout_read_fd, p.stderr_read_fd})
+      if (fd >= 0) keep[n++] = fd;
     if (p.cgroup_fd >= 0) keep[n++] = p.cgroup_fd;
     for (const int fd : p.lock_fds)
       if (fd >= 0) keep[n++] = fd;
@@ -326,6 +344,7 @@ void close_all_but(const int* keep, int n) {
     if (in_cgroup) cgroup_raw::signal_listed(p.cgroup_fd, SIGTERM);
     else signal_tree(SIGTERM, shell);
     while (now_ms() < hard) {
+      if (::getppid() != p.parent) drain(p.stdout_read_fd, p.stderr_read_fd);
       reap(shell, shell_status, shell_done);
       if (in_cgroup ? !cgroup_raw::populated(p.cgroup_fd) : (!find_descendants() || g_tree_size == 0)) break;
       sleep_ms(5);
@@ -344,6 +363,7 @@ void close_all_but(const int* keep, int n) {
     }
   }
   while (signal_tree(SIGKILL, shell) > 0 && now_ms() < give_up) {
+    if (::getppid() != p.parent) drain(p.stdout_read_fd, p.stderr_read_fd);
     sleep_ms(2);
     reap(shell, shell_status, shell_done);
   }

@@ -20,6 +20,11 @@ struct SupervisorPlan {
   const char* workdir = nullptr;      ///< nullptr: inherit
   char* const* envp = nullptr;        ///< the command's environment; nullptr: varbo's
   int stdin_fd = -1, stdout_fd = -1, stderr_fd = -1;  ///< the command's ends of the pipes
+  /// varbo's (read) ends of the command's stdout and stderr pipes, held by the supervisor so that they outlive
+  /// varbo: once varbo is gone the supervisor drains them, and a command that writes while it brings the hardware
+  /// to a safe state (its grace) is not killed by SIGPIPE (audit, session 45: "motors off" on stderr ended the
+  /// shell's SIGTERM trap). -1: none.
+  int stdout_read_fd = -1, stderr_read_fd = -1;
   int report_fd = -1;                  ///< write end of the report pipe (O_CLOEXEC)
   pid_t parent = 0;                    ///< varbo's pid
   long grace_ms = 200;                 ///< SIGTERM -> SIGKILL delay when told to stop

@@ -279,6 +279,8 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
   plan.stdin_fd = in_r.fd;
   plan.stdout_fd = out_w.fd;
   plan.stderr_fd = err_w.fd;
+  plan.stdout_read_fd = out_r.fd;
+  plan.stderr_read_fd = err_r.fd;
   plan.report_fd = report_w.fd;
   plan.parent = ::getpid();
   plan.grace_ms = static_cast<long>(std::max(0.0, options.kill_grace_seconds) * 1000);

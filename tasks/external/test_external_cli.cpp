@@ -419,3 +419,40 @@ TEST_CASE("varbo run killed by SIGKILL keeps its run lock until its last trial's
   std::ofstream(dir + "/fast") << "";  // the resumed trials answer at once
   CHECK(run_varbo({"run", "--resume", out, "--no-progress"}, dir + "/late.log") == 0);
 }
+
+TEST_CASE("varbo run killed by SIGKILL or a second Ctrl-C: the command writes during its grace and is not killed by it") {
+  // Audit, session 45: once varbo was gone, nothing read the command's pipes, and the SIGTERM trap that parks the
+  // robot died of SIGPIPE at its first "motors off" on stderr (a Python handler got BrokenPipeError). The
+  // supervisor now holds the pipes' read ends and drains them after varbo is gone.
+  for (const bool twice_ctrl_c : {false, true}) {
+    CAPTURE(twice_ctrl_c);
+    const std::string dir =
+        test::temp_folder(fmt::format("grace_writes_{}_{}", twice_ctrl_c ? "int" : "kill", ::getpid()));
+    const std::string cfg = dir + "/cfg.yaml", pids = dir + "/pids", log = dir + "/safe.log";
+    std::ofstream(dir + "/safe.sh") << "#!/bin/sh\necho $$ >> " << pids << "\n"
+                                    << "trap 'echo parking >> " << log << "; sleep 0.5; echo \"motors off\" >&2; "
+                                    << "yes status | head -c 200000; echo parked >> " << log << "; exit 1' TERM\n"
+                                    << "sleep 30 & wait\necho 0.5\n";
+    ::chmod((dir + "/safe.sh").c_str(), 0755);
+    std::ofstream(cfg) << "task: {type: external, command: " << dir << "/safe.sh, dim: 1, timeout: 60, grace: 5}\n"
+                       << "budget: 2\nseed: 1\nalgorithm: random\n";
+    const pid_t v = spawn({VARBO_EXE, "run", cfg, "-o", dir + "/run", "--no-progress"}, dir + "/run.log");
+    REQUIRE(wait_for_lines(pids, 1, 30));
+    if (twice_ctrl_c) {
+      ::kill(v, SIGINT);
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));  // inside the command's grace
+      ::kill(v, SIGINT);
+      const int code = wait_exit(v, 10);
+      CHECK((code == 128 + SIGINT || code == 1000 + SIGINT));  // the second Ctrl-C ends varbo at once
+    } else {
+      ::kill(v, SIGKILL);
+      CHECK(wait_exit(v, 10) == 1000 + SIGKILL);
+    }
+    const pid_t command = pids_in(pids)[0];
+    const auto t0 = Clock::now();
+    while (alive(command) && seconds_since(t0) < 15) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    CHECK_FALSE(alive(command));
+    // 200 kB written after varbo was gone, more than a pipe holds: drained, neither fatal nor blocking.
+    CHECK(read_file(log) == "parking\nparked\n");
+  }
+}

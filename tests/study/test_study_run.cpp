@@ -292,3 +292,17 @@ TEST_CASE("a task whose domain changed since the study was created is refused, n
                        InputError);
   g_shifting_upper = 1.0;
 }
+
+TEST_CASE("the summary writes out a θ of many components as its first and last ones (the whole θ is in summary.json)") {
+  // A run of 3668 parameters printed 70 KB per summary line (audit, session 45).
+  RunSummary s;
+  s.output = "out";
+  s.evaluations = 1;
+  s.best_cost = 1.5;
+  s.best_theta = Vec::LinSpaced(30, 0, 29);
+  s.recommended_theta = Vec::LinSpaced(3, 0, 2);
+  const std::string text = s.report();
+  CHECK(text.find("[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, … 6 more (summary.json, "
+                  "trials.csv) …, 26, 27, 28, 29]") != std::string::npos);
+  CHECK(text.find("recommended     [0, 1, 2]") != std::string::npos);
+}

@@ -8,6 +8,7 @@
 #include "varbo/errors.hpp"
 #include "varbo/constrained_sampling.hpp"
 #include "varbo/log.hpp"
+#include "varbo/optimizer.hpp"
 
 namespace varbo::random_search {
 
@@ -15,6 +16,13 @@ RandomSearch::RandomSearch(const Options& o, const BuildContext& ctx) {
   if (ctx.dim < 1) throw ConfigError("random: the problem dimension must be at least 1");
   sampler_ = ctx.registry->create<Sampler>(o.component("sampler"), ctx);
   sampler_name_ = o.component("sampler").info->full_name();
+  // One point drawn now, in the plain box, so that a sampler that cannot serve this problem (sobol beyond its 3667
+  // dimensions) is refused with the configuration's key before anything is created; the points come later, lazily
+  // (audit, session 45: the error had no location and left a run folder behind).
+  {
+    Rng probe(ctx.seed);
+    (void)sampler_->sample(BoxRegion(Box::unit(ctx.dim)), 1, probe);
+  }
   seed_ = ctx.seed;
   dim_ = ctx.dim;
   // No budget (0: the Python ask/tell API and the Optuna sampler when the caller gives none) is no limit: it handed

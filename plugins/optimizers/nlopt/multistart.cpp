@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <mutex>
 #include <numeric>
 #include <optional>
 #include <vector>
@@ -20,10 +21,22 @@ OptimizeResult MultistartOptimizer::maximize(const DifferentiableFunction& f, co
   // One draw from the caller's stream names this call; every random part derives its own stream from it.
   const std::uint64_t call = rng.next();
 
-  // 1. Candidates: scrambled Sobol points in the box, then the region's seeds and the caller's starts.
+  // 1. Candidates: scrambled Sobol points in the box, then the region's seeds and the caller's starts. Beyond the
+  // Sobol sequence's dimensions, uniform points: a run of 4000 parameters stopped after its design with "sobol:
+  // dimension 4000 is outside the supported range" (audit, session 45).
   Rng sobol_rng = rng.stream(call, 0);
-  sampling::SobolSequence sobol(d, /*scramble=*/true, sobol_rng);
-  const Mat unit = sobol.next(settings_.candidates);
+  Mat unit;
+  if (d <= sampling::kSobolMaxDim) {
+    sampling::SobolSequence sobol(d, /*scramble=*/true, sobol_rng);
+    unit = sobol.next(settings_.candidates);
+  } else {
+    static std::once_flag said;  // once per process, not per acquisition search
+    std::call_once(said, [d] {
+      log_info("multistart: {} dimensions, more than the Sobol sequence's {}: uniform candidates", d,
+               sampling::kSobolMaxDim);
+    });
+    unit = sampling::uniform_unit(settings_.candidates, d, sobol_rng);
+  }
   Mat in_box(unit.rows(), d);
   for (Index i = 0; i < unit.rows(); ++i)
     in_box.row(i) = (box.lower.array() + unit.row(i).transpose().array() * box.width().array()).transpose();

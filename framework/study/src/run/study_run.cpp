@@ -46,10 +46,22 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
+/// The summary's θ has at most this many components written out; past it the first and last few (a run of 3668
+/// parameters printed 70 KB per line; audit, session 45): the whole θ is in summary.json and trials.csv.
+constexpr Index kShownComponents = 24;
+/// Whether component i of n is written out, and whether the elision goes before it.
+bool shown(Index i, Index n) { return n <= kShownComponents || i < kShownComponents - 4 || i >= n - 4; }
+std::string elided(Index n) {
+  return fmt::format(", … {} more (summary.json, trials.csv) …", n - kShownComponents);
+}
 std::string fmt_vec(const Vec& v) {
   std::string s = "[";
   // Every digit: the θ printed is the one a user deploys or copies (at 6 digits, all of [1e6, 1e6 + 1] was 1e+06).
-  for (Index i = 0; i < v.size(); ++i) s += fmt::format("{}{}", i ? ", " : "", exact(v[i]));
+  for (Index i = 0; i < v.size(); ++i) {
+    if (!shown(i, v.size())) continue;
+    if (i == v.size() - 4 && v.size() > kShownComponents) s += elided(v.size());
+    s += fmt::format("{}{}", i ? ", " : "", exact(v[i]));
+  }
   return s + "]";
 }
 /// "5", or "5 (study id 6)" once the two numberings differ (after an abandoned trial): the log speaks of the row
@@ -60,9 +72,14 @@ std::string trial_label(Index index, std::int64_t id) {
 /// `lr=0.001, solver=lqr`: what a user of typed parameters reads (θ holds a category's index, not its label).
 std::string params_text(const SearchSpace& space, const Vec& theta) {
   std::string s;
-  for (std::size_t i = 0; i < space.parameters().size(); ++i)
+  const auto n = static_cast<Index>(space.parameters().size());
+  for (std::size_t i = 0; i < space.parameters().size(); ++i) {
+    const auto at = static_cast<Index>(i);
+    if (!shown(at, n)) continue;
+    if (at == n - 4 && n > kShownComponents) s += elided(n);
     s += fmt::format("{}{}={}", i ? ", " : "", space.parameters()[i].name,
                      safe_text(space.format_value(i, theta[static_cast<Index>(i)]), 40));
+  }
   return s;
 }
 }  // namespace
