@@ -28,6 +28,13 @@ namespace varbo::cli {
 
 namespace {
 
+/// "(0.226, 0.55)": a trial's θ as the task received it, every digit.
+std::string theta_text(const Vec& theta) {
+  std::string s = "(";
+  for (Index i = 0; i < theta.size(); ++i) s += (i ? ", " : "") + exact(theta[i]);
+  return s + ")";
+}
+
 std::atomic<int> g_stop{0};
 constexpr int kStopSignals[] = {SIGTERM, SIGINT, SIGHUP};
 struct sigaction g_interrupt_action[3];  // varbo's interrupt handlers (interrupt.hpp), armed by the first signal
@@ -334,10 +341,17 @@ Runner add_worker(CLI::App& app) {
         if (e.ok)
           for (const auto& [name, value] : e.components)
             cmd += " --component " + shell_word(fmt::format("{}={}", name, exact(value)));
-        std::fprintf(stderr, "trial %lld (%s) was evaluated but its result could not be recorded: %s; once the cause "
-                     "is fixed, record it with: %s\n",
+        // Where the study file was replaced, the file of that name is another study now: recording there would put
+        // this cost on whatever its trial of this id is (audit, session 45). The θ is said, so the result can be
+        // matched by hand.
+        const bool replaced = dynamic_cast<const StudyFileChangedError*>(&err) != nullptr;
+        std::fprintf(stderr, "trial %lld (%s) at θ = %s was evaluated but its result could not be recorded: %s; %s%s\n",
                      static_cast<long long>(t.id), e.ok ? ("cost " + exact(e.cost)).c_str() : "failed",
-                     safe_text(err.what(), 300).c_str(), cmd.c_str());
+                     terminal_line(theta_text(t.theta)).c_str(), safe_text(err.what(), 300).c_str(),
+                     replaced ? "it belongs to the study that was at that path when this worker opened it, not to the "
+                                "file there now (do not record it there)"
+                              : "once the cause is fixed, record it with: ",
+                     replaced ? "" : cmd.c_str());
         throw;
       }
       ++done;

@@ -138,6 +138,12 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
       return std::nullopt;
     }
     for (auto it = c.begin(); it != c.end(); ++it) {
+      // A nameless component was stored and exported under an empty column header, where `varbo observe`
+      // refuses it (audit, session 45).
+      if (it.key().find_first_not_of(" \t") == std::string::npos) {
+        why = "a component has an empty name";
+        return std::nullopt;
+      }
       if (!it.value().is_number() || !std::isfinite(it.value().get<double>())) {
         why = fmt::format("component \"{}\" is not a finite number: {}", abbreviate(it.key(), 512),
                         abbreviate(it.value().dump(), 512));

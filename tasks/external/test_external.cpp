@@ -93,6 +93,9 @@ TEST_CASE("parse_answer") {
   SUBCASE("rejections say why") {
     CHECK(!parse_answer("", why));
     CHECK(contains(why, "no output"));
+    // A nameless component was stored and exported under an empty header (audit, session 45).
+    CHECK(!parse_answer("{\"cost\": 3, \"components\": {\"\": 1}}\n", why));
+    CHECK(contains(why, "a component has an empty name"));
     CHECK(!parse_answer("12 apples\n", why));
     CHECK(contains(why, "12 apples"));
     CHECK(!parse_answer("nan\n", why));

@@ -187,6 +187,9 @@ TEST_CASE("each bad parameter declaration is refused at its key") {
   CHECK(error_of("- {name: a, type: int, low: 0.5, high: 3}").find("integer bounds") != std::string::npos);
   CHECK(error_of("- {name: a, type: categorical, choices: []}").find("non-empty list") != std::string::npos);
   CHECK(error_of("- {name: a, type: categorical, choices: [x, y, x]}").find("duplicate choice 'x'") != std::string::npos);
+  // A label with a newline and one with a backslash and an n are both written "new\nline" in trials.csv (session 45).
+  CHECK(error_of("- {name: a, type: categorical, choices: [b, 'new\\nline', \"new\\nline\"]}")
+            .find("choices 2 and 3 are both written 'new\\nline' in trials.csv") != std::string::npos);
   CHECK(error_of("- {name: a, type: real, low: 0, high: 1}\n- {name: a, type: int, low: 0, high: 3}")
             .find("p.yaml:2:10: key '[1].name': duplicate parameter name 'a'") == 0);
   CHECK(error_of("- {name: a, type: rael, low: 0, high: 1}").find("did you mean 'real'") != std::string::npos);

@@ -157,6 +157,17 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
       }
       start += phases_[i].evaluations;
     }
+    // The last phase runs to the end of the budget whatever its `evaluations` (--describe bo says so); a count
+    // written there that the budget exceeds was ignored in silence (audit, session 45: [2 random, 2 pi] with a
+    // budget of 9 and a design of 3 ran pi for 4 trials).
+    Index planned = initial_points_;
+    for (const Phase& p : phases_) planned += p.evaluations;
+    const ConfigNode last = list.item(list.size() - 1);
+    if (budget_ > 0 && phases_.back().evaluations > 0 && planned < budget_ && last.has("evaluations"))
+      log_warn_once(fmt::format("{}: the last phase runs until the budget is spent: its evaluations ({}) is not a "
+                                "limit (the design and the phases plan {} trials of the budget's {}); add a phase "
+                                "for the rest, or write evaluations: 0",
+                                last.child("evaluations").where(), phases_.back().evaluations, planned, budget_));
   } else {
     Phase p;
     p.acquisition = default_acq;

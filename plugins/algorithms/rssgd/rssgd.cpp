@@ -63,9 +63,10 @@ const OptionSet<Settings>& option_set() {
       opt::boolean("evaluate_initial", &Settings::evaluate_initial,
                    "execute θ0 itself in the first trial (gives the critic a point at θ)"),
       opt::reals("start", "", "θ0 in the unit cube (default: the study's initial_point, else the cube's centre)"),
-      opt::string("history", "",
-                  "CSV of earlier observations (columns x1..xd in the unit cube and cost), e.g. written by "
-                  "`varbo rescore --continue`"),
+      opt::path("history",
+                "CSV of earlier observations (columns x1..xd in the unit cube and cost; a row whose cost is nan is a "
+                "failed trial and is skipped), e.g. written by `varbo rescore --continue`; relative to the "
+                "configuration file's folder"),
   };
   return set;
 }
@@ -301,13 +302,23 @@ Dataset read_history(const std::string& file, Index dim) {
     Vec x(dim);
     for (Index i = 0; i < dim; ++i) x[i] = t.values(r, cols[static_cast<std::size_t>(i)]);
     const double y = t.values(r, cost);
-    if (!x.allFinite() || !std::isfinite(y)) continue;  // failed trials carry no information
+    const int line = t.lines[static_cast<std::size_t>(r)];
+    if (std::isnan(y)) continue;  // a failed trial (rescore writes its cost as nan): no information on the cost
+    // Anything else that is not a finite number is refused where it stands: NaN or inf in θ, an infinite cost or
+    // one past ±1e150 (as `varbo fit` refuses them) were dropped or taken in silence (audit, session 45).
+    for (Index i = 0; i < dim; ++i)
+      if (!std::isfinite(x[i]))
+        throw InputError(fmt::format("{}:{}: x{} = {}: expected a finite number in the unit cube [0, 1]", file, line,
+                                     i + 1, x[i]));
+    if (!(std::abs(y) <= 1e150))
+      throw InputError(fmt::format("{}:{}: cost = {}: expected a finite number of magnitude at most 1e150 (nan "
+                                   "marks a failed trial)", file, line, y));
     // θ in user units (trials.csv's columns have the same names) read as unit-cube points was accepted in silence.
     for (Index i = 0; i < dim; ++i)
       if (x[i] < -1e-9 || x[i] > 1 + 1e-9)
         throw InputError(fmt::format("{}:{}: x{} = {} is outside the unit cube [0, 1]: a history holds θ in the unit "
                                      "cube (as `varbo rescore --continue` writes it), not in the parameters' units",
-                                     file, t.lines[static_cast<std::size_t>(r)], i + 1, x[i]));
+                                     file, line, i + 1, x[i]));
     out.add(x, y);
   }
   return out;

@@ -21,6 +21,9 @@ class UnknownComponentError : public ConfigError { public: using ConfigError::Co
 class NumericalError : public Error { public: using Error::Error; };
 /// Bad data files or command-line input.
 class InputError : public Error { public: using Error::Error; };
+/// The study file a Study opened was deleted, moved or replaced by another file: whatever was being recorded
+/// belongs to the study that was there, not to the file that has the name now.
+class StudyFileChangedError : public InputError { public: using InputError::InputError; };
 /// A task cannot run at all (its command is not found or not executable: exit status 127 or 126 from the shell): a
 /// problem of the set-up, not a result of θ. Thrown by Task::evaluate; the run or worker stops (exit 2) and the
 /// trial is abandoned, not recorded as failed — ten "failures" at good points taught the failure model to avoid

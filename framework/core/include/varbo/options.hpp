@@ -14,7 +14,10 @@ enum class Kind { Surrogate, Acquisition, Region, Sampler, Optimizer, Task, Algo
 std::string kind_name(Kind kind);
 Kind kind_from_name(const std::string& name);  // throws ConfigError
 
-enum class OptionType { Bool, Int, Real, String, Choice, RealList, Component, Node };
+/// Path: a file name; a relative one given in a configuration file is read relative to that file's folder and
+/// resolved to an absolute path (config.resolved.yaml and the stored study hold that), so a run resumed from
+/// another folder finds the same file.
+enum class OptionType { Bool, Int, Real, String, Choice, RealList, Component, Node, Path };
 std::string type_name(OptionType type);
 
 struct OptionSpec {
@@ -46,6 +49,7 @@ OptionSpec boolean(std::string name, bool def, std::string description);
 OptionSpec integer(std::string name, long def, std::string description);
 OptionSpec real(std::string name, double def, std::string description);
 OptionSpec string(std::string name, std::string def, std::string description);
+OptionSpec path(std::string name, std::string description);  ///< OptionType::Path, no default
 OptionSpec choice(std::string name, std::string def, std::vector<std::string> choices, std::string description);
 OptionSpec reals(std::string name, std::string def_yaml, std::string description);
 OptionSpec component(std::string name, Kind kind, std::string def_yaml, std::string description);

@@ -7,6 +7,7 @@
 #include <limits>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <cstdlib>
 #include <stdexcept>
 
@@ -56,6 +57,7 @@ std::string type_name(OptionType type) {
     case OptionType::RealList: return "list of reals";
     case OptionType::Component: return "component";
     case OptionType::Node: return "yaml";  // a map or a list (`phases:` is a list)
+    case OptionType::Path: return "path";
   }
   return "?";
 }
@@ -82,6 +84,7 @@ std::string OptionSpec::expected() const {
     case OptionType::Component:
       return kind_with_article(component_kind) + " name or a map with 'type:' and its options";
     case OptionType::Node: return "a YAML value";
+    case OptionType::Path: return "a file path (a relative one is read from the configuration file's folder)";
   }
   return "?";
 }
@@ -107,6 +110,7 @@ OptionSpec real(std::string name, double def, std::string d) {
 OptionSpec string(std::string name, std::string def, std::string d) {
   return make(std::move(name), OptionType::String, def.empty() ? "" : "\"" + def + "\"", std::move(d));
 }
+OptionSpec path(std::string name, std::string d) { return make(std::move(name), OptionType::Path, "", std::move(d)); }
 OptionSpec choice(std::string name, std::string def, std::vector<std::string> choices, std::string d) {
   OptionSpec s = make(std::move(name), OptionType::Choice, std::move(def), std::move(d));
   s.choices = std::move(choices);
@@ -234,6 +238,19 @@ static YAML::Node check_value(const OptionSpec& s, const ConfigNode& n) {
     case OptionType::String: {
       if (!n.is_scalar()) bad();
       return YAML::Node(n.scalar());
+    }
+    case OptionType::Path: {
+      if (!n.is_scalar()) bad();
+      // Relative to the configuration file that holds it, not to the folder varbo runs in: `history: h.csv` beside
+      // the config worked only when run from there, and a --resume from elsewhere could not find it (audit,
+      // session 45). Stored absolute, so the stored study names the same file. A configuration that is no file
+      // (a stored study, a string) keeps the path as written: relative to the working folder, as before.
+      const std::filesystem::path given(n.scalar());
+      std::error_code ec;
+      if (given.empty() || given.is_absolute() || !std::filesystem::is_regular_file(n.file(), ec))
+        return YAML::Node(n.scalar());
+      const std::filesystem::path base = std::filesystem::absolute(n.file(), ec).parent_path();
+      return YAML::Node(ec ? n.scalar() : (base / given).lexically_normal().string());
     }
     case OptionType::Choice: {
       if (!n.is_scalar()) bad();

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
 #include <set>
 
 #include "varbo/config.hpp"
@@ -40,9 +41,20 @@ std::optional<ParameterProblem> check_parameter(const Parameter& p) {
     case ParameterType::Categorical: {
       if (p.choices.empty()) return ParameterProblem{"choices", "expected a non-empty list of labels"};
       std::set<std::string> seen;
-      for (const auto& c : p.choices) {
+      std::map<std::string, std::size_t> written;  // printable form -> the index of the choice written so
+      for (std::size_t j = 0; j < p.choices.size(); ++j) {
+        const std::string& c = p.choices[j];
         if (c.empty()) return ParameterProblem{"choices", "expected non-empty labels"};
         if (!seen.insert(c).second) return ParameterProblem{"choices", fmt::format("duplicate choice '{}'", c)};
+        // trials.csv, export and the summary write a label's control characters escaped (a newline as the two
+        // characters "\n"), and the reader accepts that form: a label with a real newline and one with a
+        // backslash and an n were one category to `varbo select` (audit, session 45).
+        const auto [at, fresh] = written.emplace(printable(c), j);
+        if (!fresh)
+          return ParameterProblem{"choices", fmt::format("choices {} and {} are both written '{}' in trials.csv (a "
+                                                         "control character is written escaped there, a newline as "
+                                                         "\\n): rename one",
+                                                         at->second + 1, j + 1, at->first)};
       }
       break;
     }

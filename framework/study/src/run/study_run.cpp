@@ -733,6 +733,15 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
                         : fmt::format("varbo fail {} {} --reason 'recorded by hand'", shell_word(store_path), t.id);
       std::string parts;
       for (const auto& [name, value] : evaluation.components) parts += fmt::format(" --component {}={}", name, exact(value));
+      // Where the study file was replaced, the file of that name is another study: no command to record it there
+      // (audit, session 45: a worker's suggestion put its cost on another study's trial of the same id).
+      if (dynamic_cast<const StudyFileChangedError*>(&e) != nullptr) {
+        log_warn("trial {} ({}) at θ = {} was evaluated but its result could not be recorded: {}; it belongs to the "
+                 "study that was at that path when this run opened it, not to the file there now",
+                 t.id, evaluation.ok ? "cost " + exact(evaluation.cost) : "failed", fmt_vec(t.theta),
+                 safe_text(e.what(), 300));
+        return;
+      }
       log_warn("trial {} ({}) was evaluated but its result could not be recorded: {}; it is pending in the store. "
                 "Once the cause is fixed, record it with: {}{} (a --resume instead suggests it again)",
                 t.id, evaluation.ok ? "cost " + exact(evaluation.cost) : "failed", safe_text(e.what(), 300), observe,

@@ -818,6 +818,15 @@ std::unique_ptr<StudyStore> create_sqlite_store(const std::string& path,
     for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(tmp + suffix, ec);
   };
   cleanup();
+  {
+    // Said with the reason: SQLite's "unable to open database file" was all a read-only mount got (audit,
+    // session 45). access() answers EROFS for a read-only file system, EACCES for a folder without write permission.
+    std::error_code ec;
+    const fs::path folder = fs::absolute(fs::path(path), ec).parent_path();
+    if (!ec && ::access(folder.c_str(), W_OK) != 0)
+      throw InputError(fmt::format("{}: cannot create the study file in {}: {}; no study file was created", path,
+                                   folder.string(), std::strerror(errno)));
+  }
   try {
     SqliteStore store(tmp, true);
     store.transaction([&] {

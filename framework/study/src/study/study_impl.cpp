@@ -287,7 +287,7 @@ void Study::Impl::check_file() const {
   if (!file_id) return;
   const auto now = file_identity(file_path);
   if (now == file_id) return;
-  throw InputError(fmt::format("{}: the study file was {} after this Study opened it; nothing written (results told "
+  throw StudyFileChangedError(fmt::format("{}: the study file was {} after this Study opened it; nothing written (results told "
                                "now would be lost): open the study again",
                                store->location(), now ? "replaced by another file" : "deleted or moved"));
 }
