@@ -148,7 +148,8 @@ const OptionSet<BoSettings>& bo_options() {
                 "have d + 1 points (short_restarts) and the final refinement at least 2(d + 1) trials (refine_last), "
                 "which halves the failure probability it accepts after each of its failures (refine_backoff) and "
                 "waits for a last attempt about to pass the incumbent (refine_waits) and does not measure a known θ "
-                "of a deterministic cost again (refine_known), and the trust region's side "
+                "of a deterministic cost again (refine_known), not even where its backoff leaves no point of "
+                "its box (backoff_fallback), and the trust region's side "
                 "stays at most 0.8 (length_max); the other keys are measured "
                 "variants, off by default (docs/failures.md)"),
   };

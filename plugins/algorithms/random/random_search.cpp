@@ -21,7 +21,7 @@ RandomSearch::RandomSearch(const Options& o, const BuildContext& ctx) {
   // (audit, session 45: the error had no location and left a run folder behind).
   {
     Rng probe(ctx.seed);
-    (void)sampler_->sample(BoxRegion(Box::unit(ctx.dim)), 1, probe);
+    (void)sample_named(*sampler_, sampler_name_, BoxRegion(Box::unit(ctx.dim)), 1, probe);
   }
   seed_ = ctx.seed;
   dim_ = ctx.dim;
