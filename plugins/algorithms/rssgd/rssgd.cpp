@@ -65,8 +65,7 @@ const OptionSet<Settings>& option_set() {
       opt::reals("start", "", "θ0 in the unit cube (default: the study's initial_point, else the cube's centre)"),
       opt::path("history",
                 "CSV of earlier observations (columns x1..xd in the unit cube and cost; a row whose cost is nan is a "
-                "failed trial and is skipped), e.g. written by `varbo rescore --continue`; relative to the "
-                "configuration file's folder"),
+                "failed trial and is skipped), e.g. written by `varbo rescore --continue`"),
   };
   return set;
 }
