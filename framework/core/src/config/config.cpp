@@ -1,6 +1,7 @@
 #include "varbo/config.hpp"
 
 #include <fmt/format.h>
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/eventhandler.h>
 
 #include <algorithm>
@@ -258,6 +259,12 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
                                     "such as a stray ','); a configuration holds one",
                                     at(name, starts.second)));
     root = YAML::Load(text);
+  } catch (const YAML::DeepRecursion& e) {
+    // yaml-cpp's own message for this is "bad file" (audit, session 44).
+    throw ConfigError(fmt::format("{}:{}:{}: YAML nested too deeply here (lists or maps inside one another, "
+                                  "hundreds of levels; the YAML reader stops at {} of its levels): a configuration "
+                                  "nests a few",
+                                  name, e.mark.line + 1, e.mark.column + 1, e.depth()));
   } catch (const YAML::Exception& e) {
     throw ConfigError(fmt::format("{}:{}:{}: YAML syntax error: {}{}", name, e.mark.line + 1, e.mark.column + 1,
                                   e.msg, syntax_hint(text, e)));
