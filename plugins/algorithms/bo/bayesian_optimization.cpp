@@ -753,9 +753,11 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     // The level applied is named with its value: "< min_probability" was printed where the incumbent's level
     // (refine_min_probability, 0.8) applied and min_probability was 0.5 (red team, session 24).
     if (refining_ && refine_failures > 0) {
-      // No point of the refinement's box is as likely to succeed as refine_backoff asks: the incumbent, a known
-      // success, is measured again. A random point of the whole box instead failed 19 of 31 times (held-out ball 5
-      // of Hartmann-6, 80 seeds, session 42), and in the last trials of a run it could not be followed up anyway.
+      // No point of the refinement's box is as likely to succeed as refine_backoff asks. On a deterministic cost,
+      // the refinement's best new point of the whole box at that level (backoff_fallback: new, session 45);
+      // else the incumbent, a known success, is measured again. A random point of the whole box instead failed 19
+      // of 31 times (held-out ball 5 of Hartmann-6, 80 seeds, session 42), and in the last trials of a run it could
+      // not be followed up anyway.
       s.phase = "refine";
       if (const std::optional<Vec> fresh =
               backoff_new_point(k, *refine_acquisition_, actx, p_min, model_gradients, model_data->y)) {
