@@ -105,6 +105,8 @@ class BayesianOptimization final : public Algorithm, public AlgorithmState, publ
   std::optional<Vec> new_point_at_level(Acquisition& acquisition, const AcquisitionContext& actx, double p_min,
                                         bool model_gradients, const RegionConstraint& region, const Mat& starts,
                                         Rng& rng) const;
+  /// The successful evaluated θ (the rows of data_), for nearest_within.
+  std::vector<Vec> evaluated_thetas() const;
   /// Whether the model treats the cost as deterministic at evaluated θ number `at` (recommender.hpp's test).
   bool deterministic_at(Index at, const Vec& model_y) const;
   void remember_if_blocked(Index k, const Dataset& data);

@@ -25,10 +25,7 @@ std::optional<Vec> BayesianOptimization::refine_past_known(Index k, Acquisition&
   // the same cost. On a deterministic cost such a trial teaches nothing; the attempts' acquisition (EI by default)
   // is zero there and positive where the model still expects a gain, under the same level.
   if (!failure_settings_.refine_known || failed_.empty() || !feasibility_on_ || data_.size() == 0) return std::nullopt;
-  std::vector<Vec> known;
-  known.reserve(static_cast<std::size_t>(data_.size()));
-  for (Index i = 0; i < data_.size(); ++i) known.push_back(data_.X.row(i).transpose());
-  const Index hit = nearest_within(evaluated_point(Box::unit(dim_).clamp(proposal)), known, 1e-9);
+  const Index hit = nearest_within(evaluated_point(Box::unit(dim_).clamp(proposal)), evaluated_thetas(), 1e-9);
   if (hit < 0) return std::nullopt;
   // Under noise a repeat is a measurement (lowest_mean_evaluated's test, recommender.hpp).
   if (!deterministic_at(hit, model_y)) return std::nullopt;
@@ -81,11 +78,15 @@ std::optional<Vec> BayesianOptimization::new_point_at_level(Acquisition& acquisi
   if (!res.success || res.x.size() != dim_ || !res.x.allFinite()) return std::nullopt;
   const Vec x = Box::unit(dim_).clamp(res.x);
   const Vec at = evaluated_point(x);
+  if (nearest_within(at, evaluated_thetas(), 1e-9) >= 0 || feasibility_->probability(at) < p_min) return std::nullopt;
+  return x;
+}
+
+std::vector<Vec> BayesianOptimization::evaluated_thetas() const {
   std::vector<Vec> known;
   known.reserve(static_cast<std::size_t>(data_.size()));
   for (Index i = 0; i < data_.size(); ++i) known.push_back(data_.X.row(i).transpose());
-  if (nearest_within(at, known, 1e-9) >= 0 || feasibility_->probability(at) < p_min) return std::nullopt;
-  return x;
+  return known;
 }
 
 bool BayesianOptimization::deterministic_at(Index at, const Vec& model_y) const {
