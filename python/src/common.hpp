@@ -6,6 +6,7 @@
 #include <pybind11/stl.h>
 
 #include <atomic>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,13 +28,23 @@ class ReleasedGil {
  public:
   ReleasedGil() : state_(PyEval_SaveThread()) {}
   ~ReleasedGil() {
+    before_taking();
+    PyEval_RestoreThread(state_);
+    --restoring;
+  }
+  /// The guard of a thread about to take the GIL: parks it for good once the program is ending; else counts it
+  /// among the threads at_exit() lets through (the caller takes the GIL, then decrements `restoring`).
+  static void before_taking() {
     ++restoring;
     if (exiting.load() || finalizing()) {
       --restoring;
-      for (;;) pause_forever();
+      park();
     }
-    PyEval_RestoreThread(state_);
-    --restoring;
+  }
+  static void after_taking() { --restoring; }
+  /// Never returns: a thread that must not touch Python again waits here until the process is gone.
+  [[noreturn]] static void park() {
+    for (;;) pause_forever();
   }
   /// Called by an atexit function (module.cpp), before the interpreter finalizes: from then on a thread leaving a
   /// varbo call parks; the threads already waiting for the GIL get it and return while it is still safe.
@@ -53,6 +64,24 @@ class ReleasedGil {
   static inline std::atomic<bool> exiting{false};
   static inline std::atomic<int> restoring{0};  ///< threads between the check and having the GIL back
   PyThreadState* state_;
+};
+
+/// py::gil_scoped_acquire with ReleasedGil's guard, for a varbo thread calling back into Python (minimize's
+/// objective and callback): a daemon thread inside minimize() when the program ended was ended by CPython with
+/// pthread_exit as it took the GIL for the objective, and the unwinding, caught as a failed trial, aborted the
+/// process ("FATAL: exception not rethrown", exit 134; red team, session 46). It parks instead, as ReleasedGil's.
+class TakenGil {
+ public:
+  TakenGil() {
+    ReleasedGil::before_taking();
+    gil_.emplace();
+    ReleasedGil::after_taking();
+  }
+  TakenGil(const TakenGil&) = delete;
+  TakenGil& operator=(const TakenGil&) = delete;
+
+ private:
+  std::optional<py::gil_scoped_acquire> gil_;
 };
 
 /// A 1-D float64 array (a copy).

@@ -4,6 +4,7 @@
 // PyErr_CheckSignals before each trial and between trials) stops like SIGINT stops `varbo run`: the trial in
 // flight is abandoned, every recorded trial stays, and KeyboardInterrupt is raised; a callback returning True ends
 // the run after that trial; a callback raising ends it and re-raises.
+#include <cxxabi.h>
 #include <unistd.h>
 
 #include <fmt/format.h>
@@ -182,15 +183,25 @@ void leave_if_forked(const Objective& objective, py::error_already_set* raised) 
 /// held on the params (typed with `parameters:`).
 Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<std::string>& names,
                     const SearchSpace* space) {
-  py::gil_scoped_acquire gil;
+  TakenGil gil;
   // Stopped (Ctrl-C, a KeyboardInterrupt or SystemExit from the objective): no result of θ, said by throwing
   // Interrupted (task.hpp), so that the run abandons the trial rather than recording it failed.
   if (objective->check_signals()) throw Interrupted(objective->stop ? objective->stop : SIGINT);
   Evaluation ev;
+  const py::dict params = params_of(theta, names, space);
   try {
-    py::object r = objective->fun(params_of(theta, names, space));
+    // The C API's call, not pybind11's: a forced unwind (below) meets no C++ temporary holding a reference on its
+    // way out of the call (their destructors, run without the GIL at exit, crashed the process).
+    PyObject* raw = PyObject_CallOneArg(objective->fun.ptr(), params.ptr());
+    if (!raw) throw py::error_already_set();
+    py::object r = py::reinterpret_steal<py::object>(raw);
     leave_if_forked(*objective, nullptr);
     read_result(r, ev);
+  } catch (const abi::__forced_unwind&) {
+    // The program ended while the objective ran (a daemon thread): CPython ends a thread that takes the GIL back
+    // then with pthread_exit. Unwinding on would release a GIL this thread does not hold (~TakenGil) and abort the
+    // process; it waits here instead until the process is gone (red team, session 46).
+    ReleasedGil::park();
   } catch (py::error_already_set& e) {
     leave_if_forked(*objective, &e);
     if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
@@ -254,17 +265,22 @@ void bind_minimize(py::module_& m) {
         ov.resume_hint = "varbo.minimize(..., output='{}', resume=True)";
         ov.overwrite_hint = "pass overwrite=True";
         ov.stop_signal = [&objective] {
-          py::gil_scoped_acquire gil;
+          TakenGil gil;
           objective.check_signals();
           return objective.stop;
         };
         std::vector<std::string> names;
         SharedSpace space;  // typed parameters, or null
         ov.on_trial = [&objective, &names, &space](const TrialRecord& t) {
-          py::gil_scoped_acquire gil;
+          TakenGil gil;
           if (objective.callback.is_none()) return true;
           try {
-            return !py::cast<bool>(py::bool_(objective.callback(trial_dict(t, names, space.get()))));
+            const py::dict record = trial_dict(t, names, space.get());
+            PyObject* raw = PyObject_CallOneArg(objective.callback.ptr(), record.ptr());  // as in evaluate()
+            if (!raw) throw py::error_already_set();
+            return !py::cast<bool>(py::bool_(py::reinterpret_steal<py::object>(raw)));
+          } catch (const abi::__forced_unwind&) {  // the program ended during the callback: as in evaluate()
+            ReleasedGil::park();
           } catch (py::error_already_set& e) {
             objective.error = std::make_unique<py::error_already_set>(std::move(e));
             return false;

@@ -140,6 +140,30 @@ def test_interpreter_exit_with_a_daemon_thread_inside_varbo(tmp_path):
     assert codes == [0] * 6
 
 
+def test_interpreter_exit_with_a_daemon_thread_inside_minimize(tmp_path):
+    """The program ends while a daemon thread's minimize() is between objective calls: a clean exit. The thread
+    taking the GIL back for the objective was ended by CPython (pthread_exit), its unwinding was caught as a failed
+    trial and the process aborted (exit 134) in 6 of 10 runs (red team, session 46)."""
+    import subprocess
+    import sys
+    script = tmp_path / "daemon_minimize.py"
+    script.write_text(
+        "import sys, threading, time\n"
+        "import varbo\n"
+        "def f(p):\n"
+        "    time.sleep(0.02)\n"
+        "    return p['a'] ** 2 + p['b'] ** 2\n"
+        "out = sys.argv[1]\n"
+        "threading.Thread(target=lambda: varbo.minimize(f, {'a': (-1, 1), 'b': (-1, 1)}, budget=200, seed=1,\n"
+        "                 output=out, overwrite=True), daemon=True).start()\n"
+        "time.sleep(float(sys.argv[2]))\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    runs = [subprocess.run([sys.executable, str(script), str(tmp_path / f"run{i}"), str(delay)], env=env,
+                           capture_output=True, timeout=120)
+            for i, delay in enumerate([0.3, 0.5, 0.7, 0.9, 1.1, 1.3])]
+    assert [r.returncode for r in runs] == [0] * 6, [r.stderr.decode(errors="replace")[-400:] for r in runs]
+
+
 def test_ctrl_c_during_ask_leaves_no_trial_pending_that_nobody_got(tmp_path):
     """A KeyboardInterrupt that arrives while ask runs: the trials it had just asked are abandoned, not left pending
     (holding the budget, handed to no one)."""

@@ -449,7 +449,7 @@ def minimize(fun: Callable[[Dict[str, Any]], Any], config_or_space: Any = None, 
     if callback is not None and not callable(callback):
         raise TypeError("minimize: callback must be callable or None")
     budget = _checks.optional_integer(budget, "minimize: budget", 1)  # as the config's budget: [1, inf]
-    seed = _checks.optional_integer(seed, "minimize: seed", 0, _checks.UINT64_MAX)
+    seed = _checks.optional_integer(seed, "minimize: seed", 0, _checks.INT64_MAX)
     threads = _checks.optional_integer(threads, "minimize: threads", 0, 2 ** 31 - 1)
     if output is not None:
         output = _checks.path(output, "minimize: output")

@@ -1,4 +1,5 @@
 // The ask / evaluate / tell loop of `varbo run`.
+#include <cxxabi.h>
 #include <fmt/format.h>
 #include <signal.h>
 #include <unistd.h>
@@ -296,7 +297,14 @@ std::optional<Optimum> admissible_optimum(Task& task, const SharedSpace& space, 
 RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registry, const RunOverrides& ov) {
   StudyConfig study = study_in;
   if (ov.threads) study.threads = *ov.threads;
-  if (ov.seed) study.seed = *ov.seed;
+  if (ov.seed) {
+    // The study stores its seed as a setting (an int64): a larger one ran every trial and then left a study that
+    // neither `status` nor a resume could read (minimize(seed=2**63) in Python; red team, session 46).
+    if (*ov.seed > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max()))
+      throw InputError(fmt::format("seed {} is beyond the largest seed a study stores ({})", *ov.seed,
+                                   std::numeric_limits<std::int64_t>::max()));
+    study.seed = *ov.seed;
+  }
   if (ov.output) study.output = *ov.output;
   if (ov.budget) study.budget = *ov.budget;
   ThreadLimit limit(study.threads);
@@ -683,6 +691,10 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       evaluation = Evaluation{};
       evaluation.ok = false;
       evaluation.error = e.what();
+    } catch (const abi::__forced_unwind&) {
+      // A thread ended by pthread_exit or cancellation (a Python daemon thread at the program's end) unwinds
+      // through here; swallowing the unwind aborts the process ("FATAL: exception not rethrown").
+      throw;
     } catch (...) {  // task.hpp: an exception from evaluate() is a failed trial, never a crash (`throw 7` was one)
       evaluation = Evaluation{};
       evaluation.ok = false;

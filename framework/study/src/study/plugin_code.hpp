@@ -5,6 +5,7 @@
 // ended the process (std::terminate) — becomes a PluginCodeError (exit 2) that says what was being done and
 // names the third-party plugins loaded, when there are any: before, it read "internal error: <their message>"
 // (exit 3), blaming varbo and naming no plugin. With only varbo's own plugins it stays an internal error.
+#include <cxxabi.h>
 #include <fmt/format.h>
 
 #include <exception>
@@ -49,6 +50,8 @@ decltype(auto) in_plugin_code(const Registry& registry, const std::string& doing
     throw;
   } catch (const std::bad_alloc&) {
     throw;
+  } catch (const abi::__forced_unwind&) {  // a thread ended by pthread_exit: its unwinding must go on
+    throw;
   } catch (const std::exception& e) {
     rethrow_from_plugin_code(registry, doing, e.what(), true);
   } catch (...) {
@@ -75,6 +78,8 @@ std::string what_it_threw(F&& f) {
   try {
     f();
     return {};
+  } catch (const abi::__forced_unwind&) {  // a thread ended by pthread_exit: its unwinding must go on
+    throw;
   } catch (...) {
     const std::exception_ptr thrown = std::current_exception();
     (rethrow_if<Pass>(thrown), ...);
