@@ -647,6 +647,16 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
     const bool fixed = failure_settings_.incumbent_level == "fixed" && !refining_;
     p_min = std::max(p_min, fixed ? failure_settings_.refine_min_probability
                                   : std::min(failure_settings_.refine_min_probability, p_incumbent));
+    if (!refining_ && !fresh_region && failure_settings_.streak_backoff) {
+      // failure_model.streak_backoff (session 46; docs/failures.md, item 17): a region without attempts (box,
+      // confidence) has no failure_run to end a streak, and the level followed the incumbent's P down with each
+      // failure beside it (0.8 → 0.73 → 0.68 → … → 0.5): region box, seed 2 of a ball failure next to the
+      // optimum, 7 falls in a row within 0.003 of each other. As the refinement's backoff: each failure in a row
+      // halves the probability of failure accepted.
+      const Index streak = failed_in_a_row(k);
+      if (streak > 0)
+        p_min = 1.0 - (1.0 - p_min) * std::ldexp(1.0, -static_cast<int>(std::min<Index>(streak, 60)));
+    }
     if (refining_ && failure_settings_.refine_backoff && refine_trial_ >= 0) {
       // failure_model.refine_backoff (session 42; docs/failures.md, item 13): the incumbent's P falls with every
       // failure beside it, and with it the level, so a refinement at a failure face proposed its points at the

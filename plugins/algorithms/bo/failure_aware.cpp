@@ -45,6 +45,11 @@ const OptionSet<FailureModelSettings>& failure_model_set() {
                   "incumbent's P)) applies: the final refinement only, or every model-based trial; fixed = every "
                   "model-based trial, outside the refinement at refine_min_probability itself (not lowered to the "
                   "incumbent's P)"),
+      opt::boolean("streak_backoff", &FailureModelSettings::streak_backoff,
+                   "with a region without attempts (box, confidence), each failed trial in a row halves the "
+                   "probability of failure a model-based trial may take (its level of P(success) becomes "
+                   "1 − (1 − level)/2^f after f failures in a row), so the level does not follow the incumbent's "
+                   "falling P into the failures; a trust region's attempts end after failure_run failures instead"),
       opt::boolean("replace_design", &FailureModelSettings::replace_design,
                    "after the initial design, one replacement point per failed design point (where success is likely, "
                    "farthest from the design's successes), so the first cost model sees as many points as without "
@@ -232,7 +237,7 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
   const ConfigNode node = o.node("failure_model");
   if (!node.is_map())
     node.fail("expected a map: {enabled: auto|on|off, min_probability: p, lengthscales: ard|shared, "
-              "refine_min_probability: p, replace_design: bool, stall_value: f, stall_scale: best|range|std|recent, "
+              "refine_min_probability: p, streak_backoff: bool, replace_design: bool, stall_value: f, stall_scale: best|range|std|recent, "
               "stall_strict: bool, stall_incumbent: t, stall_remaining: n, stall_attempt: bool, "
               "repeat_distance: d, boundary_restart: bool, boundary_reach: r, boundary_tabu: r, "
               "feasible_region: off|failed|limited|both, feasible_shrink: count|halve, feasible_margin: m, "

@@ -40,6 +40,9 @@ struct FailureModelSettings {
   /// (session fail13, not the default): every model-based trial, outside the refinement at refine_min_probability
   /// itself, not lowered to the incumbent's P.
   std::string incumbent_level = "always";
+  /// With a region without attempts (box, confidence; no failure_run to end a streak): each failed trial in a row
+  /// halves the probability of failure a model-based trial may take (session 46).
+  bool streak_backoff = true;
   /// Each failed point of the initial design is followed by a replacement where success is likely.
   bool replace_design = false;
   /// > 0: once a trial has failed, the region (trust_region) also counts a trial without a region success whose
