@@ -468,6 +468,9 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // summary.json lost the recommended θ and its regret).
   bool bad_recommendation_said = false;
   Index failures_in_a_row = 0, timeouts_in_a_row = 0;
+  // The unit-cube box of the current streak's failed θ, and the θ of its last failure: a streak at one place is a
+  // failure region the algorithm keeps to (rssgd started inside one never moves), not a rig that is down.
+  Vec streak_low, streak_high, streak_theta;
   std::string last_failure;
   // The regret figures only: a task's noise-free cost that throws (third-party code) leaves them out, said once,
   // instead of ending the run with "internal error" and the evaluated trial left pending (red team, session 23).
@@ -813,6 +816,15 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     writer.trial(row);
     accounted_seq = std::max(accounted_seq, row.trial.finish_seq + 1);
     failures_in_a_row = row.ok() ? 0 : failures_in_a_row + 1;
+    if (!row.ok() && row.trial.x.size() > 0) {
+      if (failures_in_a_row == 1 || streak_low.size() != row.trial.x.size()) {
+        streak_low = streak_high = row.trial.x;
+      } else {
+        streak_low = streak_low.cwiseMin(row.trial.x);
+        streak_high = streak_high.cwiseMax(row.trial.x);
+      }
+      streak_theta = row.trial.theta;
+    }
     // The external task's timeout message: a streak of those is a timeout too short, not a rig that is down.
     timeouts_in_a_row = row.ok() ? 0 : timeouts_in_a_row + (row.trial.error.find("timed out after") != std::string::npos);
     if (!row.ok()) last_failure = row.trial.error;
@@ -843,7 +855,16 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
               ? fmt::format("Every one timed out: if a trial needs longer, continue with a longer timeout: varbo "
                             "worker {} --timeout SECONDS (the study's command); else check the setup",
                             shell_word(store_path))
-              : std::string("Check the setup (is the robot powered, the E-stop released?)"),
+              : streak_low.size() > 0 && (streak_high - streak_low).maxCoeff() <= 0.25
+                  // red team, session 46: rssgd started inside a failure region fails there until this stop, and a
+                  // resume fails 10 times more; the message blamed the rig.
+                  ? fmt::format("The {} failed θ lie within {:.0f} % of the domain of one another (the last: "
+                                "{}): if the setup works, the search is stuck in a failure region — an algorithm that "
+                                "moves only on successes (rssgd, cma_es) needs a start point outside it (`start:`, "
+                                "`x0:`); else check the setup (is the robot powered, the E-stop released?)",
+                                failures_in_a_row, std::ceil(100 * (streak_high - streak_low).maxCoeff()),
+                                fmt_vec(streak_theta))
+                  : std::string("Check the setup (is the robot powered, the E-stop released?)"),
           fmt::format(fmt::runtime(ov.resume_hint), resume_target),
           // The command is part of the study's identity (a resumed run runs the stored one): a wrong command is
           // replaced by a worker's, which runs the same study (red team, session 23).
