@@ -26,7 +26,7 @@ namespace py = pybind11;
 /// begins is let through by at_exit() first.)
 class ReleasedGil {
  public:
-  ReleasedGil() : state_(PyEval_SaveThread()) {}
+  ReleasedGil() : state_(PyEval_SaveThread()) { interrupted = 0; }
   ~ReleasedGil() {
     before_taking();
     PyEval_RestoreThread(state_);
@@ -42,6 +42,13 @@ class ReleasedGil {
     }
   }
   static void after_taking() { --restoring; }
+  /// The host poll of varbo/interrupt.hpp (set at import): a Ctrl-C the interpreter has seen while this call waits
+  /// (the study store's wait for its write lock, up to ~10 min while an `sqlite3` shell holds it) ends the wait as a
+  /// SIGINT ends `varbo run`'s, and the call raises KeyboardInterrupt (red team, session 46: `tell` ignored Ctrl-C
+  /// for as long as the lock was held, then recorded the result and raised). The main thread only (where CPython
+  /// runs signal handlers); latched until the next varbo call.
+  static int interrupt_poll();
+  static inline unsigned long main_thread_ident = 0;  ///< PyThread_get_thread_ident() of the importing thread
   /// Never returns: a thread that must not touch Python again waits here until the process is gone.
   [[noreturn]] static void park() {
     for (;;) pause_forever();
@@ -63,6 +70,7 @@ class ReleasedGil {
   static void pause_forever();
   static inline std::atomic<bool> exiting{false};
   static inline std::atomic<int> restoring{0};  ///< threads between the check and having the GIL back
+  static inline thread_local int interrupted = 0;  ///< interrupt_poll()'s latch for this thread's current call
   PyThreadState* state_;
 };
 

@@ -1,6 +1,8 @@
 // Conversions between varbo's types and Python objects.
 #include <unistd.h>
 
+#include <csignal>
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -243,6 +245,21 @@ Components components_of(const py::handle& obj) {
 
 namespace varbo::python {
 void ReleasedGil::pause_forever() { ::pause(); }
+
+int ReleasedGil::interrupt_poll() {
+  if (interrupted != 0) return interrupted;
+  // Only the main thread runs Python's signal handlers; a wait in another thread is not the Ctrl-C's to end.
+  if (PyThread_get_thread_ident() != main_thread_ident) return 0;
+  before_taking();  // parks at the program's end, as ~ReleasedGil does
+  const PyGILState_STATE gil = PyGILState_Ensure();
+  after_taking();
+  if (PyErr_CheckSignals() != 0) {
+    PyErr_Clear();  // raised again as KeyboardInterrupt when the store's Interrupted reaches Python (errors.cpp)
+    interrupted = SIGINT;
+  }
+  PyGILState_Release(gil);
+  return interrupted;
+}
 
 void ReleasedGil::at_exit() {
   exiting = true;

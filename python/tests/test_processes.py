@@ -193,6 +193,41 @@ def test_ctrl_c_during_ask_leaves_no_trial_pending_that_nobody_got(tmp_path):
     assert all("interrupted while asking" in t.error for t in abandoned)
 
 
+def test_ctrl_c_ends_a_wait_for_the_write_lock(tmp_path):
+    """Another program holds the study's write lock (an sqlite3 shell, a backup): Ctrl-C during tell ends the wait
+    within a few seconds with KeyboardInterrupt and nothing recorded; the same tell succeeds once the lock is free.
+    Before (red team, session 46) tell ignored Ctrl-C for as long as the lock was held (up to ~10 min), then
+    recorded the result and raised."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    path = tmp_path / "s.db"
+    study = varbo.Study.create(path, {"task": {"type": "branin"}, "budget": 5, "seed": 1,
+                                      "algorithm": {"type": "random"}})
+    (t,) = study.ask()
+    holder = subprocess.Popen(
+        [sys.executable, "-c",
+         "import select, sqlite3, sys\n"
+         f"c = sqlite3.connect({str(path)!r}, isolation_level=None); c.execute('BEGIN IMMEDIATE')\n"
+         "print('locked', flush=True); select.select([sys.stdin], [], [], 25); c.execute('COMMIT')\n"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        timer = threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT))
+        timer.start()
+        start = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            study.tell(t, 1.0)
+        assert time.monotonic() - start < 15  # the lock is held for 25 s unless released below
+        timer.join()
+    finally:
+        holder.communicate("go\n", timeout=60)
+    assert [x.state for x in study.trials(as_frame=False) if x.id == t.id] == ["pending"]
+    study.tell(t, 1.0)
+    assert [x.state for x in study.trials(as_frame=False) if x.id == t.id] == ["complete"]
+
+
 def test_a_trial_of_a_study_created_again_at_the_same_path_is_refused(tmp_path):
     """A notebook re-run: the file deleted and created again; the old Trial's result landed on the new study's
     trial of that id, another θ."""

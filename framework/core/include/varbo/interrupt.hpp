@@ -15,6 +15,12 @@ void install_interrupt_handlers();
 bool stop_signal_ignored(int sig);
 /// The signal that asked this process to stop, or 0.
 int interrupt_signal();
+/// An embedding host's own stop request, for a host that keeps the signals to itself (the Python module: a Ctrl-C
+/// its interpreter has seen): returns a signal number or 0. One per process; null = none.
+void set_host_interrupt_poll(int (*poll)());
+/// interrupt_signal(), else the host's poll (set_host_interrupt_poll): what a wait that a stop ends consults (the
+/// study store's wait for its write lock).
+int interrupt_requested();
 /// Readable (poll POLLIN) once a stop signal arrived; -1 until install_interrupt_handlers().
 int interrupt_fd();
 /// "SIGTERM", "SIGINT", ... ("signal N" for others).

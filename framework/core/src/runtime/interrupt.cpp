@@ -69,6 +69,18 @@ bool stop_signal_ignored(int sig) {
 
 int interrupt_signal() { return g_signal.load(); }
 
+namespace {
+std::atomic<int (*)()> g_host_poll{nullptr};
+}
+
+void set_host_interrupt_poll(int (*poll)()) { g_host_poll.store(poll); }
+
+int interrupt_requested() {
+  if (const int sig = g_signal.load(); sig != 0) return sig;
+  int (*poll)() = g_host_poll.load();
+  return poll ? poll() : 0;
+}
+
 int interrupt_fd() { return g_pipe[0]; }
 
 std::string signal_name(int sig) {

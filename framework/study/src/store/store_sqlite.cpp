@@ -620,7 +620,7 @@ class SqliteStore final : public StudyStore {
     if (count == 0) store->busy_since_ = now;
     const auto waited = std::chrono::duration_cast<std::chrono::milliseconds>(now - store->busy_since_).count();
     if (waited >= kBusyTimeoutMs) return 0;
-    if (interrupt_signal() != 0) {
+    if (interrupt_requested() != 0) {
       if (store->interrupted_at_ == std::chrono::steady_clock::time_point{}) store->interrupted_at_ = now;
       const auto since = std::chrono::duration_cast<std::chrono::milliseconds>(now - store->interrupted_at_).count();
       if (since >= kInterruptedWaitMs) return 0;
@@ -629,7 +629,7 @@ class SqliteStore final : public StudyStore {
     return 1;
   }
   void stop_if_interrupted() const {
-    if (const int sig = interrupt_signal(); sig != 0) throw Interrupted(sig);
+    if (const int sig = interrupt_requested(); sig != 0) throw Interrupted(sig);
   }
 
   void begin_immediate(const OpenTransactions::Key& file = {}) {
