@@ -26,6 +26,7 @@
 #include "varbo/loader.hpp"
 #include "varbo/store.hpp"
 #include "varbo/study.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::python {
 
@@ -38,6 +39,7 @@ struct Objective {
   py::object fun;
   py::object callback;
   int stop = 0;                                  ///< sticky: once set, every later poll stops
+  bool said_traceback = false;                   ///< the first failing exception's traceback is logged whole
   std::unique_ptr<py::error_already_set> error;  ///< raised again once the run has ended
 
   /// Called with the GIL held: Ctrl-C pending? Records the KeyboardInterrupt (or what a signal handler raised).
@@ -74,7 +76,30 @@ std::string describe(const py::error_already_set& e) {
       message = "(the exception's message could not be read)";
     }
   }
-  return fmt::format("{}: {}", type, message);
+  // Where it was raised: the innermost frame of its traceback. A typo in the objective (NameError) failed ten trials
+  // and stopped the run with "NameError: name 'x' is not defined", no file or line (red team, session 46).
+  std::string where;
+  try {
+    py::object tb = e.trace();
+    if (!tb.is_none()) {
+      while (!tb.attr("tb_next").is_none()) tb = tb.attr("tb_next");
+      const py::object code = tb.attr("tb_frame").attr("f_code");
+      where = fmt::format(" (at {}:{} in {})", py::cast<std::string>(py::str(code.attr("co_filename"))),
+                          py::cast<long>(tb.attr("tb_lineno")), py::cast<std::string>(py::str(code.attr("co_name"))));
+    }
+  } catch (...) {
+  }
+  return fmt::format("{}: {}{}", type, message, where);
+}
+
+/// The whole traceback, as Python prints it ("" if it cannot be formatted).
+std::string traceback_text(const py::error_already_set& e) {
+  try {
+    const py::object lines = py::module_::import("traceback").attr("format_exception")(e.type(), e.value(), e.trace());
+    return py::cast<std::string>(py::str("").attr("join")(lines));
+  } catch (...) {
+    return {};
+  }
 }
 
 /// A failed trial saying why.
@@ -204,10 +229,20 @@ Evaluation evaluate(Objective* objective, const Vec& theta, const std::vector<st
     ReleasedGil::park();
   } catch (py::error_already_set& e) {
     leave_if_forked(*objective, &e);
-    if (e.matches(PyExc_KeyboardInterrupt) || e.matches(PyExc_SystemExit)) {
+    // Not an Exception (KeyboardInterrupt, SystemExit, GeneratorExit, asyncio.CancelledError, a user's
+    // `class EStop(BaseException)` written so that `except Exception` cannot swallow it): the run stops and it is
+    // raised again, as Python's own code would let it through. Before session 46 only the first two stopped the run;
+    // the others were failed trials and the run went on (red team).
+    if (!e.matches(PyExc_Exception)) {
       objective->stop = SIGINT;
       objective->error = std::make_unique<py::error_already_set>(std::move(e));
       throw Interrupted(SIGINT);
+    }
+    if (!objective->said_traceback) {
+      objective->said_traceback = true;
+      if (const std::string tb = traceback_text(e); !tb.empty())
+        log_warn("minimize: the objective raised (the first such trial; later ones give the innermost line only):\n{}",
+                 abbreviate(tb, 8000));
     }
     return failed(describe(e));
   } catch (const std::exception& e) {

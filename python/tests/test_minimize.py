@@ -319,3 +319,33 @@ def test_offline_commands_read_a_minimize_run(tmp_path):
     # rescore re-weights components (none here): it reads the run and selects offline.
     r = run_cli("rescore", tmp_path / "r", "--kappa", "0", check=False)
     assert "cannot call it" not in r.stderr
+
+
+def test_an_objective_error_names_where_it_was_raised_and_a_base_exception_stops_the_run(tmp_path, capfd):
+    """Red team, session 46: a typo in the objective failed ten trials with "NameError: name ... is not defined" and
+    no file or line; an exception derived from BaseException only (an E-stop class written so that `except
+    Exception` cannot swallow it) was a failed trial and the run went on."""
+    def typo(p):
+        return undefined_name + p["x"]  # noqa: F821
+
+    r = varbo.minimize(typo, {"x": (0, 1)}, budget=2, seed=1, output=tmp_path / "typo")
+    line = typo.__code__.co_firstlineno + 1
+    assert all(t.error.endswith(f"test_minimize.py:{line} in typo)") for t in r.trials), r.trials[0].error
+    assert "Traceback (most recent call last)" in capfd.readouterr().err  # the first one logged whole
+
+    class EStop(BaseException):
+        pass
+
+    calls = []
+
+    def stop_on_third(p):
+        calls.append(p["x"])
+        if len(calls) == 3:
+            raise EStop("E-stop pressed")
+        return p["x"]
+
+    with pytest.raises(EStop):
+        varbo.minimize(stop_on_third, {"x": (0, 1)}, budget=10, seed=1, output=tmp_path / "estop")
+    assert len(calls) == 3
+    states = [t.state for t in varbo.Study.open(tmp_path / "estop" / "study.db").trials(as_frame=False)]
+    assert states == ["complete", "complete", "abandoned"]
