@@ -313,7 +313,17 @@ void bind_minimize(py::module_& m) {
             const py::dict record = trial_dict(t, names, space.get());
             PyObject* raw = PyObject_CallOneArg(objective.callback.ptr(), record.ptr());  // as in evaluate()
             if (!raw) throw py::error_already_set();
-            return !py::cast<bool>(py::bool_(py::reinterpret_steal<py::object>(raw)));
+            const py::object answer = py::reinterpret_steal<py::object>(raw);
+            if (!py::cast<bool>(py::bool_(answer))) return true;
+            // Said: any truthy value ends the run ("no", a dict), and the result did not say why it stopped (red
+            // team, session 46).
+            // A warning unless it is True itself: `return "no"` or a dict is most likely not meant as "stop".
+            const std::string text = fmt::format("minimize: the callback returned {} after trial {}: the run stops "
+                                                 "here (return None or False to go on)",
+                                                 safe_text(py::cast<std::string>(py::repr(answer)), 80), t.id);
+            if (answer.is(py::bool_(true))) log_info("{}", text);
+            else log_warn("{}", text);
+            return false;
           } catch (const abi::__forced_unwind&) {  // the program ended during the callback: as in evaluate()
             ReleasedGil::park();
           } catch (py::error_already_set& e) {
