@@ -528,3 +528,13 @@ def test_names_and_labels_beyond_the_basic_plane_in_a_dict(tmp_path):
     assert labels <= {"ü", "日本", "🤖"} and labels
     r = varbo.minimize(lambda p: p["x🤖"] ** 2, {"x🤖": (-1, 1)}, budget=3, seed=1, output=tmp_path / "m")
     assert set(r.params) == {"x🤖"}
+
+
+def test_components_given_twice_are_refused(tmp_path):
+    """Red team, session 46: tell(t, {"cost": 1, "components": {"e": 1}}, components={"f": 2}) stored {"f": 2}."""
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 3, "algorithm": {"type": "random"}})
+    (t,) = s.ask()
+    with pytest.raises(varbo.InputError, match="components given twice"):
+        s.tell(t, {"cost": 1.0, "components": {"e": 1.0}}, components={"f": 2.0})
+    s.tell(t, {"cost": 1.0, "components": {"e": 1.0}})
+    assert [x.state for x in s.trials(as_frame=False)] == ["complete"]

@@ -126,6 +126,9 @@ def _cost_and_components(cost: Any, components: Optional[Mapping[str, float]]):
                           f"'cost' and optionally 'components')", UserWarning, stacklevel=3)
         if "cost" not in cost:
             raise InputError("a result dict needs 'cost' (and optionally 'components')")
+        if components is not None and cost.get("components") is not None:
+            # Both given: the keyword's won in silence (red team, session 46).
+            raise InputError("components given twice: in the result dict and as components=; give them once")
         comps = cost.get("components") if components is None else components
         return _checks.real(cost["cost"], "cost"), _components(comps)
     return _checks.real(cost, "cost"), _components(components)
