@@ -538,3 +538,16 @@ def test_components_given_twice_are_refused(tmp_path):
         s.tell(t, {"cost": 1.0, "components": {"e": 1.0}}, components={"f": 2.0})
     s.tell(t, {"cost": 1.0, "components": {"e": 1.0}})
     assert [x.state for x in s.trials(as_frame=False)] == ["complete"]
+
+
+def test_a_failure_reason_is_kept_as_a_task_failure_is(tmp_path):
+    """Red team, session 46: Study.fail(t, 'a\\0b') stored 'a'; a 10 MB reason was kept whole, while minimize's
+    failed trials kept about 4 KB. Every path now keeps a printable reason of at most 2 KiB at each end."""
+    s = varbo.Study.create(tmp_path / "s.db", {"task": {"type": "branin"}, "budget": 3, "algorithm": {"type": "random"}})
+    (t,) = s.ask()
+    s.fail(t, "a\0b")
+    (u,) = s.ask()
+    s.fail(u, "x" * 1_000_000)
+    errors = [x.error for x in s.trials(as_frame=False)]
+    assert errors[0] == "a\\x00b"
+    assert errors[1].startswith("x" * 2000) and len(errors[1]) < 5000

@@ -549,11 +549,19 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
   return add_manual_trial(theta, e);
 }
 
+namespace {
+/// A failure's reason as every path keeps it (study_run.cpp does the same for a task's): printable, at most 2 KiB.
+/// `Study.fail(t, 'a\0b')` stored 'a', and a 10 MB reason was kept whole (red team, session 46).
+std::string kept_reason(const std::string& reason) {
+  return reason.empty() ? std::string("failed") : abbreviate(printable(reason), 2048);
+}
+}  // namespace
+
 std::int64_t Study::fail_point(const Vec& theta, const std::string& reason) {
   Evaluation e;
   e.ok = false;
   e.cost = std::nan("");
-  e.error = reason.empty() ? std::string("failed") : reason;
+  e.error = kept_reason(reason);
   return add_manual_trial(theta, e);
 }
 
@@ -626,7 +634,7 @@ void Study::fail(std::int64_t id, const std::string& reason) {
   Evaluation e;
   e.ok = false;
   e.cost = std::nan("");
-  e.error = reason.empty() ? std::string("failed") : reason;
+  e.error = kept_reason(reason);
   record(id, e, 0.0);
 }
 
