@@ -48,6 +48,8 @@ class ReleasedGil {
   /// for as long as the lock was held, then recorded the result and raised). The main thread only (where CPython
   /// runs signal handlers); latched until the next varbo call.
   static int interrupt_poll();
+  /// Ends interrupt_poll()'s latch: called where the Interrupted it caused becomes KeyboardInterrupt (errors.cpp).
+  static void clear_interrupt() { interrupted = 0; }
   static inline unsigned long main_thread_ident = 0;  ///< PyThread_get_thread_ident() of the importing thread
   /// Never returns: a thread that must not touch Python again waits here until the process is gone.
   [[noreturn]] static void park() {

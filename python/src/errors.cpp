@@ -85,6 +85,7 @@ void bind_errors(py::module_& m) {
     } catch (const NumericalError& e) {
       PyErr_SetString(g_numerical_error, e.what());
     } catch (const Interrupted& e) {
+      ReleasedGil::clear_interrupt();  // the next call waits again unless another Ctrl-C comes
       PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
     } catch (const Error& e) {
       PyErr_SetString(g_error, e.what());
