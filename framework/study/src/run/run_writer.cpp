@@ -242,10 +242,13 @@ void RunWriter::trial(const TrialRow& r) {
           << "," << csv_escape(t.error);
   if (with_regret_) trials_ << "," << exact(r.regret_best_observed) << "," << exact(r.regret_recommended);
   trials_ << "\n";
+  errno = 0;
   trials_.flush();
   if (!trials_ && !trials_warned_) {  // a full disk: the study holds the trial; the table does not (said once)
+    // errno as the failed write left it ("cannot write (Success)" on a full disk read it after it was reset).
+    const int err = errno;
     log_warn("{}/trials.csv: cannot write ({}); the study file keeps every trial: `varbo export` writes the table",
-             folder_, std::strerror(errno));
+             folder_, err ? std::strerror(err) : "a write failed");
     trials_warned_ = true;
   }
 }
@@ -307,28 +310,44 @@ void RunWriter::summary(const RunSummary& s, const Domain& domain, const std::op
   if (!description_.empty()) j["description"] = description_;
   const std::string tmp = aside("summary.json");
   bool written = false;
+  int err = 0;  // errno of the first failed step, read before anything else can change it
   {
     std::ofstream out;
+    errno = 0;
     open_fresh(out, tmp);
+    if (!out) err = errno;
     out << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
     out.flush();
+    if (!out && err == 0) err = errno;
     written = static_cast<bool>(out);
     out.close();
+    if (out.fail() && err == 0) err = errno;
     written = written && !out.fail();
   }
   std::error_code ec;
   // A full disk wrote an empty temporary file, which replaced the good summary.json (and with it the study's name
-  // that guards the folder) with exit 0 (red team, session 25): keep the last complete one and say so.
+  // that guards the folder) with exit 0 (red team, session 25): keep the last complete one and say so. The reason
+  // is the failed step's errno: read after the removal below it said "No such file or directory" for a folder
+  // made read-only (red team, session 46).
   if (!written) {
     fs::remove(tmp, ec);
     if (!summary_warned_)
       log_warn("{}/summary.json: cannot write ({}); the previous one is kept, the study itself holds every trial",
-               folder_, std::strerror(errno));
+               folder_, err ? std::strerror(err) : "a write failed");
     summary_warned_ = true;
+    summary_stale_ = true;
     return;
   }
   fs::rename(tmp, folder_ + "/summary.json", ec);
   if (ec) log_warn("{}/summary.json: cannot replace it ({})", folder_, ec.message());
+  summary_stale_ = static_cast<bool>(ec);
+}
+
+std::vector<std::string> RunWriter::stale_files() const {
+  std::vector<std::string> out;
+  if (trials_warned_ || (published_ && !trials_)) out.push_back("trials.csv");
+  if (summary_stale_) out.push_back("summary.json");
+  return out;
 }
 
 }  // namespace varbo

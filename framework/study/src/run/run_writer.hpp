@@ -41,6 +41,10 @@ class RunWriter {
   void model(const ModelSnapshot& snapshot);
   void summary(const RunSummary& summary, const Domain& domain, const std::optional<Optimum>& optimum);
   const std::string& folder() const { return folder_; }
+  /// The run folder's files that are not up to date because writing them failed (trials.csv, summary.json): said
+  /// again at the end of the run, where a warning at trial 3 of an overnight run scrolled away (red team, session
+  /// 46: a folder made read-only mid-run left summary.json at 3 evaluations, exit 0).
+  std::vector<std::string> stale_files() const;
   /// The study the run folder belongs to, written into summary.json as "study" (an absolute path, or the URL with
   /// its password hidden): a later run of another study refuses to overwrite the folder (study_run.cpp).
   void set_study(std::string study) { study_ = std::move(study); }
@@ -59,6 +63,7 @@ class RunWriter {
   bool warned_extra_ = false;
   bool trials_warned_ = false;   // trials.csv could not be written (said once)
   bool summary_warned_ = false;  // summary.json could not be written (said once)
+  bool summary_stale_ = false;   // the last summary.json could not be written
   bool with_regret_ = false;  ///< trials.csv carries regret_best_observed and regret_recommended
   SharedSpace space_;         ///< typed parameters: θ written as labels and integers
   std::string study_;

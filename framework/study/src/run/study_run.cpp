@@ -1,6 +1,7 @@
 // The ask / evaluate / tell loop of `varbo run`.
 #include <cxxabi.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -888,6 +889,11 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
              st.replay_mismatches());
   summary.seconds = seconds_since(t_start);
   writer.summary(summary, shown, optimum);
+  if (const std::vector<std::string> stale = writer.stale_files(); !stale.empty())
+    log_warn("run {}: {} not up to date (writing failed: see the first warning); the study file holds every trial "
+             "— `varbo status {}` shows the best, `varbo export {}` writes the table",
+             study.output, fmt::join(stale, " and "), shell_word(store_path),
+             shell_word(store_path));
   if (stop_signal) {
     log_warn("run {} stopped by {} after {} evaluations; continue it with: {}", study.output,
              signal_name(stop_signal), summary.evaluations, fmt::format(fmt::runtime(ov.resume_hint), resume_target));
