@@ -492,6 +492,33 @@ TEST_CASE("a run beside a worker: summary.json and trials.csv hold every result 
   fs::remove_all(dir);
 }
 
+TEST_CASE("--overwrite refuses a study that a live worker is working on; a stopped worker's study is replaced") {
+  // Red team, session 46: `varbo run CFG -o DIR --overwrite` erased the study under a live `varbo worker`, exit 0:
+  // the result of its trial in flight, measured on the robot, was lost.
+  const std::string dir = scratch("overwrite_live_worker");
+  const std::string cfg = dir + "/c.yaml", db = dir + "/run/study.db";
+  std::ofstream(cfg) << "task: {type: external, command: 'cat > /dev/null; sleep 4; echo 1', dim: 2, "
+                        "bounds: [-1, 1]}\nalgorithm: random\nbudget: 4\n";
+  const std::string V = VARBO_EXE;
+  fs::create_directories(dir + "/run");
+  REQUIRE(test::run({V, "-q", "study", "create", db, cfg}).exit_code == 0);
+  const pid_t worker = test::spawn({V, "-q", "worker", db}, dir + "/worker.log");
+  for (int i = 0; i < 2000 && trial_count(db) < 1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(trial_count(db) == 1);
+  const auto refused = test::run({V, "run", cfg, "-o", dir + "/run", "--overwrite", "--no-progress"}, dir + "/ow.log");
+  CHECK(refused.exit_code == 2);
+  CHECK(contains(slurp(dir + "/ow.log"), "live workers are working on: 1 trial(s) in flight"));
+  CHECK(trial_count(db) == 1);  // nothing erased
+  ::kill(worker, SIGTERM);
+  test::wait_for(worker);
+  std::ofstream(dir + "/quick.yaml") << "task: {type: branin}\nalgorithm: random\nbudget: 2\n";
+  CHECK(test::run({V, "-q", "run", dir + "/quick.yaml", "-o", dir + "/run", "--overwrite", "--no-progress"},
+                  dir + "/ow2.log")
+            .exit_code == 0);
+  CHECK(trial_count(db) == 2);  // the stopped worker's study replaced
+  fs::remove_all(dir);
+}
+
 TEST_CASE("a nearly full disk: a study file is created whole or not at all; summary.json keeps the last good one") {
   // Red team, session 25: `study create` on a disk with ~120 KB free linked a study file without its tables (the
   // close's checkpoint failed silently and the -wal holding the data was removed), "malformed" for good; a resumed
@@ -550,6 +577,10 @@ TEST_CASE("a nearly full disk: a study file is created whole or not at all; summ
             .exit_code == 0);
   CHECK(slurp(mnt + "/r/summary.json") == before);
   CHECK(contains(slurp(dir + "/resume.log"), "summary.json: cannot write"));
+  // Its reason is the failed write's (session 46: read after a cleanup it said "No such file or directory" or
+  // "Success"), and the run's end says again which file is stale.
+  CHECK(contains(slurp(dir + "/resume.log"), "No space left on device"));
+  CHECK(contains(slurp(dir + "/resume.log"), "summary.json not up to date"));
   CHECK(open_sqlite_store(dir + "/s.db")->trials().size() == 40);  // the study has every trial
 }
 

@@ -2,6 +2,7 @@
 #include <cxxabi.h>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
+#include <yaml-cpp/yaml.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -196,6 +197,43 @@ void refuse_other_studys_folder(const std::string& folder, const std::string& st
                                ov.resume ? std::string() : ", or " + ov.overwrite_hint + " to replace them"));
 }
 
+/// `--overwrite` of a study that live workers are working on: the result of each trial in flight, measured on the
+/// robot, would land nowhere and the workers stop (red team, session 46: exit 0, the worker's cost 2.33 lost). A
+/// worker is live while its process is not known gone and its heartbeat is within the stored heartbeat_timeout.
+void refuse_to_overwrite_live_workers(const std::string& store_path) {
+  std::unique_ptr<StudyStore> store;
+  try {
+    store = open_sqlite_store(store_path);
+  } catch (const std::exception&) {
+    return;  // not a readable study: refuse_to_overwrite_foreign has judged the file
+  }
+  double timeout = 60;
+  if (const auto text = store->meta(store_key::kConfig)) {
+    try {
+      const YAML::Node t = YAML::Load(*text)["heartbeat_timeout"];
+      if (t && t.IsScalar()) timeout = t.as<double>();
+    } catch (const std::exception&) {
+    }
+  }
+  const std::vector<TrialRecord> pending = store->pending_trials();
+  const double now = unix_time();
+  std::vector<std::string> live;
+  Index trials = 0;
+  for (const WorkerRecord& w : store->workers()) {
+    if (w.state != "running" || worker_process_gone(w.id)) continue;
+    if (timeout > 0 && now - w.heartbeat_at > timeout) continue;
+    const auto held = std::count_if(pending.begin(), pending.end(), [&](const TrialRecord& t) { return t.worker == w.id; });
+    if (held == 0) continue;
+    trials += static_cast<Index>(held);
+    live.push_back(fmt::format("{} (heartbeat {:.0f} s ago)", w.id, std::max(0.0, now - w.heartbeat_at)));
+  }
+  if (!live.empty())
+    throw InputError(fmt::format(
+        "{}: --overwrite would erase a study that live workers are working on: {} trial(s) in flight by {}; their "
+        "results would be lost. Stop the workers first (Ctrl-C, or SIGTERM), or run into another folder",
+        store_path, trials, fmt::join(live, ", ")));
+}
+
 /// `--overwrite` replaces a study file: not a file that is no study at all, and not the study of another run folder
 /// (`run CFG -o B --study A/study.db --overwrite` erased run A's trials, and `--study cfg.yaml --overwrite` turned
 /// the configuration into a database, both with exit 0; audit, session 44).
@@ -384,6 +422,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     locks.push_back(RunLock::acquire(RunLock::lock_file_of(folder_store), fmt::format("the run folder {}", study.output)));
   if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
     if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov, study_identity(study));
+    else refuse_to_overwrite_live_workers(store_path);
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
   } else if (!ov.resume && ov.overwrite) {
     remove_store_files(store_path);  // no study file, but maybe its leftover -wal, which creating would refuse
