@@ -237,6 +237,10 @@ def views_agree(varbo, work):
         status, t, _ = d.get("/api/trials")
         check(status == 200 and t["trials"][0]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc"},
               f"typed params as declared: {t['trials'][0].get('params')}")
+        # Session 46: the summary's best θ gave the category's index only ("solver=1" on the page).
+        status, sm, _ = d.get("/api/summary")
+        check(status == 200 and sm["best"]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc"},
+              f"the summary's best θ typed as declared: {sm.get('best')}")
     regret = os.path.join(work, "regret")
     os.makedirs(regret, exist_ok=True)
     cfg = os.path.join(regret, "c.yaml")

@@ -261,6 +261,11 @@ std::string DashboardApi::summary() {
             {"server_time", unix_time()}};
   j["best"] = best ? json{{"id", best->id}, {"cost", best->cost}, {"theta", theta_json(names, best->theta)}}
                    : json(nullptr);
+  // Typed values as declared (labels, integers), as /api/trials gives each trial's: the page showed the best θ's
+  // category as its index ("solver=1") beside the recommended row's label (red team, session 46).
+  if (best && s.space() && best->theta.size() == static_cast<Index>(s.space()->parameters().size()) &&
+      best->theta.allFinite())
+    j["best"]["params"] = json::parse(s.space()->params(best->theta).to_json());
   return json_text(j);
 }
 
