@@ -347,7 +347,11 @@ Runner add_worker(CLI::App& app) {
         const bool replaced = dynamic_cast<const StudyFileChangedError*>(&err) != nullptr;
         std::fprintf(stderr, "trial %lld (%s) at θ = %s was evaluated but its result could not be recorded: %s; %s%s\n",
                      static_cast<long long>(t.id), e.ok ? ("cost " + exact(e.cost)).c_str() : "failed",
-                     terminal_line(theta_text(t.theta)).c_str(), safe_text(err.what(), 300).c_str(),
+                     // Typed as declared: a category by its label, not its index (red team, session 46).
+                     terminal_line(study.space() && t.theta.allFinite() ? study.space()->params(t.theta).to_json()
+                                                                        : theta_text(t.theta))
+                         .c_str(),
+                     safe_text(err.what(), 300).c_str(),
                      replaced ? "it belongs to the study that was at that path when this worker opened it, not to the "
                                 "file there now (do not record it there)"
                               : "once the cause is fixed, record it with: ",

@@ -793,7 +793,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       if (dynamic_cast<const StudyFileChangedError*>(&e) != nullptr) {
         log_warn("trial {} ({}) at θ = {} was evaluated but its result could not be recorded: {}; it belongs to the "
                  "study that was at that path when this run opened it, not to the file there now",
-                 t.id, evaluation.ok ? "cost " + exact(evaluation.cost) : "failed", fmt_vec(t.theta),
+                 t.id, evaluation.ok ? "cost " + exact(evaluation.cost) : "failed",
+                 st.space() && t.theta.allFinite() ? st.space()->params(t.theta).to_json() : fmt_vec(t.theta),
                  safe_text(e.what(), 300));
         return;
       }
