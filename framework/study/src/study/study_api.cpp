@@ -80,12 +80,26 @@ std::string key_path(const std::vector<std::string>& lines, std::size_t i) {
     const auto colon = lines[j].find(':');
     if (colon == std::string::npos) continue;
     std::string key = lines[j].substr(in, colon - in);
-    if (key.rfind("- ", 0) == 0) key = key.substr(2);
+    if (key.rfind("- ", 0) == 0) {
+      // An item of a list: named by its `name:` where it has one ("parameters[solver].choices"; it read
+      // "parameters.name.choices", naming no parameter: red team, session 46), else by its first key as before.
+      key = key.substr(2);
+      for (std::size_t m = j; m < lines.size() && (m == j || (indent(lines[m]) != std::string::npos &&
+                                                               indent(lines[m]) > in));
+           ++m) {
+        const std::size_t at = m == j ? in + 2 : indent(lines[m]);
+        if (m != j && at != in + 2) continue;
+        if (lines[m].compare(at, 6, "name: ") == 0) {
+          key = "[" + lines[m].substr(at + 6) + "]";
+          break;
+        }
+      }
+    }
     keys.insert(keys.begin(), key);
     level = in;
   }
   std::string out;
-  for (const auto& k : keys) out += (out.empty() ? "" : ".") + k;
+  for (const auto& k : keys) out += (out.empty() || k.front() == '[' ? "" : ".") + k;
   return out;
 }
 }  // namespace
