@@ -287,8 +287,9 @@ TEST_CASE("a task whose domain changed since the study was created is refused, n
   CHECK_NOTHROW(Study::attach(db, config(), reg));  // the same domain: continued
   g_shifting_upper = 5.0;
   CHECK_THROWS_WITH_AS(Study::attach(db, config(), reg),
-                       doctest::Contains("now has the parameters a in [-1, 5]; b in [-1, 5]; the study was created "
-                                         "with a in [-1, 1]; b in [-1, 1]"),
+                       doctest::Contains("(first difference: parameter 1 was 'a in [-1, 1]', now 'a in [-1, 5]'; a "
+                                         "category reads as its index range). Now: a in [-1, 5]; b in [-1, 5]; then: "
+                                         "a in [-1, 1]; b in [-1, 1]"),
                        InputError);
   g_shifting_upper = 1.0;
 }

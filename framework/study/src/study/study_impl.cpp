@@ -246,10 +246,28 @@ void Study::Impl::check_domain_unchanged() const {
   // (0.775 read as 4.33; red team, session 28). Studies created before this record carry none: not checked.
   const auto stored = store->meta(store_key::kDomain);
   if (!stored || *stored == domain_text()) return;
-  throw InputError(fmt::format("{}: task '{}' now has the parameters {}; the study was created with {}. Its trials "
-                               "were recorded in that domain: restore the task's domain, or start a new study",
+  // The first entry that differs, named (a typed space's categories read as their index ranges, "solver in [0,
+  // 2]", and the whole lists were hard to compare by eye; red team, session 46).
+  auto entries = [](const std::string& text) {
+    std::vector<std::string> out;
+    std::size_t from = 0;
+    for (std::size_t at; (at = text.find("; ", from)) != std::string::npos; from = at + 2)
+      out.push_back(text.substr(from, at - from));
+    out.push_back(text.substr(from));
+    return out;
+  };
+  const auto was = entries(*stored), now = entries(domain_text());
+  std::size_t i = 0;
+  while (i < was.size() && i < now.size() && was[i] == now[i]) ++i;
+  const std::string first =
+      i < was.size() && i < now.size() ? fmt::format("parameter {} was '{}', now '{}'", i + 1, was[i], now[i])
+      : i < now.size()                 ? fmt::format("parameter {} is new: '{}'", i + 1, now[i])
+                                       : fmt::format("parameter {} ('{}') is gone", i + 1, was[i]);
+  throw InputError(fmt::format("{}: task '{}' now has other parameters than the study was created with (first "
+                               "difference: {}; a category reads as its index range). Now: {}; then: {}. Its "
+                               "trials were recorded in that domain: restore the task's domain, or start a new study",
                                store->location(), config.task.info ? config.task.info->full_name() : std::string("?"),
-                               printable(domain_text()), printable(*stored)));
+                               printable(first), printable(domain_text()), printable(*stored)));
 }
 
 std::vector<TrialRecord> Study::Impl::checked(std::vector<TrialRecord> trials) const {
