@@ -118,8 +118,17 @@ RunLock RunLock::acquire(const std::string& lock_path, const std::string& what) 
                                    "runs on this folder it is stale: remove it",
                                    lock_path, st.st_uid));
     }
-    if (fd < 0)
-      throw InputError(fmt::format("{}: cannot create the lock file: {}", lock_path, std::strerror(errno)));
+    if (fd < 0) {
+      const int err = errno;
+      // As `varbo worker` says it (red team, session 46: `run --resume` on a read-only mount said only "cannot
+      // create the lock file: Read-only file system").
+      if (err == EROFS)
+        throw InputError(fmt::format("{} is on a read-only file system: it can be read (varbo status, "
+                                     "export, select, plot) but not run or changed; copy the run folder to a "
+                                     "writable place and resume the copy (cannot create the lock file {})",
+                                     what, lock_path));
+      throw InputError(fmt::format("{}: cannot create the lock file: {}", lock_path, std::strerror(err)));
+    }
     struct stat kind {};
     if (fstat(fd, &kind) != 0 || !S_ISREG(kind.st_mode)) {
       ::close(fd);
