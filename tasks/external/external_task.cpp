@@ -112,7 +112,14 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
                               "the task's containment, then continue the study",
                               r.error)),
         2048));
-  if (r.timed_out) return fail(fmt::format("no answer within the timeout of {} s", s_.process.timeout_seconds));
+  if (r.timed_out)
+    // "no answer" beside a last stdout line holding one read as a contradiction (red team, session 46): an answer
+    // counts once the command has exited.
+    return fail(fmt::format("no answer within the timeout of {} s{}", s_.process.timeout_seconds,
+                            last_nonempty_line(r.out).empty()
+                                ? std::string()
+                                : " (it printed a line, but had not exited: an answer counts once the command "
+                                  "exits)"));
   if (r.output_held)
     return fail("its stdout was kept open by a process it started outside its process tree; the answer may be "
                 "incomplete");
