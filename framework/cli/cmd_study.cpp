@@ -284,6 +284,10 @@ bool database_run_is_live(const std::string& url) {
 }
 }  // namespace
 
+bool run_is_live(const std::string& location) {
+  return is_database_url(location) ? database_run_is_live(location) : RunLock::held(RunLock::lock_file_of(location));
+}
+
 Runner add_abandon(CLI::App& app) {
   auto* cmd = app.add_subcommand("abandon", "Abandon pending trials (their points may be suggested again): those "
                                             "named by --id, else every pending trial whose worker is not alive");
@@ -331,8 +335,7 @@ Runner add_abandon(CLI::App& app) {
     // (`run_worker/ID`). Its in-flight trial was abandoned and, with a worker helping, ran twice on the rig (red
     // team, session 28).
     const std::string location = a->store;
-    const bool run_live = is_database_url(location) ? database_run_is_live(location)
-                                                    : RunLock::held(RunLock::lock_file_of(location));
+    const bool run_live = run_is_live(location);
     std::vector<std::string> spared;
     // A worker of this host whose process is gone is dead whatever its last heartbeat: a SIGKILLed worker's
     // trial was spared as "held by a live worker" for a whole heartbeat_timeout (red team, session 34).

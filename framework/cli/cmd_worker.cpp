@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -243,6 +244,26 @@ Runner add_worker(CLI::App& app) {
       if (asked.empty()) {
         // The budget is used, or held by trials pending elsewhere: wait while those may still finish or be
         // abandoned (their worker silent), then ask again.
+        // A `varbo run` that was killed (SIGKILL, a crash) left its trial pending, and a run sends no heartbeats:
+        // this worker waited for it all night (red team, session 46). With no run holding the study's run lock
+        // (its command's supervisor keeps it until the command is gone), such a trial is abandoned, as a resumed
+        // run or `varbo abandon` would, and asked again.
+        std::vector<std::int64_t> of_dead_runs;
+        for (const auto& t : study.store().pending_trials())
+          if (t.worker != id && !t.worker.empty() && study.store().meta("run_worker/" + t.worker))
+            of_dead_runs.push_back(t.id);
+        if (!of_dead_runs.empty() && !run_is_live(where)) {
+          const auto ids = study.abandon_where(
+              [&](const TrialRecord& p) {
+                return std::find(of_dead_runs.begin(), of_dead_runs.end(), p.id) != of_dead_runs.end();
+              },
+              "abandoned: the `varbo run` that held it is gone (its run lock is free)");
+          if (!ids.empty()) {
+            std::fprintf(stderr, "varbo worker: abandoned %zu trial(s) left pending by a `varbo run` that is gone\n",
+                         ids.size());
+            continue;
+          }
+        }
         std::vector<std::string> others;
         for (const auto& t : study.store().pending_trials())
           if (t.worker != id) others.push_back(fmt::format("{} ({})", t.id, t.worker.empty() ? "no worker" : t.worker));

@@ -519,6 +519,30 @@ TEST_CASE("--overwrite refuses a study that a live worker is working on; a stopp
   fs::remove_all(dir);
 }
 
+TEST_CASE("a worker does not wait forever for the trial of a `varbo run` that was killed") {
+  // Red team, session 46: a run sends no heartbeats, so after a SIGKILL of `varbo run` its pending trial held the
+  // last of the budget and a worker on the study waited all night. Once the run lock is free it is abandoned.
+  const std::string dir = scratch("worker_dead_run");
+  const std::string cfg = dir + "/c.yaml", db = dir + "/s.db";
+  std::ofstream(cfg) << "task: {type: external, command: 'cat > /dev/null; sleep 2; echo 1', dim: 2, "
+                        "bounds: [-1, 1]}\nalgorithm: random\nbudget: 1\n";
+  const std::string V = VARBO_EXE;
+  REQUIRE(test::run({V, "-q", "study", "create", db, cfg}).exit_code == 0);
+  const pid_t run = test::spawn({V, "-q", "run", "--resume", db, "--no-progress"}, dir + "/run.log");
+  for (int i = 0; i < 2000 && trial_count(db) < 1; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  REQUIRE(trial_count(db) == 1);
+  ::kill(run, SIGKILL);
+  test::wait_for(run);
+  const auto worked = test::run({V, "worker", db, "--max-trials", "1"}, dir + "/worker.log");
+  CHECK(worked.exit_code == 0);
+  CHECK(contains(slurp(dir + "/worker.log"), "left pending by a `varbo run` that is gone"));
+  const auto trials = open_sqlite_store(db)->trials();
+  REQUIRE(trials.size() == 2);
+  CHECK(trials[0].state == TrialState::Abandoned);
+  CHECK(trials[1].state == TrialState::Complete);
+  fs::remove_all(dir);
+}
+
 TEST_CASE("a nearly full disk: a study file is created whole or not at all; summary.json keeps the last good one") {
   // Red team, session 25: `study create` on a disk with ~120 KB free linked a study file without its tables (the
   // close's checkpoint failed silently and the -wal holding the data was removed), "malformed" for good; a resumed
