@@ -106,7 +106,15 @@ std::vector<StoredSnapshot> DashboardStudy::snapshots() const {
 
 std::size_t DashboardStudy::workers() const {
   std::lock_guard<std::mutex> lock(store_mutex_);
-  return study_->store().workers().size();
+  // Live ones only, as `varbo status` counts them: running, not known gone, heard from within the study's
+  // heartbeat_timeout (60 s where it is 0). Every worker ever seen was counted ("workers: 4" with none running;
+  // red team, session 46).
+  const double now = unix_time();
+  const double window = study_->config().heartbeat_timeout > 0 ? study_->config().heartbeat_timeout : 60.0;
+  std::size_t live = 0;
+  for (const WorkerRecord& w : study_->store().workers())
+    live += w.state == "running" && now - w.heartbeat_at < window && !worker_process_gone(w.id);
+  return live;
 }
 
 std::optional<double> DashboardStudy::regret_recommended(std::int64_t row) const {
