@@ -10,6 +10,7 @@
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/text.hpp"
 #include "varbo/log.hpp"
 #include "varbo/interrupt.hpp"
 #include "varbo/study.hpp"
@@ -34,7 +35,8 @@ Runner add_run(CLI::App& app) {
   auto* config = cmd->add_option("config", a->config, "study configuration (YAML)");
   auto* resume = cmd->add_option("--resume", a->resume,
                                  "continue an interrupted run: its folder (holding study.db) or its study file");
-  config->excludes(resume);
+  // Not CLI11's excludes ("config excludes --resume"): the message says what each form does (red team, session 46).
+  (void)config;
   cmd->add_flag("--overwrite", a->overwrite,
                 "replace the study of the run folder even if it holds trials (they are lost)")
       ->excludes(resume);
@@ -64,6 +66,13 @@ Runner add_run(CLI::App& app) {
     if (!a->study.empty()) ov.store = a->study;
     if (a->config.empty() && a->resume.empty())
       throw InputError("varbo run: give a study configuration (CONFIG.yaml) or --resume RUN_DIR");
+    if (!a->config.empty() && !a->resume.empty())
+      throw InputError(fmt::format(
+          "varbo run: give either a configuration or --resume, not both: `varbo run --resume {0}` continues the run "
+          "with the configuration it was created with (--budget may raise its budget); to continue it with a changed "
+          "configuration (a larger budget, another stop_after_failures), give that and the run's study: `varbo run "
+          "{1} -o {0} --study {0}/study.db` (a change to the task, algorithm or seed is refused as another study)",
+          shell_word(a->resume), shell_word(a->config)));
     // Ctrl-C, SIGTERM, SIGHUP: the running trial's command is killed with its process tree, the trial is
     // recorded abandoned, and varbo exits with 128 + signal (main.cpp); --resume continues the run.
     install_interrupt_handlers();
