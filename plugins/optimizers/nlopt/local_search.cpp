@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <nlopt.hpp>
 
@@ -30,6 +31,7 @@ struct Tracker {
   OptimizeResult best;          ///< best strictly feasible point
   OptimizeResult near_feasible; ///< best point with −kRepairTolerance ≤ c(x) < 0
   Index evaluations = 0;
+  std::exception_ptr raised;  ///< what the function threw (not a NumericalError): the search stops there
 };
 
 Vec clamp_to(const Box& box, const double* x, unsigned n) {
@@ -47,6 +49,12 @@ double objective(unsigned n, const double* x, double* grad, void* data) {
     v = t.f->value(xv, grad ? &g : nullptr);
   } catch (const NumericalError&) {
     v = std::numeric_limits<double>::quiet_NaN();
+  } catch (...) {
+    // The acquisition or its model threw (a third-party surrogate's predict, say): kept and handled after NLopt
+    // returns (local_maximize), not thrown through NLopt's C frames. It was swallowed with NLopt's own failures
+    // before, and the run went on in silence with other trials (red team, session 46).
+    if (!t.raised) t.raised = std::current_exception();
+    throw nlopt::forced_stop();
   }
   ++t.evaluations;
   if (!std::isfinite(v)) {
@@ -211,6 +219,25 @@ OptimizeResult local_maximize(const DifferentiableFunction& f, const RegionConst
   } catch (const std::exception& e) {
     // Roundoff-limited, forced stops and failures still leave the best point seen so far.
     message = fmt::format("{}: {}", method_name(method), e.what());
+  }
+  if (t.raised) {
+    // A mistake in a component's code stops the run naming it (as ceres_lbfgs does); anything else the function
+    // threw is said (once per process: a fault at some x repeats at every start) and the search keeps its best
+    // point so far.
+    try {
+      std::rethrow_exception(t.raised);
+    } catch (const PluginCodeError&) {
+      throw;
+    } catch (const std::exception& e) {
+      message = fmt::format("{}: the function threw: {}", method_name(method), e.what());
+    } catch (...) {
+      message = fmt::format("{}: the function threw something that is not a std::exception", method_name(method));
+    }
+    static std::atomic<bool> said{false};
+    if (!said.exchange(true))
+      log_warn("nlopt: a local search of the acquisition stopped on an exception from the acquisition or its model "
+               "({}); its best point so far is kept (said once)",
+               message);
   }
   if (region.has_constraint()) repair_into_constraint(t);
   t.best.evaluations = t.evaluations;

@@ -279,3 +279,34 @@ TEST_CASE("the plugin registers nlopt, multistart and random_search; they provid
     CHECK(std::find(info.provides.begin(), info.provides.end(), "optimizer:constraints") != info.provides.end());
   }
 }
+
+TEST_CASE("an exception from the function stops the local search: said, best point kept; a plugin-code error stops the run") {
+  // Red team, session 46: a third-party surrogate's predict throwing at x0 > 0.6 was swallowed with NLopt's own
+  // failures, and the run went on with other trials in silence.
+  const BoxRegion region(Box::unit(2));
+  const Vec target{{0.9, 0.5}};
+  int calls_past = 0;
+  const FunctionRef throws_past(
+      2,
+      [&](const Vec& x, Vec* g) {
+        if (x[0] > 0.6) {
+          ++calls_past;
+          throw std::runtime_error("predict: sensor model not loaded");
+        }
+        if (g) *g = -2 * (x - target);
+        return -(x - target).squaredNorm();
+      },
+      true);
+  for (LocalMethod m : {LocalMethod::Lbfgs, LocalMethod::Slsqp, LocalMethod::Cobyla}) {
+    calls_past = 0;
+    const OptimizeResult r = local_maximize(throws_past, region, Vec{{0.2, 0.2}}, settings(m));
+    CAPTURE(method_name(m));
+    CHECK(calls_past == 1);  // stopped at the first exception
+    CHECK(r.x[0] <= 0.6);    // the best point seen before it
+    CHECK(std::isfinite(r.value));
+    CHECK(r.message.find("sensor model not loaded") != std::string::npos);
+  }
+  const FunctionRef plugin_bug(
+      2, [](const Vec&, Vec*) -> double { throw PluginCodeError("a kernel's gradient returned 3 values"); }, true);
+  CHECK_THROWS_AS(local_maximize(plugin_bug, region, Vec{{0.5, 0.5}}, settings(LocalMethod::Lbfgs)), PluginCodeError);
+}
