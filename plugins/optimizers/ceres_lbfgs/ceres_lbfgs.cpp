@@ -1,5 +1,6 @@
 #include "ceres_lbfgs.hpp"
 
+#include <atomic>
 #include <ceres/gradient_problem.h>
 #include <ceres/gradient_problem_solver.h>
 #include <glog/logging.h>
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 
 namespace varbo::ceres_lbfgs {
 
@@ -44,7 +46,16 @@ class NegatedFunction final : public ceres::FirstOrderFunction {
       // by run_from after Ceres returns (not thrown through Ceres' own frames).
       if (!plugin_error_) plugin_error_ = std::current_exception();
       return false;
-    } catch (const std::exception&) {
+    } catch (const NumericalError&) {  // a value the model cannot give there: a failed step, as NLopt's NaN
+      return false;
+    } catch (const std::exception& e) {
+      // A failed step for Ceres, but said (once per process): a third-party surrogate throwing in some part of the
+      // box was swallowed in silence (red team, session 46).
+      static std::atomic<bool> said{false};
+      if (!said.exchange(true))
+        log_warn("ceres_lbfgs: the acquisition or its model threw at a step ({}); the step counts as failed and the "
+                 "search keeps its best point (said once)",
+                 e.what());
       return false;
     }
   }
