@@ -212,6 +212,15 @@ StudyConfig study_detail::parse_stored_study(const ConfigNode& root, const Regis
         "(loaded by Python's load_plugin, VARBO_PLUGIN_PATH or a C++ host when the study was created), give its file "
         "or folder in VARBO_PLUGIN_PATH",
         e.what(), store_path));
+  } catch (const ConfigError& e) {
+    // The stored configuration was valid when the study was created: a key refused now is a plugin that changed
+    // since (an option removed or renamed), and `status` and `export` of the study's trials said only "unknown key"
+    // (red team, session 46).
+    throw ConfigError(fmt::format(
+        "{}; the study {} was created with this configuration, so a component it names (or varbo) has changed since (a plugin "
+        "rebuilt without that option, or another version of it loaded): load the plugin version the study was "
+        "created with to read or continue it",
+        e.what(), store_path));
   }
 }
 
