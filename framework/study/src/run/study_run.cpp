@@ -758,7 +758,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
                detail.empty() || detail == reason ? "" : " (" + detail + ")");
       break;
     }
-    if (!evaluation.ok) evaluation.error = abbreviate(printable(evaluation.error), 2048);
+    if (!evaluation.ok) evaluation.error = study_detail::stored_reason(evaluation.error);
     // "trial 0 failed: " and an empty error column said nothing (red team, session 23).
     if (!evaluation.ok && evaluation.error.empty()) evaluation.error = "failed (the task gave no reason)";
     // A task that knows its noise-free cost (Task::noiseless_cost) but leaves the evaluation's field empty:

@@ -564,10 +564,10 @@ std::int64_t Study::tell_point(const Vec& theta, double cost, const Components& 
 }
 
 namespace {
-/// A failure's reason as every path keeps it (study_run.cpp does the same for a task's): printable, at most 2 KiB.
-/// `Study.fail(t, 'a\0b')` stored 'a', and a 10 MB reason was kept whole (red team, session 46).
+/// As a task's failure is kept (study_detail::stored_reason): `Study.fail(t, 'a\0b')` stored 'a', and a 10 MB
+/// reason was kept whole (red team, session 46).
 std::string kept_reason(const std::string& reason) {
-  return reason.empty() ? std::string("failed") : abbreviate(printable(reason), 2048);
+  return reason.empty() ? std::string("failed") : study_detail::stored_reason(reason);
 }
 }  // namespace
 

@@ -15,6 +15,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "varbo/text.hpp"
 #include "varbo/loader.hpp"
 #include "varbo/registry.hpp"
 #include "varbo/store.hpp"
@@ -58,6 +59,9 @@ bool same_identity(const std::string& stored, const std::string& now);
 
 /// The first line where two emitted YAML texts differ, with its key path: "at task.upper: stored 'a' vs now 'b'".
 std::string first_difference(const std::string& stored, const std::string& now);
+/// A failed trial's reason as the study keeps it, whichever path records it (a task's evaluation in a run, `fail`,
+/// `fail_point`): printable, at most 2 KiB at each end (a 50 MB answer, a NUL byte from Python).
+inline std::string stored_reason(const std::string& reason) { return abbreviate(printable(reason), 2048); }
 
 /// parse_study on the configuration stored with the study at `store_path`. A component no loaded plugin provides
 /// gets a hint: a study created by a process that loaded a plugin itself (Python's load_plugin, a C++ host's
