@@ -359,6 +359,13 @@ Runner add_abandon(CLI::App& app) {
                                        "(its point may then be suggested again; a late result is still recorded); "
                                        "nothing written",
                                        s.store().location(), id, holder(*t)));
+    // The same for a named trial that --older-than would spare: "abandoned 0 trial(s)", exit 0 (audit, session 47).
+    if (older_than > 0)
+      for (const auto id : wanted)
+        if (const auto t = s.store().trial(id); t && now - t->created_at <= older_than)
+          throw InputError(fmt::format("{}: trial {} was suggested {:.0f} s ago, not more than --older-than {}; drop "
+                                       "--older-than to abandon it; nothing written",
+                                       s.store().location(), id, std::max(0.0, now - t->created_at), a->older_than));
     const auto ids = s.abandon_where(
         [&](const TrialRecord& t) {
           if (!wanted.empty() && std::find(wanted.begin(), wanted.end(), t.id) == wanted.end()) return false;

@@ -32,6 +32,11 @@ std::optional<ParameterProblem> check_parameter(const Parameter& p) {
                                                                                   "{{name: {}, type: fixed, value: {}}}",
                                                                                   p.name, p.low)
                                                                     : std::string())};
+      // [-1e308, 1e308]: each bound finite, the width not; the task's domain check then blamed `task:` (audit,
+      // session 47). Said here, at the parameter.
+      if (!std::isfinite(p.high - p.low))
+        return ParameterProblem{"high", fmt::format("the width high - low of [{}, {}] is not finite (at most about "
+                                                    "1.8e308); rescale the parameter", p.low, p.high)};
       if (p.type == ParameterType::Int && (p.low != std::round(p.low) || p.high != std::round(p.high)))
         return ParameterProblem{p.low != std::round(p.low) ? "low" : "high",
                                 fmt::format("an int parameter needs integer bounds, got [{}, {}]", p.low, p.high)};

@@ -111,6 +111,7 @@ void Study::Impl::set_up_task() {
                       (*theta0)(i), domain.box.lower(i), domain.box.upper(i)));
     }
     initial_unit = space ? space->encode(*theta0) : to_unit(*theta0, domain.box);
+    initial_theta = *theta0;
   }
 }
 

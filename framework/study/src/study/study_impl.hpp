@@ -80,6 +80,7 @@ struct Study::Impl {
   Domain domain;
   SharedSpace space;  ///< typed parameters and constraints (docs/search_space.md); null for a plain box
   std::optional<Vec> initial_unit;
+  std::optional<Vec> initial_theta;  ///< the initial point as given (user units): its trial's θ, exactly
   std::unique_ptr<StudyStore> store;
   /// The study file this object writes to (none for a URL). SQLite keeps writing to a deleted or replaced file
   /// through its open descriptor: results told after `rm study.db` vanished in silence (red team, session 27; the
@@ -116,7 +117,12 @@ struct Study::Impl {
     const Index d = x.size();
     return space ? space->admissible(x) : Vec(Box::unit(d).clamp(x));
   }
-  Vec theta_of(const Vec& x) const { return space ? space->decode(x) : from_unit(x, domain.box); }
+  Vec theta_of(const Vec& x) const {
+    // θ0 as written: the encode/decode round trip of a log-scaled 0.001 gave 0.0010000000000000002 (audit,
+    // session 47), and a known policy should reach the rig exactly.
+    if (initial_unit && initial_theta && x.size() == initial_unit->size() && x == *initial_unit) return *initial_theta;
+    return space ? space->decode(x) : from_unit(x, domain.box);
+  }
   Index encoded_dim() const { return space ? space->encoded_dim() : domain.box.dim(); }
   Index theta_dim() const { return space ? static_cast<Index>(space->size()) : domain.box.dim(); }
   /// `trials` after checking that every trial's x and θ have the study's sizes: a row edited by hand (a θ of three
