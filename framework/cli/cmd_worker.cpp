@@ -37,8 +37,9 @@ std::string theta_text(const Vec& theta) {
 }
 
 std::atomic<int> g_stop{0};
-constexpr int kStopSignals[] = {SIGTERM, SIGINT, SIGHUP};
-struct sigaction g_interrupt_action[3];  // varbo's interrupt handlers (interrupt.hpp), armed by the first signal
+constexpr int kStopSignals[] = {SIGTERM, SIGINT, SIGHUP, SIGQUIT};
+constexpr int kStops = static_cast<int>(sizeof kStopSignals / sizeof kStopSignals[0]);
+struct sigaction g_interrupt_action[kStops];  // varbo's interrupt handlers (interrupt.hpp), armed by the first signal
 
 extern "C" void on_stop_signal(int sig) {
   int expected = 0;
@@ -46,15 +47,15 @@ extern "C" void on_stop_signal(int sig) {
   // The next signal goes to varbo's interrupt handler: it stops the running command (its whole tree is killed)
   // and the trial is recorded abandoned. Before, a second Ctrl-C did nothing and the trial ran to its timeout
   // (600 s by default). sigaction is async-signal-safe.
-  for (int i = 0; i < 3; ++i) sigaction(kStopSignals[i], &g_interrupt_action[i], nullptr);
+  for (int i = 0; i < kStops; ++i) sigaction(kStopSignals[i], &g_interrupt_action[i], nullptr);
 }
 
-/// SIGTERM, SIGINT, SIGHUP: finish the current trial, record it, then stop (exit 128 + signal). A second one
+/// SIGTERM, SIGINT, SIGHUP, SIGQUIT: finish the current trial, record it, then stop (exit 128 + signal). A second one
 /// stops the running command at once (its trial is recorded abandoned, and will be suggested again); a third
 /// kills the worker (interrupt.hpp's handlers are one-shot).
 void install_stop_handlers() {
   install_interrupt_handlers();
-  for (int i = 0; i < 3; ++i) sigaction(kStopSignals[i], nullptr, &g_interrupt_action[i]);
+  for (int i = 0; i < kStops; ++i) sigaction(kStopSignals[i], nullptr, &g_interrupt_action[i]);
   struct sigaction sa{};
   sa.sa_handler = on_stop_signal;
   sigemptyset(&sa.sa_mask);
@@ -189,7 +190,7 @@ Runner add_worker(CLI::App& app) {
     if (!a->timeout.empty()) {
       const double timeout = parse_number(a->timeout, "--timeout");
       if (!(timeout > 0) || !std::isfinite(timeout))
-        throw InputError(fmt::format("--timeout: expected a positive number of seconds, got '{}'", a->timeout));
+        throw InputError(fmt::format("--timeout: expected a finite number of seconds > 0, got '{}'", a->timeout));
     }
     if (!a->grace.empty()) {
       const double grace = parse_number(a->grace, "--grace");

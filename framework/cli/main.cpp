@@ -131,12 +131,16 @@ int main(int argc, char** argv) {
           // observe, fail, abandon and study create print only a confirmation of a change already committed:
           // exit 2 ("nothing written") after `observe S 0 1.25 > /dev/full` made a script retry, and the retry
           // was refused as "already complete" (red team, session 29).
+          // `run` too: its results are in its folder; stdout only followed them (`varbo run CFG | head -2`
+          // exited 141 after a complete run; audit, session 47).
           const bool recorded = rc == 0 && (sub->get_name() == "observe" || sub->get_name() == "fail" ||
+                                            sub->get_name() == "run" ||
                                             sub->get_name() == "abandon" ||
                                             (sub->get_name() == "study" && sub->get_subcommand("create")->parsed()));
           if (recorded) {
-            std::fprintf(stderr, "varbo: warning: standard output: write failed (%s); the change was recorded\n",
-                         std::strerror(err));
+            std::fprintf(stderr, "varbo: warning: standard output: write failed (%s); %s\n", std::strerror(err),
+                         sub->get_name() == "run" ? "the run is complete and recorded in its folder"
+                                                  : "the change was recorded");
             return 0;
           }
           if (err == EPIPE) return rc != 0 ? rc : 128 + SIGPIPE;

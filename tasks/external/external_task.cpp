@@ -129,6 +129,12 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
                             : "its supervisor was killed (by the command?); every process carrying the trial's token "
                               "was killed");
   if (!r.exited) return fail("terminated by a signal");
+  // 126/127 is the shell's "cannot run" only for a command that ran nothing: one that printed its cost and then
+  // failed to find a tool it calls last (an upload) ran on the rig, and the run stopped with the trial abandoned,
+  // the cost lost and θ due to run again on --resume (audit, session 47). Output on stdout: a failed trial.
+  if ((r.exit_status == 126 || r.exit_status == 127) && !last_nonempty_line(r.out).empty())
+    return fail(fmt::format("it printed output, then a command it ran was {}",
+                            r.exit_status == 127 ? "not found" : "not executable"));
   if (r.exit_status == 126 || r.exit_status == 127) {
     std::error_code ec;
     const std::string here = s_.process.working_directory.empty()

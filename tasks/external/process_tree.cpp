@@ -317,14 +317,14 @@ void close_all_but(const int* keep, int n) {
 
   sigset_t wake;
   sigemptyset(&wake);
-  for (int s : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&wake, s);
+  for (int s : {SIGCHLD, SIGTERM, SIGINT, SIGHUP, SIGQUIT}) sigaddset(&wake, s);
   int shell_status = 0;
   bool shell_done = shell <= 0;
   const long deadline = p.deadline_ms >= 0 ? now_ms() + p.deadline_ms : -1;
   while (!shell_done && !stop) {
     const timespec tick{0, 100 * 1000000L};
     const int s = ::sigtimedwait(&wake, nullptr, &tick);
-    if (s == SIGTERM || s == SIGINT || s == SIGHUP) stop = true;
+    if (s == SIGTERM || s == SIGINT || s == SIGHUP || s == SIGQUIT) stop = true;
     reap(shell, shell_status, shell_done);
     if (::getppid() != p.parent) stop = true;
     if (deadline >= 0 && now_ms() >= deadline) stop = true;

@@ -285,6 +285,19 @@ TEST_CASE("external task: failures are failed trials with a message") {
                          TaskSetupError);
     CHECK_THROWS_WITH_AS(run("/dev/null"), doctest::Contains("exit status 126: not executable"), TaskSetupError);
   }
+  SUBCASE("127 or 126 after the command printed its answer: it ran, a failed trial that keeps the line") {
+    // Session 47's audit: a trial that measured 1.5 and then called a missing upload tool stopped the run, the
+    // trial abandoned (to run again on the rig at --resume) and 1.5 nowhere.
+    const Evaluation e = run("echo 'motor log' >&2; echo 1.5; /nonexistent/varbo-upload");
+    CHECK(!e.ok);
+    CHECK(contains(e.error, "exit status 127"));
+    CHECK(contains(e.error, "a command it ran was not found"));
+    CHECK(contains(e.error, "last stdout line: '1.5'"));
+    const Evaluation x = run("echo 2.5; /dev/null");
+    CHECK(!x.ok);
+    CHECK(contains(x.error, "not executable"));
+    CHECK(contains(x.error, "'2.5'"));
+  }
   SUBCASE("a command that cannot be started (no file descriptors left): a set-up error, not a failed trial") {
     // `ulimit -n 17` (or -u for fork) made every trial a failure: budget spent, the failure model taught a lie.
     rlimit old{};

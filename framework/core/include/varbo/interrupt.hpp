@@ -1,5 +1,5 @@
 #pragma once
-// Stopping cleanly on SIGINT, SIGTERM or SIGHUP. A long command (`varbo run`) installs the handlers; the
+// Stopping cleanly on SIGINT, SIGTERM, SIGHUP or SIGQUIT. A long command (`varbo run`) installs the handlers; the
 // first signal is only recorded, and work that waits (an external command's trial) watches interrupt_fd()
 // and ends what it runs. The handlers are one-shot: a second signal gets the default action and kills
 // at once (the study store stays consistent either way: every result is committed before it is shown).
@@ -8,10 +8,10 @@
 
 namespace varbo {
 
-/// Installs the one-shot handlers for SIGINT, SIGTERM and SIGHUP (idempotent). One that the process started with
+/// Installs the one-shot handlers for SIGINT, SIGTERM, SIGHUP and SIGQUIT (idempotent). One that the process started with
 /// ignored (nohup, a background job of a script) is left ignored.
 void install_interrupt_handlers();
-/// Whether `sig` (SIGINT, SIGTERM or SIGHUP) was ignored when install_interrupt_handlers() first ran.
+/// Whether `sig` (SIGINT, SIGTERM, SIGHUP or SIGQUIT) was ignored when install_interrupt_handlers() first ran.
 bool stop_signal_ignored(int sig);
 /// The signal that asked this process to stop, or 0.
 int interrupt_signal();

@@ -18,11 +18,13 @@ std::atomic<int> g_signal{0};
 // A self-pipe: the handler writes one byte that nobody reads, so the read end stays readable for every
 // poll() that watches it, however many there are.
 int g_pipe[2] = {-1, -1};
-constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+// SIGQUIT (Ctrl-\\) too: it killed varbo at once and left the running trial pending (audit, session 47).
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
+constexpr int kStops = static_cast<int>(sizeof kStopSignals / sizeof kStopSignals[0]);
 // A stop signal that arrived ignored stays ignored: `nohup varbo worker ...` (SIGHUP) and `varbo worker ... &` in a
 // script (a non-interactive shell ignores SIGINT for background jobs) were stopped by what their user had shut
 // out (red team, session 29). Read once, before any handler is installed.
-bool g_ignored[3] = {false, false, false};
+bool g_ignored[kStops] = {};
 
 void on_stop_signal(int sig) {
   const int saved = errno;
@@ -32,11 +34,11 @@ void on_stop_signal(int sig) {
     const char byte = 1;
     [[maybe_unused]] ssize_t ignored = ::write(g_pipe[1], &byte, 1);
   }
-  // One-shot for all three: a second Ctrl-C (or a SIGTERM after it) kills at once.
+  // One-shot for all of them: a second Ctrl-C (or a SIGTERM after it) kills at once.
   struct sigaction dfl;
   std::memset(&dfl, 0, sizeof dfl);
   dfl.sa_handler = SIG_DFL;
-  for (int i = 0; i < 3; ++i)
+  for (int i = 0; i < kStops; ++i)
     if (!g_ignored[i]) ::sigaction(kStopSignals[i], &dfl, nullptr);
   errno = saved;
 }
@@ -53,7 +55,7 @@ void install_interrupt_handlers() {
     sigemptyset(&sa.sa_mask);
     for (int s : kStopSignals) sigaddset(&sa.sa_mask, s);
     sa.sa_flags = SA_RESTART;
-    for (int i = 0; i < 3; ++i) {
+    for (int i = 0; i < kStops; ++i) {
       struct sigaction current;
       g_ignored[i] = ::sigaction(kStopSignals[i], nullptr, &current) == 0 && current.sa_handler == SIG_IGN;
       if (!g_ignored[i]) ::sigaction(kStopSignals[i], &sa, nullptr);
@@ -62,7 +64,7 @@ void install_interrupt_handlers() {
 }
 
 bool stop_signal_ignored(int sig) {
-  for (int i = 0; i < 3; ++i)
+  for (int i = 0; i < kStops; ++i)
     if (kStopSignals[i] == sig) return g_ignored[i];
   return false;
 }
