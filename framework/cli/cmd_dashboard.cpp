@@ -54,7 +54,7 @@ Runner add_dashboard(CLI::App& app) {
     // replies are mapped and unmapped, and the heap is trimmed (growing_pool.hpp's on_idle trims the arenas).
     mallopt(M_MMAP_THRESHOLD, 128 * 1024);
     mallopt(M_TRIM_THRESHOLD, 128 * 1024);
-    install_interrupt_handlers();  // Ctrl-C, SIGTERM, SIGHUP: the server stops and closes the study (exit 128 + signal)
+    install_interrupt_handlers();  // Ctrl-C, SIGTERM, SIGHUP, SIGQUIT: the server stops and closes the study (exit 128 + signal)
     serve_dashboard(api, a->host, a->port, [&](int port) {
       std::printf("varbo dashboard: serving %s at http://%s:%d/ (Ctrl-C stops)\n", study.shown().c_str(),
                   a->host.find(':') != std::string::npos ? ("[" + a->host + "]").c_str() : a->host.c_str(), port);

@@ -73,7 +73,7 @@ Runner add_run(CLI::App& app) {
           "configuration (a larger budget, another stop_after_failures), give that and the run's study: `varbo run "
           "{1} -o {0} --study {0}/study.db` (a change to the task, algorithm or seed is refused as another study)",
           shell_word(a->resume), shell_word(a->config)));
-    // Ctrl-C, SIGTERM, SIGHUP: the running trial's command is killed with its process tree, the trial is
+    // Ctrl-C, SIGTERM, SIGHUP, SIGQUIT: the running trial's command is killed with its process tree, the trial is
     // recorded abandoned, and varbo exits with 128 + signal (main.cpp); --resume continues the run.
     install_interrupt_handlers();
     RunSummary s = a->resume.empty() ? run_study_file(a->config, ov) : resume_study(a->resume, ov);
