@@ -31,16 +31,16 @@ namespace {
 constexpr double kMaxMagnitude = 1e150;
 
 /// Finite, moderate values in the used columns; errors name the file, line and column.
-void check_values(const CsvTable& t, const std::vector<Index>& cols, const std::string& file) {
+void check_values(const CsvTable& t, const std::vector<Index>& cols, const std::string& file, bool predict = false) {
   for (Index r = 0; r < t.values.rows(); ++r)
     for (Index c : cols) {
       const double v = t.values(r, c);
       const int line = t.lines[static_cast<std::size_t>(r)];
       const std::string& name = t.columns[static_cast<std::size_t>(c)];
       if (!std::isfinite(v))
-        throw InputError(fmt::format("{}:{}: column '{}': {} is not a finite number (varbo fit needs finite θ and y; "
-                                     "drop failed trials)",
-                                     file, line, name, v));
+        throw InputError(fmt::format("{}:{}: column '{}': {} is not a finite number ({})", file, line, name, v,
+                                     predict ? "varbo fit predicts at finite θ only"
+                                             : "varbo fit needs finite θ and y; drop failed trials"));
       if (std::abs(v) > kMaxMagnitude)
         throw InputError(fmt::format("{}:{}: column '{}': {} is too large in magnitude (at most {:g}: the models "
                                      "square it); rescale the column",
@@ -95,7 +95,11 @@ Runner add_fit(CLI::App& app) {
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(integer_in(0, 2147483647));
   return [a]() {
     ThreadLimit limit(a->threads);
-    const ConfigNode node = component_arg(a->surrogate, "surrogate", "--surrogate");
+    ConfigNode node = component_arg(a->surrogate, "surrogate", "--surrogate");
+    // A bare name (`--surrogate vhgp`) as the map it stands for, so that a message about one of its keys names the
+    // option: it said "<none>: key 'hyperparameters'" (audit, session 47).
+    if (node.is_scalar() && node.scalar().find_first_of("{}[]:\n#'\"") == std::string::npos)
+      node = ConfigNode::parse("{type: " + node.scalar() + "}", "--surrogate");
     const auto seed = static_cast<std::uint64_t>(integer_flag(a->seed, "--seed", 0));  // not saturated
     const std::string& target = a->target;
     const std::vector<std::string> chosen =
@@ -222,7 +226,7 @@ Runner add_fit(CLI::App& app) {
         if (c < 0) throw InputError(fmt::format("{}: missing column '{}'", a->predict, name));
         pcols.push_back(c);
       }
-      check_values(pts, pcols, a->predict);
+      check_values(pts, pcols, a->predict, true);
       if (!model->ready())
         throw NumericalError(fmt::format("{}: the {} model is not usable after the fit ({}); no predictions",
                                          a->data, rc.info->name, rep.message));

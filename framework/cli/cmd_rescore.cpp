@@ -4,7 +4,9 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 
 #include "cli_parse.hpp"
@@ -47,7 +49,14 @@ Runner add_rescore(CLI::App& app) {
       ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)")
       ->check(decimal_number())
-      ->check(CLI::PositiveNumber);  // after decimal_number(): its message for anything not a number
+      // CLI11's PositiveNumber said "Value 0 not in range 0.000000 to 1797693…" (audit, session 47).
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            const double e = std::strtod(v.c_str(), nullptr);
+            return e > 0 && std::isfinite(e) ? std::string()
+                                             : "expected a finite number > 0 (a radius in the unit cube), got '" + v + "'";
+          },
+          "POSITIVE"));
   cmd->add_option("--critic", a->critic, "local model as YAML, e.g. '{type: vhgp, restarts: 8}' (default: the run's)");
   cmd->add_option("--continue", a->continue_steps,
                   "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)")
@@ -113,9 +122,23 @@ Runner add_rescore(CLI::App& app) {
     const LocalModel& model = answer.model;
     const std::vector<OfflineSelection>& sel = answer.selections;
     const Prediction at = model.critic->predict(centre, false);
-    std::printf("local model: %s on %ld trials within eps = %.4g; at the learned policy J~ %.6g r~ %.6g\n",
-                settings.critic.info->name.c_str(), static_cast<long>(model.data.size()), settings.radius, at.mean,
-                at.total_std());
+    // The ε-ball holds at least min_local_points trials: the nearest ones beyond it are said as such ("3 trials within
+    // eps = 1e-09" when none lay inside; audit, session 47).
+    long within = 0;
+    double farthest = 0;
+    for (Index i = 0; i < model.data.size(); ++i) {
+      const double dist = (model.data.X.row(i).transpose() - centre).norm();
+      within += dist <= settings.radius;
+      farthest = std::max(farthest, dist);
+    }
+    const long n = static_cast<long>(model.data.size());
+    const std::string where =
+        within == n ? fmt::format("{} trials within eps = {:.4g}", n, settings.radius)
+                    : fmt::format("{} trials: {} within eps = {:.4g} and the nearest {} beyond it, up to {:.4g} away "
+                                  "(min_local_points)",
+                                  n, within, settings.radius, n - within, farthest);
+    std::printf("local model: %s on %s; at the learned policy J~ %.6g r~ %.6g\n", settings.critic.info->name.c_str(),
+                where.c_str(), at.mean, at.total_std());
     if (!model.fit.message.empty()) std::printf("  fit: %s\n", model.fit.message.c_str());
     for (const auto& s : sel) {
       std::printf("kappa %-6g J~ %-10.6g r~ %-10.6g J~+kappa*r~ %-10.6g theta %s\n", s.kappa, s.mean, s.std,

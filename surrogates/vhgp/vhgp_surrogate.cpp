@@ -368,6 +368,14 @@ FitReport VhgpSurrogate::fit(const Dataset& data, Rng& rng) {
     log_warn("vhgp: fit on {} points: {}", n, report.message);
   } else {
     report = condition_at(data, *chosen, s, report);
+    if (report.ok && homoscedastic_chosen && config_.prior.enabled) {
+      // The constant-noise member pins the noise process (σ_g at its bound): g's hyperprior belongs to no model in
+      // use, and at that bound it put −51 into the objective reported beside a fit whose E and s equal the gp's
+      // (audit, session 47). The selection above compares bounds, not this number.
+      const double g_prior = g_form_->log_prior(chosen->theta_g, nullptr);
+      report.log_prior -= g_prior;
+      report.objective -= g_prior;
+    }
     if (report.ok) {
       if (full) last_full_fit_n_ = n;
       homoscedastic_selected_ = homoscedastic_chosen;
