@@ -137,3 +137,25 @@ TEST_CASE("kernel_f auto: the heteroscedastic side uses the kernel the member ch
   REQUIRE(member.ok);
   CHECK(std::abs(s.bound() - member.log_likelihood) <= 1e-6 * std::abs(member.log_likelihood) + 1e-6);
 }
+
+TEST_CASE("constant noise: the reported objective holds no prior of the pinned noise process") {
+  // Audit, session 47: with constant noise selected (here always: noise_model homoscedastic) the noise process g is
+  // pinned (σ_g at its lower bound), yet its hyperprior evaluated there was added to the reported objective: −47.9
+  // beside a fit whose E and s were the gp's (its objective −1.6). Reference: the same fit under another prior of g,
+  // which cannot change a model that does not use g — before the fix the objectives differed by tens of nats.
+  auto a = make("{type: vhgp, noise_model: homoscedastic}", 2);
+  auto b = make("{type: vhgp, noise_model: homoscedastic, prior_signal_std_g: [0.01, 0.5], "
+                "prior_lengthscale_g: [0.05, 0.3]}",
+                2);
+  Rng data_rng(5), ra(3), rb(3);
+  Dataset d = Dataset::empty(2);
+  for (int i = 0; i < 20; ++i) add_point(d, data_rng, 0.05);
+  const FitReport fa = a->fit(d, ra), fb = b->fit(d, rb);
+  REQUIRE(fa.ok);
+  REQUIRE(fb.ok);
+  const Vec p = Vec::Constant(2, 0.4);
+  CHECK(a->predict(p, false).mean == b->predict(p, false).mean);  // the same model: g's prior is not used
+  CHECK(fa.log_likelihood == doctest::Approx(fb.log_likelihood).epsilon(1e-12));
+  CHECK(fa.objective == doctest::Approx(fb.objective).epsilon(1e-12));
+  CHECK(fa.objective == doctest::Approx(fa.log_likelihood + fa.log_prior).epsilon(1e-12));
+}
