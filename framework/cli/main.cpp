@@ -150,10 +150,10 @@ int main(int argc, char** argv) {
         return rc;
       }
   } catch (const varbo::Interrupted& e) {
-    std::fprintf(stderr, "varbo: %s\n", varbo::terminal_text(e.what()).c_str());
+    std::fprintf(stderr, "varbo: %s\n", varbo::terminal_text(varbo::hide_url_passwords(e.what())).c_str());
     return 128 + e.signal();  // as a shell reports a process killed by that signal
   } catch (const varbo::Error& e) {
-    std::fprintf(stderr, "varbo: error: %s\n", varbo::terminal_text(e.what()).c_str());
+    std::fprintf(stderr, "varbo: error: %s\n", varbo::terminal_text(varbo::hide_url_passwords(e.what())).c_str());
     return 2;
   } catch (const std::filesystem::filesystem_error& e) {
     // A path the system refuses (a symlink loop, a name too long, a folder that cannot be searched) is the user's
@@ -162,7 +162,7 @@ int main(int argc, char** argv) {
                  e.code().message().c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "varbo: internal error: %s\n", varbo::terminal_text(e.what()).c_str());
+    std::fprintf(stderr, "varbo: internal error: %s\n", varbo::terminal_text(varbo::hide_url_passwords(e.what())).c_str());
     return 3;
   } catch (...) {  // not a std::exception (`throw 7` in plugin code): std::terminate ended the process before
     std::fprintf(stderr, "varbo: internal error: an exception that is not a std::exception\n");

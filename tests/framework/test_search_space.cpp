@@ -463,3 +463,54 @@ TEST_CASE("a quoted fixed value is a label, as YAML reads it; an unquoted number
   CHECK(s.parameters()[2].value == 3.0);
   CHECK(s.parameters()[3].choices == std::vector<std::string>{"010"});
 }
+
+TEST_CASE("a rounded point outside the constraints is scored at its repaired point, the one evaluated") {
+  // Audit, session 47: x = 0.6, n = 6.6 satisfies "x + n <= 7.2" unrounded; the model scored it as n = 7 (which
+  // violates it) while the suggestion became the repaired n = 6, and bo proposed that point 23 times in 24.
+  auto space = std::make_shared<SearchSpace>(std::vector<Parameter>{
+      Parameter{"x", ParameterType::Real, -2, 3, false, {}, 0}, Parameter{"n", ParameterType::Int, 1, 10, false, {}, 0}});
+  space->add_constraint(parse_linear_constraint("x + n <= 7.2", space->parameters()));
+  REQUIRE(space->finalize());
+  auto inner = std::make_unique<SmoothModel>();
+  SmoothModel* raw = inner.get();
+  RoundedSurrogate model(std::move(inner), space);
+  // Unit coordinates of x = 0.5 and n = 6.6 (an int's coordinate spans [low − ½, high + ½]).
+  const Vec x = (Vec(2) << (0.5 + 2) / 5, (6.6 - 0.5) / 10).finished();
+  REQUIRE(space->constraint_slack(x, nullptr) >= 0);               // feasible as the optimizer sees it
+  REQUIRE_FALSE(space->satisfies_constraints(space->round_discrete(x)));  // not once rounded
+  const Vec evaluated = space->admissible(x);
+  CHECK(space->satisfies_constraints(evaluated));
+  CHECK(model.predict(x, false).mean == raw->predict(evaluated, false).mean);
+  CHECK(model.predict(x, false).mean != raw->predict(space->round_discrete(x), false).mean);
+  // A rounded point inside the constraints is scored there, as before.
+  const Vec inside = (Vec(2) << (0.1 + 2) / 5, (6.6 - 0.5) / 10).finished();
+  REQUIRE(space->satisfies_constraints(space->round_discrete(inside)));
+  CHECK(model.predict(inside, false).mean == raw->predict(space->round_discrete(inside), false).mean);
+}
+
+TEST_CASE("repair: with the integers rounded, the real parameters are projected, not sent to one stored point") {
+  // Audit, session 47: candidates beyond "x + y + h + n <= 6" whose projection put n below its range were all
+  // repaired to the one nearest point stored by finalize(); cma_es then measured one θ 16 times in 30.
+  SearchSpace s(std::vector<Parameter>{Parameter{"x", ParameterType::Real, 0, 5, false, {}, 0},
+                                       Parameter{"y", ParameterType::Real, 0, 5, false, {}, 0},
+                                       Parameter{"h", ParameterType::Fixed, 0, 0, false, {}, 3.0},
+                                       Parameter{"n", ParameterType::Int, 1, 4, false, {}, 0}});
+  s.add_constraint(parse_linear_constraint("x + y + h + n <= 6", s.parameters()));
+  REQUIRE(s.finalize());
+  Rng rng(2);
+  std::set<std::pair<double, double>> repaired;
+  int far = 0;
+  for (int k = 0; k < 40; ++k) {
+    // Far outside: x, y in [3, 5], n's coordinate near its low end.
+    const Vec theta_x = (Vec(3) << (3 + 2 * rng.uniform()) / 5, (3 + 2 * rng.uniform()) / 5, 0.05 * rng.uniform())
+                            .finished();
+    const Vec a = s.admissible(theta_x);
+    const Vec theta = s.decode(a);
+    std::string why;
+    CHECK_MESSAGE(s.contains(theta, &why), why);
+    far += !s.satisfies_constraints(s.round_discrete(theta_x));
+    repaired.insert({theta[0], theta[1]});
+  }
+  CHECK(far == 40);
+  CHECK(repaired.size() >= 30);  // the nearest feasible point of each, not one for all
+}

@@ -125,3 +125,22 @@ TEST_CASE("ASCII classes do not follow the process's locale") {
     CHECK(ascii_space(ch) == (c == ' ' || (c >= 9 && c <= 13)));
   }
 }
+
+TEST_CASE("hide_url_passwords: a PostgreSQL URL's password is *** wherever it sits in a message") {
+  // Audit, session 47: `varbo run --resume URL` wrote "resuming …: 14 finished trials read from
+  // postgresql://lab:se$cret@127.0.0.1/…" into the run folder's log.txt.
+  CHECK(hide_url_passwords("resuming r: 14 finished trials read from postgresql://lab:se$cret@127.0.0.1/varbo?study=a") ==
+        "resuming r: 14 finished trials read from postgresql://lab:***@127.0.0.1/varbo?study=a");
+  CHECK(hide_url_passwords("run `varbo abandon 'postgres://u:p%40ss@h:5432/db?study=s' --id 3`") ==
+        "run `varbo abandon 'postgres://u:***@h:5432/db?study=s' --id 3`");
+  CHECK(hide_url_passwords("postgresql:///db?host=/run/postgresql&password=hunter2&study=s and more") ==
+        "postgresql:///db?host=/run/postgresql&password=***&study=s and more");
+  CHECK(hide_url_passwords("postgresql://h/db?sslpassword=k3y&study=s") == "postgresql://h/db?sslpassword=***&study=s");
+  // Twice in one message (an error and its hint).
+  CHECK(hide_url_passwords("postgresql://a:b@h/d?study=x: created from … `varbo run --resume postgresql://a:b@h/d?study=x`") ==
+        "postgresql://a:***@h/d?study=x: created from … `varbo run --resume postgresql://a:***@h/d?study=x`");
+  // Nothing to hide: unchanged.
+  for (const char* s : {"postgresql://lab@127.0.0.1/varbo?study=a", "postgresql:///varbo?host=/run/postgresql&study=a",
+                        "runs/a/study.db: 3 trials", "user:pass@host without a scheme"})
+    CHECK(hide_url_passwords(s) == s);
+}

@@ -28,6 +28,10 @@ std::string printable(std::string_view text);
 /// the byte order mark). For messages varbo prints to a terminal: a
 /// parameter name of a study from elsewhere held ESC sequences that retitled and cleared the user's terminal.
 std::string terminal_text(std::string_view text);
+/// The text with the password of every PostgreSQL URL in it shown as *** (`postgresql://user:***@host/db`, and a
+/// `password=` / `sslpassword=` parameter): applied to every log line (terminal and log.txt) and error message, so
+/// that no path through the study code can write a password into a run folder (audit, session 47).
+std::string hide_url_passwords(std::string_view text);
 /// terminal_text(printable(text)): one line a terminal shows and never obeys, for a name or label printed inside a
 /// line of output (`varbo suggest`'s name=label, `varbo select`'s θ): a label holding ESC cleared the screen, one
 /// holding a newline split the line a script reads (red team, session 31).

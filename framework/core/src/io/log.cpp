@@ -34,7 +34,8 @@ std::string& log_file_path() {
   return p;
 }
 /// With g_mutex held.
-void write_message(LogLevel level, std::string_view message) {
+void write_message(LogLevel level, std::string_view raw) {
+  const std::string message = hide_url_passwords(raw);
   auto& f = log_file();
   if (f.is_open() && level >= LogLevel::Info) {
     f << "[" << tag(level) << "] " << message << '\n';
@@ -73,7 +74,7 @@ void log_file_message(LogLevel level, std::string_view message) {
   std::lock_guard<std::mutex> lock(g_mutex);
   auto& f = log_file();
   if (f.is_open()) {
-    f << "[" << tag(level) << "] " << message << '\n';
+    f << "[" << tag(level) << "] " << hide_url_passwords(message) << '\n';
     f.flush();
   }
 }

@@ -6,6 +6,7 @@
 #include <cctype>
 
 #include <algorithm>
+#include <regex>
 
 #include "utf8.hpp"
 
@@ -110,6 +111,15 @@ char32_t code_point(std::string_view s, std::size_t i, std::size_t n) {
 }
 
 }  // namespace
+
+std::string hide_url_passwords(std::string_view text) {
+  if (text.find("postgres") == std::string_view::npos && text.find("password=") == std::string_view::npos)
+    return std::string(text);
+  static const std::regex user_password(R"((postgres(?:ql)?://[^:/@\s'"?&]*):[^@/\s'"]*@)");
+  static const std::regex password_parameter(R"(((?:^|[?&\s'"])[A-Za-z_]*password=)[^&\s'"]*)");
+  std::string out = std::regex_replace(std::string(text), user_password, "$1:***@");
+  return std::regex_replace(out, password_parameter, "$1***");
+}
 
 std::string terminal_text(std::string_view text) {
   std::string out;
