@@ -115,7 +115,7 @@ std::vector<std::string> trial_cgroups_of(pid_t pid) {
 }  // namespace
 
 TEST_CASE("varbo run: a stop signal kills the running command's tree, abandons its trial, --resume finishes") {
-  for (const int sig : {SIGTERM, SIGINT, SIGHUP, SIGQUIT, SIGKILL}) {  // SIGQUIT (Ctrl-\\): session 47
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP, SIGQUIT, SIGKILL}) {  // SIGQUIT (Ctrl-\): session 47
     CAPTURE(sig);
     const std::string dir = test::temp_folder(fmt::format("ext_cli_signal_{}", sig));
     // While the file `slow` exists, a trial is a shell and a child in its own session that sleep.

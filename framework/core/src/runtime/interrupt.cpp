@@ -18,7 +18,7 @@ std::atomic<int> g_signal{0};
 // A self-pipe: the handler writes one byte that nobody reads, so the read end stays readable for every
 // poll() that watches it, however many there are.
 int g_pipe[2] = {-1, -1};
-// SIGQUIT (Ctrl-\\) too: it killed varbo at once and left the running trial pending (audit, session 47).
+// SIGQUIT (Ctrl-\) too: it killed varbo at once and left the running trial pending (audit, session 47).
 constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT};
 constexpr int kStops = static_cast<int>(sizeof kStopSignals / sizeof kStopSignals[0]);
 // A stop signal that arrived ignored stays ignored: `nohup varbo worker ...` (SIGHUP) and `varbo worker ... &` in a

@@ -43,7 +43,7 @@ FitReport RoundedSurrogate::condition(const Dataset& data) {
 Prediction RoundedSurrogate::predict(const Vec& x, bool with_gradient) const {
   Vec t = space_->round_discrete(x);
   // A rounded point outside the constraints is scored where it will be evaluated, its repaired point
-  // (SearchSpace::admissible). Scored at the rounded point, x = 0.6, n = 6.6 under "x + n <= 7.2" stood for n = 7
+  // (SearchSpace::admissible). Scored at the rounded point, x = 0.5, n = 6.6 under "x + n <= 7.2" stood for n = 7
   // while the suggestion became n = 6: bo proposed the same repaired point for 23 of 24 trials and lost to random
   // (audit, session 47). The continuous coordinates' derivative is then the model's at the repaired point.
   if (space_->has_constraints() && !space_->satisfies_constraints(t)) t = space_->admissible(x);
