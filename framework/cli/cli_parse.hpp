@@ -61,6 +61,16 @@ inline CLI::Validator decimal_number() {
       },
       "DECIMAL");
 }
+/// After decimal_number(): a positive one. CLI11's PositiveNumber said "Value 0 not in range 0.000000 to
+/// 1797693…" (audit, session 47).
+inline CLI::Validator positive_decimal(const std::string& what) {
+  return CLI::Validator(
+      [what](std::string& text) {
+        const auto v = parse_decimal(text);
+        return v && *v > 0 ? std::string() : "expected a finite number > 0 (" + what + "), got '" + text + "'";
+      },
+      "POSITIVE");
+}
 /// CLI11 check for a run folder argument (select, plot, rescore): CLI11's ExistingDirectory said "run: Directory is
 /// actually a file: DIR/trials.csv" for a file of the folder (audit, session 44); this names what is expected and,
 /// for a file, the folder it lies in.

@@ -4,9 +4,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include <cmath>
+#include <algorithm>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 
 #include "cli_parse.hpp"
@@ -49,14 +48,7 @@ Runner add_rescore(CLI::App& app) {
       ->type_name("DECIMAL[,DECIMAL...]");
   cmd->add_option("--epsilon", a->epsilon, "radius of the local ball (unit cube; default: the run's rssgd ε)")
       ->check(decimal_number())
-      // CLI11's PositiveNumber said "Value 0 not in range 0.000000 to 1797693…" (audit, session 47).
-      ->check(CLI::Validator(
-          [](std::string& v) -> std::string {
-            const double e = std::strtod(v.c_str(), nullptr);
-            return e > 0 && std::isfinite(e) ? std::string()
-                                             : "expected a finite number > 0 (a radius in the unit cube), got '" + v + "'";
-          },
-          "POSITIVE"));
+      ->check(positive_decimal("a radius in the unit cube"));
   cmd->add_option("--critic", a->critic, "local model as YAML, e.g. '{type: vhgp, restarts: 8}' (default: the run's)");
   cmd->add_option("--continue", a->continue_steps,
                   "then run N RSSGD steps from the selection of the last κ, at that κ (folder RUN/continue_k)")
