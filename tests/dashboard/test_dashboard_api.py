@@ -228,19 +228,41 @@ def views_agree(varbo, work):
         f.write("task: {type: external, command: 'echo 1'}\nbudget: 4\nseed: 1\nalgorithm: {type: random}\n"
                 "parameters:\n  - {name: lr, type: real, low: 0.0001, high: 0.1, log: true}\n"
                 "  - {name: waypoints, type: int, low: 2, high: 9}\n"
-                "  - {name: solver, type: categorical, choices: [lqr, mpc]}\n")
+                "  - {name: solver, type: categorical, choices: [lqr, mpc]}\n"
+                "  - {name: horizon, type: fixed, value: 2.5}\n  - {name: robot, type: fixed, value: arm7}\n")
     db = os.path.join(typed, "s.db")
     run([varbo, "-q", "study", "create", db, cfg])
     run([varbo, "-q", "observe", db, "new", "0.5", "--param", "lr=0.001", "--param", "waypoints=4",
          "--param", "solver=mpc"])
     with Dashboard(varbo, db) as d:
         status, t, _ = d.get("/api/trials")
-        check(status == 200 and t["trials"][0]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc"},
+        check(status == 200 and t["trials"][0]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc", "horizon": 2.5,
+                                                             "robot": "arm7"},
               f"typed params as declared: {t['trials'][0].get('params')}")
         # Session 46: the summary's best θ gave the category's index only ("solver=1" on the page).
         status, sm, _ = d.get("/api/summary")
-        check(status == 200 and sm["best"]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc"},
+        check(status == 200 and sm["best"]["params"] == {"lr": 0.001, "waypoints": 4, "solver": "mpc", "horizon": 2.5,
+                                                         "robot": "arm7"},
               f"the summary's best θ typed as declared: {sm.get('best')}")
+        # Audit, session 48: a fixed parameter was listed with its declaration's default bounds 0 and 1.
+        fixed = {p["name"]: p for p in sm["parameters"] if p["type"] == "fixed"}
+        check(fixed["horizon"]["value"] == 2.5 and fixed["horizon"]["low"] == 2.5 and fixed["horizon"]["high"] == 2.5,
+              f"a fixed number's value and bounds: {fixed.get('horizon')}")
+        check(fixed["robot"]["value"] == "arm7" and fixed["robot"]["low"] is None and fixed["robot"]["high"] is None,
+              f"a fixed label's value, no bounds: {fixed.get('robot')}")
+        # Audit, session 48: a Range header cut an /api reply and kept 200; 300 overlapping ranges of the page made
+        # a small request send 300 pages. A Range is ignored: the whole reply, 200.
+        line, body = raw_request(d.url, b"GET /api/summary HTTP/1.1\r\nHost: 127.0.0.1\r\nRange: bytes=0-10\r\n"
+                                        b"Connection: close\r\n\r\n")
+        check(" 200 " in line and json.loads(body)["parameters"], f"/api/summary with a Range: {line} {body[:80]!r}")
+        ranges = ",".join(["0-100000"] * 300)
+        line, page = raw_request(d.url, f"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nRange: bytes={ranges}\r\n"
+                                        "Connection: close\r\n\r\n".encode())
+        check(" 200 " in line and page.count("<html") == 1 and len(page) < 200000,
+              f"/ with 300 ranges: {line}, {len(page)} characters")
+        # The same audit: a NUL in a query value ended the echoed value in the message.
+        status, body, _ = d.get("/api/select?kappa=1%00x")
+        check(status == 400 and "got '1\\x00x'" in body["error"], f"kappa=1%00x: {status} {body}")
     regret = os.path.join(work, "regret")
     os.makedirs(regret, exist_ok=True)
     cfg = os.path.join(regret, "c.yaml")

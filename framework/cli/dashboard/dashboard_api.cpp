@@ -12,6 +12,7 @@
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/rescore.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -19,9 +20,10 @@ namespace {
 
 using json = nlohmann::json;
 
-/// A request the API refuses, with its HTTP status.
+/// A request the API refuses, with its HTTP status. The message echoes parts of the request: kept printable and
+/// bounded (safe_text), since what() ends at a NUL byte — `kappa=1%00x` answered "got '1" (audit, session 48).
 struct RequestError : std::runtime_error {
-  RequestError(int status, const std::string& message) : std::runtime_error(message), status(status) {}
+  RequestError(int status, const std::string& message) : std::runtime_error(safe_text(message, 2048)), status(status) {}
   int status;
 };
 
@@ -110,9 +112,19 @@ json parameters_json(const Study& study) {
   json out = json::array();
   const Domain& domain = study.domain();
   if (const SharedSpace& space = study.space()) {
-    for (const auto& p : space->parameters())
-      out.push_back({{"name", p.name}, {"type", parameter_type_name(p.type)}, {"low", p.low}, {"high", p.high},
-                     {"log", p.log}, {"choices", p.choices}});
+    for (const auto& p : space->parameters()) {
+      json entry = {{"name", p.name}, {"type", parameter_type_name(p.type)}, {"low", p.low}, {"high", p.high},
+                    {"log", p.log}, {"choices", p.choices}};
+      // A fixed parameter has no bounds of its own: its declaration's defaults (0, 1) were given as its bounds while
+      // its value was 2 (audit, session 48). Its value instead, and bounds equal to it when it is a number.
+      if (p.type == ParameterType::Fixed) {
+        const bool label = !p.choices.empty();
+        entry["value"] = label ? json(p.choices.front()) : json(p.value);
+        entry["low"] = label ? json(nullptr) : json(p.value);
+        entry["high"] = entry["low"];
+      }
+      out.push_back(std::move(entry));
+    }
     return out;
   }
   for (Index i = 0; i < domain.box.dim(); ++i)

@@ -128,16 +128,24 @@ void serve(const DashboardHttp& http) {
   // loopback-only dashboard answers only requests addressed to a loopback name (red team, session 27: any Host
   // was served, the study readable from any site the researcher visited). Served to the network (--host 0.0.0.0,
   // ::, an interface address), the names are the user's to choose and no Host is refused.
-  if (is_loopback_host(host))
-    server.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
-      const std::string name = host_name_of(req.get_header_value("Host"));
-      if (name.empty() || is_loopback_host(name)) return httplib::Server::HandlerResponse::Unhandled;
-      json_reply(res, 403,
-                 error_body(fmt::format("Host '{}' refused: this dashboard serves this machine only (open it as "
-                                        "http://127.0.0.1:PORT/ or http://localhost:PORT/)",
-                                        safe_text(name, 80))));
-      return httplib::Server::HandlerResponse::Handled;
-    });
+  const bool loopback_only = is_loopback_host(host);
+  server.set_pre_routing_handler([loopback_only](const httplib::Request& req, httplib::Response& res) {
+    // Range requests are ignored (RFC 9110 section 14.2 lets a server send the whole representation with 200):
+    // httplib cut an /api reply to the range but kept its 200, so a client got a piece of JSON marked complete,
+    // and 300 overlapping ranges of the page made a 2.7 KB request send 9 MB (audit, session 48). The replies are
+    // small and change between requests, so a part of one is of no use. A Range header httplib cannot parse is
+    // still refused with 416 before this runs. The request is the server's own non-const object (httplib
+    // parses it, then hands it to the handlers as const).
+    const_cast<httplib::Request&>(req).ranges.clear();
+    if (!loopback_only) return httplib::Server::HandlerResponse::Unhandled;
+    const std::string name = host_name_of(req.get_header_value("Host"));
+    if (name.empty() || is_loopback_host(name)) return httplib::Server::HandlerResponse::Unhandled;
+    json_reply(res, 403,
+               error_body(fmt::format("Host '{}' refused: this dashboard serves this machine only (open it as "
+                                      "http://127.0.0.1:PORT/ or http://localhost:PORT/)",
+                                      safe_text(name, 80))));
+    return httplib::Server::HandlerResponse::Handled;
+  });
   server.Get("/", [](const httplib::Request&, httplib::Response& res) {
     res.set_header("Cache-Control", "no-store");
     res.set_content(reinterpret_cast<const char*>(kDashboardPage), sizeof(kDashboardPage) - 1, "text/html; charset=utf-8");
