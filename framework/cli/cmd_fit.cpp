@@ -21,6 +21,7 @@
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo::cli {
 
@@ -201,6 +202,10 @@ Runner add_fit(CLI::App& app) {
     const ResolvedComponent& rc = fitted.component;
     const FitReport& rep = fitted.report;
     const auto& model = fitted.model;
+    // Conditioned on given hyperparameters: what the model says of that (the gp's kernel when its YAML leaves the
+    // choice to a fit, audit session 48) on stderr too, not only inside the JSON.
+    if (a->no_optimize && !rep.message.empty())
+      std::fprintf(stderr, "varbo fit: %s: %s\n", rc.info->name.c_str(), safe_text(rep.message).c_str());
 
     nlohmann::json j;
     j["surrogate"] = rc.info->full_name();

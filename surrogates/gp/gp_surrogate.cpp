@@ -235,6 +235,17 @@ FitReport GpSurrogate::condition(const Dataset& data) {
   FitReport rep;
   if (post) {
     rep = report_for(*post, p);
+    // Conditioned before any fit chose among the kernel candidates (`varbo fit --no-optimize` with kernel: auto):
+    // the first candidate is used. Said, since a fit's hyperparameters fed back this way had come from the
+    // kernel the fit chose (se_ard) and gave another model without a word (audit, session 48).
+    if (!settings_.kernel_candidates.empty() && !posterior_) {
+      const auto& cands = settings_.kernel_candidates;
+      const std::string said = fmt::format(
+          "kernel {} (the first of the kernel candidates: only a fit chooses among them; to condition with another, "
+          "name it, e.g. kernel: {})",
+          cands[choice_].name, cands[choice_ + 1 < cands.size() ? choice_ + 1 : 0].name);
+      rep.message = rep.message.empty() ? said : said + "; " + rep.message;
+    }
     store_natural(p, s);
     posterior_ = std::move(post);
     data_ = data;

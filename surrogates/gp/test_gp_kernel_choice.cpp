@@ -292,3 +292,22 @@ TEST_CASE("kernel: auto, the default, is the candidates [matern52_ard, se_ard] w
     }
   }
 }
+
+TEST_CASE("kernel_candidates: conditioned before any fit, the model says which candidate it used") {
+  // Audit, session 48: a fit's hyperparameters (its chosen kernel se_ard) fed back with `varbo fit --no-optimize`
+  // and kernel: auto were conditioned with Matérn-5/2 without a word.
+  const Dataset data = smooth_se_sample(5);
+  auto gp = make(kCandidates, 2);
+  const FitReport first = gp->condition(data);
+  REQUIRE(first.ok);
+  CHECK(first.message.rfind("kernel matern52_ard (the first of the kernel candidates", 0) == 0);
+  CHECK(first.message.find("kernel: se_ard") != std::string::npos);
+  CHECK(as_gp(*gp).kernel_choice() == 0);
+  // After a fit chose, conditioning keeps the choice and says nothing more.
+  Rng rng(3);
+  REQUIRE(gp->fit(data, rng).ok);
+  CHECK(gp->condition(data).message.find("first of the kernel candidates") == std::string::npos);
+  // A named kernel is no choice: nothing said.
+  auto named = make("{type: gp, kernel: se_ard}", 2);
+  CHECK(named->condition(data).message.find("kernel") == std::string::npos);
+}

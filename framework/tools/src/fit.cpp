@@ -5,7 +5,9 @@
 #include <cmath>
 
 #include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
 #include "varbo/log.hpp"
+#include "varbo/text.hpp"
 
 namespace varbo {
 
@@ -71,6 +73,13 @@ SurrogateFit fit_surrogate(const Registry& registry, const ConfigNode& node, con
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {
+    // A third-party surrogate's own exception is its plugin's fault, not the data's: the scaling advice sent its
+    // author to the CSV (audit, session 48; `varbo run` names the plugin the same way, plugin_code.hpp).
+    if (!is_builtin(*out.component.info))
+      throw PluginCodeError(fmt::format("{}: surrogate '{}' ({}) threw while {}: {} — an exception from plugin "
+                                        "code, not a varbo error",
+                                        data_name, out.component.info->full_name(), out.component.info->library,
+                                        optimize ? "fitting" : "conditioning", safe_text(e.what(), 2000)));
     throw NumericalError(fmt::format("{}: the {} fit failed on this data: {} (are θ and y scaled to moderate "
                                      "magnitudes?)",
                                      data_name, out.component.info->name, e.what()));

@@ -82,6 +82,17 @@ void check_region_outputs(const RegionConstraint& region, const std::string& reg
     bad = "bounds outside the unit cube";
   if (!bad.empty())
     throw std::runtime_error(fmt::format("region '{}' returned {}; its bounds() is wrong", region_name, bad));
+  // The acquisition's starts are built from the seeds row by row: seeds of another width were read past their
+  // end (a one-column seeds() in a 2-D problem: invalid reads under valgrind, exit 0; audit, session 48).
+  const Mat seeds = region.seeds();
+  if (seeds.rows() > 0 && seeds.cols() != dim)
+    bad = fmt::format("seeds of dimension {}, expected {}", seeds.cols(), dim);
+  else if (!seeds.allFinite())
+    bad = "a seed with a non-finite coordinate";
+  else if (seeds.size() > 0 && (seeds.minCoeff() < -1e-9 || seeds.maxCoeff() > 1 + 1e-9))
+    bad = "a seed outside the unit cube";
+  if (!bad.empty())
+    throw std::runtime_error(fmt::format("region '{}' returned {}; its seeds() is wrong", region_name, bad));
 }
 
 }  // namespace varbo::bo

@@ -32,7 +32,8 @@ void check_acquisition_outputs(const Acquisition& acquisition, const std::string
 /// team, session 28). Throws std::runtime_error naming `sampler_name`; returns `m`.
 Mat check_sampler_outputs(Mat m, const std::string& sampler_name, Index n, Index dim, bool fewer_ok);
 
-/// A region's bounds() after its update: dimension `dim`, finite, lower <= upper, inside the unit cube (to 1e-9).
+/// A region's bounds() after its update: dimension `dim`, finite, lower <= upper, inside the unit cube (to 1e-9);
+/// its seeds() (when it has any) `dim` columns, finite, inside the unit cube.
 /// A third-party region's bad box was blamed on the surrogate ("gp: predict at a point of dimension 3") or the
 /// optimizer, and an inverted one was used in silence (red team, session 28). Throws std::runtime_error naming it.
 void check_region_outputs(const RegionConstraint& region, const std::string& region_name, Index dim);
