@@ -58,6 +58,8 @@ TEST_CASE("varbo fit: malformed data files are refused with file:line and column
       {"x,y\n0.1,0x10\n", d + ":2: column 'y': expected a decimal number, got '0x10'", {}},
       {"x,y\n0.1,1e300\n0.5,2e300\n0.9,-1e300\n", d + ":2: column 'y': 1e+300 is too large in magnitude", {}},
       {"x,,y\n0.1,1,2\n", d + ":1: column 2 of the header has no name", {}},
+      // A quote opened on line 2 and never closed: named where the value began (audit, session 48).
+      {"x,y\n\"0.1,1\n0.5,2\n", d + ":2: unterminated quote (the value opened here never closes)", {}},
   };
   for (const auto& c : cases) {
     INFO(c.data);
@@ -75,6 +77,21 @@ TEST_CASE("varbo fit: malformed data files are refused with file:line and column
   const Fit q = fit(dir, kGp, kData, {"--no-optimize", "--predict", dir + "/q.csv"});
   CHECK(q.exit_code == 2);
   CHECK(contains(q.output, dir + "/q.csv:3: column 'x': nan is not a finite number"));
+  // Audit, session 48: pandas' default DataFrame.to_csv (",x,y": its index under an empty first name) was refused;
+  // it reads as pandas reads it back ("Unnamed: 0") and is skipped as an index. A quoted note holding a line break
+  // (RFC 4180) was refused as an unterminated quote; its row keeps the line where it began.
+  const Fit pandas = fit(dir, kGp, ",x,y\n0,0.1,1\n1,0.5,2\n2,0.9,1.5\n", {"--no-optimize"});
+  CHECK(pandas.exit_code == 0);
+  CHECK(contains(pandas.output, "column 'Unnamed: 0' is a pandas index"));
+  CHECK(contains(pandas.output, "\"n\": 3"));
+  const Fit notes = fit(dir, kGp, "x,note,y\n0.1,\"fell, then\nrecovered\",1\n0.5,\"ok \"\"good\"\"\",2\n0.9,ok,nan\n",
+                        {"--no-optimize", "--columns", "x"});
+  CHECK(notes.exit_code == 2);
+  CHECK_MESSAGE(contains(notes.output, d + ":5: column 'y': nan is not a finite number"), notes.output);
+  const Fit notes_ok = fit(dir, kGp, "x,note,y\n0.1,\"fell, then\nrecovered\",1\n0.5,\"ok \"\"good\"\"\",2\n0.9,ok,1.5\n",
+                           {"--no-optimize", "--columns", "x"});
+  CHECK(notes_ok.exit_code == 0);
+  CHECK(contains(notes_ok.output, "\"n\": 3"));
   // The same data, well formed, fits.
   const Fit ok = fit(dir, kGp, kData, {"--no-optimize", "--predict", dir + "/p.csv"});
   CHECK(ok.exit_code == 0);

@@ -110,12 +110,24 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
       }
       continue;
     }
-    // A data file is text: a NUL byte means binary data, and an odd number of quotes a value that never ends
-    // (a quoted field cannot hold a line break here).
+    // An odd number of quotes: a quoted value holding a line break (RFC 4180; a note typed in a spreadsheet cell
+    // with Alt+Enter), continued on the next lines until its quote closes. It was refused as "unterminated quote"
+    // on a file Python's csv module and pandas read (audit, session 48). A quote never closed is named at the
+    // line where the value began.
+    const int first_line = lineno;
+    while (std::count(line.begin(), line.end(), '"') % 2 != 0) {
+      std::string more;
+      if (!next_line(in, more))
+        throw InputError(fmt::format("{}:{}: unterminated quote (the value opened here never closes); expected "
+                                     "comma-separated values",
+                                     filename, first_line));
+      ++lineno;
+      line += '\n';
+      line += more;
+    }
+    // A data file is text: a NUL byte means binary data.
     if (line.find('\0') != std::string::npos)
-      throw InputError(fmt::format("{}:{}: a NUL byte (binary data?); expected comma-separated text", filename, lineno));
-    if (std::count(line.begin(), line.end(), '"') % 2 != 0)
-      throw InputError(fmt::format("{}:{}: unterminated quote; expected comma-separated values", filename, lineno));
+      throw InputError(fmt::format("{}:{}: a NUL byte (binary data?); expected comma-separated text", filename, first_line));
     auto cells = split_csv_line(line);
     for (auto& c : cells) {  // spaces around a value are not part of it
       const auto b = c.find_first_not_of(" \t");
@@ -128,22 +140,26 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
         throw InputError(fmt::format(
             "{}:{}: the header line is all numbers: a file without column names{}; add a header line such as "
             "x1,x2,y",
-            filename, lineno,
+            filename, first_line,
             first_comment_line > 0
                 ? fmt::format(" (line {} '{}' is a comment: NumPy's savetxt writes its header so; pass comments='')",
                               first_comment_line, safe_text(first_comment, 40))
                 : std::string()));
       if (cells.size() == 1 && !separator_hint(line).empty())
-        throw InputError(fmt::format("{}:{}: the header is a single column '{}'{}", filename, lineno,
+        throw InputError(fmt::format("{}:{}: the header is a single column '{}'{}", filename, first_line,
                                      printable(cells[0]), separator_hint(line)));
+      // pandas' DataFrame.to_csv writes its index under an empty first name (",x,y"); pandas reads it back as
+      // "Unnamed: 0", and so does this reader, so that `varbo fit` treats it as the index it is (audit, session 48:
+      // the most common way a Python user writes a CSV was refused).
+      if (cells.size() > 1 && cells[0].empty()) cells[0] = "Unnamed: 0";
       for (std::size_t c = 0; c < cells.size(); ++c) {
         if (cells[c].empty())
-          throw InputError(fmt::format("{}:{}: column {} of the header has no name", filename, lineno, c + 1));
+          throw InputError(fmt::format("{}:{}: column {} of the header has no name", filename, first_line, c + 1));
         for (std::size_t k = 0; k < c; ++k)
           if (cells[k] == cells[c])
             throw InputError(fmt::format("{}:{}: column name '{}' appears twice (columns {} and {}); each column "
                                          "needs its own name",
-                                         filename, lineno, cells[c], k + 1, c + 1));
+                                         filename, first_line, cells[c], k + 1, c + 1));
       }
       t.columns = cells;
       for (const auto& name : t.columns) numeric.push_back(!used || used(name));
@@ -151,7 +167,7 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
     }
     if (cells.size() != t.columns.size())
       throw InputError(fmt::format("{}:{}: expected {} comma-separated values (as in the header), found {}{}", filename,
-                                   lineno, t.columns.size(), cells.size(), separator_hint(line)));
+                                   first_line, t.columns.size(), cells.size(), separator_hint(line)));
     std::vector<double> row;
     for (std::size_t c = 0; c < cells.size(); ++c) {
       if (!numeric[c]) {
@@ -160,12 +176,12 @@ CsvTable read_csv(const std::string& filename, const std::function<bool(const st
       }
       const std::optional<double> v = parse_decimal(cells[c]);
       if (!v)
-        throw InputError(fmt::format("{}:{}: column '{}': expected a decimal number, got '{}'", filename, lineno,
+        throw InputError(fmt::format("{}:{}: column '{}': expected a decimal number, got '{}'", filename, first_line,
                                      safe_text(t.columns[c], 40), safe_text(cells[c], 40)));
       row.push_back(*v);
     }
     rows.push_back(std::move(row));
-    t.lines.push_back(lineno);
+    t.lines.push_back(first_line);
   }
   if (t.columns.empty()) throw InputError(fmt::format("{}: empty file (expected a header line)", filename));
   t.values.resize(static_cast<Index>(rows.size()), static_cast<Index>(t.columns.size()));
