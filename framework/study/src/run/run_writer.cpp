@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <regex>
 
+#include "varbo/config.hpp"
 #include "varbo/csv.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
@@ -215,11 +217,25 @@ void RunWriter::trial(const TrialRow& r) {
   for (Index i = 0; i < t.theta.size(); ++i)  // labels for categories, integers as integers
     trials_ << "," << (space_ ? csv_escape(space_->format_value(static_cast<std::size_t>(i), t.theta[i])) : exact(t.theta[i]));
   trials_ << "," << (r.ok() ? exact(t.cost) : std::string("nan")) << "," << (r.ok() ? 1 : 0);
+  std::vector<std::string> missing;
   for (const auto& c : components_) {
     std::string v = "nan";
+    bool reported = false;
     for (const auto& kv : t.components)
-      if (kv.first == c) v = exact(kv.second);
+      if (kv.first == c) v = exact(kv.second), reported = true;
     trials_ << "," << v;
+    if (r.ok() && !reported && std::find(warned_missing_.begin(), warned_missing_.end(), c) == warned_missing_.end())
+      missing.push_back("'" + c + "'");
+  }
+  if (!missing.empty()) {
+    // A declared component a successful trial did not report was written as nan without a word; the run went on,
+    // and `varbo rescore` found out at the end ("no successful trials with all components"; audit, session 48). A
+    // rig that drops a channel is said at once, once per component.
+    log_warn("trial {}: declared cost component{} {} not reported by the task; recorded as missing (nan): `varbo "
+             "rescore` leaves such trials out (said once per component)",
+             t.id, missing.size() > 1 ? "s" : "", safe_text(join(missing), 300));
+    for (const auto& c : components_)
+      if (std::find(missing.begin(), missing.end(), "'" + c + "'") != missing.end()) warned_missing_.push_back(c);
   }
   if (!warned_extra_) {
     // One warning, the first name bounded and escaped: the names come from the command's answer, and one

@@ -61,6 +61,7 @@ class RunWriter {
   std::ofstream trials_, model_;
   bool published_ = false;
   bool warned_extra_ = false;
+  std::vector<std::string> warned_missing_;  ///< declared components said once each to be missing from a success
   bool trials_warned_ = false;   // trials.csv could not be written (said once)
   bool summary_warned_ = false;  // summary.json could not be written (said once)
   bool summary_stale_ = false;   // the last summary.json could not be written

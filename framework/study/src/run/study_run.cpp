@@ -322,6 +322,25 @@ std::optional<Optimum> admissible_optimum(Task& task, const SharedSpace& space, 
   std::optional<Optimum> optimum;
   if (const std::string why = detail::what_it_threw<Error>([&] { optimum = task.optimum(); }); !why.empty())
     log_warn("task '{}': its known optimum could not be read ({}); no regret figures", task_name, why);
+  // A non-finite optimum cost printed "regret … nan" without a word, and a θ of another dimension was taken in
+  // silence (a third-party task; audit, session 48).
+  if (optimum && !std::isfinite(optimum->cost)) {
+    log_warn("task '{}': its known optimum cost is {}; no regret figures (optimum() should give a finite cost, or "
+             "nothing when the optimum is unknown)",
+             task_name, optimum->cost);
+    return std::nullopt;
+  }
+  if (optimum && !space) {  // a typed space checks its own (below)
+    const Index dim = task.domain().box.dim();
+    for (const Vec& theta : optimum->thetas)
+      if (theta.size() != dim || !theta.allFinite()) {
+        log_warn("task '{}': a minimizer of its known optimum has {}; no regret figures (expected {} finite "
+                 "coordinates)",
+                 task_name, theta.size() != dim ? fmt::format("{} coordinates", theta.size()) : "a non-finite coordinate",
+                 dim);
+        return std::nullopt;
+      }
+  }
   if (!optimum || !space) return optimum;
   std::string why;
   for (const Vec& theta : optimum->thetas)
