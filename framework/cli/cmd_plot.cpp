@@ -25,6 +25,20 @@ namespace varbo::cli {
 
 namespace {
 
+/// The failed trials in user units (rows). They have no cost, so no model sees them; drawn as marks of their own, a
+/// region where the robot fell was blank, the model extrapolating over it unflagged (audit, session 48).
+Mat failed_theta(const RunFolder& run) {
+  Mat out(run.failed.rows(), run.failed.cols());
+  for (Index r = 0; r < run.failed.rows(); ++r)
+    out.row(r) = (run.space ? run.space->decode(run.failed.row(r).transpose())
+                            : from_unit(run.failed.row(r).transpose(), run.domain.box)).transpose();
+  return out;
+}
+constexpr const char* kFailedColour = "#d62728";
+std::string failed_label(const RunFolder& run) {
+  return fmt::format("failed trials ({}; θ only, no cost)", run.failed.rows());
+}
+
 struct PlotArgs {
   std::string run, output, gp = "gp", vhgp = "vhgp", surrogate, optimizer = "{type: multistart, candidates: 2000, polish: 8}";
   std::string slice;  ///< typed parameters: the parameter along which the model is cut
@@ -124,6 +138,12 @@ svg::Figure plot_1d(const RunFolder& run, const Registry& registry, const PlotAr
   std::vector<double> dx(run.theta.col(0).data(), run.theta.col(0).data() + run.theta.rows());
   std::vector<double> dy(run.cost.data(), run.cost.data() + run.cost.size());
   p.markers(dx, dy, svg::Marker::Circle, "#0b3d91", 3.6, "data", "data (trials)");
+  if (run.failed.rows() > 0) {  // at the foot of the picture: they have no cost
+    const Mat f = failed_theta(run);
+    p.markers(std::vector<double>(f.col(0).data(), f.col(0).data() + f.rows()),
+              std::vector<double>(static_cast<std::size_t>(f.rows()), ylo), svg::Marker::Cross, kFailedColour, 5,
+              "failed", failed_label(run));
+  }
   for (const auto& s : sel) {
     if (!s.ok) continue;
     p.vline(s.theta[0], kappa_color(s.kappa), s.kappa == 0 ? "2 3" : "5 4", "");
@@ -176,6 +196,12 @@ svg::Figure plot_2d(const RunFolder& run, const Registry& registry, const PlotAr
     p.legend_place(svg::Panel::LegendPlace::Below);
     p.heatmap(*grids[k], k == 0 ? "E[J]" : "s");
     p.markers(dx, dy, svg::Marker::Circle, "#ffffff", 3.4, "data", k == 0 ? "data (trials)" : "");
+    if (run.failed.rows() > 0) {
+      const Mat f = failed_theta(run);
+      p.markers(std::vector<double>(f.col(0).data(), f.col(0).data() + f.rows()),
+                std::vector<double>(f.col(1).data(), f.col(1).data() + f.rows()), svg::Marker::Cross, kFailedColour,
+                5, "failed", k == 0 ? failed_label(run) : "");
+    }
     for (const auto& s : sel)
       if (s.ok)
         p.markers({s.theta[0]}, {s.theta[1]}, s.kappa > 0 ? svg::Marker::Diamond : svg::Marker::Triangle,
@@ -244,7 +270,14 @@ svg::Figure plot_slice(const RunFolder& run, const Registry& registry, const Plo
     p.band(xs, lo, hi, "#e69f00", 0.30, "±2 s");
     p.line(xs, mean, "#b35900", 2.2, "", "mean E");
   }
-  p.markers(dx, dy, svg::Marker::Circle, "#0b3d91", 3.6, "data", "data (all trials, projected)");
+  p.markers(dx, dy, svg::Marker::Circle, "#0b3d91", 3.6, "data", "successful trials, projected");
+  if (run.failed.rows() > 0) {  // projected too, at the foot of the picture: they have no cost
+    const Mat f = failed_theta(run);
+    std::vector<double> fx;
+    for (Index r = 0; r < f.rows(); ++r) fx.push_back(axis(f(r, static_cast<Index>(i))));
+    p.markers(fx, std::vector<double>(fx.size(), ylo), svg::Marker::Cross, kFailedColour, 5, "failed",
+              failed_label(run));
+  }
   p.vline(axis(base[static_cast<Index>(i)]), "#222222", "5 4", fmt::format("best trial: {}", space.format_value(i, base[static_cast<Index>(i)])));
   return fig;
 }
@@ -277,7 +310,8 @@ Runner add_plot(CLI::App& app) {
       ->check(integer_in(0, 9223372036854775807LL));
   cmd->add_option("--threads", a->threads, "worker threads (0 = all)")->check(integer_in(0, 2147483647));
   cmd->add_option("--slice", a->slice,
-                  "typed parameters: draw the model along this parameter, the others at the best trial");
+                  "draw the model along this parameter, the others at the best trial (any run; the only way for typed "
+                  "parameters and for 3 or more)");
   return [a, gp_opt, vh_opt]() {
     ThreadLimit limit(a->threads);
     const bool pair_given = gp_opt->count() > 0 || vh_opt->count() > 0;
@@ -307,10 +341,20 @@ Runner add_plot(CLI::App& app) {
       save_plot(fig, out);
       return 0;
     }
-    if (!a->slice.empty()) throw InputError("--slice: for runs with typed parameters (`parameters:`, docs/search_space.md)");
+    if (!a->slice.empty()) {
+      // A run over a plain box: its parameters are real and linear, the box's own space (audit, session 48: --slice
+      // was refused here, so a 7-D run could not be drawn at all).
+      RunFolder boxed = run;
+      boxed.space = std::make_shared<const SearchSpace>(SearchSpace::from_box(run.domain.box, run.names));
+      refuse_pair("a --slice plot draws one model");
+      save_plot(plot_slice(boxed, registry, *a), a->output.empty() ? a->run + "/model.svg" : a->output);
+      return 0;
+    }
     const Index d = run.domain.box.dim();
     if (d != 1 && d != 2)
-      throw InputError(fmt::format("{}: the task has {} parameters; plot draws 1-D and 2-D tasks only", a->run, d));
+      throw InputError(fmt::format("{}: the task has {} parameters; plot draws 1-D and 2-D tasks whole, and one "
+                                   "parameter of any run with --slice NAME (one of {})",
+                                   a->run, d, join(run.names)));
     if (d == 2) refuse_pair("a 2-D plot draws one model");
     if (d == 1 && !a->surrogate.empty())
       throw InputError(fmt::format("{}: --surrogate names the model of a 2-D or --slice plot; a 1-D plot draws two, "

@@ -292,6 +292,36 @@ TEST_CASE("varbo select and plot --slice on a run folder with typed parameters")
   CHECK(no_slice.find("--slice NAME") != std::string::npos);
 }
 
+TEST_CASE("varbo plot --slice on a plain box run, failed trials marked in every picture") {
+  // Audit, session 48: --slice was for typed parameters only, so a 3-D or larger run over a box could not be drawn
+  // at all; failed trials (no cost) were missing from every picture.
+  set_log_level(LogLevel::Error);
+  const std::string dir = test::temp_folder("box_run_slice");
+  RunOverrides ov;
+  ov.output = dir + "/run";
+  test::run_yaml("task: {type: hartmann3, failure_region: {shape: box, lower: [0.7, 0, 0], upper: [1, 1, 1]}}\n"
+                 "budget: 12\nseed: 3\nalgorithm: {type: random}\nstop_after_failures: 0\n",
+                 test::registry(), ov);
+  const auto rows = test::read_rows(dir + "/run/trials.csv");
+  const int ok = test::column_of(rows[0], "ok");
+  long failed = 0;
+  for (std::size_t r = 1; r < rows.size(); ++r) failed += rows[r][static_cast<std::size_t>(ok)] == "0";
+  REQUIRE(failed > 0);
+  const std::string varbo = VARBO_EXE;
+  int st = 0;
+  const std::string out = run_command(fmt::format("{} plot {}/run --slice x2 -o {}/x2.svg 2>&1", varbo, dir, dir), &st);
+  REQUIRE_MESSAGE(st == 0, out);
+  const std::string svg = test::slurp(dir + "/x2.svg");
+  CHECK(svg.find("along 'x2'") != std::string::npos);
+  CHECK(svg.find(fmt::format("failed trials ({}; θ only, no cost)", failed)) != std::string::npos);
+  const std::string whole = run_command(fmt::format("{} plot {}/run 2>&1", varbo, dir), &st);
+  CHECK(st == 2);
+  CHECK(whole.find("one parameter of any run with --slice NAME (one of x1, x2, x3)") != std::string::npos);
+  const std::string typo = run_command(fmt::format("{} plot {}/run --slice x4 2>&1", varbo, dir), &st);
+  CHECK(st == 2);
+  CHECK(typo.find("the run has no parameter 'x4'") != std::string::npos);
+}
+
 TEST_CASE("bo does not suggest a category again where every trial failed") {
   // A rig that fails for one controller type (category `a`) whatever the integer: before, the acquisition's
   // optimum in the relaxed coordinates passed the P(success) check between two categories and was then rounded to
