@@ -3,6 +3,8 @@
 // with the predicted mean and standard deviation. The task is never evaluated.
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include <cstdio>
 #include <nlohmann/json.hpp>
 
@@ -21,6 +23,12 @@
 namespace varbo::cli {
 
 namespace {
+/// Characters of UTF-8 text (bytes that do not continue a sequence): the columns a terminal gives it.
+std::size_t utf8_width(const std::string& text) {
+  return static_cast<std::size_t>(std::count_if(text.begin(), text.end(), [](char c) {
+    return (static_cast<unsigned char>(c) & 0xC0) != 0x80;
+  }));
+}
 std::string theta_text(const Vec& theta, const SharedSpace& space) {
   std::string s = "[";
   for (Index i = 0; i < theta.size(); ++i)
@@ -102,7 +110,12 @@ Runner add_select(CLI::App& app) {
       // model's uncertainty only, and a user reading only the table could not know (red team, session 26).
       if (!rep.message.empty()) std::printf("  fit: %s\n", rep.message.c_str());
       std::printf("  parameters: %s\n", printable(join(run.names)).c_str());
-      std::printf("  %8s  %-28s %12s %12s %14s\n", "kappa", "theta", "mean E", "std s", "E + kappa*s");
+      // The θ column as wide as its widest entry: a 2-D θ at full precision pushed E and s out of their columns
+      // (audit, session 48).
+      int width = 28;
+      for (const auto& s : sel)
+        if (s.ok) width = std::max(width, static_cast<int>(utf8_width(theta_text(s.theta, run.space))));
+      std::printf("  %8s  %-*s %12s %12s %14s\n", "kappa", width, "theta", "mean E", "std s", "E + kappa*s");
       for (const auto& s : sel) {
         if (!s.ok) {
           std::printf("  %8.3g  no selection: %s\n", s.kappa, s.message.c_str());
@@ -114,8 +127,11 @@ Runner add_select(CLI::App& app) {
                            : s.relative_latent_std > kExtrapolating
                                ? (a->among_evaluated ? "  (model uncertain here)" : "  (far from the data)")
                                : "";
-        std::printf("  %8.3g  %-28s %12.6g %12.6g %14.6g%s\n", s.kappa, theta_text(s.theta, run.space).c_str(), s.mean, s.std,
-                    s.criterion, flag);
+        const std::string theta = theta_text(s.theta, run.space);
+        // printf pads by bytes: a label's UTF-8 characters counted once each.
+        const int pad = width + static_cast<int>(theta.size()) - static_cast<int>(utf8_width(theta));
+        std::printf("  %8.3g  %-*s %12.6g %12.6g %14.6g%s\n", s.kappa, pad, theta.c_str(), s.mean, s.std, s.criterion,
+                    flag);
       }
     }
     const double lowest = run.data.size() > 0 ? run.data.y.minCoeff() : 0.0;

@@ -320,6 +320,26 @@ TEST_CASE("varbo plot --slice on a plain box run, failed trials marked in every 
   const std::string typo = run_command(fmt::format("{} plot {}/run --slice x4 2>&1", varbo, dir), &st);
   CHECK(st == 2);
   CHECK(typo.find("the run has no parameter 'x4'") != std::string::npos);
+  // The same audit: select's table kept E and s under their headers only while θ fitted 28 characters; a 3-D θ at
+  // full precision pushed them right. Each number ends where its header does.
+  const std::string table = run_command(fmt::format("{} select {}/run --among-evaluated 2>/dev/null", varbo, dir), &st);
+  REQUIRE_MESSAGE(st == 0, table);
+  std::vector<std::string> lines;
+  for (std::size_t a = 0, b; a < table.size(); a = b + 1) {
+    b = table.find('\n', a);
+    if (b == std::string::npos) b = table.size();
+    lines.push_back(table.substr(a, b - a));
+  }
+  std::size_t header = 0;
+  while (header < lines.size() && lines[header].find("mean E") == std::string::npos) ++header;
+  REQUIRE(header + 3 < lines.size());
+  const std::size_t end = lines[header].find("mean E") + 6;
+  for (std::size_t r = header + 1; r <= header + 3; ++r) {
+    INFO(lines[r]);
+    REQUIRE(lines[r].size() > end);
+    CHECK(lines[r][end - 1] != ' ');  // the number's last digit
+    CHECK(lines[r][end] == ' ');
+  }
 }
 
 TEST_CASE("bo does not suggest a category again where every trial failed") {
