@@ -60,7 +60,8 @@ Runner add_select(CLI::App& app) {
                 "the last hyperparameters in model.yaml)");
   // Both given, --surrogate won and the flag was ignored in silence (audit, session 44).
   cmd->add_option("--surrogate", a->surrogate,
-                  "a different surrogate: inline YAML ('gp', '{type: vhgp, restarts: 16}') or a YAML file")
+                  "a different surrogate, whole: inline YAML ('gp', '{type: vhgp, noise_model: heteroscedastic}') or "
+                  "a YAML file; the run's surrogate options are not merged in (config.resolved.yaml lists them)")
       ->excludes(from_config);
   cmd->add_option("--optimizer", a->optimizer, "maximizer of -(E + kappa*s): inline YAML or a YAML file")
       ->capture_default_str();
