@@ -197,8 +197,9 @@ bool study_detail::usable_recommendation(const Vec& r, Index dim, const std::str
     return false;
   }
   if (say)
-    log_warn("algorithm '{}' recommended a point of dimension {}{} (expected {}); no recommendation", algorithm,
-             r.size(), r.allFinite() ? "" : " with a non-finite coordinate", dim);
+    log_warn("algorithm '{}' recommended {}; no recommendation", algorithm,
+             r.size() != dim ? fmt::format("a point of dimension {} (expected {})", r.size(), dim)
+                             : std::string("a point with a non-finite coordinate"));
   return false;
 }
 
