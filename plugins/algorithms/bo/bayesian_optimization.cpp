@@ -369,14 +369,42 @@ Vec BayesianOptimization::random_point_avoiding_failures(Rng& rng) const {
   // The design sampler may have one point only: around_initial_point gives θ0 first, every time, and a failing θ0
   // was run again on every remaining trial (red team, session 26). Uniform points of the region then.
   const Box& box = region_->bounds();
+  const auto consider = [&](const Vec& x) {
+    if (!region_->contains(x) || failed_here(x)) return false;
+    const double p = feasibility_->probability(evaluated_point(x));
+    if (p >= exclusion_threshold_) return true;
+    if (p > best_p) best_p = p, best = x;
+    return false;
+  };
   for (int i = 0; i < 256; ++i) {
     const Vec x = box.lower + (box.upper - box.lower).cwiseProduct(rng.uniform_vec(dim_));
-    if (!region_->contains(x) || failed_here(x)) continue;
-    const double p = feasibility_->probability(evaluated_point(x));
-    if (p >= exclusion_threshold_) return x;
-    if (p > best_p) best_p = p, best = x;
+    if (consider(x)) return x;
   }
-  return best.size() == dim_ ? best : random_point(rng);
+  // A confidence region in 10 or more dimensions is a sliver of its box: none of the 256 uniform points fell in it,
+  // and the design sampler's θ0 — the one that had failed — was returned, run after run until stop_after_failures
+  // (audit, session 48: d = 10, trials 7–15 all at θ0). Points around the region's seeds (its data) then, at
+  // shrinking steps.
+  const Mat seeds = region_->seeds();
+  for (int i = 0; i < 256 && seeds.rows() > 0; ++i) {
+    const Vec s = seeds.row(i % seeds.rows()).transpose();
+    const double step = 0.1 * std::ldexp(1.0, -(i / 64));
+    const Vec x = box.clamp(s + step * box.width().cwiseProduct(rng.normal_vec(dim_)));
+    if (consider(x)) return x;
+  }
+  if (best.size() == dim_) return best;
+  const Vec fallback = random_point(rng);
+  if (!failed_here(fallback)) return fallback;
+  // Every draw failed before or lies outside the region: a known success inside it (measured again; a spent trial,
+  // not a fall) rather than a known failure.
+  Index chosen = -1;
+  double chosen_p = -1;
+  for (Index r = 0; r < data_.size(); ++r) {
+    const Vec x = data_.X.row(r).transpose();
+    if (!region_->contains(x)) continue;
+    const double p = feasibility_->probability(evaluated_point(x));
+    if (p > chosen_p) chosen_p = p, chosen = r;
+  }
+  return chosen >= 0 ? Vec(data_.X.row(chosen).transpose()) : fallback;
 }
 
 void BayesianOptimization::fit_model(Index k, const Dataset& data) {
@@ -633,6 +661,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
   std::unique_ptr<FeasibilityWeightedAcquisition> feasible;
   double p_min = exclusion_threshold_;
   std::ptrdiff_t refine_failures = 0;  // failure_model.refine_backoff: failed trials of the refinement so far
+  Index failure_streak = 0;            // failure_model.streak_backoff: the failures in a row it counted
   if (weighted && (refining_ || failure_settings_.incumbent_level != "refinement") && data_.size() > 0) {
     // Success as likely as at the incumbent (up to refine_min_probability), not merely more likely than failure:
     // the refinement's mean minimum beside a failure boundary otherwise lay on the P = min_probability contour
@@ -654,6 +683,7 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       // optimum, 7 falls in a row within 0.003 of each other. As the refinement's backoff: each failure in a row
       // halves the probability of failure accepted.
       const Index streak = failed_in_a_row(k);
+      failure_streak = streak;
       if (streak > 0)
         p_min = 1.0 - (1.0 - p_min) * std::ldexp(1.0, -static_cast<int>(std::min<Index>(streak, 60)));
     }
@@ -784,10 +814,16 @@ Suggestion BayesianOptimization::suggest(Index k, const Dataset& data, bool refi
       s.phase = "refine";
       return s;
     }
+    // The rule that set the level, named: after failures in a row streak_backoff raises it above
+    // refine_min_probability, and the message named that cap beside a level of 0.999 (audit, session 48).
     log_warn("bo: trial {}: the acquisition's best point has P(success) {:.3g} < {:.3g} ({}); choosing at random", k,
              feasibility_->probability(evaluated_point(res.x)), p_min,
-             p_min > exclusion_threshold_ ? "the incumbent's level, at most refine_min_probability"
-                                          : "min_probability");
+             failure_streak > 0 && p_min > exclusion_threshold_
+                 ? fmt::format("the incumbent's level, at most refine_min_probability, with the probability of failure "
+                               "halved for each of the {} failed trials in a row: streak_backoff",
+                               failure_streak)
+             : p_min > exclusion_threshold_ ? std::string("the incumbent's level, at most refine_min_probability")
+                                            : std::string("min_probability"));
     s.x = random_point_avoiding_failures(orng);
     s.phase = "random";
     return s;

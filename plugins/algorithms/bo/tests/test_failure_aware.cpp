@@ -660,3 +660,34 @@ TEST_CASE("failure-aware bo: a failed initial policy is not run again by the ran
   }
   CHECK(failed.size() < 10);
 }
+
+TEST_CASE("failure-aware bo: in 10 dimensions too, a failed θ0 is not run again by the random fallback") {
+  // Audit, session 48: with d = 10 a confidence region is a sliver of its box; the fallback's 256 uniform points of
+  // the box found none inside it and returned the design sampler's point, θ0, which had failed: trials 7–15 all at
+  // θ0 until stop_after_failures. Only θ0 fails here; far from it (over 0.4, unit cube) everything fails too, so
+  // the acquisition's best points are often excluded and the fallback is exercised.
+  set_log_level(LogLevel::Error);
+  BuildContext ctx;
+  ctx.dim = 10;
+  ctx.budget = 20;
+  ctx.seed = 2;
+  ctx.initial_point = Vec::Constant(10, 0.65);
+  auto a = test::registry().create<Algorithm>(
+      "{type: bo, initial_design: {type: around_initial_point}, initial_points: 4, "
+      "surrogate: {type: gp, kernel: matern52_ard, restarts: 2}, acquisition: {type: cb, kappa: -2}, "
+      "region: {type: confidence, gamma: 0.6}, acquisition_optimizer: sample_polish}",
+      ctx);
+  const Vec theta0 = Vec::Constant(10, 0.65);
+  const auto fails = [&](const Vec& x) { return (x - theta0).norm() < 1e-9 || (x - theta0).norm() > 0.4; };
+  int at_theta0 = 0, random_trials = 0;
+  for (Index k = 0; k < 20; ++k) {
+    const Suggestion s = a->ask(1).front();
+    CAPTURE(k);
+    at_theta0 += (s.x - theta0).lpNorm<Eigen::Infinity>() <= 1e-9;
+    random_trials += s.phase == "random";
+    const bool ok = !fails(s.x);
+    a->tell({Observation{s.x, ok ? (s.x.array() - 0.95).square().sum() / 10 : std::nan(""), ok, {}}});
+  }
+  CHECK(at_theta0 == 1);  // the design's first point only
+  CHECK(random_trials > 0);  // the fallback did run
+}
