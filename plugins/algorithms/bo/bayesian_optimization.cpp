@@ -50,6 +50,13 @@ BayesianOptimization::BayesianOptimization(const Options& o, const BuildContext&
   {
     const auto& provides = o.component("region").info->provides;
     if (std::find(provides.begin(), provides.end(), "region:constraint") != provides.end()) {
+      // A cautious region with a known-safe θ0 but a space-filling design: the first 2(d + 1) trials spread over
+      // the whole box, unconstrained jumps on a robot, and nothing said it (audit, session 48).
+      if (ctx.initial_point && o.component("initial_design").info->name != "around_initial_point")
+        log_warn_once(fmt::format("bo: region '{}' keeps the search near the data, but the initial design '{}' "
+                                  "spreads its points over the whole box, the given θ0 aside; for a cautious start "
+                                  "around θ0 give `initial_design: {{type: around_initial_point}}` (docs/crbo.md)",
+                                  region_name_, design_sampler_name_));
       observed_model_ = r.create<Surrogate>(o.component("surrogate"), ctx);
       // CRBO's region is a bound on the latent variance (Fröhlich 2021, eq. (6)): a surrogate that reports its
       // uncertainty as noise made it the whole box in silence (red team, session 30; docs/plugins.md).
