@@ -262,3 +262,33 @@ TEST_CASE("workers: bad input is an error naming the problem, exit 2, nothing wr
     CHECK(t.error.find("exit status 3") != std::string::npos);
   }
 }
+
+// Audit, session 48: a `varbo run` sharing its study with a worker wrote its live algorithm's recommendation to
+// summary.json, and that algorithm had not been told the results other writers recorded after its last ask:
+// trial 9's θ (cost 0.0117) beside trial 11's 0.000998. Made deterministic here: the run's 5th trial waits until a
+// result is recorded by hand (`varbo observe STUDY new`, another writer) at the minimizer, the best θ of the study.
+TEST_CASE("a run recommends from every result of its study, those recorded by others after its last ask too") {
+  const std::string dir = test::temp_folder("run_others_recommendation");
+  const std::string script = dir + "/trial.sh", out = dir + "/run", cfg = dir + "/run.yaml";
+  // Cost (x1 - 0.3)² + (x2 - 0.5)²; the 5th call waits (up to 60 s) for the file `go`.
+  std::ofstream(script) << "#!/bin/sh\n"
+                        << "theta=$(sed 's/.*\"theta\": *\\[\\([^]]*\\)\\].*/\\1/')\n"
+                        << "n=$(cat " << dir << "/calls 2>/dev/null || echo 0); n=$((n + 1)); echo $n > " << dir << "/calls\n"
+                        << "if [ $n -eq 5 ]; then touch " << dir << "/waiting; i=0; while [ ! -e " << dir
+                        << "/go ] && [ $i -lt 600 ]; do sleep 0.1; i=$((i + 1)); done; fi\n"
+                        << "echo \"$theta\" | awk -F, '{printf \"%.17g\\n\", ($1-0.3)^2 + ($2-0.5)^2}'\n";
+  std::ofstream(cfg) << "task: {type: external, command: 'sh " << script << "', dim: 2, bounds: [0, 1]}\n"
+                     << "budget: 6\nseed: 1\nalgorithm: {type: bo, initial_points: 4}\n";
+  const pid_t r = test::spawn({VARBO_EXE, "run", cfg, "-o", out, "--no-progress"}, dir + "/run.log");
+  for (int i = 0; i < 1200 && !std::filesystem::exists(dir + "/waiting"); ++i) wait_ms(50);
+  REQUIRE(std::filesystem::exists(dir + "/waiting"));
+  REQUIRE(test::run({VARBO_EXE, "-q", "observe", out + "/study.db", "new", "0", "--theta", "0.3,0.5"}).exit_code == 0);
+  std::ofstream(dir + "/go") << "";
+  REQUIRE(test::wait_for(r).exit_code == 0);
+  std::ifstream in(out + "/summary.json");
+  const std::string summary((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  INFO(summary);
+  CHECK(summary.find("\"evaluations\": 6") != std::string::npos);
+  // The hand-recorded θ: cost 0, the lowest evaluated and the lowest mean of a deterministic model.
+  CHECK(summary.find("\"recommended_theta\": [\n    0.3,\n    0.5\n  ]") != std::string::npos);
+}

@@ -568,9 +568,14 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   auto point_key = [](const Vec& x) {
     return std::string(reinterpret_cast<const char*>(x.data()), static_cast<std::size_t>(x.size()) * sizeof(double));
   };
+  // Set once another writer's result (a `varbo worker`, `observe`) has been accounted: the live algorithm has not
+  // been told it until its next ask, so its recommendation lagged — a run sharing its study with a worker wrote
+  // trial 9's θ (cost 0.0117) to summary.json beside trial 11's 0.000998 (audit, session 48). The study's own
+  // recommendation brings the algorithm up to date first.
+  bool others_accounted = false;
   auto recommend_unguarded = [&]() {
     const Algorithm* a = st.algorithm();
-    if (!a) {
+    if (!a || others_accounted) {
       const std::optional<Vec> theta = st.recommendation();
       if (!theta) return;
       summary.recommended_theta = *theta;
@@ -643,6 +648,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       account(other);
       writer.trial(other);
       accounted_seq = t.finish_seq + 1;
+      others_accounted = true;
       ++n;
     }
     return n;
@@ -937,7 +943,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     }
   }
   // Results that came in after this run's last one: the recommendation then sees them too.
-  if (catch_up(std::numeric_limits<std::int64_t>::max()) > 0 || !summary.recommended_theta) recommend();
+  if (catch_up(std::numeric_limits<std::int64_t>::max()) > 0 || others_accounted || !summary.recommended_theta)
+    recommend();
   if (const SearchSpace* space = st.space().get()) {
     if (summary.best_theta) summary.best_params = params_text(*space, *summary.best_theta);
     if (summary.recommended_theta) summary.recommended_params = params_text(*space, *summary.recommended_theta);
