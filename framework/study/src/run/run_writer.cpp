@@ -102,6 +102,51 @@ void emit_portable(YAML::Emitter& em, const YAML::Node& n) {
 // Names and error messages: one valid UTF-8 line per cell, whatever a task wrote (varbo/csv.hpp).
 static std::string csv_escape(const std::string& s) { return csv_text(s); }
 
+namespace {
+/// FNV-1a, 64 bits: a checksum of what varbo wrote (not a security measure).
+std::uint64_t fnv1a64(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ull;
+  for (const unsigned char c : text) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+/// Says so when `path`, written by varbo with a checksum line, was edited since: the first key whose value differs
+/// from what is written now, and how to carry a budget (the one change a resume takes, through --budget).
+void warn_if_edited(const std::string& path, const std::string& body_now) {
+  std::ifstream in(path);
+  if (!in) return;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string marker = "; checksum ";
+  const std::size_t at = text.rfind(marker);
+  const std::size_t first = text.find('\n');
+  const std::size_t last_line = text.rfind("\n#", at);
+  if (at == std::string::npos || first == std::string::npos || last_line == std::string::npos || last_line < first)
+    return;  // not written with a checksum (an older varbo): nothing to compare
+  const std::string body = text.substr(first + 1, last_line + 1 - (first + 1));
+  const std::string sum = text.substr(at + marker.size(), 16);
+  if (fmt::format("{:016x}", fnv1a64(body)) == sum) return;
+  std::string where;
+  try {
+    const YAML::Node was = YAML::Load(body), now = YAML::Load(body_now);
+    if (was.IsMap() && now.IsMap())
+      for (const auto& kv : was) {
+        const std::string key = kv.first.as<std::string>();
+        if (!now[key] || YAML::Dump(now[key]) != YAML::Dump(kv.second)) {
+          where = fmt::format(" (at {}: '{}', the study's '{}')", key, safe_text(YAML::Dump(kv.second), 80),
+                              now[key] ? safe_text(YAML::Dump(now[key]), 80) : std::string("none"));
+          break;
+        }
+      }
+  } catch (const YAML::Exception&) {
+    where = " (it no longer parses)";
+  }
+  log_warn("{} was edited since varbo wrote it{}; a resumed run continues the study as stored and rewrites this file "
+           "(a budget is raised with `--resume DIR --budget N`; another change is a new study: `varbo run` on the "
+           "edited file with another -o)",
+           path, where);
+}
+}  // namespace
+
 RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const Domain& domain,
                      std::vector<std::string> component_names, bool with_regret, SharedSpace space,
                      const std::vector<std::string>& plugin_paths)
@@ -136,8 +181,15 @@ RunWriter::RunWriter(const std::string& folder, const StudyConfig& study, const 
       resolved["description"] = description_;
     }
     emit_portable(em, resolved);
+    const std::string body = std::string(em.c_str()) + "\n";
+    // Edited by hand and then resumed, the file was replaced by the study's configuration in silence: a budget
+    // raised in it was dropped (audit, session 48). The last line holds a checksum of what varbo wrote; a file
+    // whose body no longer matches it was edited, and the edit is said before the file is rewritten.
+    const std::string sum = fmt::format("{:016x}", fnv1a64(body));
+    warn_if_edited(folder_ + "/config.resolved.yaml", body);
     cfg << "# varbo resolved configuration: every default filled in. Re-run with `varbo run` on this file.\n"
-        << em.c_str() << "\n";
+        << body << "# written by varbo (a resumed run rewrites this file from the study; edits here are not read by "
+        << "--resume); checksum " << sum << "\n";
     cfg.close();
     // A full disk (the run folder apart from the study): the run goes on, its files of before kept.
     if (cfg) fs::rename(aside("config.resolved.yaml"), folder_ + "/config.resolved.yaml", ec);

@@ -267,17 +267,30 @@ void refuse_to_overwrite_foreign(const std::string& folder, const std::string& s
 
 /// A plain `varbo run` on a folder whose study holds trials would silently discard them: refuse.
 void refuse_to_replace(const std::string& folder, const std::string& store_path, const RunOverrides& ov,
-                       const std::string& identity_now) {
+                       const std::string& identity_now, Index budget_now) {
   std::size_t n = 0;
   std::string differs;
   try {
     const auto store = open_sqlite_store(store_path);
     n = store->trials().size();
+    // A raised budget is no new study: the advice to resume dropped it in silence (audit, session 48: the study
+    // "extended overnight" had finished at once). Named, with the option that carries it.
+    if (const auto text = store->meta(store_key::kConfig)) {
+      const YAML::Node stored = YAML::Load(*text);
+      if (stored.IsMap() && stored["budget"] && stored["budget"].IsScalar() &&
+          stored["budget"].Scalar() != std::to_string(budget_now))
+        differs = fmt::format(". The configuration given has budget {} (the study's is {}): resuming keeps the "
+                              "study's unless given anew, {}",
+                              budget_now, stored["budget"].Scalar(),
+                              ov.resume_hint.find("varbo run --resume") != std::string::npos
+                                  ? fmt::format("`varbo run --resume {} --budget {}`", shell_word(folder), budget_now)
+                                  : std::string("with the budget given again"));
+    }
     // An edited configuration re-run on its folder: the advice to resume was followed and the edits (bounds, a
     // budget) were dropped in silence (red team, session 28). Said, with where it differs.
     if (const auto stored = store->meta(store_key::kIdentity);
         stored && !study_detail::same_identity(*stored, identity_now))
-      differs = fmt::format(". The configuration given differs from the study's ({}): a resumed run continues the "
+      differs += fmt::format(". The configuration given differs from the study's ({}): a resumed run continues the "
                             "study as it was created (a budget is raised with --budget); a changed configuration "
                             "is a new study, in another folder (-o)",
                             study_detail::first_difference(*stored, identity_now));
@@ -440,7 +453,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   if (!own_store && !same_file(folder_store, store_path))
     locks.push_back(RunLock::acquire(RunLock::lock_file_of(folder_store), fmt::format("the run folder {}", study.output)));
   if (!ov.resume && (own_store || ov.overwrite) && std::filesystem::exists(store_path)) {
-    if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov, study_identity(study));
+    if (!ov.overwrite) refuse_to_replace(study.output, store_path, ov, study_identity(study), study.budget);
     else refuse_to_overwrite_live_workers(store_path);
     remove_store_files(store_path);  // a fresh run replaces a study without trials, or with --overwrite
   } else if (!ov.resume && ov.overwrite) {
