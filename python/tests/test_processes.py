@@ -45,7 +45,7 @@ def test_a_study_opened_before_a_fork_is_refused_in_the_child(tmp_path):
     # The parent's object is untouched: it goes on, and sees the child's trial pending.
     (t2,) = study.ask()
     study.tell(t2, branin(t2.params))
-    assert [x.state for x in study.trials()].count("pending") == 1
+    assert [x.state for x in study.trials(as_frame=False)].count("pending") == 1
 
 
 def test_a_forked_child_leaving_the_objective_does_not_carry_on_the_run(tmp_path):
@@ -94,7 +94,7 @@ def test_threads_creating_one_study(tmp_path):
         for th in threads:
             th.join()
         assert sorted(results) == ["created", "exists", "exists", "exists"], results
-        assert varbo.Study.open(path).trials() == []
+        assert varbo.Study.open(path).trials(as_frame=False) == []
         assert not [f for f in os.listdir(tmp_path) if ".creating-" in f]
 
 
@@ -103,11 +103,11 @@ def test_records_compare_by_value(tmp_path):
     for _ in range(3):
         (t,) = study.ask()
         study.tell(t, branin(t.params))
-    trials = study.trials()
-    again = study.trials()
+    trials = study.trials(as_frame=False)
+    again = study.trials(as_frame=False)
     assert trials == again and trials[1] in again and again.index(trials[2]) == 2
     assert trials[0] != trials[1]
-    other = varbo.Study.open(tmp_path / "s.db").trials()[0]
+    other = varbo.Study.open(tmp_path / "s.db").trials(as_frame=False)[0]
     other.x = other.x + 1e-9
     assert other != trials[0]
     sel = study.select(0.0)
@@ -187,9 +187,9 @@ def test_ctrl_c_during_ask_leaves_no_trial_pending_that_nobody_got(tmp_path):
         pass
     finally:
         timer.cancel()
-    pending = [t.id for t in study.trials() if t.state == "pending"]
+    pending = [t.id for t in study.trials(as_frame=False) if t.state == "pending"]
     assert set(pending) <= returned, f"pending trials nobody received: {set(pending) - returned}"
-    abandoned = [t for t in study.trials() if t.state == "abandoned"]
+    abandoned = [t for t in study.trials(as_frame=False) if t.state == "abandoned"]
     assert all("interrupted while asking" in t.error for t in abandoned)
 
 
@@ -246,7 +246,7 @@ def test_a_trial_of_a_study_created_again_at_the_same_path_is_refused(tmp_path):
     with pytest.raises(varbo.InputError, match="is not the trial you hold"):
         new.tell(t, 1.0)
     new.tell(u, 1.0)  # its own trial is told
-    assert new.trials()[0].cost == 1.0
+    assert new.trials(as_frame=False)[0].cost == 1.0
 
 
 def test_points_that_numpy_would_convert_silently_are_refused(tmp_path):
@@ -257,7 +257,7 @@ def test_points_that_numpy_would_convert_silently_are_refused(tmp_path):
                     (np.ma.masked_array([1.0, 2.0], [0, 1]), "masked")):
         with pytest.raises(varbo.InputError, match=said):
             study.tell_point(x, 1.0)
-    assert study.trials() == []
+    assert study.trials(as_frame=False) == []
     study.tell_point(np.ma.masked_array([1.0, 2.0]), 1.0)  # nothing masked: its values
     X = np.random.default_rng(0).random((10, 2))
     with pytest.raises(varbo.InputError, match=r"one cost per row of X \(a 1-D array\), got shape \(10, 2\)"):
