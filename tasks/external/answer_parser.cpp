@@ -20,6 +20,18 @@ namespace varbo::tasks {
 
 namespace {
 
+/// Costs beyond this are a failed trial: the models square costs (variances), which overflow past about 1e154, and
+/// a script's "penalty" of 1e308 for a fall left every later model with an infinite variance — 5 of 15 trials
+/// measured one θ again (audit, session 48). `varbo fit` refuses such values too.
+constexpr double kLargestCost = 1e150;
+
+std::string beyond_largest_cost(const std::string& text) {
+  return fmt::format("the cost {} is beyond ±1e150, which the models cannot square; a penalty for a failure is "
+                     "better reported as one ({{\"ok\": false}} or a non-zero exit: bo then learns where trials fail), "
+                     "and a cost of that size rescaled (e.g. its log)",
+                     abbreviate(text, 64));
+}
+
 std::string trim(const std::string& s) {
   const char* ws = " \t\r\n\f\v";
   const auto b = s.find_first_not_of(ws);
@@ -131,6 +143,10 @@ std::optional<Answer> from_json(const nlohmann::json& j, std::string& why) {
     why = "\"cost\" is not finite";
     return std::nullopt;
   }
+  if (std::abs(a.cost) > kLargestCost) {
+    why = beyond_largest_cost(j["cost"].dump());
+    return std::nullopt;
+  }
   if (j.contains("components")) {
     const auto& c = j["components"];
     if (!c.is_object()) {
@@ -194,6 +210,10 @@ std::optional<Answer> parse_answer(const std::string& stdout_text, std::string& 
   if (parse_number(last, v)) {
     if (!std::isfinite(v)) {
       why = fmt::format("the cost '{}' is not a finite number", abbreviate(last, 512));
+      return std::nullopt;
+    }
+    if (std::abs(v) > kLargestCost) {
+      why = beyond_largest_cost(last);
       return std::nullopt;
     }
     return Answer{v, {}};
