@@ -387,4 +387,44 @@ Runner add_abandon(CLI::App& app) {
   };
 }
 
+Runner add_retract(CLI::App& app) {
+  auto* cmd = app.add_subcommand(
+      "retract", "Take back failed trials that were the rig's fault, not their θ's (an E-stop, a cable, a wrong "
+                 "folder): the algorithm is rebuilt without them, so bo's failure model forgets them");
+  struct Args {
+    std::string store;
+    std::vector<std::string> ids;
+    std::string reason = "the rig, not θ, failed";
+  };
+  auto a = std::make_shared<Args>();
+  cmd->add_option("store", a->store, "study file, or postgresql://...?study=NAME URL")->required();
+  cmd->add_option("--id", a->ids, "a failed trial to take back (repeatable)")->required();
+  cmd->add_option("--reason", a->reason, "why, kept with the trial")->capture_default_str();
+  return [a]() {
+    std::vector<std::int64_t> wanted;
+    for (const auto& text : a->ids) wanted.push_back(parse_id(text));
+    Study s = Study::open(a->store);
+    // A live run or worker holds an algorithm that was told these failures and would go on with it (and save its
+    // states): the history it is rebuilt from must not change under it.
+    if (run_is_live(a->store))
+      throw InputError(fmt::format("{}: a `varbo run` is using this study; stop it first (Ctrl-C), then take the "
+                                   "trials back and resume; nothing written",
+                                   s.store().location()));
+    const double now = unix_time(),
+                 window = s.config().heartbeat_timeout > 0 ? s.config().heartbeat_timeout : 60.0;
+    for (const auto& w : s.store().workers())
+      if (w.state == "running" && now - w.heartbeat_at < window && !worker_process_gone(w.id))
+        throw InputError(fmt::format("{}: worker {} is working on this study (heartbeat {:.0f} s ago); stop it "
+                                     "first, then take the trials back; nothing written",
+                                     s.store().location(), printable(w.id), now - w.heartbeat_at));
+    const auto ids = s.retract_failures(wanted, a->reason);
+    std::vector<std::string> t;
+    for (auto id : ids) t.push_back(std::to_string(id));
+    std::printf("took back %zu failed trial(s): %s; the algorithm no longer learns from them (they stay in the "
+                "tables, and count against the budget: `varbo run --resume DIR --budget N` adds trials)\n",
+                ids.size(), join(t).c_str());
+    return 0;
+  };
+}
+
 }  // namespace varbo::cli

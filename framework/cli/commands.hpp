@@ -17,6 +17,7 @@ Runner add_suggest(CLI::App& app);
 Runner add_observe(CLI::App& app);
 Runner add_fail(CLI::App& app);
 Runner add_abandon(CLI::App& app);
+Runner add_retract(CLI::App& app);
 /// Whether a `varbo run` drives the study at `location` now (it holds the study's run lock: the lock file's, or a
 /// PostgreSQL study's advisory lock); a server that cannot be asked counts as yes (cmd_study.cpp).
 bool run_is_live(const std::string& location);

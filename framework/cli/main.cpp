@@ -102,6 +102,7 @@ int main(int argc, char** argv) {
   reg(&varbo::cli::add_observe);
   reg(&varbo::cli::add_fail);
   reg(&varbo::cli::add_abandon);
+  reg(&varbo::cli::add_retract);
   reg(&varbo::cli::add_status);
   reg(&varbo::cli::add_worker);
   reg(&varbo::cli::add_export);

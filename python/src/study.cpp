@@ -185,6 +185,12 @@ void bind_study(py::module_& m) {
           },
           py::arg("id"), "when trial `id` of this study was made (None: no such trial)")
       .def(
+          "retract_failures",
+          [](PyStudy& s, const std::vector<std::int64_t>& ids, const std::string& reason) {
+            return s.locked([&](Study& st) { return st.retract_failures(ids, reason); });
+          },
+          py::arg("ids"), py::arg("reason"))
+      .def(
           "abandon",
           [](PyStudy& s, double older_than) {
             return s.locked([&](Study& st) { return st.abandon(older_than, "abandoned from Python"); });

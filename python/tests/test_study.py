@@ -109,6 +109,27 @@ def test_fail_and_budget(tmp_path):
     assert t[0].state == "failed" and t[0].error == "robot fell" and t[0].cost is None
 
 
+def test_retract_failures_takes_back_a_rig_outage(tmp_path):
+    # Session 48: failures that were the rig's fault taught bo's failure model for the rest of the study; taken back,
+    # the algorithm is rebuilt without them: a bo study then asks what it asks in a study that never saw them.
+    cfg = dict(CONFIG, budget=8, algorithm={"type": "bo", "initial_points": 4})
+    s = varbo.Study.create(tmp_path / "s.db", cfg)
+    (a,) = s.ask()
+    s.fail(a, "E-stop pressed")
+    (b,) = s.ask()
+    s.fail(b, "E-stop pressed")
+    assert s.retract_failures([a.id, b.id], "E-stop") == [a.id, b.id]
+    t = s.trials(as_frame=False)
+    assert t[0].state == "failed" and t[0].error.startswith("taken back by `varbo retract` (E-stop)")
+    with pytest.raises(varbo.InputError, match="taken back already"):
+        s.retract_failures([a.id])
+    with pytest.raises(TypeError):
+        s.retract_failures(3)
+    # The same algorithm and seed in a study that never saw the failures asks the same next point.
+    fresh = varbo.Study.create(tmp_path / "f.db", cfg)
+    assert s.ask()[0].params == fresh.ask()[0].params
+
+
 def test_fail_point_records_a_hand_tried_failure(tmp_path):
     s = varbo.Study.create(tmp_path / "s.db", CONFIG)
     i = s.fail_point({"x1": 1.0, "x2": 2.0}, "robot fell")

@@ -334,6 +334,16 @@ class Study:
         self._check_file()
         return list(self._impl.abandon(older_than))
 
+    def retract_failures(self, ids: Iterable[int], reason: str = "the rig, not θ, failed") -> List[int]:
+        """Takes failed trials back (``varbo retract``): the rig failed them, not their θ. They stay failed trials in
+        the study and count against its budget, but the algorithm is rebuilt without them, so bo's failure model
+        forgets them. Stop other processes working on the study first. Returns the ids taken back."""
+        if isinstance(ids, (str, bytes)) or not isinstance(ids, Iterable):
+            raise TypeError(f"retract_failures: ids: expected a sequence of trial ids, got {type(ids).__name__}")
+        wanted = [_checks.integer(i, "retract_failures: id") for i in ids]
+        self._check_file()
+        return list(self._impl.retract_failures(wanted, _checks.text(reason, "retract_failures: reason")))
+
     def heartbeat(self, state: str = "running") -> None:
         """A sign of life of this worker: once sent, a worker silent for longer than the study's heartbeat_timeout
         has its pending trials abandoned by the next ask of any process."""

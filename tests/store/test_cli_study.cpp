@@ -131,3 +131,58 @@ TEST_CASE("CLI: export -o and plot -o to standard output, a pipe or a FIFO write
   CHECK(sh(v + " plot r -o x.svg > where.txt") == 0);
   CHECK(slurp(dir + "/where.txt") == "x.svg\n");
 }
+
+// Audit, session 48: an E-stop pressed at the start of an overnight study failed its first trials; bo's failure model
+// learned them as failures of their θ, and nothing could take them back: the study ended 10⁵× worse than one
+// without the outage at the same budget. `varbo retract` takes them back; the algorithm is rebuilt without them.
+TEST_CASE("CLI: retract takes back failed trials that were the rig's fault; the study then ends as without them") {
+  const std::string dir = test::temp_folder("cli_retract");
+  const std::string V = VARBO_EXE, log = dir + "/log.txt";
+  const std::string script = dir + "/rig.sh";
+  std::ofstream(script) << "#!/bin/sh\n"
+                        << "if [ -e " << dir << "/down ]; then echo 'E-stop pressed' >&2; exit 5; fi\n"
+                        << "theta=$(sed 's/.*\"theta\": *\\[\\([^]]*\\)\\].*/\\1/')\n"
+                        << "echo \"$theta\" | awk -F, '{printf \"%.17g\\n\", ($1-0.3)^2 + ($2-0.7)^2}'\n";
+  const std::string cfg = dir + "/cfg.yaml";
+  std::ofstream(cfg) << "task: {type: external, command: 'sh " << script << "', dim: 2, bounds: [0, 1]}\n"
+                     << "budget: 14\nseed: 1\nstop_after_failures: 3\n";
+  const auto best_cost = [&](const std::string& run) {
+    const auto j = nlohmann::json::parse(slurp(run + "/summary.json"));
+    return j["best_cost"].get<double>();
+  };
+  // Without the outage.
+  REQUIRE(test::run({V, "-q", "run", cfg, "-o", dir + "/plain", "--no-progress"}, log).exit_code == 0);
+  // The outage: 3 failed trials, the run stops and names the command that takes them back.
+  std::ofstream(dir + "/down") << "";
+  for (const std::string& run : {dir + "/kept", dir + "/taken"}) {
+    const std::string stop_log = run + ".log";
+    REQUIRE(test::run({V, "-q", "run", cfg, "-o", run, "--no-progress"}, stop_log).exit_code == 2);
+    CHECK(slurp(stop_log).find("varbo retract " + run + "/study.db --id 0 --id 1 --id 2") != std::string::npos);
+  }
+  std::filesystem::remove(dir + "/down");
+  const std::string db = dir + "/taken/study.db";
+  std::filesystem::remove(log);
+  CHECK(test::run({V, "retract", db, "--id", "0", "--id", "1", "--id", "2", "--reason", "E-stop"}, log).exit_code == 0);
+  CHECK(slurp(log).find("took back 3 failed trial(s): 0, 1, 2") != std::string::npos);
+  // Refused, nothing written: one taken back already, a trial that is no failure, an unknown one.
+  CHECK(test::run({V, "retract", db, "--id", "0"}, log).exit_code == 2);
+  CHECK(test::run({V, "retract", db, "--id", "7"}, log).exit_code == 2);
+  CHECK(slurp(log).find("trial 0 was taken back already") != std::string::npos);
+  CHECK(slurp(log).find("no trial 7") != std::string::npos);
+  // Both resumed with 3 more trials (the failed ones count against the budget): the study whose failures were taken
+  // back ends as the one without the outage did; the one that kept them does not.
+  for (const std::string& run : {dir + "/kept", dir + "/taken"})
+    REQUIRE(test::run({V, "-q", "run", "--resume", run, "--budget", "17", "--no-progress"}, log).exit_code == 0);
+  CHECK(best_cost(dir + "/taken") <= best_cost(dir + "/plain"));
+  CHECK(best_cost(dir + "/kept") > 100 * best_cost(dir + "/plain"));
+  const std::string rows = slurp(dir + "/taken/trials.csv");
+  CHECK(rows.find("taken back by `varbo retract` (E-stop); the failure was: external command failed (exit status 5)") !=
+        std::string::npos);
+  std::filesystem::remove(log);
+  CHECK(test::run({V, "retract", db, "--id", "3"}, log).exit_code == 2);  // trial 3 succeeded
+  CHECK(slurp(log).find("trial 3 is complete, not failed") != std::string::npos);
+  // `study verify` cannot replay a history that changed, and says why.
+  std::filesystem::remove(log);
+  CHECK(test::run({V, "study", "verify", db}, log).exit_code != 0);
+  CHECK(slurp(log).find("was taken back (varbo retract)") != std::string::npos);
+}

@@ -50,6 +50,15 @@ struct TrialRecord {
   bool finished() const { return state == TrialState::Complete || state == TrialState::Failed; }
 };
 
+/// The reason of a failed trial taken back by `varbo retract` (Study::retract_failures) begins with this.
+inline constexpr const char* kRetractedPrefix = "taken back by `varbo retract`";
+/// Study meta key: when the last failure was taken back (unix time); algorithm states saved before it hold it.
+inline constexpr const char* kRetractedAtKey = "retracted_at";
+/// A failed trial taken back: the algorithm is not told it (study_rebuild.cpp).
+inline bool retracted(const TrialRecord& t) {
+  return t.state == TrialState::Failed && t.error.rfind(kRetractedPrefix, 0) == 0;
+}
+
 struct StoredSnapshot {
   std::int64_t after_trials = 0;  ///< finished trials when the snapshot was taken
   ModelSnapshot snapshot;

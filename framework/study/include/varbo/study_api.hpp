@@ -92,6 +92,12 @@ class Study {
   TrialRecord record(std::int64_t id, const Evaluation& evaluation, double evaluation_seconds);
   /// Marks a pending trial failed (it counts against the budget; the algorithm is told ok = false).
   void fail(std::int64_t id, const std::string& reason);
+  /// Takes failed trials back: the rig, not their θ, failed (an E-stop, a cable, a wrong working folder). They stay
+  /// failed trials in the store and its tables (their reason prefixed by kRetractedPrefix) and count against the
+  /// budget, but the algorithm is no longer told them: it is rebuilt without them (replayed from before the first
+  /// one), so bo's failure model forgets them. Each id must be a failed trial not taken back before; throws
+  /// InputError naming the first that is not, nothing written. Returns the ids taken back.
+  std::vector<std::int64_t> retract_failures(const std::vector<std::int64_t>& ids, const std::string& reason);
   /// Marks pending trials abandoned: all of them (older_than_seconds = 0) or those created longer ago.
   /// Their points may be suggested again. Returns the ids abandoned.
   std::vector<std::int64_t> abandon(double older_than_seconds = 0, const std::string& reason = "abandoned");

@@ -543,6 +543,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // The unit-cube box of the current streak's failed θ, and the θ of its last failure: a streak at one place is a
   // failure region the algorithm keeps to (rssgd started inside one never moves), not a rig that is down.
   Vec streak_low, streak_high, streak_theta;
+  std::vector<std::int64_t> streak_ids;  // the failed trials in a row (stop_after_failures names them for retract)
   std::string last_failure;
   // The regret figures only: a task's noise-free cost that throws (third-party code) leaves them out, said once,
   // instead of ending the run with "internal error" and the evaluated trial left pending (red team, session 23).
@@ -895,6 +896,8 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     writer.trial(row);
     accounted_seq = std::max(accounted_seq, row.trial.finish_seq + 1);
     failures_in_a_row = row.ok() ? 0 : failures_in_a_row + 1;
+    if (row.ok()) streak_ids.clear();
+    else streak_ids.push_back(row.trial.id);
     if (!row.ok() && row.trial.x.size() > 0) {
       if (failures_in_a_row == 1 || streak_low.size() != row.trial.x.size()) {
         streak_low = streak_high = row.trial.x;
@@ -952,7 +955,17 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
                             "--command 'CORRECTED COMMAND'",
                             shell_word(store_path))
               : std::string());
-      throw InputError(why);
+      // Those failures teach bo's failure model that their θ fail: after an outage that keeps good regions closed
+      // (audit, session 48: 10⁵× worse at the same budget). Said, with the command that takes them back.
+      std::string ids;
+      for (const auto id : streak_ids) ids += fmt::format(" --id {}", id);
+      const std::string retract =
+          ov.resume_hint.find("varbo run --resume") != std::string::npos && !streak_ids.empty()
+              ? fmt::format(". If the rig, not θ, failed these trials, take them back before resuming, or bo keeps "
+                            "their neighbourhoods closed: varbo retract {}{}",
+                            shell_word(store_path), ids)
+              : std::string();
+      throw InputError(why + retract);
     }
   }
   // Results that came in after this run's last one: the recommendation then sees them too.

@@ -662,6 +662,38 @@ std::vector<std::int64_t> Study::abandon(double older_than_seconds, const std::s
       [&](const TrialRecord& t) { return older_than_seconds <= 0 || t.created_at <= cutoff; }, reason);
 }
 
+std::vector<std::int64_t> Study::retract_failures(const std::vector<std::int64_t>& ids, const std::string& reason) {
+  Impl& m = live();
+  m.check_file();
+  if (ids.empty()) throw InputError("retract: name the failed trials to take back (--id)");
+  std::vector<std::int64_t> done;
+  m.store->transaction([&] {
+    done.clear();
+    std::vector<TrialRecord> rows;
+    for (const auto id : ids) {
+      const auto t = m.store->trial(id);
+      if (!t) throw InputError(fmt::format("{}: no trial {}; nothing written", m.store->location(), id));
+      if (retracted(*t))
+        throw InputError(fmt::format("{}: trial {} was taken back already; nothing written", m.store->location(), id));
+      if (t->state != TrialState::Failed)
+        throw InputError(fmt::format("{}: trial {} is {}, not failed: only a failed trial is taken back; nothing "
+                                     "written",
+                                     m.store->location(), id, state_name(t->state)));
+      if (std::find(done.begin(), done.end(), id) != done.end())
+        throw InputError(fmt::format("retract: trial {} is named twice; nothing written", id));
+      done.push_back(id);
+      rows.push_back(*t);
+    }
+    for (TrialRecord& t : rows) {
+      t.error = fmt::format("{} ({}); the failure was: {}", kRetractedPrefix, safe_text(reason, 200), t.error);
+      m.store->update_trial(t);
+    }
+    m.store->set_meta(kRetractedAtKey, exact(unix_time()));
+  });
+  m.dirty = true;  // rebuilt without them at its next use
+  return done;
+}
+
 std::vector<std::int64_t> Study::abandon_where(const std::function<bool(const TrialRecord&)>& which,
                                                const std::string& reason) {
   Impl& m = live();

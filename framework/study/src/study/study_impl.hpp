@@ -100,6 +100,9 @@ struct Study::Impl {
   bool dirty = true;
   bool said_pending_hold_budget = false;  ///< ask's note, once per Study object (a waiting worker polls)
   Index mismatches = 0;
+  /// Set while a replay has passed a failed trial taken back (varbo retract): later trials are not the points the
+  /// algorithm would ask for now, which is expected, not a mismatch to report.
+  bool past_retracted = false;
   Index replayed = 0;         ///< trials replayed (ask + tell) since this object was opened
   /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
   /// saved only when the live algorithm is further.

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <new>
 
 #include "plugin_code.hpp"
@@ -20,7 +21,9 @@ using study_detail::observation_of;
 
 std::vector<Observation> Study::Impl::observations_of(const std::vector<TrialRecord>& trials, std::size_t n) {
   std::vector<Observation> out;
-  for (std::size_t i = 0; i < n; ++i) out.push_back(observation_of(trials[i]));
+  // A failed trial taken back (varbo retract) was not told to the algorithm that saved a later state.
+  for (std::size_t i = 0; i < n; ++i)
+    if (!retracted(trials[i])) out.push_back(observation_of(trials[i]));
   return out;
 }
 
@@ -29,8 +32,12 @@ const AlgorithmSnapshot* Study::Impl::best_state(const std::vector<AlgorithmSnap
   const AlgorithmSnapshot* best = nullptr;
   best_reach = 0;
   const auto n = static_cast<std::int64_t>(finished.size());
+  // States saved before a failure was taken back (varbo retract) hold it: the algorithm is rebuilt without them.
+  const std::optional<std::string> retracted_at = store->meta(kRetractedAtKey);
+  const double since = retracted_at ? std::strtod(retracted_at->c_str(), nullptr) : 0.0;
   for (const auto& s : states) {
     if (s.finished > n) continue;
+    if (s.created_at < since) continue;
     std::int64_t reach = s.finished;
     if (s.outstanding >= 0) {
       // Usable only when that trial was the next to finish: it is then told without a new fit.
@@ -51,6 +58,7 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
   told_ids.clear();
   outstanding.reset();
   dirty = false;
+  past_retracted = false;
   auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
   if (!resumable) return std::nullopt;
   std::vector<TrialRecord> finished = checked(store->finished_since(0));
@@ -136,6 +144,11 @@ void Study::Impl::say_state_not_saved(std::int64_t told, const std::string& why)
 }
 
 void Study::Impl::replay_one(const TrialRecord& t) {
+  if (retracted(t)) {  // taken back (varbo retract): counted as told, never told
+    told_ids.push_back(t.id);
+    past_retracted = true;
+    return;
+  }
   ++replayed;
   const InfoAsDebug quiet;  // the replayed trial's own lines were said when it was asked
   std::vector<Suggestion> s = alg->ask(1);
@@ -144,7 +157,7 @@ void Study::Impl::replay_one(const TrialRecord& t) {
   if (serial) {
     const bool same = s.size() == 1 && s[0].x.size() == t.x.size() &&
                       (trial_x(s[0].x) - t.x).cwiseAbs().maxCoeff() <= kReplayTolerance;
-    if (!same) {
+    if (!same && !past_retracted) {  // after a failure taken back the points differ, as they should
       ++mismatches;
       log_warn("{}: replaying trial {}: the algorithm now suggests a different point than it did (is the run "
                "deterministic? same plugins?); continuing with the stored result",

@@ -36,6 +36,16 @@ VerifyReport Study::verify() {
   std::unique_ptr<Algorithm> alg = m.make_algorithm();
   const auto* resumable = dynamic_cast<const AlgorithmState*>(alg.get());
   const std::vector<TrialRecord> finished = m.store->finished_since(0);
+  // A failure taken back (varbo retract) changed the history the algorithm is rebuilt from: the stored trials after
+  // it were asked by an algorithm that had been told it, so no replay reproduces them. Said, not compared.
+  for (const TrialRecord& t : finished)
+    if (retracted(t)) {
+      rep.divergence = fmt::format("trial {}'s failure was taken back (varbo retract): the trials after it were asked "
+                                   "by an algorithm told that failure, so a replay cannot reproduce them; nothing "
+                                   "compared",
+                                   t.id);
+      return rep;
+    }
   const std::vector<AlgorithmSnapshot> states = m.store->algorithm_states();
   // A state saved by an earlier version may write the same values in another form (a list per vector before
   // vectors became one scalar): what counts is the state it restores, so it is compared as this version saves it.
