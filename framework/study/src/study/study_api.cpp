@@ -568,6 +568,11 @@ namespace {
 /// As a task's failure is kept (study_detail::stored_reason): `Study.fail(t, 'a\0b')` stored 'a', and a 10 MB
 /// reason was kept whole (red team, session 46).
 std::string kept_reason(const std::string& reason) {
+  // The prefix marks a failure taken back (varbo retract): a reason beginning with it would be read as one.
+  if (reason.rfind(kRetractedPrefix, 0) == 0)
+    throw InputError(fmt::format("a failure's reason may not begin with \"{}\": that marks a failure taken back; "
+                                 "nothing written",
+                                 kRetractedPrefix));
   return reason.empty() ? std::string("failed") : study_detail::stored_reason(reason);
 }
 }  // namespace
