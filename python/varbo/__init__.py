@@ -337,7 +337,8 @@ class Study:
     def retract_failures(self, ids: Iterable[int], reason: str = "the rig, not θ, failed") -> List[int]:
         """Takes failed trials back (``varbo retract``): the rig failed them, not their θ. They stay failed trials in
         the study and count against its budget, but the algorithm is rebuilt without them, so bo's failure model
-        forgets them. Stop other processes working on the study first. Returns the ids taken back."""
+        forgets them (a ``bo`` study only). Other processes with the study open rebuild at their next ask. Returns the
+        ids taken back."""
         if isinstance(ids, (str, bytes)) or not isinstance(ids, Iterable):
             raise TypeError(f"retract_failures: ids: expected a sequence of trial ids, got {type(ids).__name__}")
         wanted = [_checks.integer(i, "retract_failures: id") for i in ids]

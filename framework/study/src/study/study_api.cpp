@@ -17,6 +17,7 @@
 #include "varbo/csv.hpp"
 #include "varbo/host_task.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
 #include "varbo/math.hpp"
@@ -671,6 +672,14 @@ std::vector<std::int64_t> Study::retract_failures(const std::vector<std::int64_t
   Impl& m = live();
   m.check_file();
   if (ids.empty()) throw InputError("retract: name the failed trials to take back (--id)");
+  // Only bo learns where trials fail; another algorithm's replay would lose the trial's place in its own
+  // bookkeeping (audit, session 48: cma_es, matching results to its population by θ, asked its old generations
+  // again, trial for trial) for nothing to take back.
+  if (const auto* info = m.config.algorithm.info; !info || info->name != "bo" || !is_builtin(*info))
+    throw InputError(fmt::format("{}: retract: algorithm '{}' keeps no model of where trials fail, so there is "
+                                 "nothing to take back (only bo's failure model learns failures); nothing written",
+                                 m.store->location(), info ? info->full_name() : std::string("?")));
+  const std::string why = reason.empty() ? std::string("the rig, not θ, failed") : reason;
   std::vector<std::int64_t> done;
   m.store->transaction([&] {
     done.clear();
@@ -690,7 +699,7 @@ std::vector<std::int64_t> Study::retract_failures(const std::vector<std::int64_t
       rows.push_back(*t);
     }
     for (TrialRecord& t : rows) {
-      t.error = fmt::format("{} ({}); the failure was: {}", kRetractedPrefix, safe_text(reason, 200), t.error);
+      t.error = fmt::format("{} ({}); the failure was: {}", kRetractedPrefix, safe_text(why, 200), t.error);
       m.store->update_trial(t);
     }
     m.store->set_meta(kRetractedAtKey, exact(unix_time()));

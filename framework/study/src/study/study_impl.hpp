@@ -103,6 +103,9 @@ struct Study::Impl {
   /// Set while a replay has passed a failed trial taken back (varbo retract): later trials are not the points the
   /// algorithm would ask for now, which is expected, not a mismatch to report.
   bool past_retracted = false;
+  /// The study's kRetractedAtKey when this object last rebuilt its algorithm: another process's retraction is
+  /// noticed at the next sync (an open Study driving the study went on learning from the failures taken back).
+  std::string retracted_seen;
   Index replayed = 0;         ///< trials replayed (ask + tell) since this object was opened
   /// How far the stored states reach (told results, +1 for a state with an outstanding trial): a state is
   /// saved only when the live algorithm is further.

@@ -59,6 +59,7 @@ std::optional<std::vector<TrialRecord>> Study::Impl::rebuild() {
   outstanding.reset();
   dirty = false;
   past_retracted = false;
+  retracted_seen = store->meta(kRetractedAtKey).value_or("");
   auto* resumable = dynamic_cast<AlgorithmState*>(alg.get());
   if (!resumable) return std::nullopt;
   std::vector<TrialRecord> finished = checked(store->finished_since(0));
@@ -170,6 +171,8 @@ void Study::Impl::replay_one(const TrialRecord& t) {
 
 void Study::Impl::sync() {
   std::optional<std::vector<TrialRecord>> read;
+  // A retraction by another process (varbo retract, another Study object) changed the history: rebuild.
+  if (alg && !dirty && store->meta(kRetractedAtKey).value_or("") != retracted_seen) dirty = true;
   if (!alg || dirty || saved_state_is_further()) read = rebuild();
   std::vector<TrialRecord> fresh = untold(std::move(read));
   std::size_t i = 0;
