@@ -6,7 +6,9 @@
 
 #include "process.hpp"
 #include "study_helpers.hpp"
+#include "varbo/run_lock.hpp"
 #include "varbo/store.hpp"
+#include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
 
 using namespace varbo;
@@ -181,6 +183,13 @@ TEST_CASE("CLI: retract takes back failed trials that were the rig's fault; the 
   std::filesystem::remove(log);
   CHECK(test::run({V, "retract", db, "--id", "3"}, log).exit_code == 2);  // trial 3 succeeded
   CHECK(slurp(log).find("trial 3 is complete, not failed") != std::string::npos);
+  // While a run holds the study, the library refuses too (Python's retract_failures went through beside a live run).
+  {
+    const RunLock held = RunLock::acquire(RunLock::lock_file_of(dir + "/kept/study.db"), "the test");
+    Study kept = Study::open(dir + "/kept/study.db");
+    CHECK_THROWS_WITH_AS(kept.retract_failures({0}, "E-stop"), doctest::Contains("a `varbo run` is using this study"),
+                         InputError);
+  }
   // `study verify` cannot replay a history that changed, and says why.
   std::filesystem::remove(log);
   CHECK(test::run({V, "study", "verify", db}, log).exit_code != 0);

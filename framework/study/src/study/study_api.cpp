@@ -20,6 +20,7 @@
 #include "varbo/loader.hpp"
 #include "varbo/log.hpp"
 #include "varbo/parallel.hpp"
+#include "varbo/run_lock.hpp"
 #include "varbo/math.hpp"
 #include "varbo/numbers.hpp"
 #include "varbo/search_space_config.hpp"
@@ -679,6 +680,13 @@ std::vector<std::int64_t> Study::retract_failures(const std::vector<std::int64_t
     throw InputError(fmt::format("{}: retract: algorithm '{}' keeps no model of where trials fail, so there is "
                                  "nothing to take back (only bo's failure model learns failures); nothing written",
                                  m.store->location(), info ? info->full_name() : std::string("?")));
+  // A live `varbo run` would tell its algorithm (which knows the failures) its in-flight result and save that state
+  // after the retraction, where the rebuild would take it: refused here too, not only by the CLI (audit, session 48:
+  // Python's retract_failures went through beside a live run).
+  if (!m.file_path.empty() && RunLock::held(RunLock::lock_file_of(m.file_path)))
+    throw InputError(fmt::format("{}: a `varbo run` is using this study; stop it first (Ctrl-C), then take the trials "
+                                 "back and resume; nothing written",
+                                 m.store->location()));
   const std::string why = reason.empty() ? std::string("the rig, not θ, failed") : reason;
   std::vector<std::int64_t> done;
   m.store->transaction([&] {
