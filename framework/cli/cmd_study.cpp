@@ -284,6 +284,13 @@ bool database_run_is_live(const std::string& url) {
 }
 }  // namespace
 
+/// How long a worker stays alive without a heartbeat, judged by hand: the study's heartbeat_timeout, or 60 s when it
+/// is 0 ("never abandon on its own"), which judged every worker ever seen live (red team, session 29); with 0 a worker
+/// beats every 10 s (cmd_worker.cpp).
+static double liveness_window(const Study& s) {
+  return s.config().heartbeat_timeout > 0 ? s.config().heartbeat_timeout : 60.0;
+}
+
 bool run_is_live(const std::string& location) {
   return is_database_url(location) ? database_run_is_live(location) : RunLock::held(RunLock::lock_file_of(location));
 }
@@ -323,11 +330,7 @@ Runner add_abandon(CLI::App& app) {
     }
     // A worker is alive while its heartbeat is fresher than the study's heartbeat_timeout (docs/studies.md,
     // "Workers"). Before, `varbo abandon` took every pending trial, a live worker's included, which then ran twice.
-    // heartbeat_timeout: 0 ("never abandon on its own") judged every worker ever seen live, a SIGKILLed one's
-    // trial spared forever (red team, session 29). By hand, a worker silent for 60 s is gone: with 0 it beats
-    // every 10 s (cmd_worker.cpp).
-    const double now = unix_time(),
-                 window = s.config().heartbeat_timeout > 0 ? s.config().heartbeat_timeout : 60.0;
+    const double now = unix_time(), window = liveness_window(s);
     std::map<std::string, double> beat;
     for (const auto& w : s.store().workers())
       if (w.state == "running") beat[w.id] = w.heartbeat_at;
@@ -410,8 +413,7 @@ Runner add_retract(CLI::App& app) {
       throw InputError(fmt::format("{}: a `varbo run` is using this study; stop it first (Ctrl-C), then take the "
                                    "trials back and resume; nothing written",
                                    s.store().location()));
-    const double now = unix_time(),
-                 window = s.config().heartbeat_timeout > 0 ? s.config().heartbeat_timeout : 60.0;
+    const double now = unix_time(), window = liveness_window(s);
     for (const auto& w : s.store().workers())
       if (w.state == "running" && now - w.heartbeat_at < window && !worker_process_gone(w.id))
         throw InputError(fmt::format("{}: worker {} is working on this study (heartbeat {:.0f} s ago); stop it "
