@@ -11,7 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "background_ticker.hpp"
+#include "varbo/background_ticker.hpp"
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "component_arg.hpp"

@@ -14,7 +14,8 @@
 #include <mutex>
 #include <thread>
 
-#include "background_ticker.hpp"
+#include "varbo/background_ticker.hpp"
+#include "varbo/run_liveness.hpp"
 #include "cli_parse.hpp"
 #include "commands.hpp"
 #include "varbo/csv.hpp"
@@ -127,6 +128,7 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
             *store = open_store(path);
             if (std::exchange(*said, false)) log_warn("worker {}: heartbeats resumed", worker);
           } catch (const Error& e) {
+            note_store_unreachable();
             if (!std::exchange(*said, true))
               log_warn("worker {}: heartbeat not recorded: {}; trying again at every beat", worker, e.what());
             return true;
@@ -142,6 +144,7 @@ std::unique_ptr<BackgroundTicker> start_heartbeats(const std::string& path, cons
           (*store)->transaction([&] { (*store)->put_worker(w); });
           if (std::exchange(*said, false)) log_warn("worker {}: heartbeats resumed", worker);
         } catch (const Error& e) {
+          note_store_unreachable();  // others' silence is not judged longer than ours lasted (store.hpp)
           // Said once per outage, not at every beat (every 0.75 s with heartbeat_timeout 3; red team, session 25).
           if (!std::exchange(*said, true))
             log_warn("worker {}: heartbeat not recorded: {}; trying again at every beat", worker, e.what());
@@ -236,6 +239,8 @@ Runner add_worker(CLI::App& app) {
     int exit_code = 0;
     Index failures_in_a_row = 0;
     std::vector<std::string> waiting_for;  // the pending trials last reported
+    RunSilence run_silence;                 // of the run sessions whose trials are pending
+    const double liveness = study.config().heartbeat_timeout > 0 ? study.config().heartbeat_timeout : 60.0;
     while (a->max_trials == 0 || done < a->max_trials) {
       if (const int sig = g_stop.load()) {
         exit_code = 128 + sig;
@@ -249,11 +254,15 @@ Runner add_worker(CLI::App& app) {
         // this worker waited for it all night (red team, session 46). With no run holding the study's run lock
         // (its command's supervisor keeps it until the command is gone), such a trial is abandoned, as a resumed
         // run or `varbo abandon` would, and asked again.
+        // On a database study the lock is a server session, which a server restart frees while the run lives on
+        // (red team, session 49: this worker ran the live run's θ again): the run must also have been silent for
+        // the liveness window (run_liveness.hpp).
         std::vector<std::int64_t> of_dead_runs;
         for (const auto& t : study.store().pending_trials())
-          if (t.worker != id && !t.worker.empty() && study.store().meta("run_worker/" + t.worker))
+          if (t.worker != id && !t.worker.empty() && study.store().meta("run_worker/" + t.worker) &&
+              (!is_database_url(where) || run_silence.seconds(study.store(), t.worker) > liveness))
             of_dead_runs.push_back(t.id);
-        if (!of_dead_runs.empty() && !run_is_live(where)) {
+        if (!of_dead_runs.empty() && !run_is_live(a->store)) {  // not `where`: its password is ***
           const auto ids = study.abandon_where(
               [&](const TrialRecord& p) {
                 return std::find(of_dead_runs.begin(), of_dead_runs.end(), p.id) != of_dead_runs.end();

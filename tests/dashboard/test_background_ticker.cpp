@@ -7,9 +7,9 @@
 #include <thread>
 #include <vector>
 
-#include "background_ticker.hpp"
+#include "varbo/background_ticker.hpp"
 
-using varbo::cli::BackgroundTicker;
+using varbo::BackgroundTicker;
 using namespace std::chrono_literals;
 
 TEST_CASE("background ticker: ticks missed during a stall are skipped, not made up in a burst") {

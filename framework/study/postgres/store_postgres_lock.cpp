@@ -10,16 +10,28 @@
 #include "postgres_backend.hpp"
 #include "run/owner_identity.hpp"
 #include "store_url.hpp"
+#include "varbo/held_locks.hpp"
 #include "varbo/errors.hpp"
 
 namespace varbo {
 
 namespace {
 
-/// The lock is held as long as this connection is open.
+/// The lock is held as long as this connection is open — in this process or in a trial's supervisor: its socket
+/// is kept by the supervisors as a lock file is (held_locks.hpp), so a `varbo run` killed by SIGKILL holds the
+/// study until its last command has stopped. Before, the server released the lock with the run's process, and a
+/// worker started the same θ while the killed run's command was still stopping (red team, session 49).
 struct Session final : detail::DatabaseLockSession {
   pqxx::connection connection;
+  int held_fd = -1;
   explicit Session(const std::string& conninfo) : connection(conninfo) {}
+  ~Session() override {
+    if (held_fd >= 0) release_lock_from_trials(held_fd);
+  }
+  void hold_in_trials() {
+    held_fd = connection.sock();
+    hold_lock_in_trials(held_fd);
+  }
   bool alive() override {
     try {
       pqxx::nontransaction n(connection);
@@ -70,7 +82,10 @@ std::unique_ptr<detail::DatabaseLockSession> take_postgres_run_lock(const std::s
       n.exec_params("SELECT set_config('application_name', $1, false)", announcement());
       locked = n.exec_params(std::string("SELECT pg_try_advisory_lock(") + kKey + ")", address.study)[0][0].as<bool>();
     }
-    if (locked) return s;
+    if (locked) {
+      s->hold_in_trials();
+      return s;
+    }
     std::string owner = owner_of(s->connection, address.study);
     if (owner.empty()) owner = "another session, which just ended or cannot be seen";
     throw InputError(fmt::format("the study {} is in use by another run ({}); wait for it to end or stop it; "

@@ -84,12 +84,22 @@ struct WorkerRecord {
   std::string state = "running";  ///< running | stopped
 };
 
+/// This process lost contact with a store's server: a StoreConnectionError was raised (every connection breaks when
+/// the server restarts, so the first call after an outage raises one), or a heartbeat could not be recorded.
+/// Whoever judges another process dead by its silence counts only the time since then: the other process could
+/// not reach the server either. Before, the first worker back after an outage longer than heartbeat_timeout
+/// abandoned every live worker's trial and ran its θ again (red team, session 49).
+void note_store_unreachable() noexcept;
+/// Seconds (this process's monotonic clock) since note_store_unreachable() was last called; infinity when never.
+double seconds_since_store_unreachable() noexcept;
+
 /// The store's server could not be reached or the connection was lost (PostgreSQL); the operation wrote
 /// nothing, unless the message says the commit itself was cut ("may or may not have been written"). A process
 /// that stays up may retry (`varbo worker` does, with backoff).
 class StoreConnectionError : public InputError {
  public:
-  using InputError::InputError;
+  explicit StoreConnectionError(const std::string& what) : InputError(what) { note_store_unreachable(); }
+  explicit StoreConnectionError(const char* what) : InputError(what) { note_store_unreachable(); }
 };
 
 class StudyStore {
@@ -137,6 +147,12 @@ class StudyStore {
   /// Inserts or replaces the worker's row.
   virtual void put_worker(const WorkerRecord& worker) = 0;
   virtual std::vector<WorkerRecord> workers() const = 0;
+
+  /// Seconds since the store's server started (infinity: no server, SQLite). No process could beat a heartbeat
+  /// while the server was down, so nobody's silence is judged longer than this: a `varbo suggest` run just after
+  /// a restart found every worker's heartbeat as old as the outage and abandoned their live trials (red team,
+  /// session 49).
+  virtual double server_uptime() const { return std::numeric_limits<double>::infinity(); }
 };
 
 /// Creates a new SQLite store at `path` holding the `meta` entries; an existing file is an InputError. The

@@ -23,6 +23,7 @@
 #include "owner_identity.hpp"
 #include "run_writer.hpp"
 #include "store_guard.hpp"
+#include "varbo/run_liveness.hpp"
 #include "../store/store_url.hpp"
 #include "../study/stored_plugin_paths.hpp"
 #include "../study/plugin_code.hpp"
@@ -501,6 +502,13 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
       "interrupted: the run stopped before the result was recorded");
   st.set_meta("run_workers", "1");
   st.set_meta("run_worker/" + me, detail::utc_timestamp());
+  // On a database study the run lock is a server session, which a server restart ends while this run lives on:
+  // a heartbeat tells workers that this run's pending trial is still being run (run_liveness.hpp).
+  std::unique_ptr<BackgroundTicker> run_heartbeats;
+  if (is_database_url(store_path)) {
+    const double timeout = st.config().heartbeat_timeout;
+    run_heartbeats = start_run_heartbeats(store_path, me, timeout > 0 ? std::max(0.05, timeout / 4) : 10.0);
+  }
   if (!others_pending.empty()) {
     std::string ids;
     for (std::size_t i = 0; i < others_pending.size() && i < 10; ++i) ids += (i ? ", " : "") + std::to_string(others_pending[i]);

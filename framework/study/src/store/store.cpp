@@ -3,7 +3,9 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <limits>
 #include <chrono>
 #include <cstdlib>
 #include <random>
@@ -15,6 +17,22 @@
 namespace varbo {
 
 StudyStore::~StudyStore() = default;
+
+namespace {
+// steady_clock ticks of the last lost contact; min() = never. Atomic: heartbeat threads note it too.
+std::atomic<std::chrono::steady_clock::rep> g_unreachable_at{std::numeric_limits<std::chrono::steady_clock::rep>::min()};
+}  // namespace
+
+void note_store_unreachable() noexcept {
+  g_unreachable_at.store(std::chrono::steady_clock::now().time_since_epoch().count(), std::memory_order_relaxed);
+}
+
+double seconds_since_store_unreachable() noexcept {
+  const auto at = g_unreachable_at.load(std::memory_order_relaxed);
+  if (at == std::numeric_limits<std::chrono::steady_clock::rep>::min()) return std::numeric_limits<double>::infinity();
+  const auto since = std::chrono::steady_clock::now().time_since_epoch() - std::chrono::steady_clock::duration(at);
+  return std::chrono::duration<double>(since).count();
+}
 
 std::string state_name(TrialState s) {
   switch (s) {

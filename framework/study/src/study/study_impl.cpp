@@ -143,10 +143,18 @@ void Study::Impl::abandon_silent_workers(double asked_at) {
     auto [seen, first] = heartbeats_seen.try_emplace(w.id, HeartbeatSeen{w.heartbeat_at, mono_now, now - w.heartbeat_at});
     if (!first && seen->second.heartbeat_at != w.heartbeat_at)  // it beat since: judged afresh
       seen->second = HeartbeatSeen{w.heartbeat_at, mono_now, now - w.heartbeat_at};
+    // Not longer than this process has had contact with the server itself (store.hpp, note_store_unreachable).
     const double silence =
-        seen->second.silence_then + std::chrono::duration<double>(mono_now - seen->second.first_read).count();
+        std::min(seen->second.silence_then + std::chrono::duration<double>(mono_now - seen->second.first_read).count(),
+                 seconds_since_store_unreachable());
     if (silence > config.heartbeat_timeout) silent.emplace_back(w, silence);
   }
+  if (silent.empty()) return;
+  // Nobody could beat while the server was down: a silence longer than the server's uptime is the outage's.
+  const double uptime = store->server_uptime();
+  silent.erase(std::remove_if(silent.begin(), silent.end(),
+                              [&](auto& ws) { return (ws.second = std::min(ws.second, uptime)) <= config.heartbeat_timeout; }),
+               silent.end());
   if (silent.empty()) return;
   for (TrialRecord t : store->pending_trials()) {
     for (const auto& [w, silence] : silent) {

@@ -1,6 +1,6 @@
 #pragma once
-// A background thread that runs a tick at scheduled times until it is destroyed: `varbo worker`'s heartbeat and
-// `varbo fit`'s progress line. Destruction wakes the thread at once (it never waits for the next tick) and joins it.
+// A background thread that runs a tick at scheduled times until it is destroyed: `varbo worker`'s heartbeat, `varbo
+// run`'s on a database study (run_liveness.hpp) and `varbo fit`'s progress line. Destruction wakes the thread at once (it never waits for the next tick) and joins it.
 #include <algorithm>
 #include <chrono>
 #include <limits>
@@ -9,7 +9,7 @@
 #include <mutex>
 #include <thread>
 
-namespace varbo::cli {
+namespace varbo {
 
 class BackgroundTicker {
  public:
@@ -57,4 +57,4 @@ class BackgroundTicker {
   std::thread thread_;  ///< last: starts once everything it uses is constructed
 };
 
-}  // namespace varbo::cli
+}  // namespace varbo
