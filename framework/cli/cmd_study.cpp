@@ -407,18 +407,7 @@ Runner add_retract(CLI::App& app) {
     std::vector<std::int64_t> wanted;
     for (const auto& text : a->ids) wanted.push_back(parse_id(text));
     Study s = Study::open(a->store);
-    // A live run or worker holds an algorithm that was told these failures and would go on with it (and save its
-    // states): the history it is rebuilt from must not change under it.
-    if (run_is_live(a->store))
-      throw InputError(fmt::format("{}: a `varbo run` is using this study; stop it first (Ctrl-C), then take the "
-                                   "trials back and resume; nothing written",
-                                   s.store().location()));
-    const double now = unix_time(), window = liveness_window(s);
-    for (const auto& w : s.store().workers())
-      if (w.state == "running" && now - w.heartbeat_at < window && !worker_process_gone(w.id))
-        throw InputError(fmt::format("{}: worker {} is working on this study (heartbeat {:.0f} s ago); stop it "
-                                     "first, then take the trials back; nothing written",
-                                     s.store().location(), printable(w.id), now - w.heartbeat_at));
+    // Refused while a live run or worker holds an algorithm that was told these failures (Study::retract_failures).
     const auto ids = s.retract_failures(wanted, a->reason);
     std::vector<std::string> t;
     for (auto id : ids) t.push_back(std::to_string(id));

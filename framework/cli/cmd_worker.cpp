@@ -238,6 +238,7 @@ Runner add_worker(CLI::App& app) {
     long long done = 0;
     int exit_code = 0;
     Index failures_in_a_row = 0;
+    std::vector<std::int64_t> streak_ids;  // their ids
     std::vector<std::string> waiting_for;  // the pending trials last reported
     RunSilence run_silence;                 // of the run sessions whose trials are pending
     const double liveness = study.config().heartbeat_timeout > 0 ? study.config().heartbeat_timeout : 60.0;
@@ -397,6 +398,8 @@ Runner add_worker(CLI::App& app) {
       // This worker's own trials: a rig that fails every trial (unplugged, E-stop) stops instead of using the
       // study's budget up in a second; the other workers go on.
       failures_in_a_row = e.ok ? 0 : failures_in_a_row + 1;
+      if (e.ok) streak_ids.clear();
+      else streak_ids.push_back(t.id);
       const Index limit = study.config().stop_after_failures;
       if (limit > 0 && failures_in_a_row >= limit) {
         // The study may be over with this trial: then there is nothing to start again, as `varbo run` says in the
@@ -410,11 +413,19 @@ Runner add_worker(CLI::App& app) {
                        id.c_str(), static_cast<long long>(failures_in_a_row), safe_text(e.error, 300).c_str());
           break;
         }
+        // Those failures teach bo's failure model that their θ fail, as `varbo run`'s stop message says (red team,
+        // session 49: the worker's did not name the command that takes them back).
+        std::string retract;
+        if (const auto* info = study.config().algorithm.info; info && info->name == "bo") {
+          retract = "; if the rig, not θ, failed these trials, take them back first, or bo keeps their "
+                    "neighbourhoods closed: varbo retract " + shell_word(where);
+          for (const auto sid : streak_ids) retract += fmt::format(" --id {}", sid);
+        }
         std::fprintf(stderr,
                      "varbo worker %s: stopping after %lld failed trials in a row (stop_after_failures: %lld), the "
-                     "last: %s; check this machine's setup, then start the worker again\n",
+                     "last: %s; check this machine's setup, then start the worker again%s\n",
                      id.c_str(), static_cast<long long>(failures_in_a_row), static_cast<long long>(limit),
-                     safe_text(e.error, 300).c_str());
+                     safe_text(e.error, 300).c_str(), retract.c_str());
         exit_code = 2;
         break;
       }

@@ -19,6 +19,7 @@
 #include "process.hpp"
 #include "study_helpers.hpp"
 #include "varbo/store.hpp"
+#include "varbo/run_lock.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo_test.hpp"
 
@@ -170,4 +171,30 @@ TEST_CASE("postgresql: a process that asks just after a server restart does not 
   std::this_thread::sleep_for(std::chrono::milliseconds(3500));
   CHECK(test::run({VARBO_EXE, "suggest", url}, dir + "/suggest.log").exit_code == 0);
   CHECK(count_state(url, TrialState::Abandoned) == 1);
+}
+
+TEST_CASE("postgresql: Study::retract_failures is refused while a run holds the study or a worker works on it") {
+  // The CLI refused both; the library (Python's Study.retract_failures) went through on PostgreSQL, where the run
+  // lock is a server session, not a lock file (red team, session 49).
+  const std::string url = test::pg_study_url("retract_live");
+  Study::create_from_yaml(url, "task: {type: branin}\nbudget: 6\nseed: 3\nheartbeat_timeout: 30\nalgorithm: {type: bo}\n");
+  Vec theta(2);
+  theta << 1.0, 2.0;
+  const std::int64_t id = Study::open(url).fail_point(theta, "E-stop");
+  {
+    const DatabaseRunLock run = DatabaseRunLock::acquire(url);  // as `varbo run` holds it
+    Study s = Study::open(url);
+    CHECK_THROWS_WITH_AS(s.retract_failures({id}, "E-stop"), doctest::Contains("a `varbo run` is using this study"),
+                         InputError);
+  }
+  {
+    Study worker = Study::open(url);
+    worker.set_worker(default_worker_name() + ":worker");
+    worker.heartbeat();
+    Study s = Study::open(url);
+    CHECK_THROWS_WITH_AS(s.retract_failures({id}, "E-stop"), doctest::Contains("is working on this study"),
+                         InputError);
+    worker.heartbeat("stopped");
+  }
+  CHECK(Study::open(url).retract_failures({id}, "E-stop") == std::vector<std::int64_t>{id});
 }

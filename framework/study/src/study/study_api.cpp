@@ -246,6 +246,7 @@ void create_study_store(Study::Impl& impl, const std::string& store_path) {
   impl.make_algorithm();  // surface configuration errors before any file is written
   warn_wide_linear_bounds(impl);
   impl.store = create_store(store_path, impl.meta_entries(study_identity(impl.config), store_path));
+  impl.address = store_path;
 }
 }  // namespace
 
@@ -306,6 +307,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
       remember_identity(*registry, *text, *identity);
   }
   impl->store = std::move(store);
+  impl->address = store_path;
   impl->check_domain_unchanged();
   log_cpu("configuration checked against the stored identity");
   return Study(std::move(impl));
@@ -320,6 +322,7 @@ Study Study::attach(const std::string& store_path, const StudyConfig& config, co
     return Study(std::move(impl));
   }
   impl->store = open_store(store_path);
+  impl->address = store_path;
   impl->check_domain_unchanged();
   const std::string stored = impl->store->meta(store_key::kIdentity).value_or("");
   if (!study_detail::same_identity(stored, identity))
@@ -683,10 +686,18 @@ std::vector<std::int64_t> Study::retract_failures(const std::vector<std::int64_t
   // A live `varbo run` would tell its algorithm (which knows the failures) its in-flight result and save that state
   // after the retraction, where the rebuild would take it: refused here too, not only by the CLI (audit, session 48:
   // Python's retract_failures went through beside a live run).
-  if (!m.file_path.empty() && RunLock::held(RunLock::lock_file_of(m.file_path)))
+  // On PostgreSQL too (the run lock is a server session there; red team, session 49: the CLI refused, Python did
+  // not), and beside a live worker, whose algorithm was told the failures as well.
+  if (m.run_is_live())
     throw InputError(fmt::format("{}: a `varbo run` is using this study; stop it first (Ctrl-C), then take the trials "
                                  "back and resume; nothing written",
                                  m.store->location()));
+  const double window = m.config.heartbeat_timeout > 0 ? m.config.heartbeat_timeout : 60.0, now = unix_time();
+  for (const auto& w : m.store->workers())
+    if (w.state == "running" && w.id != m.worker && now - w.heartbeat_at < window && !worker_process_gone(w.id))
+      throw InputError(fmt::format("{}: worker {} is working on this study (heartbeat {:.0f} s ago); stop it first, "
+                                   "then take the trials back; nothing written",
+                                   m.store->location(), printable(w.id), now - w.heartbeat_at));
   const std::string why = reason.empty() ? std::string("the rig, not θ, failed") : reason;
   std::vector<std::int64_t> done;
   m.store->transaction([&] {

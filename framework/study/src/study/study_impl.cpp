@@ -13,6 +13,7 @@
 #include <filesystem>
 
 #include "varbo/csv.hpp"
+#include "varbo/run_lock.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/search_space_config.hpp"
@@ -308,6 +309,17 @@ void Study::Impl::note_file() {
   const auto absolute = std::filesystem::absolute(where, ec);
   file_path = ec ? where : absolute.string();
   file_id = file_identity(file_path);
+}
+
+bool Study::Impl::run_is_live() const {
+  if (!file_path.empty()) return RunLock::held(RunLock::lock_file_of(file_path));
+  if (!is_database_url(address)) return false;
+  try {
+    DatabaseRunLock::acquire(address);  // released at once
+    return false;
+  } catch (const InputError&) {  // held, or the server cannot say: nothing is changed on a guess
+    return true;
+  }
 }
 
 void Study::Impl::check_file() const {

@@ -87,6 +87,9 @@ struct Study::Impl {
   /// Python wrapper checked it, the C++ class did not). Every writing call first checks the path still names it.
   std::optional<std::pair<std::uint64_t, std::uint64_t>> file_id;  ///< (device, inode) at the open
   std::string file_path;  ///< absolute: a chdir of the host does not move the study
+  std::string address;    ///< as opened (a URL with its password: the run lock's probe connects with it)
+  /// Whether a `varbo run` holds the study's run lock (a lock file; a session on a database server).
+  bool run_is_live() const;
   void note_file();
   void check_file() const;
   std::string worker = default_worker_name();
