@@ -27,8 +27,9 @@ const OptionSet<ExternalTaskSettings>& external_option_set() {
                 "list of the cost components the command reports in \"components\" (columns of trials.csv, "
                 "what `varbo rescore` re-weights); undeclared ones are kept in a study's store only"),
       opt::choice("input", &S::input, {{"json", InputMode::Json}, {"args", InputMode::Args}},
-                  "json: {\"theta\": [...], \"names\": [...], \"trial\": k, \"id\": i} on stdin; args: θ appended as "
-                  "arguments (either way VARBO_TRIAL=k and VARBO_TRIAL_ID=i in the environment)"),
+                  "json: {\"theta\": [...], \"names\": [...], \"trial\": k, \"id\": i} on stdin; args: θ as arguments, "
+                  "appended to a simple command or where the command says \"$@\" ($1, $2, …; a pipe or a comment "
+                  "needs it) (either way VARBO_TRIAL=k and VARBO_TRIAL_ID=i in the environment)"),
       opt::real("timeout", opt::nested(&S::process, &ProcessOptions::timeout_seconds),
                 "seconds before the command and every process it started are killed (a failed trial)")
           .above(0),
@@ -72,6 +73,16 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
     o.node("command").fail(fmt::format("the command is {} bytes; a command line holds at most 131071 (the "
                                        "kernel's limit for one argument): put it in a script",
                                        s.command.size()));
+  if (s.input == InputMode::Args) {
+    std::string what;
+    s.args = args_placement(s.command, &what);
+    if (s.args == ArgsPlacement::Refused)
+      o.node("command").fail(fmt::format(
+          "with input: args, θ is appended to the end of the command, but this command has {}: θ would not reach "
+          "the trial program (it would go to the last command, or into the comment). Write \"$@\" where θ goes, "
+          "e.g. './trial.sh \"$@\" | tee -a sim.log' (θ are the shell's $1, $2, …), or use input: json",
+          what));
+  }
   if (o.is_set("components")) s.components = cost_component_names(o.node("components"));
   // A missing working directory fails every trial ("cannot change to the working directory"). Only a warning:
   // the task is also built to read a study (status, export, suggest on another machine), which must still open.

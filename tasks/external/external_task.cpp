@@ -57,8 +57,18 @@ void ExternalTask::set_next_trial(long trial, long id) {
   next_id_ = id;
 }
 
+std::vector<std::string> ExternalTask::argument_words(const Vec& theta) const {
+  std::vector<std::string> words;
+  for (Index i = 0; i < theta.size(); ++i)
+    words.push_back(s_.space ? fmt::format("{}={}", s_.names[static_cast<std::size_t>(i)],
+                                           s_.space->format_value(static_cast<std::size_t>(i), theta[i]))
+                             : fmt::format("{:.17g}", theta[i]));
+  return words;
+}
+
 std::string ExternalTask::command_with_args(const Vec& theta) const {
-  std::string c = s_.command;
+  // Without its trailing line breaks (a YAML block scalar ends with one: θ became a second command).
+  std::string c = s_.command.substr(0, s_.command.find_last_not_of(" \t\r\n") + 1);
   if (s_.space) {
     // name=value words; a label is quoted for the shell.
     for (Index i = 0; i < theta.size(); ++i) {
@@ -86,8 +96,10 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
   ProcessOptions process = s_.process;
   process.environment.push_back(fmt::format("VARBO_TRIAL={}", trial));
   if (id >= 0) process.environment.push_back(fmt::format("VARBO_TRIAL_ID={}", id));
-  const ProcessResult r =
-      run_shell(json ? s_.command : command_with_args(theta), json ? json_input(theta, trial, id) : "", process);
+  const bool positional = !json && s_.args == ArgsPlacement::Positional;
+  if (positional) process.arguments = argument_words(theta);
+  const ProcessResult r = run_shell(json || positional ? s_.command : command_with_args(theta),
+                                    json ? json_input(theta, trial, id) : "", process);
 
   // The message goes to trials.csv, log.txt, the study store and the terminal: bounded (a 50 MB line is
   // quoted by its ends) and printable (binary output is escaped), whatever the command wrote.

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "args_placement.hpp"
 #include "subprocess.hpp"
 #include "varbo/config.hpp"
 #include "varbo/search_space.hpp"
@@ -21,6 +22,7 @@ struct ExternalTaskSettings {
   std::vector<std::string> names; ///< one per dimension
   std::vector<std::string> components;  ///< declared cost components (trials.csv columns), possibly none
   InputMode input = InputMode::Json;
+  ArgsPlacement args = ArgsPlacement::Append;  ///< with input: args, where θ goes (args_placement.hpp)
   ProcessOptions process;         ///< timeout, working directory
   SharedSpace space;              ///< the study's typed parameters (then "params" is sent too), or null
   std::vector<ConfigNode> domain_keys;  ///< dim, bounds, lower, upper, names as given (to refuse `parameters:`)
@@ -46,6 +48,8 @@ class ExternalTask : public Task, public SpaceAware, public TrialAware {
   /// labels for categories).
   std::string json_input(const Vec& theta, long trial, long id = -1) const;
   std::string command_with_args(const Vec& theta) const;
+  /// θ as words: numbers with 17 significant digits, or name=value with typed parameters (unquoted: for argv).
+  std::vector<std::string> argument_words(const Vec& theta) const;
 
  private:
   ExternalTaskSettings s_;

@@ -272,9 +272,14 @@ ProcessResult run_shell(const std::string& command, const std::string& input, co
     return r;
   }
   // Everything the supervisor needs is prepared before fork: after fork only async-signal-safe calls.
-  const char* argv[] = {"sh", "-c", command.c_str(), nullptr};
+  std::vector<const char*> argv{"sh", "-c", command.c_str()};
+  if (!options.arguments.empty()) {
+    argv.push_back("varbo-trial");  // $0
+    for (const auto& a : options.arguments) argv.push_back(a.c_str());
+  }
+  argv.push_back(nullptr);
   SupervisorPlan plan;
-  plan.argv = argv;
+  plan.argv = argv.data();
   plan.workdir = options.working_directory.empty() ? nullptr : options.working_directory.c_str();
   plan.stdin_fd = in_r.fd;
   plan.stdout_fd = out_w.fd;

@@ -28,6 +28,8 @@ struct ProcessOptions {
   Containment containment = Containment::Auto;
   /// NAME=value entries added to the command's environment (replacing inherited ones of those names).
   std::vector<std::string> environment;
+  /// The shell's positional parameters $1, $2, … (`sh -c COMMAND varbo-trial ARG…`; args_placement.hpp).
+  std::vector<std::string> arguments;
 };
 
 struct ProcessResult {

@@ -20,6 +20,7 @@
 #include <thread>
 
 #include "answer_parser.hpp"
+#include "args_placement.hpp"
 #include "external_task.hpp"
 #include "subprocess.hpp"
 #include "trial_cgroup.hpp"
@@ -172,6 +173,47 @@ TEST_CASE("parse_answer") {
     REQUIRE(ok);
     CHECK(ok->cost == 0.5);
   }
+}
+
+TEST_CASE("args_placement: where θ goes with input: args") {
+  // Read as /bin/sh would; each command beside the placement it needs (args_placement.hpp).
+  const std::vector<std::pair<std::string, ArgsPlacement>> cases = {
+      {"./trial.sh", ArgsPlacement::Append},
+      {"./trial.sh --sim 2>&1\n\n", ArgsPlacement::Append},  // a redirection's & and a block scalar's line break
+      {"python3 'a|b.py' \"x;y\" c\\|d", ArgsPlacement::Append},  // quoted or escaped operators are words
+      {"./trial.sh --cfg $(ls | head -1) `echo a;b`", ArgsPlacement::Append},
+      {"./trial.sh x#y", ArgsPlacement::Append},  // '#' inside a word is no comment
+      {"./trial.sh '$@'", ArgsPlacement::Append},  // single-quoted: literal
+      {"./trial.sh | tee -a sim.log", ArgsPlacement::Refused},
+      {"./trial.sh # gains x, y", ArgsPlacement::Refused},
+      {"cd sim; ./trial.sh", ArgsPlacement::Refused},
+      {"./trial.sh && echo done", ArgsPlacement::Refused},
+      {"(./trial.sh)", ArgsPlacement::Refused},
+      {"./a.sh\n./b.sh", ArgsPlacement::Refused},
+      {"./trial.sh \"$@\" | tee -a sim.log", ArgsPlacement::Positional},
+      {"cd sim && ./trial.sh --kp $1 --kd ${2} # gains", ArgsPlacement::Positional},
+      {"./trial.sh $*", ArgsPlacement::Positional},
+      {"./trial.sh # gains go to $1", ArgsPlacement::Refused},  // a comment names nothing
+  };
+  for (const auto& [command, expected] : cases) {
+    CAPTURE(command);
+    std::string what;
+    CHECK(args_placement(command, &what) == expected);
+    if (expected == ArgsPlacement::Refused) CHECK_FALSE(what.empty());
+  }
+  std::string what;
+  args_placement("./trial.sh | tee x", &what);
+  CHECK(what == "a pipe '|'");
+  args_placement("./trial.sh # note", &what);
+  CHECK(what == "a comment '#'");
+}
+
+TEST_CASE("run_shell: positional parameters reach the command") {
+  ProcessOptions o;
+  o.arguments = {"0.25", "a b", "$HOME"};  // as given: no word splitting, no expansion
+  const ProcessResult r = run_shell("printf '%s|' \"$@\" | tr -d '\\n'; echo \"$#\"", "", o);
+  REQUIRE(r.exited);
+  CHECK(r.out == "0.25|a b|$HOME|3\n");
 }
 
 TEST_CASE("run_shell: stdin, stdout, stderr, status") {
