@@ -90,9 +90,12 @@ inline void write_output(const std::string& output, const std::string& text, con
   }
   std::ofstream f(output, std::ios::trunc);
   if (!f) throw InputError(fmt::format("{}: cannot write {} ({})", output, what, std::strerror(errno)));
+  errno = 0;
   f << text;
   f.close();  // the buffered tail is written here: `-o /dev/full` exited 0 with nothing written
-  if (!f) throw InputError(fmt::format("{}: write failed (disk full?)", output));
+  // The system's reason: "disk full?" was said of /proc/version too (audit, session 49).
+  if (!f)
+    throw InputError(fmt::format("{}: write failed ({})", output, errno != 0 ? std::strerror(errno) : "disk full?"));
 }
 
 }  // namespace varbo::cli

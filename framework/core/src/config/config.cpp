@@ -244,6 +244,16 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
                                     "endings?); save the file with LF (Unix) or CRLF (Windows) line endings",
                                     name, line + 1, column + 1));
     }
+  // A raw NUL byte: yaml-cpp said "unknown escape character" a line below it (audit, session 49). A configuration
+  // is text; a NUL is binary data or a stray write.
+  if (const std::size_t i = text.find('\0'); i != std::string::npos) {
+    const auto line = static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(i), '\n'));
+    const std::size_t start = i == 0 ? std::string::npos : text.rfind('\n', i - 1);
+    const std::size_t column = start == std::string::npos ? i : i - start - 1;
+    throw ConfigError(fmt::format("{}:{}:{}: a NUL byte (\\0); a configuration is text (binary data, or a file "
+                                  "cut or overwritten?)",
+                                  name, line + 1, column + 1));
+  }
   YAML::Node root;
   try {
     // At most two documents are looked at: yaml-cpp 0.7's LoadAll never ends on a stray ',' after the document

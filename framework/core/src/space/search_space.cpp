@@ -45,6 +45,12 @@ std::optional<ParameterProblem> check_parameter(const Parameter& p) {
       break;
     case ParameterType::Categorical: {
       if (p.choices.empty()) return ParameterProblem{"choices", "expected a non-empty list of labels"};
+      // As an int with low == high (audit, session 49: a one-choice categorical ran, a coordinate of the model
+      // that can never vary).
+      if (p.choices.size() == 1)
+        return ParameterProblem{"choices", fmt::format("expected at least two labels; a parameter held at one value "
+                                                       "is {{name: {}, type: fixed, value: {}}}",
+                                                       p.name, p.choices.front())};
       std::set<std::string> seen;
       std::map<std::string, std::size_t> written;  // printable form -> the index of the choice written so
       for (std::size_t j = 0; j < p.choices.size(); ++j) {
