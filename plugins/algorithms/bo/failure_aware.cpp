@@ -9,6 +9,7 @@
 
 #include "pending_exclusion.hpp"
 #include "varbo/errors.hpp"
+#include "varbo/log.hpp"
 #include "varbo/option_set.hpp"
 
 namespace varbo::bo {
@@ -244,7 +245,35 @@ FailureModelSettings parse_failure_model(const Options& o, const Registry* regis
               "feasible_after: k, attempt_memory: r, boundary_jump: off|far|edge, follow_probe: f, "
               "follow_distance: r, follow_block: r, follow_separated: bool, follow_points: n, "
               "follow_memory: r, blocked_tabu: bool, design_repair: farthest|nearest, global_probe: bool, probe_every: n, failure_run: n, short_restarts: bool, refine_last: n, refine_backoff: bool, refine_waits: bool, refine_known: bool, backoff_fallback: new|incumbent, length_max: L, fit_failures: bool}");
-  return failure_model_set().read(validate_options(node, failure_model_set().specs(), "failure_model", registry, {}));
+  const Options options = validate_options(node, failure_model_set().specs(), "failure_model", registry, {});
+  FailureModelSettings s = failure_model_set().read(options);
+  // Settings that cannot act, said once each (audit, session 49: `enabled: off` beside a min_probability, or
+  // follow_distance without follow_probe, ran in silence).
+  // Only values other than the defaults: a study's stored configuration (and config.resolved.yaml) names every
+  // setting.
+  const Options defaults = validate_options(ConfigNode::parse("{}", "<failure_model defaults>"),
+                                            failure_model_set().specs(), "failure_model", registry, {});
+  const YAML::Node now = options.resolved(), plain = defaults.resolved();
+  const auto inert = [&](std::vector<std::string> keys, bool inactive, const std::string& because) {
+    if (!inactive) return;
+    std::vector<std::string> given;
+    for (const auto& k : keys)
+      if (options.given(k) && YAML::Dump(now[k]) != YAML::Dump(plain[k])) given.push_back(k);
+    if (!given.empty())
+      log_warn_once(fmt::format("{}: failure_model: {} {} no effect: {}", node.where(), fmt::join(given, ", "),
+                                given.size() > 1 ? "have" : "has", because));
+  };
+  std::vector<std::string> all;
+  for (const auto& spec : failure_model_set().specs())
+    if (spec.name != "enabled") all.push_back(spec.name);
+  inert(all, s.enabled == FailureModelSettings::Enabled::Off, "enabled: off ignores failed trials");
+  inert({"feasible_shrink", "feasible_margin", "feasible_after"}, s.feasible_region == "off",
+        "feasible_region is off");
+  inert({"follow_distance", "follow_block", "follow_separated", "follow_points", "follow_memory"},
+        s.follow_probe == 0, "follow_probe is 0 (off)");
+  inert({"boundary_tabu"}, !s.blocked_tabu && !s.boundary_restart,
+        "blocked_tabu and boundary_restart are both false");
+  return s;
 }
 
 std::optional<Vec> nearest_likely_success(const std::function<double(const Vec&)>& probability, const Vec& x,

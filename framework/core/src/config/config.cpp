@@ -246,7 +246,11 @@ static ConfigNode parse_impl(const std::string& text, const std::string& name) {
     }
   // A raw NUL byte: yaml-cpp said "unknown escape character" a line below it (audit, session 49). A configuration
   // is text; a NUL is binary data or a stray write.
-  if (const std::size_t i = text.find('\0'); i != std::string::npos) {
+  // Not in UTF-16 or UTF-32, which the YAML reader decodes (a BOM, or a NUL among the first two bytes: yaml-cpp's
+  // own test of the encoding).
+  const bool wide = text.size() >= 2 && (text[0] == '\0' || text[1] == '\0' || text.compare(0, 2, "\xFF\xFE") == 0 ||
+                                         text.compare(0, 2, "\xFE\xFF") == 0);
+  if (const std::size_t i = wide ? std::string::npos : text.find('\0'); i != std::string::npos) {
     const auto line = static_cast<std::size_t>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(i), '\n'));
     const std::size_t start = i == 0 ? std::string::npos : text.rfind('\n', i - 1);
     const std::size_t column = start == std::string::npos ? i : i - start - 1;
