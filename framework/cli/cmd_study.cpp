@@ -21,6 +21,7 @@
 #include "varbo/log.hpp"
 #include "varbo/named_values.hpp"
 #include "varbo/run_lock.hpp"
+#include "varbo/run_liveness.hpp"
 #include "varbo/store.hpp"
 #include "varbo/study_api.hpp"
 #include "varbo/text.hpp"
@@ -344,7 +345,11 @@ Runner add_abandon(CLI::App& app) {
     // trial was spared as "held by a live worker" for a whole heartbeat_timeout (red team, session 34).
     auto live = [&](const TrialRecord& t) {
       if (t.worker.empty()) return false;
-      if (run_live && s.store().meta("run_worker/" + t.worker)) return true;
+      // The lock's session ends with a server restart while the run lives: its heartbeat then says so
+      // (run_liveness.hpp; re-audit, session 49).
+      if (s.store().meta("run_worker/" + t.worker) &&
+          (run_live || (is_database_url(location) && run_heartbeat_recent(s.store(), t.worker, window))))
+        return true;
       const auto it = beat.find(t.worker);
       return it != beat.end() && now - it->second < window && !worker_process_gone(t.worker);
     };

@@ -241,7 +241,9 @@ Runner add_worker(CLI::App& app) {
     std::vector<std::int64_t> streak_ids;  // their ids
     std::vector<std::string> waiting_for;  // the pending trials last reported
     RunSilence run_silence;                 // of the run sessions whose trials are pending
-    const double liveness = study.config().heartbeat_timeout > 0 ? study.config().heartbeat_timeout : 60.0;
+    // Then its command, which the run's supervisor stops, is gone `grace` later (command_stop_seconds).
+    const double liveness = (study.config().heartbeat_timeout > 0 ? study.config().heartbeat_timeout : 60.0) +
+                            command_stop_seconds(study.config().task);
     while (a->max_trials == 0 || done < a->max_trials) {
       if (const int sig = g_stop.load()) {
         exit_code = 128 + sig;
@@ -258,26 +260,39 @@ Runner add_worker(CLI::App& app) {
         // On a database study the lock is a server session, which a server restart frees while the run lives on
         // (red team, session 49: this worker ran the live run's θ again): the run must also have been silent for
         // the liveness window (run_liveness.hpp).
-        std::vector<std::int64_t> of_dead_runs;
-        for (const auto& t : study.store().pending_trials())
-          if (t.worker != id && !t.worker.empty() && study.store().meta("run_worker/" + t.worker) &&
-              (!is_database_url(where) || run_silence.seconds(study.store(), t.worker) > liveness))
-            of_dead_runs.push_back(t.id);
-        if (!of_dead_runs.empty() && !run_is_live(a->store)) {  // not `where`: its password is ***
-          const auto ids = study.abandon_where(
-              [&](const TrialRecord& p) {
-                return std::find(of_dead_runs.begin(), of_dead_runs.end(), p.id) != of_dead_runs.end();
-              },
-              "abandoned: the `varbo run` that held it is gone (its run lock is free)");
-          if (!ids.empty()) {
-            std::fprintf(stderr, "varbo worker: abandoned %zu trial(s) left pending by a `varbo run` that is gone\n",
-                         ids.size());
-            continue;
-          }
-        }
+        // Every read and write here rides out an outage as the ask does: a worker waiting through a server
+        // restart exited 2 on "cannot read trials" (session 49).
+        std::size_t taken_over = 0;
         std::vector<std::string> others;
-        for (const auto& t : study.store().pending_trials())
-          if (t.worker != id) others.push_back(fmt::format("{} ({})", t.id, t.worker.empty() ? "no worker" : t.worker));
+        retrying(reconnect, id, [&] {
+          taken_over = 0;
+          others.clear();
+          std::vector<std::int64_t> of_dead_runs;
+          for (const auto& t : study.store().pending_trials())
+            if (t.worker != id && !t.worker.empty() && study.store().meta("run_worker/" + t.worker) &&
+                (!is_database_url(where) || run_silence.seconds(study.store(), t.worker) > liveness))
+              of_dead_runs.push_back(t.id);
+          if (!of_dead_runs.empty() && !run_is_live(a->store)) {  // not `where`: its password is ***
+            taken_over = study
+                             .abandon_where(
+                                 [&](const TrialRecord& p) {
+                                   return std::find(of_dead_runs.begin(), of_dead_runs.end(), p.id) !=
+                                          of_dead_runs.end();
+                                 },
+                                 "abandoned: the `varbo run` that held it is gone (its run lock is free)")
+                             .size();
+            if (taken_over > 0) return 0;
+          }
+          for (const auto& t : study.store().pending_trials())
+            if (t.worker != id)
+              others.push_back(fmt::format("{} ({})", t.id, t.worker.empty() ? "no worker" : t.worker));
+          return 0;
+        });
+        if (taken_over > 0) {
+          std::fprintf(stderr, "varbo worker: abandoned %zu trial(s) left pending by a `varbo run` that is gone\n",
+                       taken_over);
+          continue;
+        }
         if (others.empty()) break;
         if (others != waiting_for) {
           // Said once per change: a worker that only sleeps looked hung (trials left pending by `varbo suggest`

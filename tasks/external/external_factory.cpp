@@ -76,12 +76,19 @@ std::unique_ptr<Task> make_external_task(const Options& o) {
   if (s.input == InputMode::Args) {
     std::string what;
     s.args = args_placement(s.command, &what);
-    if (s.args == ArgsPlacement::Refused)
-      o.node("command").fail(fmt::format(
+    if (s.args == ArgsPlacement::Refused) {
+      s.args_refusal = fmt::format(
           "with input: args, θ is appended to the end of the command, but this command has {}: θ would not reach "
           "the trial program (it would go to the last command, or into the comment). Write \"$@\" where θ goes, "
           "e.g. './trial.sh \"$@\" | tee -a sim.log' (θ are the shell's $1, $2, …), or use input: json",
-          what));
+          what);
+      // A study created before session 49 still opens (status, export, a worker with a corrected --command): its
+      // trials are refused when they would run (ExternalTask::evaluate).
+      if (!o.node("command").from_stored_configuration()) o.node("command").fail(s.args_refusal);
+      warn_once(fmt::format("{}: key '{}': {}; this study's trials will not run until a worker runs them with a "
+                            "corrected command: varbo worker STUDY --command '…'",
+                            o.node("command").where(), o.node("command").path(), s.args_refusal));
+    }
   }
   if (o.is_set("components")) s.components = cost_component_names(o.node("components"));
   // A missing working directory fails every trial ("cannot change to the working directory"). Only a warning:

@@ -90,6 +90,8 @@ Evaluation ExternalTask::evaluate(const Vec& theta, Rng& /*rng: the command owns
     e.error = fmt::format("external task: expected {} parameters, got {}", s_.box.dim(), theta.size());
     return e;
   }
+  if (s_.input == InputMode::Args && s_.args == ArgsPlacement::Refused)  // a stored study's command (external_factory.cpp)
+    throw TaskSetupError(s_.args_refusal + "; nothing was evaluated");
   const long trial = next_trial_++;
   const long id = next_id_.exchange(-1);
   const bool json = s_.input == InputMode::Json;

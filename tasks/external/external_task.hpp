@@ -23,6 +23,7 @@ struct ExternalTaskSettings {
   std::vector<std::string> components;  ///< declared cost components (trials.csv columns), possibly none
   InputMode input = InputMode::Json;
   ArgsPlacement args = ArgsPlacement::Append;  ///< with input: args, where θ goes (args_placement.hpp)
+  std::string args_refusal;  ///< why, when args is Refused (a stored study's command: its trials do not run)
   ProcessOptions process;         ///< timeout, working directory
   SharedSpace space;              ///< the study's typed parameters (then "params" is sent too), or null
   std::vector<ConfigNode> domain_keys;  ///< dim, bounds, lower, upper, names as given (to refuse `parameters:`)

@@ -198,3 +198,96 @@ TEST_CASE("postgresql: Study::retract_failures is refused while a run holds the 
   }
   CHECK(Study::open(url).retract_failures({id}, "E-stop") == std::vector<std::int64_t>{id});
 }
+
+namespace {
+/// A trial command that takes 2 s to reach a safe state after SIGTERM, writing start / safe to `marks`.
+void write_slow_stopping_trial(const std::string& dir, const std::string& marks) {
+  std::ofstream(dir + "/trial.sh") << "#!/bin/sh\n"
+                                      "echo start >> " << marks << "\n"
+                                      "trap 'sleep 2; echo safe >> " << marks << "; exit 1' TERM\n"
+                                      "cat > /dev/null\nsleep 30 &\nwait\necho 1.5\n";
+  std::filesystem::permissions(dir + "/trial.sh", std::filesystem::perms::owner_all);
+}
+}  // namespace
+
+TEST_CASE("a killed worker's trial is taken over only once its command has had its grace to stop (both backends)") {
+  // Re-audit, session 49: a worker SIGKILLed mid-trial was judged dead after heartbeat_timeout, and the next worker
+  // ran its θ while the old command was still in its grace period (parking the robot).
+  for (const auto backend : test::all_backends()) {
+    CAPTURE(test::backend_name(backend));
+    const std::string dir = test::temp_folder(std::string("live_worker_kill_") + test::backend_name(backend));
+    const std::string store = test::study_address(backend, dir, "kill");
+    const std::string marks = dir + "/marks.txt";
+    write_slow_stopping_trial(dir, marks);
+    std::ofstream(dir + "/cfg.yaml") << "task: {type: external, command: " << dir << "/trial.sh, dim: 2, grace: 4}\n"
+                                        "budget: 1\nseed: 3\nheartbeat_timeout: 1\nalgorithm: {type: random}\n";
+    REQUIRE(test::run({VARBO_EXE, "study", "create", store, dir + "/cfg.yaml"}).exit_code == 0);
+    const pid_t first = test::spawn({VARBO_EXE, "worker", store}, dir + "/first.log");
+    wait_until([&] { return test::slurp(marks).find("start") != std::string::npos; }, 30);
+    ::kill(first, SIGKILL);
+    test::wait_for(first);
+    CHECK(test::run({VARBO_EXE, "worker", store}, dir + "/second.log").exit_code == 0);
+    const std::string text = test::slurp(marks);
+    CAPTURE(text);
+    CAPTURE(test::slurp(dir + "/second.log"));
+    CHECK(text.rfind("start\nsafe\nstart\n", 0) == 0);
+  }
+}
+
+TEST_CASE("postgresql: a restart, then SIGKILL of `varbo run`: its θ waits for its command to stop") {
+  // Re-audit, session 49: after the restart the lock's session (kept by the supervisor) was gone, so only the run's
+  // heartbeat held the trial, and the worker took it over heartbeat_timeout after the kill, beside the old command.
+  const std::string dir = test::temp_folder("pg_live_restart_kill");
+  OwnServer server(dir);
+  const std::string url = server.base + "&study=restart_kill";
+  const std::string marks = dir + "/marks.txt";
+  write_slow_stopping_trial(dir, marks);
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: external, command: " << dir << "/trial.sh, dim: 2, grace: 4}\n"
+                                      "budget: 1\nseed: 3\nheartbeat_timeout: 1\nalgorithm: {type: random}\n";
+  REQUIRE(test::run({VARBO_EXE, "study", "create", url, dir + "/cfg.yaml"}).exit_code == 0);
+  const pid_t run = test::spawn({VARBO_EXE, "run", dir + "/cfg.yaml", "-o", dir + "/out", "--study", url,
+                                 "--no-progress"}, dir + "/run.log");
+  wait_until([&] { return test::slurp(marks).find("start") != std::string::npos; }, 30);
+  const pid_t worker = test::spawn({VARBO_EXE, "worker", url}, dir + "/worker.log");
+  server.restart(1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));  // the run's heartbeats resumed
+  ::kill(run, SIGKILL);
+  test::wait_for(run);
+  CHECK(test::wait_for(worker).exit_code == 0);
+  const std::string text = test::slurp(marks);
+  CAPTURE(text);
+  CAPTURE(test::slurp(dir + "/worker.log"));
+  CHECK(text.rfind("start\nsafe\nstart\n", 0) == 0);
+}
+
+TEST_CASE("postgresql: after a restart, a second run, `varbo abandon` and a retraction leave the live run's trial") {
+  // Re-audit, session 49: the restart freed the lock; a second `varbo run` took the study and abandoned the live
+  // run's trial, `varbo abandon --id 0` abandoned it, and `varbo retract` went through beside the live run.
+  const std::string dir = test::temp_folder("pg_live_restart_others");
+  OwnServer server(dir);
+  const std::string url = server.base + "&study=restart_others";
+  std::ofstream(dir + "/cfg.yaml") << "task: {type: external, command: 'cat > /dev/null; sleep 6; echo 1.5', dim: 2}\n"
+                                      "budget: 2\nseed: 3\nheartbeat_timeout: 4\nalgorithm: {type: bo}\n";
+  REQUIRE(test::run({VARBO_EXE, "study", "create", url, dir + "/cfg.yaml"}).exit_code == 0);
+  REQUIRE(test::run({VARBO_EXE, "fail", url, "new", "--theta", "0.5,0.5", "--reason", "E-stop"}).exit_code == 0);
+  const pid_t run = test::spawn({VARBO_EXE, "run", dir + "/cfg.yaml", "-o", dir + "/out", "--study", url,
+                                 "--no-progress"}, dir + "/run.log");
+  wait_until([&] { return count_state(url, TrialState::Pending) == 1; }, 30);
+  server.restart(1);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  const auto second = test::run({VARBO_EXE, "run", dir + "/cfg.yaml", "-o", dir + "/out2", "--study", url,
+                                 "--no-progress"}, dir + "/second.log");
+  CHECK(second.exit_code == 2);
+  CHECK(test::slurp(dir + "/second.log").find("is in use by another run") != std::string::npos);
+  test::run({VARBO_EXE, "abandon", url, "--id", "1"}, dir + "/abandon.log");
+  CAPTURE(test::slurp(dir + "/abandon.log"));
+  CHECK(count_state(url, TrialState::Abandoned) == 0);
+  CHECK(count_state(url, TrialState::Pending) == 1);
+  CHECK(test::run({VARBO_EXE, "retract", url, "--id", "0"}, dir + "/retract.log").exit_code == 2);
+  CHECK(test::slurp(dir + "/retract.log").find("a `varbo run` is using this study") != std::string::npos);
+  CHECK(test::wait_for(run).exit_code == 0);
+  CAPTURE(test::slurp(dir + "/run.log"));
+  CHECK(count_state(url, TrialState::Complete) == 1);
+  CHECK(count_state(url, TrialState::Failed) == 1);
+  CHECK(open_store(url)->trials().size() == 2);
+}

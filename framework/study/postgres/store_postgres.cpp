@@ -487,6 +487,12 @@ class PostgresStore final : public StudyStore {
     });
   }
 
+  std::optional<double> server_started_at() const override {
+    return read("read the server's start time", [&](pqxx::transaction_base& t) {
+      return to_double(t.exec("SELECT EXTRACT(EPOCH FROM pg_postmaster_start_time())")[0][0]);
+    });
+  }
+
   double server_uptime() const override {
     return read("read the server's start time", [&](pqxx::transaction_base& t) {
       return to_double(t.exec("SELECT EXTRACT(EPOCH FROM clock_timestamp() - pg_postmaster_start_time())")[0][0]);

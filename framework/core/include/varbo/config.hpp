@@ -30,6 +30,16 @@ class ConfigNode {
   /// Parses YAML text; `name` stands in for the file name in messages.
   static ConfigNode parse(const std::string& text, const std::string& name = "<string>");
 
+  /// The name a study's stored configuration is parsed under: STORE + this suffix.
+  static constexpr const char* kStoredSuffix = " (stored configuration)";
+  /// Whether this node comes from a study's stored configuration (a study created earlier, maybe by an older
+  /// varbo), not from a file the user is about to run: a rule added since must not keep such a study from opening.
+  bool from_stored_configuration() const {
+    const std::string& f = *file_;
+    const std::string suffix = kStoredSuffix;
+    return f.size() >= suffix.size() && f.compare(f.size() - suffix.size(), suffix.size(), suffix) == 0;
+  }
+
   const YAML::Node& yaml() const { return node_; }
   const std::string& file() const { return *file_; }
   const std::string& path() const { return path_; }

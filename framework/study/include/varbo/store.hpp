@@ -153,6 +153,9 @@ class StudyStore {
   /// a restart found every worker's heartbeat as old as the outage and abandoned their live trials (red team,
   /// session 49).
   virtual double server_uptime() const { return std::numeric_limits<double>::infinity(); }
+  /// When the server started, by its own clock (unix seconds), to tell whether it restarted since a value read
+  /// earlier; nullopt without a server (SQLite).
+  virtual std::optional<double> server_started_at() const { return std::nullopt; }
 };
 
 /// Creates a new SQLite store at `path` holding the `meta` entries; an existing file is an InputError. The

@@ -497,6 +497,19 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     if (recorded_run || (!runs_recorded && dead_here)) leftovers.insert(t.id);
     else others_pending.push_back(t.id);
   }
+  if (is_database_url(store_path)) {
+    // The lock was free, but a server restart frees it while its run lives on: a run session whose heartbeat is
+    // recent still runs its trial (re-audit, session 49: a second run took the study after a restart, abandoned
+    // the live run's trial and ran its θ beside it). Its lock comes back at its next trial.
+    const double timeout = st.config().heartbeat_timeout > 0 ? st.config().heartbeat_timeout : 60.0;
+    for (const std::int64_t id : leftovers)
+      if (const auto t = st.store().trial(id); t && run_heartbeat_recent(st.store(), t->worker, timeout + command_stop_seconds(st.config().task)))
+        throw InputError(fmt::format("the study {} is in use by another run ({}, running trial {}; its heartbeat is "
+                                     "recent though its run lock's server session ended, as a server restart ends "
+                                     "it); wait for it to end or stop it, or try again in {:.0f} s if it is gone",
+                                     study_tag(store_path), printable(t->worker), id,
+                                     timeout + command_stop_seconds(st.config().task)));
+  }
   const std::vector<std::int64_t> interrupted = st.abandon_where(
       [&](const TrialRecord& t) { return leftovers.count(t.id) > 0; },
       "interrupted: the run stopped before the result was recorded");
@@ -506,6 +519,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
   // a heartbeat tells workers that this run's pending trial is still being run (run_liveness.hpp).
   std::unique_ptr<BackgroundTicker> run_heartbeats;
   if (is_database_url(store_path)) {
+    note_run_lock_taken(st.store(), me);
     const double timeout = st.config().heartbeat_timeout;
     run_heartbeats = start_run_heartbeats(store_path, me, timeout > 0 ? std::max(0.05, timeout / 4) : 10.0);
   }
@@ -722,6 +736,7 @@ RunSummary run_study_logged(const StudyConfig& study_in, const Registry& registr
     if (!database_study || (database_lock && database_lock->held())) return;
     database_lock.reset();
     database_lock.emplace(DatabaseRunLock::acquire(store_path));  // another run took it meanwhile: an InputError
+    note_run_lock_taken(st.store(), me);
     log_warn("run {}: the database session holding the study's run lock had ended; the lock is taken again",
              study.output);
   };
@@ -1088,7 +1103,7 @@ RunSummary resume_study(const std::string& target, const RunOverrides& overrides
                                  *ov.store, target, store_path, *ov.store));
   ov.store = store_path;
   ov.resume = true;
-  ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
+  ConfigNode root = ConfigNode::parse(*text, store_path + ConfigNode::kStoredSuffix);
   Registry registry;
   PluginLoader loader(registry);
   loader.load_default(paths);

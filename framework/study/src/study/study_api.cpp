@@ -164,7 +164,7 @@ bool study_detail::adopt_current_resolution(const std::string& store_path, const
   if (!text) return false;
   try {
     const StudyConfig resolved_now =
-        parse_study(ConfigNode::parse(*text, store_path + " (stored configuration)"), registry);
+        parse_study(ConfigNode::parse(*text, store_path + ConfigNode::kStoredSuffix), registry);
     if (study_identity(resolved_now) != identity) return false;
   } catch (const std::exception& e) {  // stored by a version whose options this one no longer takes
     log_debug("{}: the stored configuration does not parse with the plugins loaded now: {}", store_path, e.what());
@@ -293,7 +293,7 @@ Study Study::open(const std::string& store_path, const std::function<void(Regist
     impl = std::make_unique<Impl>();
     registry = &shared_registry(paths);
   }
-  const ConfigNode root = ConfigNode::parse(*text, store_path + " (stored configuration)");
+  const ConfigNode root = ConfigNode::parse(*text, store_path + ConfigNode::kStoredSuffix);
   impl->init(study_detail::parse_stored_study(root, *registry, store_path), *registry);
   log_cpu("configuration parsed and validated, its plugins loaded, task built");
   const auto identity = store->meta(store_key::kIdentity);

@@ -14,6 +14,7 @@
 
 #include "varbo/csv.hpp"
 #include "varbo/run_lock.hpp"
+#include "varbo/run_liveness.hpp"
 #include "varbo/errors.hpp"
 #include "varbo/log.hpp"
 #include "varbo/search_space_config.hpp"
@@ -137,6 +138,9 @@ void Study::Impl::abandon_silent_workers(double asked_at) {
   const auto mono_now = std::chrono::steady_clock::now() - std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                                std::chrono::duration<double>(std::max(0.0, unix_time() - now)));
   std::vector<std::pair<WorkerRecord, double>> silent;  // with its silence
+  // Silent for heartbeat_timeout: dead; its command, which its supervisor then stops, is gone `grace` later
+  // (run_liveness.hpp, command_stop_seconds).
+  const double dead_after = config.heartbeat_timeout + command_stop_seconds(config.task);
   for (const auto& w : store->workers()) {
     // Not this process's own: it is asking, so it is alive (a Python loop that sent one heartbeat and then asked
     // while its first trial ran had that trial abandoned by its own ask; red team, session 22).
@@ -148,13 +152,13 @@ void Study::Impl::abandon_silent_workers(double asked_at) {
     const double silence =
         std::min(seen->second.silence_then + std::chrono::duration<double>(mono_now - seen->second.first_read).count(),
                  seconds_since_store_unreachable());
-    if (silence > config.heartbeat_timeout) silent.emplace_back(w, silence);
+    if (silence > dead_after) silent.emplace_back(w, silence);
   }
   if (silent.empty()) return;
   // Nobody could beat while the server was down: a silence longer than the server's uptime is the outage's.
   const double uptime = store->server_uptime();
   silent.erase(std::remove_if(silent.begin(), silent.end(),
-                              [&](auto& ws) { return (ws.second = std::min(ws.second, uptime)) <= config.heartbeat_timeout; }),
+                              [&](auto& ws) { return (ws.second = std::min(ws.second, uptime)) <= dead_after; }),
                silent.end());
   if (silent.empty()) return;
   for (TrialRecord t : store->pending_trials()) {
@@ -316,10 +320,11 @@ bool Study::Impl::run_is_live() const {
   if (!is_database_url(address)) return false;
   try {
     DatabaseRunLock::acquire(address);  // released at once
-    return false;
   } catch (const InputError&) {  // held, or the server cannot say: nothing is changed on a guess
     return true;
   }
+  // The lock's session ends with a server restart while the run lives on (run_liveness.hpp).
+  return live_run_holds_a_trial(*store, config.heartbeat_timeout > 0 ? config.heartbeat_timeout : 60.0);
 }
 
 void Study::Impl::check_file() const {
